@@ -1,0 +1,213 @@
+#include "md/count_expression.hpp"
+
+#include <cctype>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace ln::md {
+namespace {
+
+// Python distinguishes int and float results ("10/4" is 2.5, "10//4" is 2).
+struct Number {
+  bool is_float = false;
+  std::int64_t integer = 0;
+  double real = 0.0;
+
+  double as_double() const { return is_float ? real : static_cast<double>(integer); }
+  static Number of(std::int64_t v) { return Number{false, v, 0.0}; }
+  static Number of(double v) { return Number{true, 0, v}; }
+};
+
+[[noreturn]] void fail(const std::string& why) { throw std::invalid_argument(why); }
+
+Number floor_divide(const Number& a, const Number& b) {
+  if (b.as_double() == 0.0) fail("division by zero");
+  if (a.is_float || b.is_float) return Number::of(std::floor(a.as_double() / b.as_double()));
+  if (a.integer == std::numeric_limits<std::int64_t>::min() && b.integer == -1) fail("the value is too large");
+  std::int64_t q = a.integer / b.integer;
+  if ((a.integer % b.integer != 0) && ((a.integer < 0) != (b.integer < 0))) --q;
+  return Number::of(q);
+}
+
+Number modulo(const Number& a, const Number& b) {
+  if (b.as_double() == 0.0) fail("modulo by zero");
+  if (a.is_float || b.is_float) {
+    double r = std::fmod(a.as_double(), b.as_double());
+    if (r != 0.0 && ((r < 0) != (b.as_double() < 0))) r += b.as_double();
+    return Number::of(r);
+  }
+  if (b.integer == -1) return Number::of(std::int64_t{0});
+  std::int64_t r = a.integer % b.integer;
+  if (r != 0 && ((r < 0) != (b.integer < 0))) r += b.integer;
+  return Number::of(r);
+}
+
+Number power(const Number& base, const Number& exponent) {
+  if (base.is_float || exponent.is_float || exponent.integer < 0) {
+    const double r = std::pow(base.as_double(), exponent.as_double());
+    if (!std::isfinite(r)) fail("the value is too large");
+    return Number::of(r);
+  }
+  // 0, 1 and -1 never overflow; answering them directly bounds the loop
+  // below to at most 63 multiplications.
+  if (base.integer == 0) return Number::of(std::int64_t{exponent.integer == 0 ? 1 : 0});
+  if (base.integer == 1) return Number::of(std::int64_t{1});
+  if (base.integer == -1) return Number::of(std::int64_t{exponent.integer % 2 == 0 ? 1 : -1});
+  std::int64_t result = 1;
+  for (std::int64_t i = 0; i < exponent.integer; ++i)
+    if (__builtin_mul_overflow(result, base.integer, &result)) fail("the value is too large");
+  return Number::of(result);
+}
+
+class Parser {
+ public:
+  explicit Parser(std::string_view text) : text_(text) {}
+
+  Number parse() {
+    Number value = sum();
+    skip_blanks();
+    if (pos_ != text_.size()) fail("unexpected '" + std::string(1, text_[pos_]) + "'");
+    return value;
+  }
+
+ private:
+  // Grammar, Python precedence: sum := term (('+'|'-') term)*
+  // term := unary (('*'|'/'|'//'|'%') unary)*; unary := ('+'|'-') unary | power
+  // power := atom ['**' unary]; atom := number | '(' sum ')'
+  Number sum() {
+    Number left = term();
+    for (;;) {
+      if (accept("+")) left = add(left, term(), +1);
+      else if (accept("-")) left = add(left, term(), -1);
+      else return left;
+    }
+  }
+
+  Number term() {
+    Number left = unary();
+    for (;;) {
+      if (accept("//")) left = floor_divide(left, unary());
+      else if (accept("*") ) left = multiply(left, unary());
+      else if (accept("/")) left = divide(left, unary());
+      else if (accept("%")) left = modulo(left, unary());
+      else return left;
+    }
+  }
+
+  Number unary() {
+    if (accept("-")) {
+      Number v = unary();
+      if (v.is_float) return Number::of(-v.real);
+      if (v.integer == std::numeric_limits<std::int64_t>::min()) fail("the value is too large");
+      return Number::of(-v.integer);
+    }
+    if (accept("+")) return unary();
+    return power_expression();
+  }
+
+  Number power_expression() {
+    Number base = atom();
+    if (accept("**")) return power(base, unary());
+    return base;
+  }
+
+  Number atom() {
+    if (++depth_ > 100) fail("the expression is nested too deeply");
+    Number value;
+    if (accept("(")) {
+      value = sum();
+      if (!accept(")")) fail("missing ')'");
+    } else {
+      value = number();
+    }
+    --depth_;
+    return value;
+  }
+
+  Number number() {
+    skip_blanks();
+    const std::size_t start = pos_;
+    int base = 10;
+    if (text_.substr(pos_, 2) == "0x" || text_.substr(pos_, 2) == "0X") base = 16;
+    else if (text_.substr(pos_, 2) == "0o" || text_.substr(pos_, 2) == "0O") base = 8;
+    else if (text_.substr(pos_, 2) == "0b" || text_.substr(pos_, 2) == "0B") base = 2;
+    if (base != 10) pos_ += 2;
+    std::int64_t value = 0;
+    std::size_t digits = 0;
+    bool leading_zero = false;
+    while (pos_ < text_.size()) {
+      const char c = text_[pos_];
+      int digit;
+      if (c == '_' && digits > 0) { ++pos_; continue; }
+      if (c >= '0' && c <= '9') digit = c - '0';
+      else if (c >= 'a' && c <= 'f') digit = c - 'a' + 10;
+      else if (c >= 'A' && c <= 'F') digit = c - 'A' + 10;
+      else break;
+      if (digit >= base) break;
+      if (digits == 0 && base == 10 && digit == 0) leading_zero = true;
+      if (__builtin_mul_overflow(value, base, &value) || __builtin_add_overflow(value, digit, &value))
+        fail("the value is too large");
+      ++digits;
+      ++pos_;
+    }
+    if (digits == 0) {
+      if (start < text_.size()) fail("expected a number at '" + std::string(text_.substr(start)) + "'");
+      fail("expected a number");
+    }
+    if (leading_zero && value != 0) fail("decimal numbers must not start with 0");
+    if (pos_ < text_.size() && (std::isalnum(static_cast<unsigned char>(text_[pos_])) || text_[pos_] == '.'))
+      fail("unexpected '" + std::string(1, text_[pos_]) + "' in a number");
+    return Number::of(value);
+  }
+
+  static Number add(const Number& a, const Number& b, int sign) {
+    if (a.is_float || b.is_float) return Number::of(a.as_double() + sign * b.as_double());
+    std::int64_t r = 0;
+    const bool overflow = sign > 0 ? __builtin_add_overflow(a.integer, b.integer, &r)
+                                   : __builtin_sub_overflow(a.integer, b.integer, &r);
+    if (overflow) fail("the value is too large");
+    return Number::of(r);
+  }
+
+  static Number multiply(const Number& a, const Number& b) {
+    if (a.is_float || b.is_float) return Number::of(a.as_double() * b.as_double());
+    std::int64_t r = 0;
+    if (__builtin_mul_overflow(a.integer, b.integer, &r)) fail("the value is too large");
+    return Number::of(r);
+  }
+
+  static Number divide(const Number& a, const Number& b) {
+    if (b.as_double() == 0.0) fail("division by zero");
+    return Number::of(a.as_double() / b.as_double());
+  }
+
+  bool accept(std::string_view token) {
+    skip_blanks();
+    if (text_.substr(pos_, token.size()) != token) return false;
+    // "*" must not swallow the first half of "**", nor "/" of "//".
+    if ((token == "*" || token == "/") && text_.substr(pos_ + 1, 1) == token) return false;
+    pos_ += token.size();
+    return true;
+  }
+
+  void skip_blanks() {
+    while (pos_ < text_.size() && (text_[pos_] == ' ' || text_[pos_] == '\t')) ++pos_;
+  }
+
+  std::string_view text_;
+  std::size_t pos_ = 0;
+  int depth_ = 0;
+};
+
+}  // namespace
+
+std::int64_t evaluate_count_expression(std::string_view expression) {
+  const Number value = Parser(expression).parse();
+  if (!value.is_float) return value.integer;
+  if (!std::isfinite(value.real) || std::fabs(value.real) > 9.0e18) fail("the value is too large");
+  return static_cast<std::int64_t>(value.real);  // int() truncates toward zero
+}
+
+}  // namespace ln::md

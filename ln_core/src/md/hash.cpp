@@ -1,0 +1,91 @@
+#include "md/hash.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <map>
+#include <vector>
+
+#include "md/sha256.hpp"
+
+namespace ln::md {
+namespace {
+
+// Python 3 repr() of a str. Field and type names are identifiers, so in
+// practice only the quoting matters; escapes keep arbitrary input exact.
+std::string python_repr(const std::string& s) {
+  const bool has_single = s.find('\'') != std::string::npos;
+  const bool has_double = s.find('"') != std::string::npos;
+  const char quote = (has_single && !has_double) ? '"' : '\'';
+  std::string out(1, quote);
+  for (unsigned char c : s) {
+    if (c == '\\' || c == static_cast<unsigned char>(quote)) {
+      out += '\\';
+      out += static_cast<char>(c);
+    } else if (c == '\n') {
+      out += "\\n";
+    } else if (c == '\r') {
+      out += "\\r";
+    } else if (c == '\t') {
+      out += "\\t";
+    } else if (c < 0x20 || c == 0x7f) {
+      char buffer[8];
+      std::snprintf(buffer, sizeof buffer, "\\x%02x", c);
+      out += buffer;
+    } else {
+      out += static_cast<char>(c);
+    }
+  }
+  out += quote;
+  return out;
+}
+
+std::string fields_repr(const std::vector<Field>& fields) {
+  std::string out = "[";
+  for (std::size_t i = 0; i < fields.size(); ++i) {
+    const Field& f = fields[i];
+    if (i) out += ", ";
+    out += "[" + python_repr(f.type_spelling + (f.dynamic ? "*" : "")) + ", " +
+           python_repr(f.hash_name) + ", " + std::to_string(f.count) + "]";
+  }
+  return out + "]";
+}
+
+// LN collects the field lists of every imported type, keyed by the *local*
+// define name, depth first; a nested define of the same local name replaces
+// an outer one. Definitions already on the stack are not entered again
+// (LN 2.9 handles only direct self-recursion; longer cycles are our own).
+void collect_defines(const Definition& definition,
+                     std::map<std::string, const std::vector<Field>*>& into,
+                     std::vector<const Definition*>& stack) {
+  for (const Define& define : definition.defines) {
+    const Definition* sub = define.definition;
+    into[define.local_name] = &sub->fields;
+    if (std::find(stack.begin(), stack.end(), sub) != stack.end()) continue;
+    stack.push_back(sub);
+    collect_defines(*sub, into, stack);
+    stack.pop_back();
+  }
+}
+
+}  // namespace
+
+std::string compute_definition_hash(const Definition& definition) {
+  std::map<std::string, const std::vector<Field>*> defines;
+  std::vector<const Definition*> stack{&definition};
+  collect_defines(definition, defines, stack);
+
+  std::string sorted_defines = "[";
+  bool first = true;
+  for (const auto& [local_name, fields] : defines) {
+    if (!first) sorted_defines += ", ";
+    first = false;
+    sorted_defines += "(" + python_repr(local_name) + ", " + fields_repr(*fields) + ")";
+  }
+  sorted_defines += "]";
+
+  const std::string text = "(" + fields_repr(definition.fields) + ", " +
+                           fields_repr(definition.response_fields) + ", " + sorted_defines + ")";
+  return sha256_hex(text);
+}
+
+}  // namespace ln::md

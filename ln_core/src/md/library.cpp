@@ -1,0 +1,198 @@
+#include <limits.h>
+#include <stdlib.h>
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <sstream>
+
+#include "ln/md/message_definition.hpp"
+#include "md/hash.hpp"
+#include "md/parser.hpp"
+#include "md/text.hpp"
+
+namespace ln::md {
+namespace {
+
+bool is_regular_file(const std::string& path) {
+  struct stat st;
+  return ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path, 0, std::string("cannot read the file: ") + std::strerror(errno));
+  std::ostringstream content;
+  content << in.rdbuf();
+  if (in.bad()) throw Error(path, 0, std::string("cannot read the file: ") + std::strerror(errno));
+  return content.str();
+}
+
+std::string list_dirs(const SearchPath& path) {
+  std::string out;
+  for (const auto& d : path.dirs()) out += "\n  " + d;
+  return out.empty() ? "\n  (no existing directories)" : out;
+}
+
+// Sizes above 4 GiB cannot be described by LN's 32-bit message sizes, and
+// checking here keeps every later size computation free of overflow.
+constexpr std::size_t max_definition_size = std::numeric_limits<std::uint32_t>::max();
+
+}  // namespace
+
+struct Library::Loader final : DefineResolver {
+  explicit Loader(Library& library) : lib(library) {}
+
+  // Loads the definition `name` stored in `path`, or returns the one already
+  // known (possibly still being parsed: that is how recursion resolves).
+  const Definition& load_file(const std::string& name, const std::string& path) {
+    if (auto it = lib.loaded_.find(name); it != lib.loaded_.end()) return *it->second;
+    return parse_new(name, path, read_file(path));
+  }
+
+  const Definition& parse_new(const std::string& name, const std::string& path, const std::string& text) {
+    auto owned = std::make_unique<Definition>();
+    Definition& def = *owned;
+    def.name = name;
+    def.path = path;
+    lib.loaded_.emplace(name, std::move(owned));
+    created.push_back(&def);
+    parse_definition(def, text, *this);
+    return def;
+  }
+
+  const Definition& resolve_define(const Definition& importer, const std::string& quoted, int line,
+                                   std::string& absolute_name) override {
+    // First next to the importing file (so "value" inside ln/parameters/query
+    // means ln/parameters/value), then on the search path.
+    if (is_regular_file(importer.path)) {
+      const std::string sibling = text::join_path(text::dirname(importer.path), quoted);
+      if (is_regular_file(sibling)) {
+        absolute_name = text::join_path(text::dirname(importer.name), quoted);
+        return load_file(absolute_name, sibling);
+      }
+    }
+    auto found = lib.search_path_.find(quoted);
+    if (!found) {
+      lib.search_path_.rescan();
+      found = lib.search_path_.find(quoted);
+    }
+    if (!found)
+      throw Error(importer.path, line, "define refers to '" + quoted +
+                                           "', which is neither next to this file nor in:" +
+                                           list_dirs(lib.search_path_));
+    absolute_name = quoted;
+    return load_file(absolute_name, *found);
+  }
+
+  // Runs once the outermost load has parsed everything it imports.
+  void finish() {
+    for (Definition* def : created) check_no_direct_recursion(*def);
+    // Imports are created after their importers: check them first, so that
+    // sizes of already-checked sub-types never overflow.
+    for (auto it = created.rbegin(); it != created.rend(); ++it) check_sizes(**it);
+    for (Definition* def : created) def->hash = compute_definition_hash(*def);
+  }
+
+  void forget_created() {
+    for (Definition* def : created) lib.loaded_.erase(def->name);
+    created.clear();
+  }
+
+  // A type may contain itself only through a pointer: by value it would be
+  // infinitely large.
+  void check_no_direct_recursion(const Definition& def) {
+    std::vector<const Definition*> path{&def};
+    walk_by_value(def, path);
+  }
+
+  void walk_by_value(const Definition& current, std::vector<const Definition*>& path) {
+    for (const Field& f : current.fields) {
+      if (f.dynamic || !f.sub) continue;
+      if (std::find(path.begin(), path.end(), f.sub) != path.end())
+        throw Error(current.path, f.line,
+                    "field '" + f.name + "' makes '" + f.sub->name + "' contain itself; recursive types "
+                    "must use a pointer ('" + f.type_spelling + "* " + f.name + "')");
+      path.push_back(f.sub);
+      walk_by_value(*f.sub, path);
+      path.pop_back();
+    }
+  }
+
+  void check_sizes(const Definition& def) {
+    for (const auto* list : {&def.fields, &def.response_fields}) {
+      std::size_t total = 0;
+      for (const Field& f : *list) {
+        const std::size_t element = f.dynamic ? sizeof(void*)
+                                    : f.primitive ? size_of(*f.primitive)
+                                                  : struct_layout(f.sub->fields).size;
+        std::size_t bytes;
+        if (__builtin_mul_overflow(element, std::size_t{f.count}, &bytes) ||
+            __builtin_add_overflow(total, bytes, &total) || total > max_definition_size)
+          throw Error(def.path, f.line, "the definition grows beyond 4 GiB at field '" + f.name + "'");
+      }
+    }
+  }
+
+  Library& lib;
+  std::vector<Definition*> created;
+};
+
+Library::Library(SearchPath search_path) : search_path_(std::move(search_path)) {}
+Library::~Library() = default;
+
+const Definition& Library::load(std::string_view name) {
+  if (auto it = loaded_.find(name); it != loaded_.end()) return *it->second;
+  const std::string wanted(name);
+  Loader loader(*this);
+  try {
+    const Definition* result = nullptr;
+    if (is_valid_definition_name(wanted)) {
+      auto found = search_path_.find(wanted);
+      if (!found) {
+        search_path_.rescan();
+        found = search_path_.find(wanted);
+      }
+      if (found) result = &loader.load_file(wanted, *found);
+    }
+    // LN also accepts a path to a definition file; its name is then the path.
+    if (!result && is_regular_file(wanted)) {
+      char resolved[PATH_MAX];
+      const std::string real = ::realpath(wanted.c_str(), resolved) ? resolved : wanted;
+      result = &loader.load_file(real, real);
+    }
+    if (!result) {
+      if (!is_valid_definition_name(wanted))
+        throw Error("", 0, "'" + wanted + "' is not a valid message-definition name (relative, '/'-separated, no '..')");
+      throw Error("", 0, "message definition '" + wanted + "' not found in these directories:" +
+                             list_dirs(search_path_));
+    }
+    loader.finish();
+    return *result;
+  } catch (...) {
+    loader.forget_created();  // nothing half-loaded stays behind
+    throw;
+  }
+}
+
+const Definition& Library::load_text(std::string_view name, std::string_view text) {
+  const std::string wanted(name);
+  if (!is_valid_definition_name(wanted))
+    throw Error("", 0, "'" + wanted + "' is not a valid message-definition name (relative, '/'-separated, no '..')");
+  if (auto it = loaded_.find(wanted); it != loaded_.end())
+    throw Error("", 0, "message definition '" + wanted + "' is already loaded");
+  Loader loader(*this);
+  try {
+    const Definition& def = loader.parse_new(wanted, "<" + wanted + ">", std::string(text));
+    loader.finish();
+    return def;
+  } catch (...) {
+    loader.forget_created();
+    throw;
+  }
+}
+
+}  // namespace ln::md

@@ -1,0 +1,209 @@
+#include "md/parser.hpp"
+
+#include <algorithm>
+#include <map>
+#include <stdexcept>
+
+#include "md/count_expression.hpp"
+#include "md/text.hpp"
+
+namespace ln::md {
+namespace {
+
+constexpr std::int64_t max_array_count = 0x7fffffff;
+
+enum class Section { First, Second };  // request/connect, response/call
+
+class DefinitionParser {
+ public:
+  DefinitionParser(Definition& definition, DefineResolver& resolver)
+      : def_(definition), resolver_(resolver) {}
+
+  void parse(std::string_view text) {
+    int line_number = 0;
+    bool first_significant = true;
+    while (!text.empty()) {
+      const auto newline = std::min(text.find('\n'), text.size());
+      std::string_view raw = text.substr(0, newline);
+      text.remove_prefix(std::min(newline + 1, text.size()));
+      ++line_number;
+      line_ = line_number;
+      if (!text::is_valid_utf8(raw)) fail("the line is not valid UTF-8");
+
+      std::string_view line = text::strip(raw);
+      if (line.empty() || line.front() == '#') continue;
+      line = text::strip(line.substr(0, line.find('#')));
+
+      if (first_significant) {
+        first_significant = false;
+        if (line == "service") { def_.kind = Kind::Service; continue; }
+        if (line == "event") { def_.kind = Kind::Event; continue; }
+      }
+      if (section_marker(line)) continue;
+      parse_declaration(line);
+    }
+    for (auto section : {Section::First, Section::Second}) place_length_fields(section);
+  }
+
+ private:
+  [[noreturn]] void fail(const std::string& message) const { throw Error(def_.path, line_, message); }
+
+  bool section_marker(std::string_view line) {
+    const bool service = def_.kind == Kind::Service, event = def_.kind == Kind::Event;
+    if ((service && line == "request") || (event && line == "connect")) section_ = Section::First;
+    else if ((service && line == "response") || (event && line == "call")) section_ = Section::Second;
+    else return false;
+    return true;
+  }
+
+  std::vector<Field>& fields(Section s) {
+    return s == Section::First ? def_.fields : def_.response_fields;
+  }
+
+  void parse_declaration(std::string_view line) {
+    const auto blank = line.find_first_of(" \t");
+    if (blank == std::string_view::npos)
+      fail("expected 'TYPE NAME', 'TYPE NAME[COUNT]' or 'define NAME as \"md/name\"', got '" +
+           std::string(line) + "'");
+    const std::string_view first_word = line.substr(0, blank);
+    const std::string_view rest = text::strip(line.substr(blank));
+    if (first_word == "define") parse_define(rest);
+    else parse_field(first_word, rest);
+  }
+
+  void parse_define(std::string_view rest) {
+    const auto as = rest.find(" as ");
+    if (as == std::string_view::npos) fail("expected 'define LOCAL_TYPE as \"md/name\"'");
+    const std::string local(text::strip(rest.substr(0, as)));
+    const std::string_view quoted = text::strip(rest.substr(as + 4));
+    if (quoted.size() < 2 || quoted.front() != '"' || quoted.back() != '"')
+      fail("the definition name in a define must be in double quotes: define " + local +
+           " as \"md/name\"");
+    const std::string target(quoted.substr(1, quoted.size() - 2));
+
+    if (primitive_from_spelling(local))
+      fail("'" + local + "' is a built-in type and cannot be redefined");
+    if (!text::is_identifier(local) || text::is_reserved_word(local))
+      fail("'" + local + "' is not a usable type name (a C identifier that is not a keyword)");
+    if (const Define* earlier = def_.find_define(local))
+      fail("type '" + local + "' is already defined in line " + std::to_string(earlier->line));
+    if (!is_valid_definition_name(target))
+      fail("'" + target + "' is not a valid message-definition name (relative, '/'-separated, no '..')");
+
+    Define define;
+    define.local_name = local;
+    define.line = line_;
+    define.definition = &resolver_.resolve_define(def_, target, line_, define.absolute_name);
+    if (define.definition->kind != Kind::Plain)
+      fail("'" + target + "' is a service or event definition; only plain definitions can be used as types");
+    def_.defines.push_back(std::move(define));
+  }
+
+  void parse_field(std::string_view type_word, std::string_view rest) {
+    Field field;
+    field.line = line_;
+    if (text::ends_with(type_word, "*")) {
+      field.dynamic = true;
+      type_word.remove_suffix(1);
+    }
+    field.type_spelling = std::string(type_word);
+    field.primitive = primitive_from_spelling(type_word);
+    if (!field.primitive) {
+      const Define* define = def_.find_define(type_word);
+      if (!define) fail("unknown type '" + std::string(type_word) + "'" + unknown_type_hint(type_word));
+      field.sub = define->definition;
+    }
+
+    std::string_view name = rest;
+    const auto bracket = rest.find('[');
+    if (bracket != std::string_view::npos) {
+      if (field.dynamic)
+        fail("arrays of dynamic fields ('" + std::string(type_word) + "* name[N]') are not supported");
+      name = rest.substr(0, bracket);
+      field.count = array_count(rest.substr(bracket));
+    }
+    field.hash_name = std::string(name);  // LN hashes the name with blanks before '['
+    field.name = std::string(text::strip(name));
+    if (!text::is_identifier(field.name) || text::is_reserved_word(field.name))
+      fail("'" + field.name + "' is not a valid field name (a C identifier that is not a keyword)");
+
+    auto& list = fields(section_);
+    const auto same = std::find_if(list.begin(), list.end(), [&](const Field& f) { return f.name == field.name; });
+    if (same != list.end())
+      fail("field '" + field.name + "' is already defined in line " + std::to_string(same->line));
+    if (field.dynamic) dynamic_names_[static_cast<int>(section_)].push_back(field.name);
+    list.push_back(std::move(field));
+  }
+
+  std::uint32_t array_count(std::string_view brackets) {
+    if (brackets.back() != ']') fail("array count '" + std::string(brackets) + "' lacks its closing ']'");
+    const std::string_view expression = text::strip(brackets.substr(1, brackets.size() - 2));
+    if (expression.find("][") != std::string_view::npos)
+      fail("multi-dimensional arrays are not supported; flatten them to one dimension (e.g. [3*4])");
+    std::int64_t count;
+    try {
+      count = evaluate_count_expression(expression);
+    } catch (const std::invalid_argument& e) {
+      fail("invalid array count '" + std::string(expression) + "': " + e.what());
+    }
+    if (count < 1 || count > max_array_count)
+      fail("array count '" + std::string(expression) + "' is " + std::to_string(count) +
+           "; it must be between 1 and " + std::to_string(max_array_count));
+    return static_cast<std::uint32_t>(count);
+  }
+
+  std::string unknown_type_hint(std::string_view type) const {
+    if (text::ends_with(type, "*")) return " (only one '*' is allowed)";
+    return "";
+  }
+
+  // Each dynamic field X carries its length in a field X_len placed right
+  // before X: inserted when the author did not declare it, moved when it was
+  // declared elsewhere. The move reproduces LN 2.9 exactly, including its
+  // quirk: an X_len declared more than one field before X ends up right
+  // *after* X (remove, then insert at X's old index).
+  void place_length_fields(Section section) {
+    auto& list = fields(section);
+    for (const auto& dynamic_name : dynamic_names_[static_cast<int>(section)]) {
+      auto index_of = [&](const std::string& n) -> std::ptrdiff_t {
+        const auto it = std::find_if(list.begin(), list.end(), [&](const Field& f) { return f.name == n; });
+        return it == list.end() ? -1 : it - list.begin();
+      };
+      const std::ptrdiff_t i = index_of(dynamic_name);
+      const std::string length_name = dynamic_name + "_len";
+      const std::ptrdiff_t k = index_of(length_name);
+      if (k < 0) {
+        Field length;
+        length.name = length.hash_name = length_name;
+        length.type_spelling = "uint32_t";
+        length.primitive = Primitive::UInt32;
+        list.insert(list.begin() + i, std::move(length));
+        continue;
+      }
+      const Field& declared = list[static_cast<std::size_t>(k)];
+      if (!declared.primitive || !is_integer(*declared.primitive) || declared.dynamic || declared.count != 1) {
+        line_ = declared.line;
+        fail("'" + length_name + "' holds the element count of dynamic field '" + dynamic_name +
+             "' and must be an integer scalar such as uint32_t");
+      }
+      if (k == i - 1) continue;
+      Field moved = std::move(list[static_cast<std::size_t>(k)]);
+      list.erase(list.begin() + k);
+      list.insert(list.begin() + i, std::move(moved));
+    }
+  }
+
+  Definition& def_;
+  DefineResolver& resolver_;
+  Section section_ = Section::First;
+  int line_ = 0;
+  std::vector<std::string> dynamic_names_[2];
+};
+
+}  // namespace
+
+void parse_definition(Definition& definition, std::string_view text, DefineResolver& resolver) {
+  DefinitionParser(definition, resolver).parse(text);
+}
+
+}  // namespace ln::md

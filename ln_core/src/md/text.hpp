@@ -1,0 +1,39 @@
+// Small string helpers shared by the message-definition code.
+#pragma once
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace ln::md::text {
+
+constexpr std::string_view whitespace = " \t\r\n\v\f";
+
+inline std::string_view strip(std::string_view s, std::string_view chars = whitespace) {
+  const auto first = s.find_first_not_of(chars);
+  if (first == std::string_view::npos) return {};
+  const auto last = s.find_last_not_of(chars);
+  return s.substr(first, last - first + 1);
+}
+
+inline bool starts_with(std::string_view s, std::string_view prefix) {
+  return s.substr(0, prefix.size()) == prefix;
+}
+
+inline bool ends_with(std::string_view s, std::string_view suffix) {
+  return s.size() >= suffix.size() && s.substr(s.size() - suffix.size()) == suffix;
+}
+
+/// A C identifier: [A-Za-z_][A-Za-z0-9_]*.
+bool is_identifier(std::string_view s);
+/// A C or C++ keyword: cannot be a field or type name in generated code.
+bool is_reserved_word(std::string_view s);
+/// Valid UTF-8 (no overlong forms, no surrogates).
+bool is_valid_utf8(std::string_view s);
+
+/// Directory part of a '/'-separated path, "" when there is none.
+std::string_view dirname(std::string_view path);
+/// Joins like Python's os.path.join for two relative-or-absolute parts.
+std::string join_path(std::string_view base, std::string_view tail);
+
+}  // namespace ln::md::text
