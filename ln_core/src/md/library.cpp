@@ -66,6 +66,15 @@ struct Library::Loader final : DefineResolver {
 
   const Definition& resolve_define(const Definition& importer, const std::string& quoted, int line,
                                    std::string& absolute_name) override {
+    // In-memory sources come first, with the same "next to the importer
+    // first" rule as files.
+    for (const std::string& candidate : {text::join_path(text::dirname(importer.name), quoted), quoted}) {
+      if (auto source = lib.sources_.find(candidate); source != lib.sources_.end()) {
+        absolute_name = candidate;
+        if (auto it = lib.loaded_.find(candidate); it != lib.loaded_.end()) return *it->second;
+        return parse_new(candidate, "<" + candidate + ">", source->second);
+      }
+    }
     // First next to the importing file (so "value" inside ln/parameters/query
     // means ln/parameters/value), then on the search path.
     if (is_regular_file(importer.path)) {
@@ -150,7 +159,9 @@ const Definition& Library::load(std::string_view name) {
   Loader loader(*this);
   try {
     const Definition* result = nullptr;
-    if (is_valid_definition_name(wanted)) {
+    if (auto source = sources_.find(wanted); source != sources_.end())
+      result = &loader.parse_new(wanted, "<" + wanted + ">", source->second);
+    if (!result && is_valid_definition_name(wanted)) {
       auto found = search_path_.find(wanted);
       if (!found) {
         search_path_.rescan();
@@ -176,6 +187,15 @@ const Definition& Library::load(std::string_view name) {
     loader.forget_created();  // nothing half-loaded stays behind
     throw;
   }
+}
+
+void Library::add_source(std::string_view name, std::string_view text) {
+  const std::string key(name);
+  if (!is_valid_definition_name(key))
+    throw Error("", 0, "'" + key + "' is not a valid message-definition name (relative, '/'-separated, no '..')");
+  if (auto it = loaded_.find(key); it != loaded_.end() && sources_[key] != text)
+    throw Error("", 0, "message definition '" + key + "' is already loaded with a different text");
+  sources_[key] = std::string(text);
 }
 
 const Definition& Library::load_text(std::string_view name, std::string_view text) {

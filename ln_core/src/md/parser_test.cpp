@@ -238,5 +238,27 @@ TEST(Library, LoadsDefinitionsGivenAsText) {
   EXPECT_THROW(library.load_text("gen/bad", "double\n"), Error);
 }
 
+TEST(Library, RebuildsDefinitionsFromInMemorySources) {
+  DefinitionTree files;
+  files.write("a/b/value", "double v\n");
+  files.write("other/point", "float x\nfloat y\n");
+  files.write("a/b/holder", "define value_t as \"value\"\ndefine p as \"other/point\"\nvalue_t v\np pts[2]\n");
+  Library from_files(SearchPath::exactly({files.root()}));
+  const Definition& original = from_files.load("a/b/holder");
+
+  // What a manager sends: the definition and everything it imports.
+  Library from_texts(SearchPath::exactly({}));
+  from_texts.add_source("a/b/holder", "define value_t as \"value\"\ndefine p as \"other/point\"\nvalue_t v\np pts[2]\n");
+  from_texts.add_source("a/b/value", "double v\n");
+  from_texts.add_source("other/point", "float x\nfloat y\n");
+  const Definition& rebuilt = from_texts.load("a/b/holder");
+  EXPECT_EQ(rebuilt.hash, original.hash);
+  EXPECT_EQ(signature(rebuilt), signature(original));
+  EXPECT_EQ(rebuilt.defines[0].absolute_name, "a/b/value");
+  EXPECT_EQ(rebuilt.defines[1].absolute_name, "other/point");
+  EXPECT_THROW(from_texts.add_source("a/b/value", "double changed\n"), Error);
+  EXPECT_NO_THROW(from_texts.add_source("a/b/value", "double v\n"));
+}
+
 }  // namespace
 }  // namespace ln::md

@@ -205,12 +205,19 @@ class Library {
   /// search path. Throws Error.
   const Definition& load_text(std::string_view name, std::string_view text);
 
+  /// Makes `text` the content of definition `name` without touching the
+  /// file system: load() and defines find it before any file. This is how a client rebuilds the manager's
+  /// definitions from the bundle of texts it receives. Replacing the text
+  /// of an already loaded name throws Error.
+  void add_source(std::string_view name, std::string_view text);
+
   const SearchPath& search_path() const { return search_path_; }
 
  private:
   struct Loader;
   SearchPath search_path_;
   std::map<std::string, std::unique_ptr<Definition>, std::less<>> loaded_;
+  std::map<std::string, std::string, std::less<>> sources_;
 };
 
 /// True for names that are usable definition names: non-empty,
