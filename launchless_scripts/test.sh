@@ -1,0 +1,107 @@
+#!/usr/bin/env bash
+# THE test command (README; CI runs it through .ci/run):
+#   1. setup.sh: Debian packages, venvs, colcon build of the workspace
+#   2. colcon test + colcon test-result --verbose
+#   3. ln_core again with -DLN_SANITIZE=ON (ASan+UBSan) in build-asan/, and its ctest suite
+#   4. pytest over tests/ and the benchmark runner's smoke test
+# Ends with the line "N passed, M failed" (ctest + pytest tests; a step that breaks counts as one
+# failure) and exits non-zero on any failure. Every step is bounded by timeout.
+set -euo pipefail
+
+HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+ROOT=$(dirname "$HERE")
+ASAN_DIR=$ROOT/build-asan
+PASSED=0 FAILED=0 SKIPPED=0
+start=$SECONDS
+
+step() { printf '\n== test.sh: %s\n' "$*"; }
+fail_step() { echo "test.sh: FAILED: $*" >&2; FAILED=$((FAILED + 1)); }
+finish() {
+  step "done in $((SECONDS - start)) s ($SKIPPED skipped)"
+  echo "$PASSED passed, $FAILED failed"
+  [ "$FAILED" -eq 0 ] && exit 0 || exit 1
+}
+
+# count_junit FILE: prints "passed failed skipped" for the test cases of a JUnit XML file (ctest, pytest)
+count_junit() {
+  python3 - "$1" <<'EOF'
+import sys, xml.etree.ElementTree as ET
+n = {"passed": 0, "failed": 0, "skipped": 0}
+for case in ET.parse(sys.argv[1]).iter("testcase"):
+    tags = {child.tag for child in case}
+    n["failed" if tags & {"failure", "error"} else "skipped" if "skipped" in tags else "passed"] += 1
+print(n["passed"], n["failed"], n["skipped"])
+EOF
+}
+
+# add_results NAME RC JUNIT_FILE: adds the file's counts; a non-zero RC without a failed test is a broken step
+add_results() {
+  local name=$1 rc=$2 file=$3 p f s
+  if [ ! -f "$file" ] || ! read -r p f s < <(count_junit "$file"); then
+    fail_step "$name: exit $rc and no readable results in $file"; return
+  fi
+  echo "test.sh: $name: $p passed, $f failed, $s skipped"
+  PASSED=$((PASSED + p)) FAILED=$((FAILED + f)) SKIPPED=$((SKIPPED + s))
+  if [ "$rc" -ne 0 ] && [ "$f" -eq 0 ]; then fail_step "$name: exit $rc"; fi
+}
+
+# For the sanitizer build: drop the colcon install/ from the search paths, so its tests load
+# build-asan's own libraries and not the uninstrumented ones (LD_LIBRARY_PATH beats RUNPATH).
+without_install_paths() {
+  local var
+  for var in PATH LD_LIBRARY_PATH PYTHONPATH CMAKE_PREFIX_PATH AMENT_PREFIX_PATH; do
+    export "$var=$(printf '%s' "${!var:-}" | tr ':' '\n' | grep -v "^$ROOT/install/" | paste -sd: -)"
+  done
+}
+
+step "set-up and build (setup.sh)"
+timeout 4000 bash "$HERE/setup.sh" || { fail_step "setup.sh (exit $?; see above)"; finish; }
+. "$HERE/env.sh" || { fail_step "sourcing env.sh"; finish; }
+cd "$ROOT"
+
+step "colcon test"
+colcon test-result --delete-yes > /dev/null 2>&1 || true
+rc=0; timeout 1800 colcon test --event-handlers desktop_notification- --ctest-args --timeout 300 || rc=$?
+[ "$rc" -eq 0 ] || fail_step "colcon test (exit $rc)"
+out=$(timeout 300 colcon test-result --verbose 2>&1) || true
+printf '%s\n' "$out"
+# "Summary: 12 tests, 0 errors, 1 failure, 2 skipped"
+read -r t e f s < <(printf '%s\n' "$out" | sed -n 's/^Summary: \([0-9]*\) tests\{0,1\}, \([0-9]*\) errors\{0,1\}, \([0-9]*\) failures\{0,1\}, \([0-9]*\) skipped$/\1 \2 \3 \4/p') \
+  || { t=0 e=0 f=0 s=0; echo "test.sh: no colcon test results"; }
+PASSED=$((PASSED + t - e - f - s)) FAILED=$((FAILED + e + f)) SKIPPED=$((SKIPPED + s))
+
+step "ln_core with ASan+UBSan in build-asan/"
+mkdir -p "$ASAN_DIR" && touch "$ASAN_DIR/COLCON_IGNORE"
+if ( without_install_paths
+     timeout 600 cmake -S "$ROOT/ln_core" -B "$ASAN_DIR" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+       -DLN_SANITIZE=ON -DLN_WERROR=ON -DBUILD_TESTING=ON > "$ASAN_DIR/configure.log" 2>&1 \
+       || { cat "$ASAN_DIR/configure.log"; exit 1; }
+     timeout 2700 cmake --build "$ASAN_DIR" ); then
+  rm -f "$ASAN_DIR/ctest-junit.xml"
+  rc=0
+  ( without_install_paths
+    export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1} UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
+    timeout 1800 ctest --test-dir "$ASAN_DIR" --output-on-failure --timeout 300 --output-junit "$ASAN_DIR/ctest-junit.xml" ) || rc=$?
+  add_results "ctest (ASan+UBSan)" "$rc" "$ASAN_DIR/ctest-junit.xml"
+else
+  fail_step "ASan+UBSan build of ln_core"
+fi
+
+step "pytest tests/ bench/"
+if [ -d tests ]; then
+  has_files=$(find tests bench -name 'test_*.py' -o -name '*_test.py' | head -n 1)
+  junit=$ROOT/log/pytest-junit.xml
+  mkdir -p "$ROOT/log" && rm -f "$junit"
+  rc=0; timeout 1800 python -m pytest tests bench/test_bench_runner.py -p no:cacheprovider -q --junitxml="$junit" || rc=$?
+  if [ "$rc" -eq 5 ] && [ -z "$has_files" ]; then
+    echo "test.sh: no Python tests in tests/"
+  elif [ "$rc" -eq 5 ]; then
+    fail_step "pytest collected no tests although tests/ has test files"
+  else
+    add_results pytest "$rc" "$junit"
+  fi
+else
+  echo "test.sh: no tests/ directory"
+fi
+
+finish
