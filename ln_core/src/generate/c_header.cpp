@@ -38,11 +38,17 @@ class Emitter {
       }
     in_progress_.erase(&def);
     emitted_.insert(&def);
+    // Each type is guarded by its MD_NAME macro, so a translation unit may
+    // include several generated headers that share a type (LN 2.9's
+    // headers then fail with redefinitions).
+    const std::string guard = upper(md::identifier_from_name(def.name)) + "_MD_NAME";
+    out_ << "\n#ifndef " << guard;
     switch (def.kind) {
       case Kind::Plain: emit_plain(def); break;
       case Kind::Service: emit_service(def); break;
       case Kind::Event: emit_event(def); break;
     }
+    out_ << "#endif  /* " << guard << " */\n";
   }
 
   std::string text() const { return out_.str(); }

@@ -46,6 +46,12 @@ TEST_F(CHeader, EmitsEachTypeOnceWithImportsFirst) {
   EXPECT_EQ(h.rfind("#ifndef LN_MESSAGES_H\n#define LN_MESSAGES_H\n", 0), 0u);
 }
 
+TEST_F(CHeader, GuardsEachTypeSoHeadersSharingATypeCombine) {
+  const std::string h = emit({"geo/path"});
+  EXPECT_NE(h.find("#ifndef GEO_POINT_MD_NAME\n/* geo/point */\n#define GEO_POINT_MD_NAME"), std::string::npos);
+  EXPECT_NE(h.find("#endif  /* GEO_POINT_MD_NAME */"), std::string::npos);
+}
+
 TEST_F(CHeader, EmitsLn29ServiceNamesAndBaseClass) {
   const std::string h = emit({"elevator/request/elevator_call"});
   for (const char* expected :
