@@ -66,16 +66,46 @@ class Parser {
   explicit Parser(std::string_view text) : text_(text) {}
 
   Number parse() {
-    Number value = sum();
+    Number value = bit_or();
     skip_blanks();
     if (pos_ != text_.size()) fail("unexpected '" + std::string(1, text_[pos_]) + "'");
     return value;
   }
 
  private:
-  // Grammar, Python precedence: sum := term (('+'|'-') term)*
-  // term := unary (('*'|'/'|'//'|'%') unary)*; unary := ('+'|'-') unary | power
-  // power := atom ['**' unary]; atom := number | '(' sum ')'
+  // Python's grammar and precedence, lowest first:
+  //   bit_or := bit_xor ('|' bit_xor)*      bit_xor := bit_and ('^' bit_and)*
+  //   bit_and := shift ('&' shift)*         shift := sum (('<<'|'>>') sum)*
+  //   sum := term (('+'|'-') term)*         term := unary (('*'|'/'|'//'|'%') unary)*
+  //   unary := ('-'|'+'|'~') unary | power  power := atom ['**' unary]
+  //   atom := number | '(' bit_or ')'
+  Number bit_or() {
+    Number left = bit_xor();
+    while (accept("|")) left = bitwise(left, bit_xor(), '|');
+    return left;
+  }
+
+  Number bit_xor() {
+    Number left = bit_and();
+    while (accept("^")) left = bitwise(left, bit_and(), '^');
+    return left;
+  }
+
+  Number bit_and() {
+    Number left = shift();
+    while (accept("&")) left = bitwise(left, shift(), '&');
+    return left;
+  }
+
+  Number shift() {
+    Number left = sum();
+    for (;;) {
+      if (accept("<<")) left = shift_left(left, sum());
+      else if (accept(">>")) left = shift_right(left, sum());
+      else return left;
+    }
+  }
+
   Number sum() {
     Number left = term();
     for (;;) {
@@ -104,6 +134,11 @@ class Parser {
       return Number::of(-v.integer);
     }
     if (accept("+")) return unary();
+    if (accept("~")) {
+      Number v = unary();
+      if (v.is_float) fail("'~' needs an integer");
+      return Number::of(~v.integer);  // Python: -x - 1
+    }
     return power_expression();
   }
 
@@ -117,7 +152,7 @@ class Parser {
     if (++depth_ > 100) fail("the expression is nested too deeply");
     Number value;
     if (accept("(")) {
-      value = sum();
+      value = bit_or();
       if (!accept(")")) fail("missing ')'");
     } else {
       value = number();
@@ -129,14 +164,59 @@ class Parser {
   Number number() {
     skip_blanks();
     const std::size_t start = pos_;
-    int base = 10;
-    if (text_.substr(pos_, 2) == "0x" || text_.substr(pos_, 2) == "0X") base = 16;
-    else if (text_.substr(pos_, 2) == "0o" || text_.substr(pos_, 2) == "0O") base = 8;
-    else if (text_.substr(pos_, 2) == "0b" || text_.substr(pos_, 2) == "0B") base = 2;
-    if (base != 10) pos_ += 2;
+    const std::string_view prefix = text_.substr(pos_, 2);
+    if (prefix == "0x" || prefix == "0X") return based_integer(16);
+    if (prefix == "0o" || prefix == "0O") return based_integer(8);
+    if (prefix == "0b" || prefix == "0B") return based_integer(2);
+
+    // A decimal integer or a Python float literal (3.0, .5, 1e3, 2.5E-1).
+    std::string digits;
+    bool is_float = false;
+    auto take_digits = [&] {
+      std::size_t n = 0;
+      while (pos_ < text_.size() && (std::isdigit(static_cast<unsigned char>(text_[pos_])) ||
+                                     (text_[pos_] == '_' && n > 0))) {
+        if (text_[pos_] != '_') digits += text_[pos_], ++n;
+        ++pos_;
+      }
+      return n;
+    };
+    std::size_t integer_digits = take_digits();
+    if (pos_ < text_.size() && text_[pos_] == '.') {
+      is_float = true;
+      digits += text_[pos_++];
+      if (take_digits() == 0 && integer_digits == 0) fail("expected a number at '" + std::string(text_.substr(start)) + "'");
+    }
+    if (integer_digits == 0 && !is_float) {
+      if (start < text_.size()) fail("expected a number at '" + std::string(text_.substr(start)) + "'");
+      fail("expected a number");
+    }
+    if (pos_ < text_.size() && (text_[pos_] == 'e' || text_[pos_] == 'E')) {
+      is_float = true;
+      digits += text_[pos_++];
+      if (pos_ < text_.size() && (text_[pos_] == '+' || text_[pos_] == '-')) digits += text_[pos_++];
+      if (take_digits() == 0) fail("incomplete exponent in '" + std::string(text_.substr(start, pos_ - start)) + "'");
+    }
+    if (pos_ < text_.size() && (std::isalnum(static_cast<unsigned char>(text_[pos_])) || text_[pos_] == '.'))
+      fail("unexpected '" + std::string(1, text_[pos_]) + "' in a number");
+    if (is_float) {
+      const double value = std::strtod(digits.c_str(), nullptr);
+      if (!std::isfinite(value)) fail("the value is too large");
+      return Number::of(value);
+    }
+    if (digits.size() > 1 && digits.find_first_not_of('0') != std::string::npos && digits.front() == '0')
+      fail("decimal numbers must not start with 0");
+    std::int64_t value = 0;
+    for (char c : digits)
+      if (__builtin_mul_overflow(value, 10, &value) || __builtin_add_overflow(value, c - '0', &value))
+        fail("the value is too large");
+    return Number::of(value);
+  }
+
+  Number based_integer(int base) {
+    pos_ += 2;
     std::int64_t value = 0;
     std::size_t digits = 0;
-    bool leading_zero = false;
     while (pos_ < text_.size()) {
       const char c = text_[pos_];
       int digit;
@@ -145,21 +225,42 @@ class Parser {
       else if (c >= 'a' && c <= 'f') digit = c - 'a' + 10;
       else if (c >= 'A' && c <= 'F') digit = c - 'A' + 10;
       else break;
-      if (digit >= base) break;
-      if (digits == 0 && base == 10 && digit == 0) leading_zero = true;
+      if (digit >= base) fail("digit '" + std::string(1, c) + "' is invalid in base " + std::to_string(base));
       if (__builtin_mul_overflow(value, base, &value) || __builtin_add_overflow(value, digit, &value))
         fail("the value is too large");
       ++digits;
       ++pos_;
     }
-    if (digits == 0) {
-      if (start < text_.size()) fail("expected a number at '" + std::string(text_.substr(start)) + "'");
-      fail("expected a number");
-    }
-    if (leading_zero && value != 0) fail("decimal numbers must not start with 0");
+    if (digits == 0) fail("expected digits after the base prefix");
     if (pos_ < text_.size() && (std::isalnum(static_cast<unsigned char>(text_[pos_])) || text_[pos_] == '.'))
       fail("unexpected '" + std::string(1, text_[pos_]) + "' in a number");
     return Number::of(value);
+  }
+
+  static Number bitwise(const Number& a, const Number& b, char op) {
+    if (a.is_float || b.is_float) fail(std::string("'") + op + "' needs integers");
+    switch (op) {
+      case '|': return Number::of(a.integer | b.integer);
+      case '^': return Number::of(a.integer ^ b.integer);
+      default: return Number::of(a.integer & b.integer);
+    }
+  }
+
+  static Number shift_left(const Number& a, const Number& b) {
+    if (a.is_float || b.is_float) fail("'<<' needs integers");
+    if (b.integer < 0) fail("negative shift count");
+    if (a.integer == 0) return a;
+    if (b.integer >= 63) fail("the value is too large");
+    const std::int64_t shifted = static_cast<std::int64_t>(static_cast<std::uint64_t>(a.integer) << b.integer);
+    if ((shifted >> b.integer) != a.integer) fail("the value is too large");
+    return Number::of(shifted);
+  }
+
+  static Number shift_right(const Number& a, const Number& b) {
+    if (a.is_float || b.is_float) fail("'>>' needs integers");
+    if (b.integer < 0) fail("negative shift count");
+    if (b.integer >= 63) return Number::of(std::int64_t{a.integer < 0 ? -1 : 0});
+    return Number::of(a.integer >> b.integer);  // arithmetic: floors like Python
   }
 
   static Number add(const Number& a, const Number& b, int sign) {

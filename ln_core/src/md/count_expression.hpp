@@ -10,7 +10,8 @@ namespace ln::md {
 
 /// Evaluates `expression` and truncates the result toward zero as Python's
 /// int() does. Supports integer literals (decimal, 0x, 0o, 0b, '_'
-/// separators), + - * / // % **, unary + and -, parentheses.
+/// separators) and float literals (3.0, .5, 1e3), + - * / // % ** << >>
+/// & | ^, unary + - ~, and parentheses, with Python's precedence.
 /// Throws std::invalid_argument with a readable reason.
 std::int64_t evaluate_count_expression(std::string_view expression);
 

@@ -87,6 +87,48 @@ bool is_reserved_word(std::string_view s) {
   return std::find(words.begin(), words.end(), s) != words.end();
 }
 
+char32_t decode_utf8(std::string_view s, std::size_t i, std::size_t& length) {
+  const auto c = static_cast<unsigned char>(s[i]);
+  std::size_t extra = c < 0x80 ? 0 : (c & 0xE0) == 0xC0 ? 1 : (c & 0xF0) == 0xE0 ? 2 : (c & 0xF8) == 0xF0 ? 3 : 0;
+  if (c >= 0x80 && extra == 0) { length = 1; return c; }
+  if (extra > 0 && i + extra >= s.size()) { length = 1; return c; }  // truncated
+  char32_t code = extra == 0 ? c : extra == 1 ? (c & 0x1F) : extra == 2 ? (c & 0x0F) : (c & 0x07);
+  for (std::size_t k = 1; k <= extra; ++k) {
+    const auto cc = static_cast<unsigned char>(s[i + k]);
+    if ((cc & 0xC0) != 0x80) { length = 1; return c; }
+    code = (code << 6) | (cc & 0x3F);
+  }
+  length = extra + 1;
+  return code;
+}
+
+bool is_unicode_space(char32_t c) {
+  return (c >= 0x09 && c <= 0x0D) || (c >= 0x1C && c <= 0x20) || c == 0x85 || c == 0xA0 || c == 0x1680 ||
+         (c >= 0x2000 && c <= 0x200A) || c == 0x2028 || c == 0x2029 || c == 0x202F || c == 0x205F ||
+         c == 0x3000;
+}
+
+std::string_view strip_unicode(std::string_view s) {
+  // Leading: decode forwards.
+  std::size_t begin = 0;
+  while (begin < s.size()) {
+    std::size_t length;
+    if (!is_unicode_space(decode_utf8(s, begin, length))) break;
+    begin += length;
+  }
+  // Trailing: find the start of the last code point, then test it.
+  std::size_t end = s.size();
+  while (end > begin) {
+    std::size_t start = end - 1;
+    while (start > begin && (static_cast<unsigned char>(s[start]) & 0xC0) == 0x80 && end - start < 4) --start;
+    std::size_t length;
+    const char32_t c = decode_utf8(s, start, length);
+    if (start + length != end || !is_unicode_space(c)) break;
+    end = start;
+  }
+  return s.substr(begin, end - begin);
+}
+
 bool is_valid_utf8(std::string_view s) {
   std::size_t i = 0;
   while (i < s.size()) {

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "md/sha256.hpp"
+#include "md/text.hpp"
 
 namespace ln::md {
 namespace {
@@ -17,7 +18,26 @@ std::string python_repr(const std::string& s) {
   const bool has_double = s.find('"') != std::string::npos;
   const char quote = (has_single && !has_double) ? '"' : '\'';
   std::string out(1, quote);
-  for (unsigned char c : s) {
+  for (std::size_t i = 0; i < s.size();) {
+    std::size_t length;
+    const char32_t code = text::decode_utf8(s, i, length);
+    const unsigned char c = static_cast<unsigned char>(s[i]);
+    if (code >= 0x80) {
+      // Python shows non-printable code points escaped; in names only
+      // Unicode blanks (kept before '[') and C1 controls can occur.
+      if (text::is_unicode_space(code) || code < 0xA0 || code == 0xAD) {
+        char buffer[16];
+        if (code < 0x100) std::snprintf(buffer, sizeof buffer, "\\x%02x", static_cast<unsigned>(code));
+        else if (code < 0x10000) std::snprintf(buffer, sizeof buffer, "\\u%04x", static_cast<unsigned>(code));
+        else std::snprintf(buffer, sizeof buffer, "\\U%08x", static_cast<unsigned>(code));
+        out += buffer;
+      } else {
+        out.append(s, i, length);
+      }
+      i += length;
+      continue;
+    }
+    ++i;
     if (c == '\\' || c == static_cast<unsigned char>(quote)) {
       out += '\\';
       out += static_cast<char>(c);

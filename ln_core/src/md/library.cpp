@@ -31,10 +31,11 @@ std::string read_file(const std::string& path) {
   return content.str();
 }
 
+// One line, so that every error is one line.
 std::string list_dirs(const SearchPath& path) {
   std::string out;
-  for (const auto& d : path.dirs()) out += "\n  " + d;
-  return out.empty() ? "\n  (no existing directories)" : out;
+  for (const auto& d : path.dirs()) out += (out.empty() ? " " : ", ") + d;
+  return out.empty() ? " (no existing directories)" : out;
 }
 
 // Sizes above 4 GiB cannot be described by LN's 32-bit message sizes, and
@@ -169,11 +170,12 @@ const Definition& Library::load(std::string_view name) {
       }
       if (found) result = &loader.load_file(wanted, *found);
     }
-    // LN also accepts a path to a definition file; its name is then the path.
+    // LN also accepts a path to a definition file; the path as given is
+    // then its name (and the base of the names of what it imports).
     if (!result && is_regular_file(wanted)) {
       char resolved[PATH_MAX];
       const std::string real = ::realpath(wanted.c_str(), resolved) ? resolved : wanted;
-      result = &loader.load_file(real, real);
+      result = &loader.load_file(wanted, real);
     }
     if (!result) {
       if (!is_valid_definition_name(wanted))

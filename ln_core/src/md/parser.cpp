@@ -30,9 +30,10 @@ class DefinitionParser {
       line_ = line_number;
       if (!text::is_valid_utf8(raw)) fail("the line is not valid UTF-8");
 
-      std::string_view line = text::strip(raw);
+      // LN strips with Python's str.strip(): Unicode blanks included.
+      std::string_view line = text::strip_unicode(raw);
       if (line.empty() || line.front() == '#') continue;
-      line = text::strip(line.substr(0, line.find('#')));
+      line = text::strip_unicode(line.substr(0, line.find('#')));
 
       if (first_significant) {
         first_significant = false;
@@ -66,7 +67,7 @@ class DefinitionParser {
       fail("expected 'TYPE NAME', 'TYPE NAME[COUNT]' or 'define NAME as \"md/name\"', got '" +
            std::string(line) + "'");
     const std::string_view first_word = line.substr(0, blank);
-    const std::string_view rest = text::strip(line.substr(blank));
+    const std::string_view rest = text::strip_unicode(line.substr(blank));
     if (first_word == "define") parse_define(rest);
     else parse_field(first_word, rest);
   }
@@ -74,7 +75,7 @@ class DefinitionParser {
   void parse_define(std::string_view rest) {
     const auto as = rest.find(" as ");
     if (as == std::string_view::npos) fail("expected 'define LOCAL_TYPE as \"md/name\"'");
-    const std::string local(text::strip(rest.substr(0, as)));
+    const std::string local(text::strip_unicode(rest.substr(0, as)));
     const std::string_view quoted = text::strip(rest.substr(as + 4));
     if (quoted.size() < 2 || quoted.front() != '"' || quoted.back() != '"')
       fail("the definition name in a define must be in double quotes: define " + local +
@@ -123,7 +124,7 @@ class DefinitionParser {
       field.count = array_count(rest.substr(bracket));
     }
     field.hash_name = std::string(name);  // LN hashes the name with blanks before '['
-    field.name = std::string(text::strip(name));
+    field.name = std::string(text::strip_unicode(name));
     if (!text::is_identifier(field.name) || text::is_reserved_word(field.name))
       fail("'" + field.name + "' is not a valid field name (a C identifier that is not a keyword)");
 

@@ -111,12 +111,16 @@ TEST(Parser, PlacesLengthFieldsExactlyAsLn29) {
 
 TEST(Parser, IgnoresCommentsBlanksCarriageReturnsAndTabs) {
   DefinitionTree tree;
-  tree.write("c/messy", "# header\r\n\r\n  double\tx   # trailing\r\n\tfloat frame [4*4]\r\n#end\r\n");
+  tree.write("c/messy", "# header\r\n\r\n  double\tx   # trailing\r\n\tfloat frame [4*4]\r\n#end\r\n"
+                        "\xc2\xa0int32_t nbsp_around\xe3\x80\x80\n"     // U+00A0 ... U+3000
+                        "uint8_t tail\xc2\xa0[2]\n");
   Library library(SearchPath::exactly({tree.root()}));
   const Definition& def = library.load("c/messy");
-  ASSERT_EQ(names_of(def.fields), (std::vector<std::string>{"x", "frame"}));
+  ASSERT_EQ(names_of(def.fields), (std::vector<std::string>{"x", "frame", "nbsp_around", "tail"}));
   EXPECT_EQ(def.fields[1].count, 16u);
   EXPECT_EQ(def.fields[1].hash_name, "frame ");  // LN keeps the blank before '['
+  EXPECT_EQ(def.fields[3].hash_name, "tail\xc2\xa0");
+  EXPECT_EQ(def.fields[3].count, 2u);
 }
 
 TEST(Parser, ResolvesDefinesNextToTheFileFirstThenOnTheSearchPath) {

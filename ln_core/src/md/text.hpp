@@ -16,6 +16,17 @@ inline std::string_view strip(std::string_view s, std::string_view chars = white
   return s.substr(first, last - first + 1);
 }
 
+/// Strips what Python's str.strip() strips: every Unicode white-space
+/// character (ASCII blanks, U+0085, U+00A0, U+2000..U+200A, U+3000, ...),
+/// which LN 2.9 removes around lines, names and counts. `s` is UTF-8.
+std::string_view strip_unicode(std::string_view s);
+
+/// Decodes the UTF-8 code point at `s[i]`, setting `length` (1 for an
+/// invalid byte, which is returned as is).
+char32_t decode_utf8(std::string_view s, std::size_t i, std::size_t& length);
+/// Python's str.isspace() for one code point.
+bool is_unicode_space(char32_t c);
+
 inline bool starts_with(std::string_view s, std::string_view prefix) {
   return s.substr(0, prefix.size()) == prefix;
 }

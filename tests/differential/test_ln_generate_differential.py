@@ -1,0 +1,450 @@
+"""ln_core's ln_generate / ln_md_info against LN 2.9's ln_generate.
+
+For every message definition LN 2.9 ships (all files below its three share
+directories), every definition of our corpus (corpus/md and, through its
+md.conf, corpus/md_extra) and the elevator example's definitions, both
+generators run on the same names with the same --md-dir options, and we
+compare per definition:
+
+  (a) <ID>_MD_NAME            "name|sha256"
+  (b) the signature macros    <ID>_SIGNATURE, <ID>_CONNECT_SIGNATURE, <ID>_CALL_SIGNATURE
+                              (and their lower-case aliases)
+  (c) the generated names     macros, C struct tags and typedefs (exactly equal), C++
+                              namespaces/classes/typedefs/methods (LN's all present in ours;
+                              ours may add the C++ alias of a plain type, a documented choice
+                              of ln_spec.md section 8.2)
+  (d) the layout              a C probe built from ln_md_info's JSON prints sizeof and
+                              offsetof of every generated struct and member; compiled as C11
+                              once against LN's header (LN's include dir) and once against
+                              ours (stub ln/ includes), the numbers must equal the JSON.
+
+Runs are batched: one generator run and one probe compile per header set.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pytest
+
+import ln_diff_support as support
+from ln_diff_support import REPORT
+
+# ------------------------------------------------------------------ sets
+
+
+@dataclass(frozen=True)
+class DefinitionSet:
+    label: str
+    origin: str  # "ln29", "corpus" or "elevator"
+    md_dirs: tuple[Path, ...]
+    names: tuple[str, ...]
+
+
+def definition_sets(ref: support.Reference | None) -> list[DefinitionSet]:
+    sets = []
+    if ref is not None:
+        ln_dirs = ref.md_dirs()
+        for sub, d in zip(support.LN29_MD_SUBDIRS, ln_dirs):
+            # LN's own definitions refer to each other across these dirs
+            # (lnrecorder/* imports ln/string), so all of them are given, the
+            # one under test first.
+            dirs = (d,) + tuple(x for x in ln_dirs if x != d)
+            sets.append(DefinitionSet(f"ln29:{sub}", "ln29", dirs, tuple(support.definitions_below(d))))
+    corpus_names = support.definitions_below(support.CORPUS_MD_DIR) + support.definitions_below(
+        support.CORPUS_EXTRA_DIR)
+    sets.append(DefinitionSet("corpus", "corpus", (support.CORPUS_MD_DIR,), tuple(corpus_names)))
+    if support.ELEVATOR_MD_DIR.is_dir():
+        sets.append(DefinitionSet("elevator", "elevator", (support.ELEVATOR_MD_DIR,),
+                                  tuple(support.definitions_below(support.ELEVATOR_MD_DIR))))
+    return sets
+
+
+_REF = support.find_reference()
+SETS = definition_sets(_REF if isinstance(_REF, support.Reference) else None)
+SETS_BY_LABEL = {s.label: s for s in SETS}
+CASES = [pytest.param(s.label, n, id=f"{s.label}:{n}") for s in SETS for n in s.names]
+
+# ------------------------------------------------------------- results
+
+
+@dataclass
+class SetResult:
+    dset: DefinitionSet
+    ln: support.BatchResult
+    ours: support.BatchResult
+    info: support.BatchResult
+    ln_sections: dict[str, str]
+    our_sections: dict[str, str]
+    infos: dict[str, dict]
+    # per definition: list of (ProbeItem, value) or an error text
+    ln_probe: dict[str, object] = field(default_factory=dict)
+    our_probe: dict[str, object] = field(default_factory=dict)
+
+
+def _slug(label: str) -> str:
+    return re.sub(r"[^A-Za-z0-9]+", "_", label)
+
+
+def _probe(cc, workdir, header, infos, names, include_dirs, env, label):
+    """Layout numbers per definition; on a compile failure of the whole
+    batch each definition is probed alone to attribute the error."""
+    out = {}
+    items = {n: support.probe_items(infos[n]) for n in names}
+    flat = [i for n in names for i in items[n]]
+    values, error = support.compile_and_run_probe(cc, workdir, header, flat, include_dirs, env, label)
+    if error is None:
+        it = iter(values)
+        for n in names:
+            out[n] = [(item, next(it)) for item in items[n]]
+        return out
+    import concurrent.futures
+
+    def one(i_n):
+        i, n = i_n
+        return n, support.compile_and_run_probe(cc, workdir / f"{label}_{i}", header, items[n],
+                                                include_dirs, env, label)
+
+    with concurrent.futures.ThreadPoolExecutor(max_workers=8) as pool:
+        for n, (vals, err) in pool.map(one, enumerate(names)):
+            out[n] = err if err else list(zip(items[n], vals))
+    return out
+
+
+class Differential:
+    def __init__(self, ref, tools, env, root, cc):
+        self.ref, self.tools, self.env, self.root, self.cc = ref, tools, env, root, cc
+        self.stub = support.write_stub_includes(root / "stub_include")
+        self._results: dict[str, SetResult] = {}
+
+    def result(self, label: str) -> SetResult:
+        if label not in self._results:
+            self._results[label] = self._compute(SETS_BY_LABEL[label])
+        return self._results[label]
+
+    def _compute(self, dset: DefinitionSet) -> SetResult:
+        d = self.root / _slug(dset.label)
+        d.mkdir(parents=True, exist_ok=True)
+        dirs = support.md_dir_args(dset.md_dirs)
+        names = list(dset.names)
+
+        # Both write "ln_messages.h" (the guard macro derives from it), in
+        # their own directories.
+        def out(prefix, tag):
+            (d / prefix / tag).mkdir(parents=True, exist_ok=True)
+            return d / prefix / tag / "ln_messages.h"
+
+        def generator(exe, prefix):
+            return lambda ns, tag: [exe, *dirs, "-f", "-o", out(prefix, tag), *ns]
+
+        def header_reader(prefix):
+            return lambda run, tag: out(prefix, tag).read_text(encoding="utf-8")
+
+        ln = support.run_batch(generator(self.ref.ln_generate, "ln"), names, self.env, d, header_reader("ln"))
+        ours = support.run_batch(generator(self.tools.ln_generate, "ours"), names, self.env, d,
+                                 header_reader("ours"))
+        info = support.run_batch(lambda ns, tag: [self.tools.ln_md_info, *dirs, *ns], names, self.env, d,
+                                 lambda run, tag: run.stdout)
+        r = SetResult(dset, ln, ours, info, support.split_sections(ln.output) if ln.ok_names else {},
+                      support.split_sections(ours.output) if ours.ok_names else {},
+                      support.parse_json_lines(info.output))
+        info_ok = set(info.ok_names)
+        ln_names = [n for n in ln.ok_names if n in info_ok]
+        our_names = [n for n in ours.ok_names if n in info_ok]
+        if ln_names:
+            # LN copies a no-break space before '[' into the C declaration
+            # ("uint16_t d\xa0[3];", corpus syntax/unicode_whitespace), which
+            # no C compiler reads; as a blank it means what LN meant.
+            ln_c_text = ln.output.replace("\u00a0", " ")
+            r.ln_probe = _probe(self.cc, d / "probe_ln", ln_c_text, r.infos, ln_names,
+                                [self.ref.include_dir], self.env, "ln")
+        if our_names:
+            r.our_probe = _probe(self.cc, d / "probe_ours", ours.output, r.infos, our_names,
+                                 [self.stub], self.env, "ours")
+        return r
+
+
+@pytest.fixture(scope="session")
+def differential(reference, our_tools, tool_env, session_dir, c_compiler) -> Differential:
+    return Differential(reference, our_tools, tool_env, session_dir / "differential", c_compiler)
+
+
+def _outputs(differential, label, name):
+    """(result, LN's header part, our header part) or a test failure that
+    says which side could not process the definition."""
+    r = differential.result(label)
+    problems = []
+    if name in r.ln.failures:
+        origin = r.dset.origin
+        why = ("every corpus/example definition must be accepted by LN 2.9 -- fix the definition"
+               if origin != "ln29" else "LN 2.9 fails on its own definition")
+        problems.append(f"LN 2.9's ln_generate rejected {name!r} ({why}):\n{r.ln.failures[name].describe()}")
+    if name in r.ours.failures:
+        problems.append(f"our ln_generate rejected {name!r}, which LN 2.9 accepts:\n"
+                        f"{r.ours.failures[name].describe()}")
+    if problems:
+        pytest.fail("\n\n".join(problems), pytrace=False)
+    ln_part, our_part = r.ln_sections.get(name), r.our_sections.get(name)
+    if ln_part is None or our_part is None:
+        pytest.fail(f"{name!r}: no '/* {name} */' part in "
+                    f"{'LN 2.9' if ln_part is None else 'our'} header "
+                    f"(LN has parts {sorted(r.ln_sections)[:8]}..., ours {sorted(r.our_sections)[:8]}...)",
+                    pytrace=False)
+    return r, ln_part, our_part
+
+
+def _split_top_level(signature: str) -> list[str]:
+    """Splits "req|resp" at '|' outside [...] (sub-type signatures)."""
+    parts, depth, current = [], 0, ""
+    for ch in signature:
+        if ch == "[":
+            depth += 1
+        elif ch == "]":
+            depth -= 1
+        if ch == "|" and depth == 0:
+            parts.append(current)
+            current = ""
+        else:
+            current += ch
+    return parts + [current]
+
+
+# ----------------------------------------------------------------- tests
+
+
+def test_inventory(reference, differential):
+    """Counts what is compared; LN's three share dirs must all have
+    definitions."""
+    counts = {}
+    for s in SETS:
+        r = differential.result(s.label)
+        counts[s.label] = (len(s.names), len(r.ln.ok_names), len(r.ours.ok_names))
+    ln_total = sum(len(s.names) for s in SETS if s.origin == "ln29")
+    corpus = SETS_BY_LABEL["corpus"]
+    REPORT["LN 2.9 shipped definitions compared"] = (
+        f"{ln_total} (" + ", ".join(f"{s.label.split(':', 1)[1]}: {len(s.names)}"
+                                    for s in SETS if s.origin == "ln29") + ")")
+    REPORT["corpus definitions compared"] = len(corpus.names)
+    if "elevator" in SETS_BY_LABEL:
+        REPORT["elevator definitions compared"] = len(SETS_BY_LABEL["elevator"].names)
+    REPORT["per set: names / accepted by LN / accepted by ours"] = counts
+    empty = [s.label for s in SETS if s.origin == "ln29" and not s.names]
+    assert not empty, f"LN 2.9 share dirs without definitions: {empty}"
+    assert ln_total >= 40, f"only {ln_total} LN 2.9 definitions found below {reference.share_dir}"
+    assert len(corpus.names) >= 50, f"the corpus shrank to {len(corpus.names)} definitions"
+
+
+@pytest.mark.parametrize("label", [s.label for s in SETS])
+def test_header_preamble_and_order(differential, label):
+    """Same include guard / HAVE_LN_MD_NAME, and definitions (with their
+    sub-types first) in the same order."""
+    r = differential.result(label)
+    if not r.ln.ok_names or not r.ours.ok_names:
+        pytest.skip("nothing generated (per-definition tests report why)")
+    ln_pre = {n for n in support.generated_names(r.ln_sections[support.PREAMBLE])}
+    our_pre = {n for n in support.generated_names(r.our_sections[support.PREAMBLE])}
+    assert our_pre == ln_pre, f"{label}: header preamble names differ: LN {sorted(ln_pre)} ours {sorted(our_pre)}"
+    our_order = support.section_order(r.ours.output)
+    repeated = sorted({n for n in our_order if our_order.count(n) > 1})
+    assert not repeated, f"{label}: our header emits these definitions more than once: {repeated}"
+    if set(r.ln.ok_names) == set(r.ours.ok_names):
+        ln_order = support.section_order(r.ln.output)
+        assert our_order == ln_order, (
+            f"{label}: definitions are emitted in a different order\nLN:   {ln_order}\nours: {our_order}")
+
+
+@pytest.mark.parametrize("label,name", CASES)
+def test_md_name(differential, label, name):
+    r, ln_part, our_part = _outputs(differential, label, name)
+    macro = support.identifier(name).upper() + "_MD_NAME"
+    ln_value = support.string_macro(ln_part, macro)
+    our_value = support.string_macro(our_part, macro)
+    assert ln_value is not None, f"{name}: LN's header has no {macro}"
+    assert our_value == ln_value, f"{name}: {macro} differs\n  LN 2.9: {ln_value}\n  ours:   {our_value}"
+    info = r.infos.get(name)
+    assert info is not None, f"{name}: ln_md_info failed: {r.info.failures.get(name) and r.info.failures[name].describe()}"
+    assert f"{info['name']}|{info['hash']}" == ln_value, (
+        f"{name}: ln_md_info's name|hash differs from LN's {macro}\n  LN 2.9:      {ln_value}\n"
+        f"  ln_md_info: {info['name']}|{info['hash']}")
+
+
+@pytest.mark.parametrize("label,name", CASES)
+def test_signatures(differential, label, name):
+    r, ln_part, our_part = _outputs(differential, label, name)
+
+    def signature_macros(text):
+        return {k: v for k, v in support.macros(text).items() if k.lower().endswith("signature")}
+
+    ln_sigs, our_sigs = signature_macros(ln_part), signature_macros(our_part)
+    diffs = []
+    for k in sorted(set(ln_sigs) | set(our_sigs)):
+        a, b = ln_sigs.get(k), our_sigs.get(k)
+        if a != b:
+            diffs.append(f"  {k}:\n    LN 2.9: {a}\n    ours:   {b}")
+    assert not diffs, f"{name}: signature macros differ\n" + "\n".join(diffs)
+
+    info = r.infos.get(name)
+    if info is None:
+        pytest.fail(f"{name}: ln_md_info failed", pytrace=False)
+    upper = support.identifier(name).upper()
+    if info["kind"] == "service":
+        expect = support.string_macro(ln_part, upper + "_SIGNATURE")
+        assert info["signature"] == expect, (
+            f"{name}: ln_md_info signature differs from LN's {upper}_SIGNATURE\n"
+            f"  LN 2.9:     {expect}\n  ln_md_info: {info['signature']}")
+    elif info["kind"] == "event":
+        parts = _split_top_level(info["signature"])
+        assert len(parts) == 2, f"{name}: ln_md_info's event signature is not 'connect|call': {info['signature']}"
+        for part, macro in zip(parts, ("_CONNECT_SIGNATURE", "_CALL_SIGNATURE")):
+            expect = support.string_macro(ln_part, upper + macro)
+            assert f"{name}: {part}" == expect, (
+                f"{name}: ln_md_info signature differs from LN's {upper}{macro}\n"
+                f"  LN 2.9:     {expect}\n  ln_md_info: {name}: {part}")
+    else:
+        assert not ln_sigs, f"{name}: LN emits signature macros for a plain definition: {ln_sigs}"
+
+
+@pytest.mark.parametrize("label,name", CASES)
+def test_generated_names(differential, label, name):
+    r, ln_part, our_part = _outputs(differential, label, name)
+    problems = support.name_differences(ln_part, our_part, name, r.infos.get(name, {}).get("kind"))
+    assert not problems, f"{name}: generated names differ\n" + "\n".join(problems)
+
+
+@pytest.mark.parametrize("label,name", CASES)
+def test_layout(differential, label, name):
+    r, _, _ = _outputs(differential, label, name)
+    if name not in r.infos:
+        pytest.fail(f"{name}: ln_md_info failed:\n{r.info.failures[name].describe()}", pytrace=False)
+    problems = []
+    for who, probe in (("LN 2.9's header (compiled as C11)", r.ln_probe), ("our header (compiled as C11)", r.our_probe)):
+        got = probe.get(name)
+        if got is None:
+            problems.append(f"{who}: not probed")
+        elif isinstance(got, str):
+            problems.append(f"{who}: {got}")
+        else:
+            for item, value in got:
+                if value != item.expected:
+                    problems.append(f"{who}: {item.what} = {value}, ln_md_info says {item.expected}")
+    assert not problems, f"{name}: layout differs from ln_md_info's JSON\n  " + "\n  ".join(problems)
+
+
+# ------------------------------------------- what LN 2.9 itself cannot do
+
+#: Definitions LN 2.9's ln_generate crashes on (Python tracebacks). Ours must
+#: handle each sensibly: a clear one-line error, or -- where the definition
+#: has an obvious meaning -- a header that compiles and whose layout agrees
+#: with ln_md_info. `ours` says which of these ln_core currently does.
+LN_CANNOT_PROCESS = {
+    "mutual_recursion": dict(
+        files={"c/a": 'define b_t as "b"\ndouble x\nb_t* bs\n', "c/b": 'define a_t as "a"\na_t* as_\n'},
+        name="c/a", ours="accept",
+        reason="A holds B* and B holds A*: LN's hash recursion never ends (RecursionError)"),
+    "self_recursion_via_search_path": dict(
+        files={"c/selfsp": 'define self as "c/selfsp"\ndouble v\nself* next\n'},
+        name="c/selfsp", ours="accept",
+        reason="self-recursion is only detected when the define resolves next to the file (as "
+               "identical path strings); found through a search-path entry that is not a canonical path "
+               "(here the relative --md-dir md) LN recurses forever (RecursionError)"),
+    "event_pointer_before_marker": dict(
+        files={"c/ev": "event\nchar* early\nconnect\ncall\ndouble v\n"},
+        name="c/ev", ours="accept",
+        reason="a dynamic field before 'connect'/'call' in an event: LN raises KeyError 'connect'"),
+    "two_dimensional_array": dict(
+        files={"c/m": "double m[2][3]\n"}, name="c/m", ours="error",
+        reason="LN evaluates '2][3' with Python eval: SyntaxError traceback"),
+    "count_is_a_name": dict(
+        files={"c/n": "double x[abc]\n"}, name="c/n", ours="error",
+        reason="LN evaluates 'abc' with Python eval: NameError traceback"),
+}
+
+#: Definitions LN 2.9 accepts but ln_core deliberately refuses with a clear
+#: error (ln_spec.md: grammar requires '"', C/C++-usable names, counts >= 1).
+DELIBERATE_DIVERGENCES = {
+    "define_in_single_quotes": dict(
+        files={"c/q": "define p as 'pt'\np where\n", "c/pt": "float x\n"}, name="c/q",
+        reason="LN strips the first and last character of the quoted name, so 'pt' works there"),
+    "service_used_as_type": dict(
+        files={"c/svc": "service\nrequest\ndouble a\nresponse\ndouble b\n", "c/uses": 'define s as "svc"\ns x\n'},
+        name="c/uses",
+        reason="LN embeds the service struct but counts it as 0 bytes in signatures"),
+    "cxx_keyword_field": dict(
+        files={"c/k": "int class\n"}, name="c/k",
+        reason="LN generates 'int32_t class;', which no C++ compiler accepts"),
+    "zero_count": dict(
+        files={"c/z": "double x[0]\n"}, name="c/z",
+        reason="LN emits a scalar member but signature 'double 8 0'"),
+}
+
+
+def _write_files(root: Path, files: dict[str, str]) -> Path:
+    md = root / "md"
+    for rel, text in files.items():
+        p = md / rel
+        p.parent.mkdir(parents=True, exist_ok=True)
+        p.write_text(text, encoding="utf-8")
+    return md
+
+
+def _one_clear_error_line(run: support.Run) -> list[str]:
+    problems = []
+    lines = [l for l in run.stderr.splitlines() if l.strip()]
+    if run.returncode <= 0:
+        problems.append(f"exit status {run.returncode} (expected a failure status > 0, no signal)")
+    if len(lines) != 1:
+        problems.append(f"{len(lines)} stderr lines instead of exactly one")
+    if "Traceback" in run.stderr:
+        problems.append("a traceback instead of an error message")
+    return problems
+
+
+@pytest.mark.parametrize("case", sorted(LN_CANNOT_PROCESS))
+def test_ln_cannot_process(case, reference, our_tools, tool_env, work_dir, c_compiler):
+    spec = LN_CANNOT_PROCESS[case]
+    _write_files(work_dir, spec["files"])
+    md = "md"  # relative to work_dir: LN's self-recursion check compares path strings
+    ln = support.run([reference.ln_generate, "--md-dir", md, "-o", work_dir / "ln.h", spec["name"]], tool_env,
+                     cwd=work_dir)
+    REPORT.setdefault("LN 2.9 cannot process (ours handles)", {})[case] = spec["reason"]
+    assert ln.returncode != 0, (f"{case}: LN 2.9 now accepts this ({spec['reason']}); move it to the corpus\n"
+                                f"{ln.describe()}")
+    out = work_dir / "ours.h"
+    ours = support.run([our_tools.ln_generate, "--md-dir", md, "-o", out, spec["name"]], tool_env, cwd=work_dir)
+    if spec["ours"] == "error":
+        problems = _one_clear_error_line(ours)
+        assert not problems and not out.exists(), (
+            f"{case} ({spec['reason']}): ours should refuse it with one clear error line: "
+            f"{problems or ['but wrote ' + str(out)]}\n{ours.describe()}")
+        return
+    assert ours.returncode == 0, f"{case}: ours no longer accepts this ({spec['reason']})\n{ours.describe()}"
+    info = support.run([our_tools.ln_md_info, "--md-dir", md, spec["name"]], tool_env, cwd=work_dir)
+    assert info.returncode == 0, f"{case}: ln_md_info fails\n{info.describe()}"
+    infos = support.parse_json_lines(info.stdout)
+    items = [i for rec in infos.values() for i in support.probe_items(rec)]
+    stub = support.write_stub_includes(work_dir / "stub")
+    values, error = support.compile_and_run_probe(c_compiler, work_dir / "probe", out.read_text(), items, [stub],
+                                                  tool_env, "ours")
+    assert error is None, f"{case}: our header does not compile as C: {error}"
+    wrong = [f"{i.what} = {v}, ln_md_info says {i.expected}" for i, v in zip(items, values) if v != i.expected]
+    assert not wrong, f"{case}: layout differs from ln_md_info:\n  " + "\n  ".join(wrong)
+
+
+@pytest.mark.parametrize("case", sorted(DELIBERATE_DIVERGENCES))
+def test_deliberate_divergence(case, reference, our_tools, tool_env, work_dir):
+    spec = DELIBERATE_DIVERGENCES[case]
+    md = _write_files(work_dir, spec["files"])
+    ln = support.run([reference.ln_generate, "--md-dir", md, "-o", work_dir / "ln.h", spec["name"]], tool_env,
+                     cwd=work_dir)
+    REPORT.setdefault("LN 2.9 accepts, ours refuses (deliberate)", {})[case] = spec["reason"]
+    assert ln.returncode == 0, f"{case}: LN 2.9 no longer accepts this\n{ln.describe()}"
+    out = work_dir / "ours.h"
+    ours = support.run([our_tools.ln_generate, "--md-dir", md, "-o", out, spec["name"]], tool_env, cwd=work_dir)
+    problems = _one_clear_error_line(ours)
+    path = str(md / spec["name"])
+    if path not in ours.stderr:
+        problems.append(f"the error does not name {path}")
+    assert not problems and not out.exists(), (
+        f"{case} ({spec['reason']}): ours must refuse it with one clear error line: {problems}\n{ours.describe()}")
