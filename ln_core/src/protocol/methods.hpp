@@ -3,6 +3,16 @@
 // the field lists below are what each side sends and what it may rely on.
 // A request that fails gets an error response: error_code (a positive
 // LNE_* value from ln/ln.h) and error (text for the user).
+// Manager conventions (src/manager): ids it hands out (client, topic,
+// subscription, service) are positive and come from one sequence. A missing
+// or mistyped field -> LNE_INVALID_PARAMETER; an unknown method ->
+// LNE_MANAGER_TOO_OLD; invalid topic/service/definition names ->
+// LNE_INVALID_PARAMETER; an unknown topic or a topic/subscription id the
+// client does not own -> LNE_PORT_NOT_FOUND; other refusals ->
+// LNE_REQUEST_FAILED unless a method names a code. Notifications and
+// responses sent to the manager are ignored. A malformed frame, a request
+// larger than 4 MiB, or more than 16 MiB of unsent messages (a client that
+// does not read) closes the connection, which releases the client.
 //
 // ---------------------------------------------------------------------------
 // Client -> manager requests (over the client's TCP connection)
@@ -16,28 +26,49 @@
 //                  previous_name (str, optional: the name it had before a
 //                  manager restart; granted again when free)
 //   -> client_name (str), client_id (int), manager_version (str)
-//   The first message on a connection; anything else first is refused.
+//   The first message on a connection; anything else first is refused
+//   (LNE_CLIENT_NOT_INITIALIZED), a second hello too (LNE_REGISTER_DENIED).
+//   program_name is the name without "exact:"; only it is required, the
+//   other fields default to ""/0. An exact name that is taken ->
+//   LNE_CLNT_NAME_IN_USE; otherwise previous_name when free, else
+//   program_name made unique with " 1", " 2", ...
 //
 // goodbye          (no fields) -> ok. The manager releases everything the
-//                  client owns, as it does when the connection drops.
+//                  client owns, as it does when the connection drops, and
+//                  closes the connection after the response.
 //
 // ping             (no fields) -> ok
 //
 // get_message_definition   name (str: "md/name" or "md/name|hash")
 //   -> name (str), hash (str), names (list), texts (list): the definition
 //      and every definition it imports, so the client can rebuild the model
-//      with md::Library; first entry is `name`.
+//      with md::Library; first entry is `name`. Also message_size (int:
+//      md::packet_size). Names that are not valid definition names
+//      (paths, "..") are refused; "not found" lists the searched dirs.
 // get_message_definition_for_topic   topic (str) -> as above
 // put_message_definition   name (str), text (str) -> name (str: real name), hash
+//   The text is parsed first (LNE_INVALID_PARAMETER if it does not) and
+//   stored in the generated-definitions dir, which is searched right after
+//   the config's dirs, so the real name is `name`. The same content again
+//   is a no-op; different content is refused when `name` exists outside the
+//   generated dir or a topic uses it.
 //
 // publish          topic (str), message_definition (str, may carry |hash),
 //                  buffers (int >= 1)
 //   -> topic_id (int), message_size (int), hash (str),
 //      subscriber_buffers (int: the largest buffers any subscriber asked for)
 //   The publisher then creates its shared-memory segment and sends
-//   publisher_ready; only then are subscribers told.
-// publisher_ready  topic_id (int), segment_generation (int) -> ok
-// unpublish        topic_id (int) -> ok
+//   publisher_ready; only then are subscribers told. buffers 1..65536.
+//   subscriber_buffers is 0 without subscribers. A subscribers_changed
+//   notification always follows the response. Refused: a topic that has a
+//   publisher ("topic 'T' already published by client 'C'"), another
+//   definition than the topic's ("you requested message_definition 'X' but
+//   topic 'T' uses 'Y'"), service/event definitions and definitions with
+//   dynamic fields (LNE_INVALID_PARAMETER), a wrong |hash (LNE_WRONG_MD_HASH).
+// publisher_ready  topic_id (int), segment_generation (int >= 0) -> ok
+//   May be repeated (a new segment): subscribers get publisher_available again.
+// unpublish        topic_id (int) -> ok   (publisher_gone goes to the
+//                  subscribers that were told publisher_available)
 //
 // subscribe        topic (str), message_definition (str, may carry |hash;
 //                  "" = whatever the topic uses), buffers (int >= 1),
@@ -46,21 +77,39 @@
 //                  client accepts remote data for this subscription)
 //   -> subscription_id (int), topic_id (int), message_size (int), hash (str),
 //      message_definition (str), and when the topic has a publisher the
-//      publisher fields of the publisher_available notification.
+//      publisher fields of the publisher_available notification (only once
+//      that publisher sent publisher_ready).
+//   "" for an unknown topic -> LNE_PORT_NOT_FOUND; rate -3 ->
+//   LNE_NOT_YET_IMPLEMENTED; definition checks as for publish.
 // unsubscribe      subscription_id (int) -> ok
 //
 // register_service     name, interface, signature (str), group (str)
 //   -> service_id (int)
-// unregister_service   service_id (int) -> ok
+//   group is optional. The interface must be a valid definition name (may
+//   carry |hash); it is not resolved. A taken name -> LNE_SVC_ALREADY_REGISTERED.
+// unregister_service   service_id (int) -> ok  (not yours: LNE_SVC_NOT_REGISTERED)
 // lookup_service       name, interface (str, "" = any), signature (str)
 //   -> interface, signature, provider (str: client name), host_id,
 //      peer_socket, peer_address, service_id
+//   Unknown name -> LNE_NO_PROVIDER_FOUND. Interfaces are compared by name
+//   (hashes too when both carry one: LNE_WRONG_MD_HASH); signatures as
+//   strings, "" = not checked; mismatches -> LNE_REQUEST_FAILED.
 // get_service_signature            interface (str) -> definition, signature
 // get_service_signature_for_service name (str) -> interface, definition, signature
-// find_services_with_interface     interface (str) -> services (list)
+//   definition is the text of the interface's definition; both also carry
+//   the bundle fields of get_message_definition. signature: computed from the
+//   definition (get_service_signature) or the provider's registered one
+//   (..._for_service).
+// find_services_with_interface     interface (str) -> services (list, sorted)
 //
 // list_clients / list_topics / list_services (no fields) -> introspection
-//   tables as parallel lists (see the manager's implementation).
+//   tables as parallel lists of strings, one entry per row (numbers in
+//   decimal, name lists comma-joined):
+//   list_clients:  names, ids, pids, hosts (host_name), host_ids, published,
+//                  subscribed, services (comma-joined names, sorted)
+//   list_topics:   names, ids, definitions, hashes, message_sizes,
+//                  publishers ("" = none), subscribers (count)
+//   list_services: names, ids, interfaces, signatures, providers, groups
 //
 // ---------------------------------------------------------------------------
 // Manager -> client notifications
@@ -72,9 +121,13 @@
 // subscribers_changed  topic_id (int), subscribers (int),
 //                      subscriber_buffers (int), remote (list of
 //                      "subscription_id rate reliable IP:PORT" for subscribers
-//                      on other hosts, which the publisher feeds itself)
+//                      on other hosts, which the publisher feeds itself;
+//                      rate in shortest form ("-1", "10", "0.5"), reliable
+//                      "1"/"0"; subscribers without an address are left out)
 // service_available    name (str), provider (str)   [for availability callbacks]
 // service_gone         name (str)
+//   Both go to every registered client (the provider too), for changes after
+//   its hello; lookup_service tells the current state.
 //
 // ---------------------------------------------------------------------------
 // Client -> client (peer server: abstract Unix socket on one host, TCP across)

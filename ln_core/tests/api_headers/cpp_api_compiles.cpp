@@ -3,6 +3,7 @@
 // pointers, the default arguments and the shapes generated code relies on
 // by calling them, and the ln_core extensions.
 #include <ln/ln.h>
+#include <ln/packed.h>
 
 #include <cstring>
 #include <string>
@@ -286,8 +287,16 @@ void cpp_api_usage(int argc, char* argv[]) {
     (void)(*i)->get_sample(0);
   delete ln::logger_data::load("file");
 
-  char* text = nullptr;
-  ln::string_buffer owned(&text, std::string("hello"));
+  // string_buffer sets a generated char* field and the uint32_t _len field
+  // packed right before it, so it needs that layout, not a lone pointer.
+  struct LN_PACKED {
+    uint32_t text_len;
+    char* text;
+  } field = {0, nullptr};
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Waddress-of-packed-member"  // LN's API takes the field's address
+  ln::string_buffer owned(&field.text, std::string("hello"));
+#pragma GCC diagnostic pop
   std::string back = owned;
   (void)owned.c_str();
 

@@ -1,0 +1,64 @@
+// Turns one request of a client into registry operations and a response:
+// reads and checks the fields methods.hpp names, never evaluates anything.
+#pragma once
+
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "manager/log.hpp"
+#include "manager/registry.hpp"
+#include "protocol/wire.hpp"
+
+namespace ln::manager {
+
+class DefinitionStore;
+
+/// What the manager knows about one connection's conversation.
+struct Session {
+  std::optional<Id> client;  ///< set by hello, cleared by goodbye
+  /// Set by goodbye: close once the response is out.
+  bool close_after_response = false;
+};
+
+class Dispatcher {
+ public:
+  Dispatcher(Registry& registry, DefinitionStore& definitions, std::string manager_version);
+
+  /// The response to `request`; notifications for other clients go to
+  /// `out`. Never throws: every failure becomes an error response.
+  protocol::Message handle(Session& session, const protocol::Message& request, Outbox& out,
+                           const LogFunction& log);
+
+ private:
+  using Handler = protocol::Message (Dispatcher::*)(Session&, const protocol::Message&, Outbox&);
+
+  protocol::Message hello(Session&, const protocol::Message&, Outbox&);
+  protocol::Message goodbye(Session&, const protocol::Message&, Outbox&);
+  protocol::Message ping(Session&, const protocol::Message&, Outbox&);
+  protocol::Message get_message_definition(Session&, const protocol::Message&, Outbox&);
+  protocol::Message get_message_definition_for_topic(Session&, const protocol::Message&, Outbox&);
+  protocol::Message put_message_definition(Session&, const protocol::Message&, Outbox&);
+  protocol::Message publish(Session&, const protocol::Message&, Outbox&);
+  protocol::Message publisher_ready(Session&, const protocol::Message&, Outbox&);
+  protocol::Message unpublish(Session&, const protocol::Message&, Outbox&);
+  protocol::Message subscribe(Session&, const protocol::Message&, Outbox&);
+  protocol::Message unsubscribe(Session&, const protocol::Message&, Outbox&);
+  protocol::Message register_service(Session&, const protocol::Message&, Outbox&);
+  protocol::Message unregister_service(Session&, const protocol::Message&, Outbox&);
+  protocol::Message lookup_service(Session&, const protocol::Message&, Outbox&);
+  protocol::Message get_service_signature(Session&, const protocol::Message&, Outbox&);
+  protocol::Message get_service_signature_for_service(Session&, const protocol::Message&, Outbox&);
+  protocol::Message find_services_with_interface(Session&, const protocol::Message&, Outbox&);
+  protocol::Message list_clients(Session&, const protocol::Message&, Outbox&);
+  protocol::Message list_topics(Session&, const protocol::Message&, Outbox&);
+  protocol::Message list_services(Session&, const protocol::Message&, Outbox&);
+
+  Registry& registry_;
+  DefinitionStore& definitions_;
+  std::string manager_version_;
+  std::map<std::string, Handler, std::less<>> handlers_;
+};
+
+}  // namespace ln::manager

@@ -1,0 +1,63 @@
+// The ln_manager as a library: a single-threaded epoll loop that serves the
+// client protocol (protocol/methods.hpp) on one TCP socket. Topic and
+// service data never pass through it; it only brokers who talks to whom.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "manager/log.hpp"
+
+namespace ln::manager {
+
+struct ManagerOptions {
+  /// Loopback unless asked otherwise: reaching the manager from other hosts
+  /// is an explicit choice ("0.0.0.0" or an interface address).
+  std::string listen_host = "127.0.0.1";
+  std::uint16_t port = 0;  ///< 0: an ephemeral port (see Manager::port())
+  std::string instance_name = "ln_core";
+  /// Searched first, in this order (the config's add_message_definition_dir).
+  std::vector<std::string> message_definition_dirs;
+  /// Where put_message_definition stores; "" = ~/ln_message_definitions/gen.
+  std::string generated_definition_dir;
+  /// A client whose unsent messages exceed this is disconnected.
+  std::size_t max_output_queue = 16u * 1024 * 1024;
+  /// A request may be this large (the wire allows 64 MiB; no request needs
+  /// more than a 1 MiB definition text), so a client cannot make the
+  /// manager buffer more.
+  std::size_t max_request_size = 4u * 1024 * 1024;
+  /// Further connections are accepted and closed at once.
+  std::size_t max_clients = 4096;
+  LogFunction log;
+};
+
+class Manager {
+ public:
+  explicit Manager(ManagerOptions options);
+  /// Stops the loop (and joins run_in_thread's thread).
+  ~Manager();
+  Manager(const Manager&) = delete;
+  Manager& operator=(const Manager&) = delete;
+
+  /// Binds and listens. Throws std::runtime_error with the reason.
+  void start();
+  /// The bound port (after start()).
+  std::uint16_t port() const;
+  /// Serves until stop(). Call after start().
+  void run();
+  /// run() in a new thread.
+  void run_in_thread();
+  /// Ends run() soon; from any thread (also a signal-handling one), any
+  /// number of times. Joins the thread of run_in_thread() unless called
+  /// from it.
+  void stop();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace ln::manager

@@ -1,0 +1,378 @@
+#include "manager/registry.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+
+#include "ln/md/message_definition.hpp"
+#include "manager/definitions.hpp"
+#include "manager/names.hpp"
+#include "manager/request_error.hpp"
+#include "protocol/methods.hpp"
+
+namespace ln::manager {
+namespace {
+
+namespace method = protocol::method;
+
+constexpr std::size_t max_address_size = 255;
+constexpr std::size_t max_signature_size = 64 * 1024;
+
+void require(bool ok, int code, const std::string& text) {
+  if (!ok) throw RequestError(code, text);
+}
+
+void check_name(const std::optional<std::string>& problem) {
+  if (problem) throw RequestError(LNE_INVALID_PARAMETER, *problem);
+}
+
+std::string shortest_text(double value) {
+  char buffer[64];
+  const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
+  return std::string(buffer, result.ptr);
+}
+
+void check_buffers(std::int64_t buffers) {
+  require(buffers >= 1 && buffers <= max_topic_buffers, LNE_INVALID_PARAMETER,
+          "buffers must lie within 1.." + std::to_string(max_topic_buffers) + ", not " + std::to_string(buffers));
+}
+
+void check_rate(double rate) {
+  require(rate != -3, LNE_NOT_YET_IMPLEMENTED, "rate -3 (the next packet on request) is not implemented");
+  require(rate == -1 || rate == -2 || (std::isfinite(rate) && rate > 0), LNE_INVALID_PARAMETER,
+          "rate must be -1 (every packet), -2 (on request) or a positive number of packets per second, not " +
+              shortest_text(rate));
+}
+
+}  // namespace
+
+// ----------------------------------------------------------------- clients
+
+const Client& Registry::add_client(ClientHello hello) {
+  check_name(client_name_problem(hello.program_name));
+  require(hello.peer_socket.size() <= max_address_size && hello.peer_address.size() <= max_address_size &&
+              hello.host_name.size() <= max_address_size && hello.host_id.size() <= max_address_size,
+          LNE_INVALID_PARAMETER, "host or peer address fields are longer than 255 bytes");
+  auto taken = [this](const std::string& name) { return client_names_.count(name) > 0; };
+  std::string name;
+  if (hello.exact) {
+    if (taken(hello.program_name)) {
+      const Client& holder = clients_.at(client_names_.at(hello.program_name));
+      throw RequestError(LNE_CLNT_NAME_IN_USE, "client name '" + hello.program_name +
+                                                   "' is already in use (pid " + std::to_string(holder.hello.pid) +
+                                                   " on " + holder.hello.host_name + ")");
+    }
+    name = hello.program_name;
+  } else if (!hello.previous_name.empty() && !client_name_problem(hello.previous_name) &&
+             !taken(hello.previous_name)) {
+    name = hello.previous_name;  // a client coming back after a manager restart
+  } else {
+    name = unique_client_name(hello.program_name, taken);
+  }
+  const Id id = ++last_id_;
+  client_names_[name] = id;
+  Client& client = clients_[id];
+  client.id = id;
+  client.name = name;
+  client.hello = std::move(hello);
+  return client;
+}
+
+void Registry::remove_client(Id id, Outbox& out) {
+  if (!clients_.count(id)) return;
+  std::vector<Id> published, subscribed, provided;
+  for (const auto& [topic_id, topic] : topics_)
+    if (topic.publisher == id) published.push_back(topic_id);
+  for (const auto& [subscription_id, subscription] : subscriptions_)
+    if (subscription.client == id) subscribed.push_back(subscription_id);
+  for (const auto& [service_id, service] : services_)
+    if (service.provider == id) provided.push_back(service_id);
+  for (Id topic : published) unpublish(id, topic, out);
+  for (Id subscription : subscribed) unsubscribe(id, subscription, out);
+  for (Id service : provided) unregister_service(id, service, out);
+  client_names_.erase(clients_.at(id).name);
+  clients_.erase(id);
+  // Nothing more is ever delivered to the client that is leaving.
+  out.erase(std::remove_if(out.begin(), out.end(), [id](const Outgoing& o) { return o.client == id; }), out.end());
+}
+
+const Client& Registry::client(Id id) const { return clients_.at(id); }
+
+// ------------------------------------------------------------------ topics
+
+Registry::ResolvedDefinition Registry::resolve_for_topic(const std::string& topic, const std::string& definition) {
+  const md::Definition& resolved = definitions_.resolve(definition);
+  require(resolved.kind == md::Kind::Plain, LNE_INVALID_PARAMETER,
+          "message definition '" + resolved.name + "' is a " +
+              (resolved.is_service() ? "service" : "event") + " definition; topic '" + topic +
+              "' needs a plain one");
+  if (auto dynamic = first_dynamic_field(resolved))
+    throw RequestError(LNE_INVALID_PARAMETER,
+                       "message definition '" + resolved.name + "' has the dynamic field '" + *dynamic +
+                           "'; topics carry fixed-size packets only (use a fixed array and a count field)");
+  return {resolved.name, resolved.hash, static_cast<std::int64_t>(md::packet_size(resolved))};
+}
+
+void Registry::check_topic_definition(const Topic& topic, const ResolvedDefinition& wanted) const {
+  require(wanted.name == topic.definition, LNE_REQUEST_FAILED,
+          "you requested message_definition '" + wanted.name + "' but topic '" + topic.name + "' uses '" +
+              topic.definition + "'");
+  require(wanted.hash == topic.hash, LNE_WRONG_MD_HASH,
+          "message definition '" + wanted.name + "' now has hash " + wanted.hash + ", but topic '" + topic.name +
+              "' was set up with hash " + topic.hash + " (the definition changed meanwhile)");
+}
+
+Topic& Registry::create_topic(const std::string& name, const ResolvedDefinition& definition) {
+  const Id id = ++last_id_;
+  Topic& topic = topics_[id];
+  topic.id = id;
+  topic.name = name;
+  topic.definition = definition.name;
+  topic.hash = definition.hash;
+  topic.message_size = definition.message_size;
+  topic_names_[name] = id;
+  return topic;
+}
+
+Topic& Registry::owned_topic(Id client, Id id) {
+  const auto it = topics_.find(id);
+  require(it != topics_.end() && it->second.publisher == client, LNE_PORT_NOT_FOUND,
+          "you do not publish a topic with id " + std::to_string(id));
+  return it->second;
+}
+
+const Topic& Registry::publish(Id client, const std::string& name, const std::string& definition,
+                               std::int64_t buffers, Outbox& out) {
+  check_name(topic_name_problem(name));
+  check_buffers(buffers);
+  const auto existing = topic_names_.find(name);
+  if (existing != topic_names_.end()) {
+    const Topic& topic = topics_.at(existing->second);
+    if (topic.publisher)
+      throw RequestError(LNE_REQUEST_FAILED, "topic '" + name + "' already published by client '" +
+                                                 clients_.at(*topic.publisher).name + "'");
+  }
+  const ResolvedDefinition wanted = resolve_for_topic(name, definition);
+  if (existing != topic_names_.end()) check_topic_definition(topics_.at(existing->second), wanted);
+
+  Topic& topic = existing != topic_names_.end() ? topics_.at(existing->second) : create_topic(name, wanted);
+  topic.publisher = client;
+  topic.publisher_buffers = buffers;
+  topic.publisher_ready = false;
+  topic.segment_generation = 0;
+  notify_publisher(topic, out);  // the publisher always learns the current subscribers first-hand
+  return topic;
+}
+
+void Registry::publisher_ready(Id client, Id id, std::int64_t segment_generation, Outbox& out) {
+  Topic& topic = owned_topic(client, id);
+  topic.publisher_ready = true;
+  topic.segment_generation = segment_generation;
+  for (Id subscription_id : topic.subscriptions) {
+    const Subscription& subscription = subscriptions_.at(subscription_id);
+    auto message = protocol::Message::notification(method::publisher_available);
+    message.set("subscription_id", subscription.id).set("topic_id", topic.id);
+    set_publisher_fields(topic, message);
+    out.push_back({subscription.client, std::move(message)});
+  }
+}
+
+void Registry::unpublish(Id client, Id id, Outbox& out) {
+  Topic& topic = owned_topic(client, id);
+  const bool was_announced = topic.publisher_ready;
+  topic.publisher.reset();
+  topic.publisher_ready = false;
+  topic.publisher_buffers = 0;
+  if (was_announced) {
+    for (Id subscription_id : topic.subscriptions) {
+      const Subscription& subscription = subscriptions_.at(subscription_id);
+      auto message = protocol::Message::notification(method::publisher_gone);
+      message.set("subscription_id", subscription.id).set("topic_id", topic.id);
+      out.push_back({subscription.client, std::move(message)});
+    }
+  }
+  erase_topic_if_unused(id);
+}
+
+const Subscription& Registry::subscribe(Id client, const SubscribeRequest& request, Outbox& out) {
+  check_name(topic_name_problem(request.topic));
+  check_buffers(request.buffers);
+  check_rate(request.rate);
+  require(request.receive_address.size() <= max_address_size, LNE_INVALID_PARAMETER,
+          "receive_address is longer than 255 bytes");
+  const auto existing = topic_names_.find(request.topic);
+  Topic* topic = existing != topic_names_.end() ? &topics_.at(existing->second) : nullptr;
+  if (request.definition.empty()) {
+    require(topic != nullptr, LNE_PORT_NOT_FOUND,
+            "topic '" + request.topic + "' is not known yet; name its message definition to subscribe before it "
+            "is published");
+  } else {
+    const ResolvedDefinition wanted = resolve_for_topic(request.topic, request.definition);
+    if (topic)
+      check_topic_definition(*topic, wanted);
+    else
+      topic = &create_topic(request.topic, wanted);
+  }
+  const Id id = ++last_id_;
+  Subscription& subscription = subscriptions_[id];
+  subscription.id = id;
+  subscription.client = client;
+  subscription.topic = topic->id;
+  subscription.buffers = request.buffers;
+  subscription.rate = request.rate;
+  subscription.reliable = request.reliable;
+  subscription.receive_address = request.receive_address;
+  topic->subscriptions.push_back(id);
+  notify_publisher(*topic, out);
+  return subscription;
+}
+
+void Registry::unsubscribe(Id client, Id id, Outbox& out) {
+  const auto it = subscriptions_.find(id);
+  require(it != subscriptions_.end() && it->second.client == client, LNE_PORT_NOT_FOUND,
+          "you have no subscription with id " + std::to_string(id));
+  const Id topic_id = it->second.topic;
+  subscriptions_.erase(it);
+  Topic& topic = topics_.at(topic_id);
+  topic.subscriptions.erase(std::remove(topic.subscriptions.begin(), topic.subscriptions.end(), id),
+                            topic.subscriptions.end());
+  notify_publisher(topic, out);
+  erase_topic_if_unused(topic_id);
+}
+
+const Topic& Registry::topic_named(const std::string& name) const {
+  check_name(topic_name_problem(name));
+  const auto it = topic_names_.find(name);
+  require(it != topic_names_.end(), LNE_PORT_NOT_FOUND, "topic '" + name + "' is neither published nor subscribed");
+  return topics_.at(it->second);
+}
+
+std::int64_t Registry::subscriber_buffers(const Topic& topic) const {
+  std::int64_t largest = 0;
+  for (Id id : topic.subscriptions) largest = std::max(largest, subscriptions_.at(id).buffers);
+  return largest;
+}
+
+void Registry::set_publisher_fields(const Topic& topic, protocol::Message& message) const {
+  const Client& publisher = clients_.at(*topic.publisher);
+  message.set("publisher", publisher.name)
+      .set("host_id", publisher.hello.host_id)
+      .set("peer_socket", publisher.hello.peer_socket)
+      .set("peer_address", publisher.hello.peer_address)
+      .set("segment_generation", topic.segment_generation);
+}
+
+protocol::Message Registry::subscribers_changed(const Topic& topic) const {
+  const std::string& publisher_host = clients_.at(*topic.publisher).hello.host_id;
+  protocol::StringList remote;
+  for (Id id : topic.subscriptions) {
+    const Subscription& subscription = subscriptions_.at(id);
+    // Subscribers on the publisher's host read its segment; the others are
+    // fed over the network, by the publisher, to the address they gave.
+    if (clients_.at(subscription.client).hello.host_id == publisher_host || subscription.receive_address.empty())
+      continue;
+    remote.push_back(std::to_string(subscription.id) + " " + shortest_text(subscription.rate) + " " +
+                     (subscription.reliable ? "1" : "0") + " " + subscription.receive_address);
+  }
+  auto message = protocol::Message::notification(method::subscribers_changed);
+  message.set("topic_id", topic.id)
+      .set("subscribers", static_cast<std::int64_t>(topic.subscriptions.size()))
+      .set("subscriber_buffers", subscriber_buffers(topic))
+      .set("remote", std::move(remote));
+  return message;
+}
+
+void Registry::notify_publisher(const Topic& topic, Outbox& out) const {
+  if (topic.publisher) out.push_back({*topic.publisher, subscribers_changed(topic)});
+}
+
+void Registry::erase_topic_if_unused(Id id) {
+  const auto it = topics_.find(id);
+  if (it == topics_.end() || it->second.publisher || !it->second.subscriptions.empty()) return;
+  topic_names_.erase(it->second.name);
+  topics_.erase(it);
+}
+
+bool Registry::definition_in_use(const std::string& definition) const {
+  return std::any_of(topics_.begin(), topics_.end(),
+                     [&](const auto& entry) { return entry.second.definition == definition; });
+}
+
+// ---------------------------------------------------------------- services
+
+void Registry::notify_all_clients(const protocol::Message& message, Outbox& out) const {
+  for (const auto& entry : clients_) out.push_back({entry.first, message});
+}
+
+const Service& Registry::register_service(Id client, const std::string& name, const std::string& interface,
+                                          const std::string& signature, const std::string& group, Outbox& out) {
+  check_name(service_name_problem(name));
+  check_name(definition_name_problem(split_name_and_hash(interface).first));
+  require(signature.size() <= max_signature_size, LNE_INVALID_PARAMETER, "the service signature is too long");
+  require(group.size() <= max_address_size, LNE_INVALID_PARAMETER, "the service group name is too long");
+  const auto existing = service_names_.find(name);
+  if (existing != service_names_.end())
+    throw RequestError(LNE_SVC_ALREADY_REGISTERED,
+                       "service '" + name + "' is already provided by client '" +
+                           clients_.at(services_.at(existing->second).provider).name + "'");
+  const Id id = ++last_id_;
+  Service& service = services_[id];
+  service.id = id;
+  service.name = name;
+  service.interface = interface;
+  service.signature = signature;
+  service.group = group;
+  service.provider = client;
+  service_names_[name] = id;
+  auto message = protocol::Message::notification(method::service_available);
+  message.set("name", name).set("provider", clients_.at(client).name);
+  notify_all_clients(message, out);
+  return service;
+}
+
+void Registry::unregister_service(Id client, Id id, Outbox& out) {
+  const auto it = services_.find(id);
+  require(it != services_.end() && it->second.provider == client, LNE_SVC_NOT_REGISTERED,
+          "you provide no service with id " + std::to_string(id));
+  const std::string name = it->second.name;
+  service_names_.erase(name);
+  services_.erase(it);
+  auto message = protocol::Message::notification(method::service_gone);
+  message.set("name", name);
+  notify_all_clients(message, out);
+}
+
+const Service& Registry::service_named(const std::string& name) const {
+  check_name(service_name_problem(name));
+  const auto it = service_names_.find(name);
+  require(it != service_names_.end(), LNE_NO_PROVIDER_FOUND, "no client provides service '" + name + "'");
+  return services_.at(it->second);
+}
+
+const Service& Registry::lookup_service(const std::string& name, const std::string& interface,
+                                        const std::string& signature) const {
+  const Service& service = service_named(name);
+  if (!interface.empty()) {
+    const auto [wanted_name, wanted_hash] = split_name_and_hash(interface);
+    const auto [provided_name, provided_hash] = split_name_and_hash(service.interface);
+    require(wanted_name == provided_name, LNE_REQUEST_FAILED,
+            "service '" + name + "' has interface '" + provided_name + "', not the requested '" + wanted_name + "'");
+    require(wanted_hash.empty() || provided_hash.empty() || wanted_hash == provided_hash, LNE_WRONG_MD_HASH,
+            "service '" + name + "': the provider's interface '" + provided_name + "' has hash " + provided_hash +
+                ", the caller's has " + wanted_hash);
+  }
+  require(signature.empty() || signature == service.signature, LNE_REQUEST_FAILED,
+          "service '" + name + "' has signature '" + service.signature + "', but the caller uses '" + signature +
+              "': caller and provider were built with different versions of '" + service.interface + "'");
+  return service;
+}
+
+std::vector<std::string> Registry::services_with_interface(const std::string& interface) const {
+  const std::string wanted = split_name_and_hash(interface).first;
+  std::vector<std::string> names;
+  for (const auto& [name, id] : service_names_)
+    if (split_name_and_hash(services_.at(id).interface).first == wanted) names.push_back(name);
+  return names;
+}
+
+}  // namespace ln::manager

@@ -1,0 +1,168 @@
+// Who is connected and what they publish, subscribe and provide: the
+// manager's state and the rules that govern it. No sockets here; every change
+// that others must hear about is queued as a notification in an Outbox.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "protocol/wire.hpp"
+
+namespace ln::manager {
+
+class DefinitionStore;
+
+/// Clients, topics, subscriptions and services share one id sequence, so an
+/// id of one kind passed where another is expected is never mistaken.
+using Id = std::int64_t;
+
+struct Outgoing {
+  Id client;
+  protocol::Message message;
+};
+using Outbox = std::vector<Outgoing>;
+
+struct ClientHello {
+  std::string program_name;
+  bool exact = false;
+  std::int64_t pid = 0;
+  std::string host_name;
+  std::string host_id;
+  std::int64_t uid = -1;
+  std::int64_t library_version = 0;
+  std::string peer_socket;
+  std::string peer_address;
+  std::string previous_name;
+};
+
+struct Client {
+  Id id = 0;
+  std::string name;
+  ClientHello hello;
+};
+
+struct Subscription {
+  Id id = 0;
+  Id client = 0;
+  Id topic = 0;
+  std::int64_t buffers = 1;
+  double rate = -1;
+  bool reliable = false;
+  std::string receive_address;
+};
+
+/// A topic exists while it has a publisher or subscribers. Its definition is
+/// fixed by whoever came first and kept by value (the definition store may
+/// reload).
+struct Topic {
+  Id id = 0;
+  std::string name;
+  std::string definition;
+  std::string hash;
+  std::int64_t message_size = 0;
+  std::optional<Id> publisher;
+  std::int64_t publisher_buffers = 0;
+  /// Set by publisher_ready: subscribers are only told about a publisher
+  /// whose shared-memory segment exists.
+  bool publisher_ready = false;
+  std::int64_t segment_generation = 0;
+  std::vector<Id> subscriptions;  ///< in subscription order
+};
+
+struct Service {
+  Id id = 0;
+  std::string name;
+  std::string interface;
+  std::string signature;
+  std::string group;
+  Id provider = 0;
+};
+
+struct SubscribeRequest {
+  std::string topic;
+  std::string definition;  ///< may carry "|hash"; "" = whatever the topic uses
+  std::int64_t buffers = 1;
+  double rate = -1;
+  bool reliable = false;
+  std::string receive_address;
+};
+
+/// Largest `buffers` a publish or subscribe may ask for.
+constexpr std::int64_t max_topic_buffers = 65536;
+
+/// All operations throw RequestError and change nothing when they refuse.
+class Registry {
+ public:
+  explicit Registry(DefinitionStore& definitions) : definitions_(definitions) {}
+
+  // ------------------------------------------------------------- clients
+  const Client& add_client(ClientHello hello);
+  /// Releases everything the client owns and tells the others.
+  void remove_client(Id client, Outbox& out);
+  const Client& client(Id id) const;
+
+  // -------------------------------------------------------------- topics
+  const Topic& publish(Id client, const std::string& topic, const std::string& definition, std::int64_t buffers,
+                       Outbox& out);
+  void publisher_ready(Id client, Id topic, std::int64_t segment_generation, Outbox& out);
+  void unpublish(Id client, Id topic, Outbox& out);
+  const Subscription& subscribe(Id client, const SubscribeRequest& request, Outbox& out);
+  void unsubscribe(Id client, Id subscription, Outbox& out);
+
+  const Topic& topic_named(const std::string& name) const;
+  const Topic& topic(Id id) const { return topics_.at(id); }
+  /// The largest buffers any subscriber of `topic` asked for (0: none).
+  std::int64_t subscriber_buffers(const Topic& topic) const;
+  /// Sets the publisher fields of publisher_available (and of a subscribe
+  /// response) for a topic whose publisher is ready.
+  void set_publisher_fields(const Topic& topic, protocol::Message& message) const;
+  /// The subscribers_changed notification for the topic's publisher.
+  protocol::Message subscribers_changed(const Topic& topic) const;
+  bool definition_in_use(const std::string& definition) const;
+
+  // ------------------------------------------------------------ services
+  const Service& register_service(Id client, const std::string& name, const std::string& interface,
+                                  const std::string& signature, const std::string& group, Outbox& out);
+  void unregister_service(Id client, Id service, Outbox& out);
+  /// The provider of `name`, checked against the caller's interface ("" =
+  /// any) and signature ("" = not checked).
+  const Service& lookup_service(const std::string& name, const std::string& interface,
+                                const std::string& signature) const;
+  const Service& service_named(const std::string& name) const;
+  std::vector<std::string> services_with_interface(const std::string& interface) const;
+
+  // ------------------------------------------------------- introspection
+  const std::map<Id, Client>& clients() const { return clients_; }
+  const std::map<Id, Topic>& topics() const { return topics_; }
+  const std::map<Id, Subscription>& subscriptions() const { return subscriptions_; }
+  const std::map<Id, Service>& services() const { return services_; }
+
+ private:
+  struct ResolvedDefinition {
+    std::string name;
+    std::string hash;
+    std::int64_t message_size = 0;
+  };
+  ResolvedDefinition resolve_for_topic(const std::string& topic, const std::string& definition);
+  void check_topic_definition(const Topic& topic, const ResolvedDefinition& wanted) const;
+  Topic& create_topic(const std::string& name, const ResolvedDefinition& definition);
+  Topic& owned_topic(Id client, Id topic);
+  void notify_publisher(const Topic& topic, Outbox& out) const;
+  void erase_topic_if_unused(Id topic);
+  void notify_all_clients(const protocol::Message& message, Outbox& out) const;
+
+  DefinitionStore& definitions_;
+  Id last_id_ = 0;
+  std::map<Id, Client> clients_;
+  std::map<std::string, Id> client_names_;
+  std::map<Id, Topic> topics_;
+  std::map<std::string, Id> topic_names_;
+  std::map<Id, Subscription> subscriptions_;
+  std::map<Id, Service> services_;
+  std::map<std::string, Id> service_names_;
+};
+
+}  // namespace ln::manager
