@@ -1,0 +1,117 @@
+#pragma once
+
+// Byte layout of a shared-memory ring segment (internal to ln_transport).
+// Everything a reader trusts for addressing (sizes, counts, offsets) is copied
+// out of the segment once, validated, and never re-read from shared memory, so
+// a corrupted or hostile segment cannot steer a reader outside its mapping.
+//
+//   offset 0               SegmentHeader (immutable info, publisher line, reader line, token table)
+//   ring_offset            std::atomic<uint32_t> ring[history]   slot index per ring position
+//   slots_offset           slot_count × slot_stride bytes, each slot:
+//                              SlotHeader (32 bytes) then payload (message_size bytes)
+
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+
+namespace ln::transport::layout {
+
+inline constexpr char kMagic[8] = {'L', 'N', 'S', 'H', 'R', 'I', 'N', 'G'};
+inline constexpr std::uint32_t kVersion = 1;
+inline constexpr std::size_t kCacheLine = 64;
+
+/// Limits that keep every size computation far away from overflow.
+inline constexpr std::uint32_t kMaxMessageSize = 1u << 30;
+inline constexpr std::uint32_t kMaxHistory = 1u << 20;
+inline constexpr std::uint32_t kMaxBorrowSlots = 63;  // one state bit each, bit 63 is "writing"
+
+/// Slot borrow state: bit 63 is set while the publisher writes the slot,
+/// bit t (t < 63) while borrow token t pins it.
+inline constexpr std::uint64_t kWritingBit = std::uint64_t{1} << 63;
+
+/// Byte offsets used as OFD lock "alive" flags (see shm_segment.hpp): the
+/// publisher locks byte 0, the reader with ticket k locks byte 1 + k.
+inline constexpr std::uint64_t kPublisherLockByte = 0;
+inline constexpr std::uint64_t kFirstReaderLockByte = 1;
+inline constexpr std::uint64_t kMaxReaderTicket = std::uint64_t{1} << 62;
+
+/// SegmentInfo::flags
+inline constexpr std::uint32_t kPublisherHoldsLivenessLock = 1u << 0;
+
+enum class SegmentState : std::uint32_t { open = 1, closed = 2, replaced = 3 };
+
+/// Immutable description of the segment, written once before the memfd is
+/// handed to anyone. A plain struct so that it can be checksummed and copied.
+struct SegmentInfo {
+  char magic[8];
+  std::uint32_t version;
+  std::uint32_t info_size;  // sizeof(SegmentInfo) of the creator
+  std::uint64_t total_size;
+  std::uint64_t ring_offset;
+  std::uint64_t slots_offset;
+  std::uint64_t slot_stride;
+  std::uint32_t message_size;
+  std::uint32_t history;
+  std::uint32_t borrow_slots;
+  std::uint32_t slot_count;
+  std::uint32_t flags;
+  std::uint32_t checksum;  // FNV-1a over this struct with checksum = 0
+};
+
+struct SegmentHeader {
+  SegmentInfo info;
+
+  // Written by the publisher on every packet; polled by spinning readers.
+  alignas(kCacheLine) std::atomic<std::uint64_t> head_sequence;  // newest committed packet, 0 = none
+  std::atomic<std::uint32_t> wake_word;  // futex word; bumped by every write, close and unblock
+  std::atomic<std::int32_t> publisher_cpu;  // CPU of the last write: readers on the same CPU yield instead of spinning
+  std::atomic<std::uint32_t> state;  // SegmentState
+  std::int32_t publisher_pid;  // informational only
+
+  // Written by readers when they go to sleep, read by the publisher on every packet.
+  alignas(kCacheLine) std::atomic<std::uint32_t> sleeping_readers;
+  std::atomic<std::uint64_t> next_reader_ticket;  // unique, never reused reader identities
+
+  // Borrow token t is free (0) or owned by the reader with that ticket.
+  alignas(kCacheLine) std::atomic<std::uint64_t> token_owner[kMaxBorrowSlots];
+};
+
+struct SlotHeader {
+  std::atomic<std::uint64_t> sequence;  // packet in this slot; 0 while it is being (re)written
+  std::atomic<std::uint64_t> borrow_state;  // kWritingBit | borrow token bits
+  std::atomic<double> timestamp;
+  std::atomic<std::uint32_t> size;
+  std::uint32_t reserved;
+};
+
+inline constexpr std::size_t kPayloadOffset = 32;
+inline constexpr std::size_t kPayloadAlignment = 32;
+
+static_assert(sizeof(SlotHeader) == kPayloadOffset, "payload follows the slot header directly");
+static_assert(std::atomic<std::uint64_t>::is_always_lock_free &&
+                  std::atomic<std::uint32_t>::is_always_lock_free &&
+                  std::atomic<std::int32_t>::is_always_lock_free &&
+                  std::atomic<double>::is_always_lock_free,
+              "atomics in shared memory must be lock-free to work across processes");
+static_assert(sizeof(std::atomic<std::uint32_t>) == 4 && sizeof(std::atomic<std::uint64_t>) == 8,
+              "atomics must have the size of the plain integers");
+
+/// Everything derived from the three creation parameters.
+struct Geometry {
+  std::uint32_t message_size = 0;
+  std::uint32_t history = 0;
+  std::uint32_t borrow_slots = 0;
+  std::uint32_t slot_count = 0;
+  std::uint64_t slot_stride = 0;
+  std::uint64_t ring_offset = 0;
+  std::uint64_t slots_offset = 0;
+  std::uint64_t total_size = 0;
+};
+
+/// Throws ShmError(invalid_config) when a parameter is out of range.
+Geometry compute_geometry(std::uint32_t message_size, std::uint32_t history,
+                          std::uint32_t borrow_slots);
+
+std::uint32_t checksum(const SegmentInfo& info);
+
+}  // namespace ln::transport::layout

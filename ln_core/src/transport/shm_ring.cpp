@@ -1,0 +1,918 @@
+#include "transport/shm_ring.hpp"
+
+#include <fcntl.h>
+#include <sched.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <mutex>
+#include <new>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "transport/shm_layout.hpp"
+
+namespace ln::transport {
+
+using Clock = std::chrono::steady_clock;
+using TimePoint = Clock::time_point;
+using std::chrono::nanoseconds;
+
+namespace layout {
+
+namespace {
+constexpr std::uint64_t round_up(std::uint64_t value, std::uint64_t alignment) {
+  return (value + alignment - 1) / alignment * alignment;
+}
+constexpr std::uint64_t kMaxTotalSize = std::uint64_t{1} << 40;
+}  // namespace
+
+Geometry compute_geometry(std::uint32_t message_size, std::uint32_t history,
+                          std::uint32_t borrow_slots) {
+  if (message_size == 0 || message_size > kMaxMessageSize) {
+    throw ShmError(ShmErrc::invalid_config,
+                   "message_size must be between 1 and " + std::to_string(kMaxMessageSize));
+  }
+  if (history == 0 || history > kMaxHistory) {
+    throw ShmError(ShmErrc::invalid_config,
+                   "history must be between 1 and " + std::to_string(kMaxHistory));
+  }
+  if (borrow_slots > kMaxBorrowSlots) {
+    throw ShmError(ShmErrc::invalid_config,
+                   "borrow_slots must be at most " + std::to_string(kMaxBorrowSlots));
+  }
+  Geometry geometry;
+  geometry.message_size = message_size;
+  geometry.history = history;
+  geometry.borrow_slots = borrow_slots;
+  geometry.slot_count = history + borrow_slots + 1;
+  geometry.slot_stride = round_up(kPayloadOffset + std::uint64_t{message_size}, kCacheLine);
+  geometry.ring_offset = round_up(sizeof(SegmentHeader), kCacheLine);
+  geometry.slots_offset =
+      geometry.ring_offset +
+      round_up(std::uint64_t{history} * sizeof(std::atomic<std::uint32_t>), kCacheLine);
+  geometry.total_size =
+      geometry.slots_offset + std::uint64_t{geometry.slot_count} * geometry.slot_stride;
+  if (geometry.total_size > kMaxTotalSize) {
+    throw ShmError(ShmErrc::invalid_config, "segment would be larger than 1 TiB");
+  }
+  return geometry;
+}
+
+std::uint32_t checksum(const SegmentInfo& info) {
+  SegmentInfo copy = info;
+  copy.checksum = 0;
+  const auto* bytes = reinterpret_cast<const unsigned char*>(&copy);
+  std::uint32_t hash = 2166136261u;  // FNV-1a
+  for (std::size_t i = 0; i < sizeof(copy); ++i) {
+    hash ^= bytes[i];
+    hash *= 16777619u;
+  }
+  return hash;
+}
+
+}  // namespace layout
+
+namespace {
+
+using layout::SegmentHeader;
+using layout::SegmentState;
+using layout::SlotHeader;
+
+inline void cpu_relax() noexcept {
+#if defined(__x86_64__) || defined(__i386__)
+  __builtin_ia32_pause();
+#elif defined(__aarch64__)
+  asm volatile("yield" ::: "memory");
+#endif
+}
+
+double wall_clock_seconds() noexcept {
+  const auto since_epoch = std::chrono::system_clock::now().time_since_epoch();
+  return std::chrono::duration<double>(since_epoch).count();
+}
+
+TimePoint deadline_after(nanoseconds timeout) noexcept {
+  if (timeout < nanoseconds::zero()) return TimePoint::max();
+  return Clock::now() + timeout;
+}
+
+// Addresses of the parts of a mapped segment, computed from a validated geometry.
+struct SegmentView {
+  layout::Geometry geometry;
+  SegmentHeader* header = nullptr;
+  std::atomic<std::uint32_t>* ring = nullptr;
+  std::byte* slots = nullptr;
+
+  SegmentView() = default;
+  SegmentView(std::byte* base, const layout::Geometry& g)
+      : geometry(g),
+        header(reinterpret_cast<SegmentHeader*>(base)),
+        ring(reinterpret_cast<std::atomic<std::uint32_t>*>(base + g.ring_offset)),
+        slots(base + g.slots_offset) {}
+
+  SlotHeader& slot(std::uint32_t index) const noexcept {
+    return *reinterpret_cast<SlotHeader*>(slots + std::uint64_t{index} * geometry.slot_stride);
+  }
+  std::byte* payload(std::uint32_t index) const noexcept {
+    return slots + std::uint64_t{index} * geometry.slot_stride + layout::kPayloadOffset;
+  }
+};
+
+ReadStatus status_for_state(std::uint32_t state) noexcept {
+  return state == static_cast<std::uint32_t>(SegmentState::replaced) ? ReadStatus::segment_replaced
+                                                                    : ReadStatus::publisher_gone;
+}
+
+constexpr std::uint32_t kOpen = static_cast<std::uint32_t>(SegmentState::open);
+
+// A non-blocking read attempt gives up after this many times finding its
+// packet overwritten; the blocking loop then yields and tries again.
+constexpr int kMaxAttempts = 64;
+// How long a reader sleeps instead of yielding after the publisher hogged its
+// CPU: doubling from min to max while it keeps happening.
+constexpr nanoseconds kMinYieldBackoff = std::chrono::milliseconds(1);
+constexpr nanoseconds kMaxYieldBackoff = std::chrono::milliseconds(100);
+
+}  // namespace
+
+const char* to_string(WriteStatus status) {
+  switch (status) {
+    case WriteStatus::ok: return "ok";
+    case WriteStatus::packet_too_large: return "packet too large";
+    case WriteStatus::loan_outstanding: return "a loan is outstanding";
+    case WriteStatus::no_loan: return "no loan to commit";
+    case WriteStatus::no_free_slot: return "no free slot (corrupted segment)";
+    case WriteStatus::closed: return "segment closed";
+  }
+  return "unknown";
+}
+
+const char* to_string(ReadStatus status) {
+  switch (status) {
+    case ReadStatus::ok: return "ok";
+    case ReadStatus::no_data: return "no new packet";
+    case ReadStatus::timeout: return "timeout";
+    case ReadStatus::unblocked: return "unblocked";
+    case ReadStatus::publisher_gone: return "publisher gone";
+    case ReadStatus::segment_replaced: return "segment replaced";
+    case ReadStatus::buffer_too_small: return "buffer too small";
+    case ReadStatus::borrow_limit: return "borrow limit reached";
+    case ReadStatus::corrupt_segment: return "corrupt segment";
+  }
+  return "unknown";
+}
+
+// ============================================================== writer
+
+namespace detail {
+
+struct WriterCore {
+  UniqueFd fd;
+  Mapping mapping;
+  SegmentView view;
+  // The writer's own bookkeeping lives in private memory, so nothing a reader
+  // (or a corruption) does to the segment can confuse it.
+  std::vector<std::uint32_t> ring_slots;  // mirror of view.ring
+  std::vector<std::uint32_t> spares;      // slots not in the ring
+  std::size_t next_spare = 0;
+  std::size_t loan_spare = 0;
+  bool loan_open = false;
+  bool closed = false;
+  std::uint64_t last_sequence = 0;
+
+  bool borrowing_possible() const noexcept { return view.geometry.borrow_slots != 0; }
+
+  // Claims a spare slot that no reader has pinned and marks it "being written".
+  bool claim_spare() noexcept {
+    const std::size_t count = spares.size();
+    for (std::size_t i = 0; i < count; ++i) {
+      std::size_t candidate = next_spare + i;
+      if (candidate >= count) candidate -= count;
+      SlotHeader& slot = view.slot(spares[candidate]);
+      if (borrowing_possible()) {
+        std::uint64_t expected = 0;
+        if (!slot.borrow_state.compare_exchange_strong(expected, layout::kWritingBit,
+                                                       std::memory_order_acquire,
+                                                       std::memory_order_relaxed)) {
+          continue;  // pinned by a reader
+        }
+      }
+      loan_spare = candidate;
+      loan_open = true;
+      slot.sequence.store(0, std::memory_order_relaxed);
+      // Seqlock: the invalidated sequence must be visible before any payload byte changes.
+      std::atomic_thread_fence(std::memory_order_release);
+      return true;
+    }
+    return false;
+  }
+
+  void commit(std::uint32_t size, double timestamp) noexcept {
+    const std::uint32_t index = spares[loan_spare];
+    SlotHeader& slot = view.slot(index);
+    const std::uint64_t sequence = last_sequence + 1;
+    slot.timestamp.store(timestamp, std::memory_order_relaxed);
+    slot.size.store(size, std::memory_order_relaxed);
+    slot.sequence.store(sequence, std::memory_order_release);
+    if (borrowing_possible()) slot.borrow_state.store(0, std::memory_order_release);
+
+    const std::size_t position = sequence % view.geometry.history;
+    spares[loan_spare] = ring_slots[position];
+    ring_slots[position] = index;
+    view.ring[position].store(index, std::memory_order_release);
+    next_spare = loan_spare + 1 == spares.size() ? 0 : loan_spare + 1;
+    loan_open = false;
+    last_sequence = sequence;
+
+    SegmentHeader& header = *view.header;
+    header.publisher_cpu.store(sched_getcpu(), std::memory_order_relaxed);
+    header.head_sequence.store(sequence, std::memory_order_release);
+    wake_sleepers(false);
+  }
+
+  void discard_loan() noexcept {
+    if (!loan_open) return;
+    // The slot keeps sequence 0, so no reader will ever take its contents.
+    if (borrowing_possible()) {
+      view.slot(spares[loan_spare]).borrow_state.store(0, std::memory_order_release);
+    }
+    loan_open = false;
+  }
+
+  // The seq_cst increment orders the head store before the sleeper check;
+  // readers increment sleeping_readers before loading wake_word, so either we
+  // see their count or they see the new head / a changed futex word.
+  void wake_sleepers(bool always) noexcept {
+    SegmentHeader& header = *view.header;
+    header.wake_word.fetch_add(1, std::memory_order_seq_cst);
+    if (always || header.sleeping_readers.load(std::memory_order_seq_cst) != 0) {
+      futex_wake_all(&header.wake_word);
+    }
+  }
+
+  void close(SegmentState state) noexcept {
+    if (closed) return;
+    discard_loan();
+    closed = true;
+    view.header->state.store(static_cast<std::uint32_t>(state), std::memory_order_release);
+    wake_sleepers(true);
+  }
+
+  ~WriterCore() {
+    if (view.header != nullptr) close(SegmentState::closed);
+    // Closing fd drops the liveness lock; the mapping goes after it.
+  }
+};
+
+}  // namespace detail
+
+ShmWriter ShmWriter::create(const RingConfig& config) {
+  if (config.first_sequence == 0 || config.first_sequence > (std::uint64_t{1} << 62)) {
+    throw ShmError(ShmErrc::invalid_config, "first_sequence must be between 1 and 2^62");
+  }
+  const layout::Geometry geometry =
+      layout::compute_geometry(config.message_size, config.history, config.borrow_slots);
+
+  auto core = std::make_unique<detail::WriterCore>();
+  UniqueFd fd = create_sealed_memfd(config.debug_name, geometry.total_size);
+  Mapping mapping = Mapping::map_shared(fd.get(), geometry.total_size);
+  std::byte* base = mapping.data();
+
+  // The memfd is zero-filled; construct the shared objects in place.
+  auto* header = new (base) SegmentHeader();
+  for (std::uint32_t i = 0; i < geometry.history; ++i) {
+    new (base + geometry.ring_offset + i * sizeof(std::atomic<std::uint32_t>))
+        std::atomic<std::uint32_t>(i);  // ring position i starts out naming slot i (holding nothing)
+  }
+  for (std::uint32_t i = 0; i < geometry.slot_count; ++i) {
+    new (base + geometry.slots_offset + i * geometry.slot_stride) SlotHeader();
+  }
+  header->head_sequence.store(config.first_sequence - 1, std::memory_order_relaxed);
+  header->publisher_cpu.store(-1, std::memory_order_relaxed);
+  header->state.store(kOpen, std::memory_order_relaxed);
+  header->publisher_pid = static_cast<std::int32_t>(::getpid());
+
+  layout::SegmentInfo& info = header->info;
+  std::memcpy(info.magic, layout::kMagic, sizeof(info.magic));
+  info.version = layout::kVersion;
+  info.info_size = sizeof(layout::SegmentInfo);
+  info.total_size = geometry.total_size;
+  info.ring_offset = geometry.ring_offset;
+  info.slots_offset = geometry.slots_offset;
+  info.slot_stride = geometry.slot_stride;
+  info.message_size = geometry.message_size;
+  info.history = geometry.history;
+  info.borrow_slots = geometry.borrow_slots;
+  info.slot_count = geometry.slot_count;
+  info.flags = 0;
+  if (try_lock_byte(fd.get(), layout::kPublisherLockByte)) {
+    info.flags |= layout::kPublisherHoldsLivenessLock;
+  }
+  info.checksum = layout::checksum(info);
+
+  core->fd = std::move(fd);
+  core->mapping = std::move(mapping);
+  core->view = SegmentView(base, geometry);
+  core->ring_slots.resize(geometry.history);
+  for (std::uint32_t i = 0; i < geometry.history; ++i) core->ring_slots[i] = i;
+  for (std::uint32_t i = geometry.history; i < geometry.slot_count; ++i) core->spares.push_back(i);
+  core->last_sequence = config.first_sequence - 1;
+  return ShmWriter(std::move(core));
+}
+
+ShmWriter::ShmWriter(std::unique_ptr<detail::WriterCore> core) noexcept : core_(std::move(core)) {}
+ShmWriter::ShmWriter(ShmWriter&&) noexcept = default;
+ShmWriter& ShmWriter::operator=(ShmWriter&&) noexcept = default;
+ShmWriter::~ShmWriter() = default;
+
+int ShmWriter::fd() const noexcept { return core_->fd.get(); }
+std::uint32_t ShmWriter::message_size() const noexcept { return core_->view.geometry.message_size; }
+std::uint32_t ShmWriter::history() const noexcept { return core_->view.geometry.history; }
+std::uint32_t ShmWriter::borrow_slots() const noexcept { return core_->view.geometry.borrow_slots; }
+
+WriteStatus ShmWriter::write(const void* data, std::size_t size, double timestamp) noexcept {
+  detail::WriterCore& core = *core_;
+  if (core.closed) return WriteStatus::closed;
+  if (core.loan_open) return WriteStatus::loan_outstanding;
+  if (size > core.view.geometry.message_size) return WriteStatus::packet_too_large;
+  if (!core.claim_spare()) return WriteStatus::no_free_slot;
+  if (size != 0) std::memcpy(core.view.payload(core.spares[core.loan_spare]), data, size);
+  core.commit(static_cast<std::uint32_t>(size), timestamp);
+  return WriteStatus::ok;
+}
+
+WriteStatus ShmWriter::write(const void* data, std::size_t size) noexcept {
+  return write(data, size, wall_clock_seconds());
+}
+
+void* ShmWriter::loan() noexcept {
+  detail::WriterCore& core = *core_;
+  if (core.closed || core.loan_open || !core.claim_spare()) return nullptr;
+  return core.view.payload(core.spares[core.loan_spare]);
+}
+
+WriteStatus ShmWriter::commit(std::size_t size, double timestamp) noexcept {
+  detail::WriterCore& core = *core_;
+  if (!core.loan_open) return core.closed ? WriteStatus::closed : WriteStatus::no_loan;
+  if (size > core.view.geometry.message_size) return WriteStatus::packet_too_large;
+  core.commit(static_cast<std::uint32_t>(size), timestamp);
+  return WriteStatus::ok;
+}
+
+WriteStatus ShmWriter::commit(std::size_t size) noexcept {
+  return commit(size, wall_clock_seconds());
+}
+
+void ShmWriter::discard_loan() noexcept { core_->discard_loan(); }
+std::uint64_t ShmWriter::last_sequence() const noexcept { return core_->last_sequence; }
+
+std::uint32_t ShmWriter::sleeping_readers() const noexcept {
+  return core_->view.header->sleeping_readers.load(std::memory_order_acquire);
+}
+
+void ShmWriter::close() noexcept { core_->close(SegmentState::closed); }
+void ShmWriter::close_replaced() noexcept { core_->close(SegmentState::replaced); }
+
+// ============================================================== reader
+
+namespace detail {
+
+struct ReaderCore {
+  // What one non-blocking attempt found.
+  struct Attempt {
+    enum Kind { finished, nothing_new, busy } kind;
+    ReadStatus status;
+  };
+  static constexpr Attempt kNothingNew{Attempt::nothing_new, ReadStatus::no_data};
+  static constexpr Attempt kBusy{Attempt::busy, ReadStatus::no_data};
+  static Attempt finished(ReadStatus status) { return {Attempt::finished, status}; }
+
+  // A packet found in the ring: its sequence number and the slot that held it.
+  struct Location {
+    std::uint64_t sequence;
+    std::uint32_t slot;
+  };
+  enum class Locate { found, none, moved, corrupt };
+
+  UniqueFd fd;
+  bool own_description = false;  // false only without /proc: no liveness check, no borrowing
+  Mapping mapping;
+  SegmentView view;
+  std::uint32_t flags = 0;
+  ReaderOptions options;
+  std::uint32_t max_borrows = 0;
+  std::uint64_t next_sequence = 1;  // the oldest sequence this reader may still deliver
+  nanoseconds spin_limit{0};
+  TimePoint no_yield_until{};
+  nanoseconds yield_backoff{kMinYieldBackoff};
+  std::atomic<bool> unblock_requested{false};
+  ReaderStats stats;
+
+  // Borrowing; BorrowedSample::release may run on any thread.
+  std::uint64_t ticket = 0;  // 0: no identity (no own description), so no borrowing
+  std::mutex token_mutex;
+  std::uint32_t tokens_in_use = 0;
+  std::uint32_t token_scan_start = 0;
+
+  SegmentHeader& header() const noexcept { return *view.header; }
+
+  std::uint64_t choose_target(std::uint64_t head, ReadMode mode) const noexcept {
+    if (head < next_sequence) return 0;  // sequence 0 is never used
+    if (mode == ReadMode::newest) return head;
+    const std::uint64_t unread = head - next_sequence + 1;
+    if (unread <= options.buffers) return next_sequence;
+    return options.on_lag == LagPolicy::skip_to_newest ? head : head - options.buffers + 1;
+  }
+
+  Locate locate(ReadMode mode, std::uint64_t& known_head, Location& where) const noexcept {
+    known_head = std::max(known_head, header().head_sequence.load(std::memory_order_acquire));
+    const std::uint64_t target = choose_target(known_head, mode);
+    if (target == 0) return Locate::none;
+    const std::uint32_t index = view.ring[target % view.geometry.history].load(std::memory_order_acquire);
+    if (index >= view.geometry.slot_count) return Locate::corrupt;
+    const std::uint64_t found = view.slot(index).sequence.load(std::memory_order_acquire);
+    if (found != target) {
+      // The writer moved on since we read the head. A newer sequence in the
+      // slot proves that everything up to it is committed: skip ahead without
+      // waiting for the writer's head store.
+      if (found > target) known_head = std::max(known_head, found);
+      return Locate::moved;
+    }
+    where = {target, index};
+    return Locate::found;
+  }
+
+  void deliver(const Location& where, std::uint32_t size, double timestamp, SampleInfo& info) noexcept {
+    info.sequence = where.sequence;
+    info.lost = where.sequence - next_sequence;
+    info.timestamp = timestamp;
+    info.size = size;
+    next_sequence = where.sequence + 1;
+  }
+
+  // ---- borrow tokens
+
+  void clear_stale_pins(std::uint32_t token) noexcept {
+    const std::uint64_t bit = std::uint64_t{1} << token;
+    for (std::uint32_t i = 0; i < view.geometry.slot_count; ++i) {
+      auto& state = view.slot(i).borrow_state;
+      if ((state.load(std::memory_order_relaxed) & bit) != 0) {
+        state.fetch_and(~bit, std::memory_order_release);
+      }
+    }
+  }
+
+  bool reader_alive(std::uint64_t other_ticket) const noexcept {
+    if (other_ticket == 0 || other_ticket >= layout::kMaxReaderTicket) return true;  // not a ticket: leave it alone
+    return byte_locked_by_other(fd.get(), layout::kFirstReaderLockByte + other_ticket);
+  }
+
+  std::optional<std::uint32_t> acquire_token() noexcept {
+    std::lock_guard<std::mutex> lock(token_mutex);
+    if (ticket == 0 || tokens_in_use >= max_borrows) return std::nullopt;
+    const std::uint32_t count = view.geometry.borrow_slots;
+    auto* owners = header().token_owner;
+    for (std::uint32_t i = 0; i < count; ++i) {
+      const std::uint32_t t = (token_scan_start + i) % count;
+      std::uint64_t expected = 0;
+      if (owners[t].load(std::memory_order_relaxed) == 0 &&
+          owners[t].compare_exchange_strong(expected, ticket, std::memory_order_acq_rel)) {
+        // A token is only ever returned after its pin was cleared: nothing stale.
+        ++tokens_in_use;
+        return t;
+      }
+    }
+    // All taken. Tokens of readers that died are taken over; tickets are never
+    // reused, so a successful CAS proves the owner we checked is the dead one.
+    for (std::uint32_t i = 0; i < count; ++i) {
+      const std::uint32_t t = (token_scan_start + i) % count;
+      std::uint64_t owner = owners[t].load(std::memory_order_acquire);
+      if (owner == ticket || reader_alive(owner)) continue;
+      if (!owners[t].compare_exchange_strong(owner, ticket, std::memory_order_acq_rel)) continue;
+      clear_stale_pins(t);
+      ++tokens_in_use;
+      return t;
+    }
+    return std::nullopt;
+  }
+
+  void release_token(std::uint32_t token) noexcept {
+    std::lock_guard<std::mutex> lock(token_mutex);
+    header().token_owner[token].store(0, std::memory_order_release);
+    --tokens_in_use;
+  }
+
+  // Sets the token's bit in the slot unless the writer is writing it, then
+  // checks that the slot still holds the packet we want.
+  bool pin(const Location& where, std::uint32_t token) noexcept {
+    auto& state = view.slot(where.slot).borrow_state;
+    const std::uint64_t bit = std::uint64_t{1} << token;
+    std::uint64_t current = state.load(std::memory_order_relaxed);
+    do {
+      if ((current & layout::kWritingBit) != 0) return false;
+    } while (!state.compare_exchange_weak(current, current | bit, std::memory_order_acq_rel,
+                                          std::memory_order_relaxed));
+    if (view.slot(where.slot).sequence.load(std::memory_order_acquire) == where.sequence) return true;
+    state.fetch_and(~bit, std::memory_order_release);
+    return false;
+  }
+
+  void unpin(std::uint32_t slot, std::uint32_t token) noexcept {
+    view.slot(slot).borrow_state.fetch_and(~(std::uint64_t{1} << token), std::memory_order_release);
+  }
+
+  // ---- attempts
+
+  Attempt try_copy(void* buffer, std::size_t capacity, SampleInfo& info, ReadMode mode) noexcept {
+    std::uint64_t known_head = 0;
+    std::optional<std::uint32_t> token;  // taken only after repeated torn copies
+    struct TokenGuard {
+      ReaderCore& core;
+      std::optional<std::uint32_t>& token;
+      ~TokenGuard() {
+        if (token) core.release_token(*token);
+      }
+    } guard{*this, token};
+
+    std::uint32_t torn = 0;
+    bool asked_for_token = false;
+    for (int attempt = 0; attempt < kMaxAttempts; ++attempt) {
+      Location where{};
+      switch (locate(mode, known_head, where)) {
+        case Locate::none: return kNothingNew;
+        case Locate::corrupt: return finished(ReadStatus::corrupt_segment);
+        case Locate::moved: cpu_relax(); continue;
+        case Locate::found: break;
+      }
+      SlotHeader& slot = view.slot(where.slot);
+      if (!asked_for_token && torn >= options.optimistic_copies) {
+        asked_for_token = true;  // once per read: a busy token table stays busy for a while
+        token = acquire_token();
+      }
+      const bool pinned = token && pin(where, *token);
+      if (token && !pinned) continue;
+
+      const std::uint32_t size = slot.size.load(std::memory_order_relaxed);
+      const double timestamp = slot.timestamp.load(std::memory_order_relaxed);
+      const bool fits = size <= view.geometry.message_size && size <= capacity;
+      if (fits) std::memcpy(buffer, view.payload(where.slot), size);
+      std::atomic_thread_fence(std::memory_order_acquire);
+      const bool intact = slot.sequence.load(std::memory_order_relaxed) == where.sequence;
+      if (pinned) unpin(where.slot, *token);
+      if (!intact) {
+        ++torn;
+        ++stats.torn_copies;
+        continue;
+      }
+      if (size > view.geometry.message_size) return finished(ReadStatus::corrupt_segment);
+      if (size > capacity) {
+        info = SampleInfo{where.sequence, where.sequence - next_sequence, timestamp, size};
+        return finished(ReadStatus::buffer_too_small);
+      }
+      if (pinned) ++stats.pinned_copies;
+      deliver(where, size, timestamp, info);
+      return finished(ReadStatus::ok);
+    }
+    return kBusy;
+  }
+
+  Attempt try_borrow(BorrowedSample& sample, ReadMode mode) noexcept {
+    if (header().head_sequence.load(std::memory_order_acquire) < next_sequence) return kNothingNew;
+    const std::optional<std::uint32_t> token = acquire_token();
+    if (!token) return finished(ReadStatus::borrow_limit);
+
+    std::uint64_t known_head = 0;
+    for (int attempt = 0; attempt < kMaxAttempts; ++attempt) {
+      Location where{};
+      switch (locate(mode, known_head, where)) {
+        case Locate::none: release_token(*token); return kNothingNew;
+        case Locate::corrupt: release_token(*token); return finished(ReadStatus::corrupt_segment);
+        case Locate::moved: cpu_relax(); continue;
+        case Locate::found: break;
+      }
+      if (!pin(where, *token)) continue;
+      const SlotHeader& slot = view.slot(where.slot);
+      const std::uint32_t size = slot.size.load(std::memory_order_relaxed);
+      if (size > view.geometry.message_size) {
+        unpin(where.slot, *token);
+        release_token(*token);
+        return finished(ReadStatus::corrupt_segment);
+      }
+      deliver(where, size, slot.timestamp.load(std::memory_order_relaxed), sample.info_);
+      sample.data_ = view.payload(where.slot);
+      sample.token_ = *token;
+      sample.slot_ = where.slot;
+      return finished(ReadStatus::ok);
+    }
+    release_token(*token);
+    return kBusy;
+  }
+
+  // ---- waiting
+
+  bool publisher_alive() const noexcept {
+    if (header().state.load(std::memory_order_acquire) != kOpen) return false;
+    if (!own_description || (flags & layout::kPublisherHoldsLivenessLock) == 0) return true;
+    return byte_locked_by_other(fd.get(), layout::kPublisherLockByte);
+  }
+
+  bool wake_condition() const noexcept {
+    return header().head_sequence.load(std::memory_order_acquire) >= next_sequence ||
+           header().state.load(std::memory_order_acquire) != kOpen ||
+           unblock_requested.load(std::memory_order_acquire);
+  }
+
+  // Spin phase of a blocking wait. When the publisher last wrote from this
+  // CPU, spinning would only keep it off the CPU: yield once instead, which
+  // lets a runnable publisher (or ping-pong partner) go first without a
+  // futex round trip. A yield that takes long means the publisher hogs this
+  // CPU; then yielding only hurts (the scheduler also pushes a yielding task
+  // back, so later wake-ups stop preempting), and we sleep instead for a while.
+  bool spin_until_ready(TimePoint start, TimePoint deadline) noexcept {
+    if (spin_limit <= nanoseconds::zero()) return false;
+    if (header().publisher_cpu.load(std::memory_order_relaxed) == sched_getcpu()) {
+      if (start < no_yield_until) return false;
+      sched_yield();
+      const TimePoint after = Clock::now();
+      const bool ready = wake_condition();
+      if (after - start > options.spin.max_spin) {
+        no_yield_until = after + yield_backoff;
+        yield_backoff = std::min(2 * yield_backoff, kMaxYieldBackoff);
+        ++stats.yield_backoffs;
+      } else if (ready) {
+        yield_backoff = kMinYieldBackoff;
+      }
+      return ready;
+    }
+    const TimePoint spin_end = std::min(deadline, start + spin_limit);
+    for (;;) {
+      for (int i = 0; i < 4; ++i) {
+        if (wake_condition()) return true;
+        cpu_relax();
+      }
+      if (Clock::now() >= spin_end) return wake_condition();
+    }
+  }
+
+  // Spin as long as max_spin while packets keep arriving within it (a
+  // futex sleep and wake-up costs more than that); when they arrive later,
+  // spinning is wasted CPU, so halve the limit towards min_spin.
+  void learn_arrival(nanoseconds delay) noexcept {
+    const nanoseconds lower = options.spin.min_spin;
+    const nanoseconds upper = options.spin.max_spin;
+    if (upper <= nanoseconds::zero()) return;
+    if (delay <= upper) {
+      spin_limit = std::clamp(2 * spin_limit, std::max(lower, nanoseconds(1)), upper);
+    } else {
+      spin_limit = std::max(lower, spin_limit / 2);
+    }
+  }
+
+  // Returns ok when woken for any reason worth a new attempt.
+  ReadStatus wait_for_packet(TimePoint deadline) noexcept {
+    const TimePoint start = Clock::now();
+    if (spin_until_ready(start, deadline)) {
+      ++stats.spin_wakeups;
+      learn_arrival(Clock::now() - start);
+      return ReadStatus::ok;
+    }
+    SegmentHeader& shared = header();
+    const nanoseconds check_interval = options.liveness_check_interval;
+    TimePoint last_check = start;
+    ReadStatus result = ReadStatus::ok;
+    shared.sleeping_readers.fetch_add(1, std::memory_order_seq_cst);
+    for (;;) {
+      const std::uint32_t word = shared.wake_word.load(std::memory_order_seq_cst);
+      if (wake_condition()) break;
+      const TimePoint now = Clock::now();
+      if (now >= deadline) {
+        result = ReadStatus::timeout;
+        break;
+      }
+      if (now - last_check >= check_interval) {
+        last_check = now;
+        if (!publisher_alive()) {
+          result = ReadStatus::publisher_gone;
+          break;
+        }
+      }
+      nanoseconds sleep = check_interval - (now - last_check);
+      if (deadline != TimePoint::max()) sleep = std::min(sleep, nanoseconds(deadline - now));
+      ++stats.futex_sleeps;
+      futex_wait(&shared.wake_word, word, sleep);
+    }
+    shared.sleeping_readers.fetch_sub(1, std::memory_order_seq_cst);
+    if (result == ReadStatus::ok) learn_arrival(Clock::now() - start);
+    if (result == ReadStatus::timeout && !publisher_alive()) result = ReadStatus::publisher_gone;
+    return result;
+  }
+
+  template <typename TryOnce>
+  ReadStatus run(TryOnce&& try_once, nanoseconds timeout) noexcept {
+    const bool blocking = timeout != kNoWait;
+    const TimePoint deadline = blocking ? deadline_after(timeout) : TimePoint{};
+    TimePoint last_busy_check = Clock::now();
+    for (;;) {
+      // Read the state before trying: packets written before a close are still delivered.
+      const std::uint32_t state = header().state.load(std::memory_order_acquire);
+      const Attempt attempt = try_once();
+      if (attempt.kind == Attempt::finished) return attempt.status;
+      if (state != kOpen) return status_for_state(state);
+      if (!blocking) return ReadStatus::no_data;
+      if (unblock_requested.exchange(false, std::memory_order_acq_rel)) return ReadStatus::unblocked;
+      if (attempt.kind == Attempt::busy) {
+        // The writer keeps overwriting our packet, or stopped half-way through publishing one.
+        const TimePoint now = Clock::now();
+        if (now >= deadline) return publisher_alive() ? ReadStatus::timeout : ReadStatus::publisher_gone;
+        if (now - last_busy_check >= options.liveness_check_interval) {
+          last_busy_check = now;
+          if (!publisher_alive()) return ReadStatus::publisher_gone;
+        }
+        sched_yield();
+        continue;
+      }
+      const ReadStatus waited = wait_for_packet(deadline);
+      if (waited != ReadStatus::ok) return waited;
+    }
+  }
+};
+
+}  // namespace detail
+
+// ---- BorrowedSample
+
+BorrowedSample::BorrowedSample(BorrowedSample&& other) noexcept
+    : core_(std::move(other.core_)),
+      data_(other.data_),
+      info_(other.info_),
+      token_(other.token_),
+      slot_(other.slot_) {
+  other.data_ = nullptr;
+  other.info_ = {};
+}
+
+BorrowedSample& BorrowedSample::operator=(BorrowedSample&& other) noexcept {
+  if (this != &other) {
+    release();
+    core_ = std::move(other.core_);
+    data_ = other.data_;
+    info_ = other.info_;
+    token_ = other.token_;
+    slot_ = other.slot_;
+    other.data_ = nullptr;
+    other.info_ = {};
+  }
+  return *this;
+}
+
+void BorrowedSample::release() noexcept {
+  if (core_ && data_ != nullptr) {
+    core_->unpin(slot_, token_);
+    core_->release_token(token_);
+  }
+  core_.reset();
+  data_ = nullptr;
+  info_ = {};
+}
+
+// ---- ShmReader
+
+namespace {
+
+layout::Geometry validate_segment_info(const layout::SegmentInfo& info, std::size_t file_size) {
+  if (std::memcmp(info.magic, layout::kMagic, sizeof(info.magic)) != 0) {
+    throw ShmError(ShmErrc::bad_magic, "not an ln shared-memory ring segment (bad magic)");
+  }
+  if (info.version != layout::kVersion) {
+    throw ShmError(ShmErrc::bad_version, "segment layout version " + std::to_string(info.version) +
+                                             ", expected " + std::to_string(layout::kVersion));
+  }
+  if (info.info_size != sizeof(layout::SegmentInfo) || layout::checksum(info) != info.checksum) {
+    throw ShmError(ShmErrc::bad_layout, "segment header checksum mismatch");
+  }
+  layout::Geometry geometry;
+  try {
+    geometry = layout::compute_geometry(info.message_size, info.history, info.borrow_slots);
+  } catch (const ShmError& error) {
+    throw ShmError(ShmErrc::bad_layout, std::string("segment header: ") + error.what());
+  }
+  if (geometry.slot_count != info.slot_count || geometry.slot_stride != info.slot_stride ||
+      geometry.ring_offset != info.ring_offset || geometry.slots_offset != info.slots_offset ||
+      geometry.total_size != info.total_size) {
+    throw ShmError(ShmErrc::bad_layout, "segment header sizes are inconsistent");
+  }
+  if (geometry.total_size > file_size) {
+    throw ShmError(ShmErrc::too_small, "segment file is " + std::to_string(file_size) +
+                                           " bytes, header says " +
+                                           std::to_string(geometry.total_size));
+  }
+  return geometry;
+}
+
+}  // namespace
+
+ShmReader ShmReader::attach(UniqueFd segment_fd, const ReaderOptions& options) {
+  ShmReader reader = attach(segment_fd.get(), options);
+  segment_fd.reset();
+  return reader;
+}
+
+ShmReader ShmReader::attach(int segment_fd, const ReaderOptions& options) {
+  auto core = std::make_shared<detail::ReaderCore>();
+  core->fd = reopen_as_own_description(segment_fd);
+  core->own_description = core->fd.valid();
+  if (!core->own_description) {
+    core->fd.reset(::fcntl(segment_fd, F_DUPFD_CLOEXEC, 0));
+    if (!core->fd.valid()) {
+      const int err = errno;
+      throw ShmError(ShmErrc::system_error, std::string("dup of segment descriptor: ") + std::strerror(err), err);
+    }
+  }
+
+  const std::size_t file_size = sealed_memfd_size(core->fd.get());
+  if (file_size < sizeof(SegmentHeader)) {
+    throw ShmError(ShmErrc::too_small, "segment file is smaller than a segment header");
+  }
+  layout::SegmentInfo info{};
+  if (::pread(core->fd.get(), &info, sizeof(info), 0) != static_cast<ssize_t>(sizeof(info))) {
+    const int err = errno;
+    throw ShmError(ShmErrc::system_error, "reading segment header failed", err);
+  }
+  const layout::Geometry geometry = validate_segment_info(info, file_size);
+
+  if (options.buffers == 0 || options.buffers > geometry.history) {
+    throw ShmError(ShmErrc::invalid_argument,
+                   "reader buffers must be between 1 and the segment history (" +
+                       std::to_string(geometry.history) + ")");
+  }
+  if (options.liveness_check_interval <= std::chrono::milliseconds::zero()) {
+    throw ShmError(ShmErrc::invalid_argument, "liveness_check_interval must be positive");
+  }
+  if (options.spin.min_spin < nanoseconds::zero() || options.spin.max_spin < options.spin.min_spin) {
+    throw ShmError(ShmErrc::invalid_argument, "spin policy needs 0 <= min_spin <= max_spin");
+  }
+
+  core->mapping = Mapping::map_shared(core->fd.get(), geometry.total_size);
+  core->view = SegmentView(core->mapping.data(), geometry);
+  core->flags = info.flags;
+  core->options = options;
+  core->max_borrows = std::min(options.max_borrows, geometry.borrow_slots);
+  if (core->own_description && geometry.borrow_slots != 0) {
+    // An identity whose liveness the kernel maintains: our lock on byte 1 + ticket.
+    const std::uint64_t ticket =
+        core->view.header->next_reader_ticket.fetch_add(1, std::memory_order_relaxed) + 1;
+    if (ticket < layout::kMaxReaderTicket &&
+        try_lock_byte(core->fd.get(), layout::kFirstReaderLockByte + ticket)) {
+      core->ticket = ticket;
+      core->token_scan_start = static_cast<std::uint32_t>(ticket % geometry.borrow_slots);
+    }
+  }
+  core->spin_limit = options.spin.max_spin;
+  core->next_sequence =
+      options.resume_after != 0
+          ? options.resume_after + 1
+          : core->view.header->head_sequence.load(std::memory_order_acquire) + 1;
+  return ShmReader(std::move(core));
+}
+
+ShmReader::ShmReader(std::shared_ptr<detail::ReaderCore> core) noexcept : core_(std::move(core)) {}
+ShmReader::ShmReader(ShmReader&&) noexcept = default;
+ShmReader& ShmReader::operator=(ShmReader&&) noexcept = default;
+ShmReader::~ShmReader() = default;
+
+ReadStatus ShmReader::read(void* buffer, std::size_t capacity, SampleInfo& info,
+                           nanoseconds timeout, ReadMode mode) {
+  detail::ReaderCore& core = *core_;
+  return core.run([&] { return core.try_copy(buffer, capacity, info, mode); }, timeout);
+}
+
+ReadStatus ShmReader::borrow(BorrowedSample& sample, nanoseconds timeout, ReadMode mode) {
+  sample.release();
+  detail::ReaderCore& core = *core_;
+  const ReadStatus status = core.run([&] { return core.try_borrow(sample, mode); }, timeout);
+  if (status == ReadStatus::ok) sample.core_ = core_;
+  return status;
+}
+
+bool ShmReader::has_new_data() const noexcept {
+  return core_->header().head_sequence.load(std::memory_order_acquire) >= core_->next_sequence;
+}
+
+void ShmReader::unblock() noexcept {
+  core_->unblock_requested.store(true, std::memory_order_seq_cst);
+  // Changing the futex word makes a reader that is just about to sleep return at once.
+  core_->header().wake_word.fetch_add(1, std::memory_order_seq_cst);
+  futex_wake_all(&core_->header().wake_word);
+}
+
+bool ShmReader::publisher_alive() const noexcept { return core_->publisher_alive(); }
+std::uint64_t ShmReader::last_sequence() const noexcept { return core_->next_sequence - 1; }
+std::uint32_t ShmReader::message_size() const noexcept { return core_->view.geometry.message_size; }
+std::uint32_t ShmReader::history() const noexcept { return core_->view.geometry.history; }
+ReaderStats ShmReader::stats() const noexcept { return core_->stats; }
+
+}  // namespace ln::transport
