@@ -132,12 +132,26 @@
 // ---------------------------------------------------------------------------
 // Client -> client (peer server: abstract Unix socket on one host, TCP across)
 //
-// open_segment     topic_id (int), subscription_id (int)
-//   -> message_size, slots, segment_generation (int) and the segment's file
+// open_segment     topic_id (int), subscription_id (int), topic (str,
+//                  optional: the publisher may look the port up by name),
+//                  buffers (int, optional: the subscriber's buffers; the
+//                  publisher grows its segment to at least that many slots
+//                  before answering)
+//   -> message_size, slots, segment_generation (int), last_sequence (int:
+//      the newest packet written so far) and the segment's file
 //      descriptor passed with SCM_RIGHTS alongside the response frame.
 //      Only answered for peers with the same uid (SO_PEERCRED).
 // call             service_id (int), request (str: the flattened request)
 //   -> response (str) or an error response; see the services code.
+//   As implemented by services/ (call_frames.hpp): the caller opens a
+//   connection of its own per service handle and sends `call` with
+//   service_id only, as the handshake. The peer server answers ok if
+//   services::Dispatcher::has_provider(service_id) (else an error response
+//   with LNE_SVC_NOT_REGISTERED), then hands the socket to
+//   Dispatcher::adopt_connection() and stops reading it. The caller sends
+//   nothing before that ok. From then on both sides exchange only the
+//   binary service frames of services/call_frames.hpp (same u32 size
+//   envelope; first payload byte 0x10/0x11, never a Message kind).
 #pragma once
 
 #include <string_view>
