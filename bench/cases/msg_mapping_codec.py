@@ -1,0 +1,1 @@
+../../msg_mapping/bench/msg_mapping_codec.py

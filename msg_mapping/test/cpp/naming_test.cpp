@@ -1,0 +1,88 @@
+#include <gtest/gtest.h>
+
+#include "msg_mapping/naming.hpp"
+#include "msg_mapping/ros_model.hpp"
+
+namespace msg_mapping {
+namespace {
+
+TEST(Naming, CamelToSnakeMatchesRosidl) {
+  EXPECT_EQ(camel_to_snake("HTTPServer"), "http_server");
+  EXPECT_EQ(camel_to_snake("TreeInfo2"), "tree_info2");
+  EXPECT_EQ(camel_to_snake("numCounts"), "num_counts");
+  EXPECT_EQ(camel_to_snake("ABC"), "abc");
+  EXPECT_EQ(camel_to_snake("PointCloud2"), "point_cloud2");
+  EXPECT_EQ(camel_to_snake("Pose2DStamped"), "pose2_d_stamped");
+}
+
+TEST(Naming, PackageAndTypeFromLnName) {
+  const NamingOptions options;
+  RosTypeName n = ros_type_name_for("ln/file_services2/tree_info2", options);
+  EXPECT_EQ(n.package, "ln_ln_msgs");
+  EXPECT_EQ(n.type, "FileServices2TreeInfo2");
+  n = ros_type_name_for("two_doubles", options);
+  EXPECT_EQ(n.package, "ln_msgs");
+  EXPECT_EQ(n.type, "TwoDoubles");
+  n = ros_type_name_for("MyRobot/arm-state.v2", options);
+  EXPECT_EQ(n.package, "my_robot_ln_msgs");
+  EXPECT_EQ(n.type, "ArmStateV2");
+  n = ros_type_name_for("3d/9lives", options);
+  EXPECT_EQ(n.package, "ln_3d_ln_msgs");
+  EXPECT_EQ(n.type, "Ln9lives");
+  n = ros_type_name_for("x/none", options);
+  EXPECT_EQ(n.type, "None" "Msg");  // Python keyword
+  NamingOptions single;
+  single.single_package = "robot_interfaces";
+  n = ros_type_name_for("ln/string", single);
+  EXPECT_EQ(n.package, "robot_interfaces");
+  EXPECT_EQ(n.type, "LnString");
+}
+
+TEST(Naming, UnmappableLnNamesAreErrors) {
+  const NamingOptions options;
+  EXPECT_THROW(ros_type_name_for("robot/pos\xc3\xa9", options), Error);
+  EXPECT_THROW(ros_type_name_for("robot/a+b", options), Error);
+  EXPECT_THROW(ros_type_name_for("__/x", options), Error);
+  NamingOptions bad;
+  bad.single_package = "Bad_Name_";
+  EXPECT_THROW(ros_type_name_for("a/b", bad), Error);
+  try {
+    ros_type_name_for("robot/a+b", options);
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("'robot/a+b'"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("'+'"), std::string::npos);
+  }
+}
+
+TEST(Naming, FieldNames) {
+  std::string why;
+  EXPECT_EQ(ros_field_name_for("string", &why), "string_field");
+  EXPECT_NE(why.find("keyword"), std::string::npos);
+  EXPECT_EQ(ros_field_name_for("numCounts", &why), "num_counts");
+  EXPECT_EQ(ros_field_name_for("plain", &why), "plain");
+  EXPECT_TRUE(why.empty());
+  EXPECT_EQ(ros_field_name_for("_private"), "private_field");
+  EXPECT_EQ(ros_field_name_for("a__b_"), "a_b");
+  EXPECT_EQ(ros_field_name_for("_1"), "field_1");
+  EXPECT_EQ(ros_field_name_for("True"), "true_field");
+  EXPECT_EQ(ros_field_name_for("int8"), "int8_field");
+  EXPECT_EQ(ln_field_name_for("default"), "default_field");
+  EXPECT_EQ(ln_field_name_for("data"), "data");
+}
+
+TEST(Naming, RosidlPatterns) {
+  EXPECT_TRUE(is_valid_ros_package_name("std_msgs"));
+  EXPECT_FALSE(is_valid_ros_package_name("std__msgs"));
+  EXPECT_FALSE(is_valid_ros_package_name("msgs_"));
+  EXPECT_FALSE(is_valid_ros_package_name("1msgs"));
+  EXPECT_TRUE(is_valid_ros_type_name("Pose2D"));
+  EXPECT_FALSE(is_valid_ros_type_name("pose"));
+  EXPECT_FALSE(is_valid_ros_type_name("Pose_2"));
+  EXPECT_TRUE(is_valid_ros_constant_name("FLOAT64"));
+  EXPECT_TRUE(is_valid_ros_constant_name("A_B"));
+  EXPECT_FALSE(is_valid_ros_constant_name("A__B"));
+  EXPECT_FALSE(is_valid_ros_constant_name("A_"));
+}
+
+}  // namespace
+}  // namespace msg_mapping
