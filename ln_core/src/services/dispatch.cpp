@@ -1,0 +1,892 @@
+#include "services/dispatch.hpp"
+
+#include <cxxabi.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <sched.h>
+#include <sys/epoll.h>
+#include <sys/eventfd.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <cstring>
+#include <exception>
+#include <list>
+
+#define NO_CPP_WRAPPER
+#include "ln/ln.h"
+#include "services/socket_io.hpp"
+
+namespace ln::services {
+
+// ------------------------------------------------------------- internals
+
+struct Provider {
+  std::uint32_t service_id = 0;
+  std::string name;
+  std::shared_ptr<const ServiceSignature> signature;
+  Handler handler = nullptr;
+  void* user_data = nullptr;
+  ServiceGroup* group = nullptr;
+  std::atomic<bool> removed{false};
+  // Guarded by the dispatcher's mutex:
+  ConnectionObserver observer = nullptr;
+  void* observer_data = nullptr;
+  int running = 0;  // handlers in progress
+};
+
+struct ProviderConnection {
+  ProviderConnection(int socket, std::shared_ptr<Provider> served, std::size_t max_payload)
+      : fd(socket), provider(std::move(served)), assembler(max_payload) {}
+  // Closed only when nothing refers to it any more, so a deferred response
+  // can never write into a descriptor number that was reused meanwhile.
+  ~ProviderConnection() { ::close(fd); }
+
+  io::Result send(const char* data, std::size_t size) {
+    std::lock_guard<std::mutex> lock(write_mutex);
+    return io::send_all(fd, data, size, io::Deadline());
+  }
+
+  const int fd;
+  const std::shared_ptr<Provider> provider;
+  frames::FrameAssembler assembler;  // used only by the thread that claimed the connection
+  std::mutex write_mutex;
+  std::atomic<bool> closed{false};
+  // Guarded by the dispatcher's mutex:
+  std::uint64_t key = 0;
+  int registered_in = -1;  // the epoll set it is registered with
+  bool claimed = false;    // a thread is reading it
+};
+
+namespace {
+
+// In a pool's set, where several threads wait, a connection fires once and
+// waits to be re-armed by the thread that served it: never two threads on
+// one connection. A group's own set has one waiter at a time, so there a
+// connection stays armed (level-triggered) and costs no re-arm per request.
+constexpr std::uint32_t shared_set_events = EPOLLIN | EPOLLRDHUP | EPOLLONESHOT;
+constexpr std::uint32_t own_set_events = EPOLLIN | EPOLLRDHUP;
+
+thread_local const Provider* handling_provider = nullptr;
+
+Status errno_failure(const std::string& what, int err) {
+  return Status::failure(LNE_CHECK_ERRNO, what + ": " + std::strerror(err), err);
+}
+
+// epoll_wait() that first polls, yielding, for up to `spin_us` (WaitPolicy).
+int wait_for_events(int epoll_fd, epoll_event* events, int max_events, const io::Deadline& deadline,
+                    unsigned spin_us) {
+  if (spin_us > 0) {
+    const io::Clock::time_point until = io::Clock::now() + std::chrono::microseconds(spin_us);
+    do {
+      const int n = ::epoll_wait(epoll_fd, events, max_events, 0);
+      if (n != 0) return n;
+      ::sched_yield();
+    } while (io::Clock::now() < until && !deadline.expired());
+  }
+  return ::epoll_wait(epoll_fd, events, max_events, deadline.remaining_ms());
+}
+
+}  // namespace
+
+// An epoll set plus the eventfd that wakes its waiters (key 0).
+struct EventSet {
+  EventSet() = default;
+  EventSet(const EventSet&) = delete;
+  EventSet& operator=(const EventSet&) = delete;
+  ~EventSet() {
+    if (epoll_fd >= 0) ::close(epoll_fd);
+    if (wake_fd >= 0) ::close(wake_fd);
+  }
+
+  Status open() {
+    epoll_fd = ::epoll_create1(EPOLL_CLOEXEC);
+    if (epoll_fd < 0) return errno_failure("epoll_create1", errno);
+    wake_fd = ::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
+    if (wake_fd < 0) return errno_failure("eventfd", errno);
+    epoll_event ev{};
+    ev.events = EPOLLIN;
+    ev.data.u64 = 0;
+    if (::epoll_ctl(epoll_fd, EPOLL_CTL_ADD, wake_fd, &ev) != 0) return errno_failure("epoll_ctl", errno);
+    return {};
+  }
+  void wake() const {
+    const std::uint64_t one = 1;
+    [[maybe_unused]] const ssize_t n = ::write(wake_fd, &one, sizeof one);
+  }
+  void consume() const {
+    std::uint64_t value = 0;
+    [[maybe_unused]] const ssize_t n = ::read(wake_fd, &value, sizeof value);
+  }
+
+  int epoll_fd = -1;
+  int wake_fd = -1;
+};
+
+struct PendingEvent {
+  std::shared_ptr<Provider> provider;
+  int event = 0;
+  int fd = -1;
+};
+
+struct ServiceGroup {
+  std::string name;
+  EventSet events;              // its connections while it is handled directly
+  ThreadPool* pool = nullptr;   // set while a pool serves it
+  bool busy = false;            // a thread is in wait_and_handle(); others take turns
+  std::condition_variable turn;
+  bool unblock_pending = false;
+  std::vector<PendingEvent> observer_events;
+};
+
+struct PoolThread {
+  std::thread thread;
+  bool finished = false;
+};
+
+struct ThreadPool {
+  std::string name;
+  EventSet events;
+  std::list<PoolThread> threads;  // a list: threads keep the address of their entry
+  unsigned active = 0;            // threads not asked to retire
+  unsigned retire_requests = 0;
+  bool stopping = false;
+  int policy = -1;
+  int priority = -1;
+  unsigned affinity_mask = 0;
+};
+
+namespace {
+
+Status apply_schedparam(const ThreadPool& pool, pthread_t thread) {
+  if (pool.policy != -1 || pool.priority != -1) {
+    int policy = 0;
+    sched_param param{};
+    int err = ::pthread_getschedparam(thread, &policy, &param);
+    if (err != 0) return errno_failure("pthread_getschedparam", err);
+    const int new_policy = pool.policy != -1 ? pool.policy : policy;
+    if (pool.priority != -1)
+      param.sched_priority = pool.priority;
+    else if (new_policy != policy)
+      param.sched_priority = ::sched_get_priority_min(new_policy);
+    err = ::pthread_setschedparam(thread, new_policy, &param);
+    if (err != 0) return errno_failure("thread pool '" + pool.name + "': pthread_setschedparam", err);
+  }
+  if (pool.affinity_mask != 0) {
+    cpu_set_t cpus;
+    CPU_ZERO(&cpus);
+    for (unsigned cpu = 0; cpu < 8 * sizeof pool.affinity_mask; ++cpu)
+      if (pool.affinity_mask & (1u << cpu)) CPU_SET(cpu, &cpus);
+    const int err = ::pthread_setaffinity_np(thread, sizeof cpus, &cpus);
+    if (err != 0) return errno_failure("thread pool '" + pool.name + "': pthread_setaffinity_np", err);
+  }
+  return {};
+}
+
+// Writes one response frame to `connection`. A caller that has gone (it
+// aborted or timed out) simply does not get it.
+Status send_response(ProviderConnection& connection, std::uint32_t request_id, int result, std::string_view text,
+                     std::string_view body_flat, const MessageLayout* layout, const void* host, std::size_t body_size) {
+  const std::size_t overhead = frames::response_overhead(text);
+  const std::size_t total = overhead + body_size;
+  char small[512];
+  std::unique_ptr<char[]> large;
+  char* frame = small;
+  if (total > sizeof small) {
+    large.reset(new (std::nothrow) char[total]);
+    if (!large) return Status::failure(LNE_NO_MEM, "no memory for a response of " + std::to_string(total) + " bytes");
+    frame = large.get();
+  }
+  frames::write_response_head(frame, {request_id, result}, text, body_size);
+  if (layout != nullptr)
+    write_flat(*layout, host, frame + overhead);
+  else if (body_size > 0)
+    std::memcpy(frame + overhead, body_flat.data(), body_size);
+  const io::Result r = connection.send(frame, total);
+  if (r.outcome == io::Outcome::Failed && !connection.closed)
+    return errno_failure("sending the service response", r.sys_errno);
+  return {};
+}
+
+}  // namespace
+
+// --------------------------------------------------------------- Request
+
+void* to_handle(Request* request) { return static_cast<RequestHandle*>(request); }
+
+Request* provider_request(void* handle) {
+  auto* h = static_cast<RequestHandle*>(handle);
+  return h != nullptr && h->side() == RequestHandle::Side::Provider ? static_cast<Request*>(h) : nullptr;
+}
+
+Request::Request(std::shared_ptr<Provider> provider, std::shared_ptr<ProviderConnection> connection,
+                 std::uint32_t request_id, frames::Payload payload, const Limits& limits)
+    : RequestHandle(Side::Provider),
+      provider_(std::move(provider)),
+      connection_(std::move(connection)),
+      request_id_(request_id),
+      payload_(std::move(payload)),
+      limits_(limits) {}
+
+std::string_view Request::request_data() const {
+  return {payload_.data() + frames::header_size, payload_.size() - frames::header_size};
+}
+
+Status Request::set_data(void* data, const char* signature) {
+  const ServiceSignature& registered = *provider_->signature;
+  if (!same_signature(registered.text(), signature))
+    return Status::failure(LNE_SVC_REQ_SET_DATA_WRONG, "set_data(): signature '" +
+                                                           std::string(signature ? signature : "(null)") +
+                                                           "' differs from the service's '" + registered.text() + "'");
+  if (data == nullptr) return Status::failure(LNE_INVALID_PARAMETER, "set_data(): no data");
+  Status s = unflatten(registered.request(), payload_.data() + frames::header_size,
+                       payload_.size() - frames::header_size, data, limits_, arena_);
+  if (s.ok()) data_ = data;
+  return s;
+}
+
+Status Request::respond() {
+  const ServiceSignature& signature = *provider_->signature;
+  if (data_ == nullptr && !signature.response().empty())
+    return Status::failure(LNE_INVALID_PARAMETER, "respond(): call set_data() first (it names the response struct)");
+  const void* host = data_ ? static_cast<const char*>(data_) + signature.response_offset() : nullptr;
+  return answer(0, {}, host, {});
+}
+
+Status Request::respond_data(const void* data) {
+  if (data == nullptr) return Status::failure(LNE_INVALID_PARAMETER, "respond_data(): no data");
+  return answer(0, {}, static_cast<const char*>(data) + provider_->signature->response_offset(), {});
+}
+
+Status Request::respond_flat(std::string_view flat_response) { return answer(0, {}, nullptr, flat_response); }
+
+Status Request::respond_error(int error, std::string_view message) {
+  if (error == 0 || error == -LNE_SVC_RESP_LATER)
+    return Status::failure(LNE_INVALID_PARAMETER, "respond_error(): " + std::to_string(error) + " is no error code");
+  return answer(error, message, nullptr, {});
+}
+
+bool Request::is_aborted() const { return connection_->closed || io::peer_closed(connection_->fd); }
+
+Status Request::answer(int result, std::string_view text, const void* host, std::string_view flat) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (answered_)
+      return Status::failure(LNE_SVC_HANDLER_MULTI_RESP,
+                             "service '" + provider_->name + "': the request was already answered");
+    answered_ = true;
+    sending_ = true;
+  }
+  const Status s = send_frame(result, text, host, flat);
+  bool done = false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    sending_ = false;
+    done = !handler_running_;
+  }
+  if (done) delete this;
+  return s;
+}
+
+Status Request::send_frame(int result, std::string_view text, const void* host, std::string_view flat) {
+  const MessageLayout& layout = provider_->signature->response();
+  std::size_t body_size = 0;
+  Status invalid_response;
+  if (result == 0) {
+    invalid_response = host != nullptr ? flat_size(layout, host, limits_, body_size)
+                                       : check_flat(layout, flat.data(), flat.size(), limits_);
+    if (invalid_response.ok() && host == nullptr) body_size = flat.size();
+  }
+  if (!invalid_response.ok()) {
+    // The caller must not wait for a response that will never come.
+    const std::string reason = "provider of '" + provider_->name + "' failed to send its response: " +
+                               invalid_response.detail();
+    Status s = send_response(*connection_, request_id_, invalid_response.code(), reason, {}, nullptr, nullptr, 0);
+    return s.ok() ? invalid_response : s;
+  }
+  return send_response(*connection_, request_id_, result, text, flat, result == 0 && host ? &layout : nullptr, host,
+                       body_size);
+}
+
+void Request::handler_returned(int ret) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  handler_running_ = false;
+  if (answered_) {
+    const bool done = !sending_;
+    lock.unlock();
+    if (done) delete this;
+    return;
+  }
+  if (ret == -LNE_SVC_RESP_LATER) return;  // lives on until answered
+  lock.unlock();
+  if (ret == 0)
+    answer(-LNE_SVC_HANDLER_NO_RESP, "handler of service '" + provider_->name + "' returned without responding", nullptr,
+           {});
+  else
+    answer(ret, {}, nullptr, {});
+}
+
+// ------------------------------------------------------------ Dispatcher
+
+Dispatcher::Dispatcher(void* client, Limits limits, WaitPolicy wait) : client_(client), limits_(limits), wait_(wait) {}
+
+Dispatcher::~Dispatcher() {
+  std::vector<ThreadPool*> pools;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (auto& [name, pool] : pools_) {
+      pool->stopping = true;
+      pool->events.wake();
+      pools.push_back(pool.get());
+    }
+  }
+  for (ThreadPool* pool : pools)
+    for (PoolThread& t : pool->threads)
+      if (t.thread.joinable()) t.thread.join();
+
+  std::vector<ServiceGroup*> groups;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (default_group_) groups.push_back(default_group_.get());
+    for (auto& [name, group] : groups_) groups.push_back(group.get());
+    for (ServiceGroup* group : groups) {
+      group->unblock_pending = true;
+      group->events.wake();
+    }
+  }
+  std::vector<std::shared_ptr<ProviderConnection>> connections;
+  {
+    // Whoever is still in wait_and_handle() leaves now; wait for it.
+    std::unique_lock<std::mutex> lock(mutex_);
+    for (ServiceGroup* group : groups) group->turn.wait(lock, [&] { return !group->busy; });
+    for (auto& [key, connection] : connections_) connections.push_back(connection);
+  }
+  for (auto& connection : connections) close_connection(connection);
+}
+
+Status Dispatcher::group_locked(const char* name, ServiceGroup*& out) {
+  if (ServiceGroup* found = find_group_locked(name)) {
+    out = found;
+    return {};
+  }
+  auto group = std::make_unique<ServiceGroup>();
+  group->name = name ? name : "";
+  Status s = group->events.open();
+  if (!s.ok()) return s;
+  out = group.get();
+  if (name == nullptr)
+    default_group_ = std::move(group);
+  else
+    groups_.emplace(name, std::move(group));
+  return {};
+}
+
+ServiceGroup* Dispatcher::find_group_locked(const char* name) {
+  if (name == nullptr) return default_group_.get();
+  const auto it = groups_.find(std::string_view(name));
+  return it == groups_.end() ? nullptr : it->second.get();
+}
+
+Status Dispatcher::pool_locked(const char* name, ThreadPool*& out) {
+  if (name == nullptr) return Status::failure(LNE_INVALID_PARAMETER, "thread pool without a name");
+  const auto it = pools_.find(std::string_view(name));
+  if (it != pools_.end()) {
+    out = it->second.get();
+    return {};
+  }
+  auto pool = std::make_unique<ThreadPool>();
+  pool->name = name;
+  Status s = pool->events.open();
+  if (s.ok()) s = start_threads_locked(*pool, 1);
+  if (!s.ok()) return s;
+  out = pool.get();
+  pools_.emplace(name, std::move(pool));
+  return {};
+}
+
+// ------------------------------------------------------------- providers
+
+Status Dispatcher::add_provider(std::uint32_t service_id, std::string name,
+                                std::shared_ptr<const ServiceSignature> signature, Handler handler, void* user_data,
+                                const char* group_name) {
+  if (handler == nullptr) return Status::failure(LNE_SVC_NO_HANDLER, "service '" + name + "' has no handler");
+  if (!signature) return Status::failure(LNE_INVALID_PARAMETER, "service '" + name + "' has no signature");
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (providers_.count(service_id) != 0)
+    return Status::failure(LNE_SVC_ALREADY_REGISTERED, "service id " + std::to_string(service_id) + " is taken");
+  ServiceGroup* group = nullptr;
+  Status s = group_locked(group_name, group);
+  if (!s.ok()) return s;
+  auto provider = std::make_shared<Provider>();
+  provider->service_id = service_id;
+  provider->name = std::move(name);
+  provider->signature = std::move(signature);
+  provider->handler = handler;
+  provider->user_data = user_data;
+  provider->group = group;
+  providers_.emplace(service_id, std::move(provider));
+  return {};
+}
+
+Status Dispatcher::remove_provider(std::uint32_t service_id) {
+  std::shared_ptr<Provider> provider;
+  std::vector<std::shared_ptr<ProviderConnection>> connections;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const auto it = providers_.find(service_id);
+    if (it == providers_.end())
+      return Status::failure(LNE_SVC_NOT_REGISTERED, "no provider with id " + std::to_string(service_id));
+    provider = it->second;
+    provider->removed = true;
+    providers_.erase(it);
+    for (auto& [key, connection] : connections_)
+      if (connection->provider == provider) connections.push_back(connection);
+  }
+  for (auto& connection : connections) close_connection(connection);
+  std::unique_lock<std::mutex> lock(mutex_);
+  const int own = handling_provider == provider.get() ? 1 : 0;
+  handlers_done_.wait(lock, [&] { return provider->running <= own; });
+  return {};
+}
+
+bool Dispatcher::has_provider(std::uint32_t service_id) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return providers_.count(service_id) != 0;
+}
+
+Status Dispatcher::set_connection_observer(std::uint32_t service_id, ConnectionObserver observer, void* user_data) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto it = providers_.find(service_id);
+  if (it == providers_.end())
+    return Status::failure(LNE_SVC_NOT_REGISTERED, "no provider with id " + std::to_string(service_id));
+  it->second->observer = observer;
+  it->second->observer_data = user_data;
+  return {};
+}
+
+int Dispatcher::provider_fd(std::uint32_t service_id) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto it = providers_.find(service_id);
+  return it == providers_.end() ? -LNE_SVC_NOT_REGISTERED : it->second->group->events.epoll_fd;
+}
+
+// ----------------------------------------------------------- connections
+
+Status Dispatcher::adopt_connection(int fd, std::uint32_t service_id) {
+  std::shared_ptr<Provider> provider;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const auto it = providers_.find(service_id);
+    if (it != providers_.end()) provider = it->second;
+  }
+  if (!provider) {
+    ::close(fd);
+    return Status::failure(LNE_SVC_NOT_REGISTERED, "no provider with id " + std::to_string(service_id));
+  }
+  const int on = 1;  // fails harmlessly on Unix sockets
+  ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &on, sizeof on);
+  auto connection =
+      std::make_shared<ProviderConnection>(fd, provider, frames::max_payload_for(limits_.max_data_size));
+
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (provider->removed)
+    return Status::failure(LNE_SVC_NOT_REGISTERED, "service '" + provider->name + "' was just unregistered");
+  connection->key = next_connection_key_++;
+  Status s = arm_locked(*connection);
+  if (!s.ok()) return s;
+  connections_.emplace(connection->key, connection);
+  queue_event_locked(provider, LN_NEW_SVC_CLIENT, fd);
+  return {};
+}
+
+// Registers (or re-arms) a connection in the event set that serves its
+// group now: the group's own, or its pool's.
+Status Dispatcher::arm_locked(ProviderConnection& connection) {
+  const ServiceGroup& group = *connection.provider->group;
+  const bool shared = group.pool != nullptr;
+  const int home = shared ? group.pool->events.epoll_fd : group.events.epoll_fd;
+  if (connection.registered_in == home && !shared) return {};  // still armed
+  epoll_event ev{};
+  ev.events = shared ? shared_set_events : own_set_events;
+  ev.data.u64 = connection.key;
+  if (connection.registered_in == home) {
+    if (::epoll_ctl(home, EPOLL_CTL_MOD, connection.fd, &ev) == 0) return {};
+    return errno_failure("epoll_ctl", errno);
+  }
+  if (connection.registered_in >= 0) ::epoll_ctl(connection.registered_in, EPOLL_CTL_DEL, connection.fd, nullptr);
+  connection.registered_in = -1;
+  if (::epoll_ctl(home, EPOLL_CTL_ADD, connection.fd, &ev) != 0) return errno_failure("epoll_ctl", errno);
+  connection.registered_in = home;
+  return {};
+}
+
+void Dispatcher::move_group_connections_locked(const ServiceGroup& group, int to_epoll) {
+  for (auto& [key, connection] : connections_) {
+    // A claimed connection moves when its thread re-arms it.
+    if (connection->provider->group != &group || connection->claimed || connection->registered_in == to_epoll)
+      continue;
+    arm_locked(*connection);
+  }
+}
+
+void Dispatcher::queue_event_locked(const std::shared_ptr<Provider>& provider, int event, int fd) {
+  if (provider->observer == nullptr) return;
+  ServiceGroup& group = *provider->group;
+  group.observer_events.push_back({provider, event, fd});
+  (group.pool ? group.pool->events : group.events).wake();
+}
+
+void Dispatcher::close_connection(const std::shared_ptr<ProviderConnection>& connection) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (connection->closed) return;
+    connection->closed = true;
+    connections_.erase(connection->key);
+    if (connection->registered_in >= 0)
+      ::epoll_ctl(connection->registered_in, EPOLL_CTL_DEL, connection->fd, nullptr);
+    connection->registered_in = -1;
+    queue_event_locked(connection->provider, LN_REMOVE_SVC_CLIENT, connection->fd);
+  }
+  // Wakes a blocked response write; the descriptor itself is closed with
+  // the last reference.
+  ::shutdown(connection->fd, SHUT_RDWR);
+}
+
+std::shared_ptr<ProviderConnection> Dispatcher::claim(std::uint64_t key) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto it = connections_.find(key);
+  if (it == connections_.end() || it->second->claimed) return nullptr;
+  it->second->claimed = true;
+  return it->second;
+}
+
+void Dispatcher::release(const std::shared_ptr<ProviderConnection>& connection) {
+  bool failed = false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    connection->claimed = false;
+    if (!connection->closed) failed = !arm_locked(*connection).ok();
+  }
+  if (failed) close_connection(connection);
+}
+
+int Dispatcher::serve(std::uint64_t key) {
+  const std::shared_ptr<ProviderConnection> connection = claim(key);
+  if (!connection) return 0;
+  const int handled = serve_claimed(connection);
+  release(connection);
+  return handled;
+}
+
+int Dispatcher::serve_claimed(const std::shared_ptr<ProviderConnection>& connection) {
+  Status malformed;
+  const io::Result r = io::receive_available(connection->fd, connection->assembler, malformed);
+  if (r.outcome != io::Outcome::Done) {
+    // The caller left (or broke the stream): its unstarted requests go too.
+    close_connection(connection);
+    return 0;
+  }
+  int handled = 0;
+  frames::Payload payload;
+  while (!connection->closed && connection->assembler.next(payload)) {
+    handle_payload(connection, std::move(payload));
+    ++handled;
+  }
+  return handled;
+}
+
+void Dispatcher::handle_payload(const std::shared_ptr<ProviderConnection>& connection, frames::Payload payload) {
+  frames::RequestHead head;
+  if (!frames::parse_request(payload, head).ok()) {
+    close_connection(connection);
+    return;
+  }
+  Provider& provider = *connection->provider;
+  if (provider.removed || head.service_id != provider.service_id) {
+    send_response(*connection, head.request_id, -LNE_SVC_NOT_REGISTERED,
+                  "service '" + provider.name + "' is not provided here any more", {}, nullptr, nullptr, 0);
+    return;
+  }
+  const Status valid = check_flat(provider.signature->request(), payload.data() + frames::header_size,
+                                  payload.size() - frames::header_size, limits_);
+  if (!valid.ok()) {
+    send_response(*connection, head.request_id, -LNE_SVC_RECV_REQ,
+                  "malformed request for service '" + provider.name + "': " + valid.detail(), {}, nullptr, nullptr,
+                  0);
+    return;
+  }
+  run_handler(new Request(connection->provider, connection, head.request_id, std::move(payload), limits_));
+}
+
+void Dispatcher::run_handler(Request* request) {
+  const std::shared_ptr<Provider> provider = request->provider_;  // the request may be gone afterwards
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++provider->running;
+  }
+  const Provider* outer = handling_provider;
+  handling_provider = provider.get();
+  int ret = 0;
+  std::string exception_text;
+  bool threw = false;
+  try {
+    ret = provider->handler(client_, to_handle(request), provider->user_data);
+  } catch (abi::__forced_unwind&) {
+    throw;  // thread cancellation must go on
+  } catch (const std::exception& e) {
+    threw = true;
+    exception_text = e.what();
+  } catch (...) {
+    threw = true;
+    exception_text = "unknown exception";
+  }
+  if (threw) {
+    request->respond_error(-LNE_SVC_HANDLER_EXC,
+                           "handler of service '" + provider->name + "' threw: " + exception_text);
+    ret = 0;
+  }
+  handling_provider = outer;
+  request->handler_returned(ret);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    --provider->running;
+  }
+  handlers_done_.notify_all();
+}
+
+void Dispatcher::deliver_events(const ServiceGroup* only_group, const ThreadPool* only_pool) {
+  std::vector<PendingEvent> events;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto take = [&](ServiceGroup& group) {
+      if (only_group ? &group != only_group : group.pool != only_pool) return;
+      for (PendingEvent& e : group.observer_events) events.push_back(std::move(e));
+      group.observer_events.clear();
+    };
+    if (default_group_) take(*default_group_);
+    for (auto& [name, group] : groups_) take(*group);
+  }
+  for (const PendingEvent& e : events) {
+    ConnectionObserver observer = nullptr;
+    void* data = nullptr;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      observer = e.provider->observer;
+      data = e.provider->observer_data;
+    }
+    if (observer) observer(client_, e.event, e.fd, data);
+  }
+}
+
+// ------------------------------------------------------ groups and pools
+
+Status Dispatcher::wait_and_handle(const char* group_name, double timeout, int* handled) {
+  if (handled) *handled = 0;
+  const io::Deadline deadline =
+      timeout < 0 ? io::Deadline()
+                  : io::Deadline::at(io::Clock::now() + std::chrono::duration_cast<io::Clock::duration>(
+                                                            std::chrono::duration<double>(timeout)));
+  ServiceGroup* group = nullptr;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    Status s = group_locked(group_name, group);
+    if (!s.ok()) return s;
+  }
+  {
+    std::unique_lock<std::mutex> lock(mutex_);
+    const auto free = [&] { return !group->busy; };
+    if (!deadline.finite())
+      group->turn.wait(lock, free);
+    else if (!group->turn.wait_until(lock, deadline.when(), free))
+      return {};  // another thread kept the group for the whole timeout
+    group->busy = true;
+  }
+  struct EndOfTurn {
+    Dispatcher& dispatcher;
+    ServiceGroup& group;
+    ~EndOfTurn() {
+      std::lock_guard<std::mutex> lock(dispatcher.mutex_);
+      group.busy = false;
+      group.turn.notify_one();
+    }
+  } end_of_turn{*this, *group};
+
+  int count = 0;
+  epoll_event events[8];
+  for (;;) {
+    deliver_events(group, nullptr);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (group->pool && count == 0)
+        return Status::failure(LNE_SVC_GRP_HANDLED_IN_POOL,
+                               "service group '" + group->name + "' is handled by thread pool '" + group->pool->name + "'");
+      if (group->unblock_pending) {
+        group->unblock_pending = false;
+        break;
+      }
+    }
+    if (count > 0) break;
+    const int n = wait_for_events(group->events.epoll_fd, events, 8, deadline, wait_.spin_us);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) return errno_failure("epoll_wait", errno);
+    if (n == 0) break;
+    for (int i = 0; i < n; ++i) {
+      if (events[i].data.u64 == 0)
+        group->events.consume();
+      else
+        count += serve(events[i].data.u64);
+    }
+  }
+  if (handled) *handled = count;
+  return {};
+}
+
+Status Dispatcher::handle_in_pool(const char* group_name, const char* pool_name) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ServiceGroup* group = nullptr;
+  Status s = group_locked(group_name, group);
+  ThreadPool* pool = nullptr;
+  if (s.ok()) s = pool_locked(pool_name, pool);
+  if (!s.ok()) return s;
+  if (group->pool == pool) return {};
+  group->pool = pool;
+  move_group_connections_locked(*group, pool->events.epoll_fd);
+  group->events.wake();  // a thread in wait_and_handle() returns
+  if (!group->observer_events.empty()) pool->events.wake();
+  return {};
+}
+
+Status Dispatcher::remove_from_pool(const char* group_name) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ServiceGroup* group = find_group_locked(group_name);
+  if (group == nullptr)
+    return Status::failure(LNE_SVC_GRP_UNKNOWN, std::string("unknown service group '") + (group_name ? group_name : "") + "'");
+  if (group->pool == nullptr) return {};
+  group->pool = nullptr;
+  move_group_connections_locked(*group, group->events.epoll_fd);
+  group->events.wake();
+  return {};
+}
+
+Status Dispatcher::unblock(const char* group_name) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ServiceGroup* group = nullptr;
+  Status s = group_locked(group_name, group);
+  if (!s.ok()) return s;
+  group->unblock_pending = true;
+  group->events.wake();
+  return {};
+}
+
+Status Dispatcher::set_max_threads(const char* pool_name, unsigned n_threads) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ThreadPool* pool = nullptr;
+  Status s = pool_locked(pool_name, pool);
+  if (!s.ok()) return s;
+  reap_finished_locked(*pool);
+  const unsigned wanted = n_threads < 1 ? 1 : n_threads;
+  if (wanted > pool->active) return start_threads_locked(*pool, wanted - pool->active);
+  if (wanted < pool->active) {
+    pool->retire_requests += pool->active - wanted;
+    pool->active = wanted;
+    pool->events.wake();
+  }
+  return {};
+}
+
+Status Dispatcher::set_pool_schedparam(const char* pool_name, int policy, int priority, unsigned affinity_mask) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ThreadPool* pool = nullptr;
+  Status s = pool_locked(pool_name, pool);
+  if (!s.ok()) return s;
+  pool->policy = policy;
+  pool->priority = priority;
+  pool->affinity_mask = affinity_mask;
+  for (PoolThread& t : pool->threads) {
+    if (t.finished) continue;
+    s = apply_schedparam(*pool, t.thread.native_handle());
+    if (!s.ok()) return s;
+  }
+  return {};
+}
+
+Status Dispatcher::start_threads_locked(ThreadPool& pool, unsigned count) {
+  for (unsigned i = 0; i < count; ++i) {
+    pool.threads.emplace_back();
+    PoolThread& entry = pool.threads.back();
+    try {
+      entry.thread = std::thread(&Dispatcher::pool_thread_main, this, &pool, &entry);
+    } catch (const std::system_error& e) {
+      pool.threads.pop_back();
+      return errno_failure("thread pool '" + pool.name + "': starting a thread", e.code().value());
+    }
+    ++pool.active;
+    // Best effort for threads started later; set_pool_schedparam() reports.
+    apply_schedparam(pool, entry.thread.native_handle());
+  }
+  return {};
+}
+
+void Dispatcher::reap_finished_locked(ThreadPool& pool) {
+  for (auto it = pool.threads.begin(); it != pool.threads.end();) {
+    if (it->finished) {
+      it->thread.join();  // it has left its loop; joining is immediate
+      it = pool.threads.erase(it);
+    } else {
+      ++it;
+    }
+  }
+}
+
+void Dispatcher::pool_thread_main(ThreadPool* pool, PoolThread* self) {
+  epoll_event event{};
+  for (;;) {
+    // One event at a time, so idle threads can take the other connections.
+    const int n = wait_for_events(pool->events.epoll_fd, &event, 1, io::Deadline(), wait_.spin_us);
+    if (n < 0 && errno != EINTR) break;
+    if (n <= 0) continue;
+    const std::uint64_t key = event.data.u64;
+    bool leave = false;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      // The wake-up stays readable until every thread that must leave saw
+      // it. A thread that must leave serves nothing more, so a shrunk pool
+      // keeps its new limit at once.
+      if (pool->stopping) {
+        leave = true;
+      } else if (pool->retire_requests > 0) {
+        leave = true;
+        if (--pool->retire_requests == 0) pool->events.consume();
+      } else if (key == 0) {
+        pool->events.consume();
+      }
+    }
+    if (leave) {
+      if (key != 0) rearm(key);  // its event goes to a thread that stays
+      break;
+    }
+    if (key == 0)
+      deliver_events(nullptr, pool);
+    else
+      serve(key);
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  self->finished = true;
+}
+
+void Dispatcher::rearm(std::uint64_t key) {
+  std::shared_ptr<ProviderConnection> connection;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const auto it = connections_.find(key);
+    // A claimed connection is re-armed by the thread that claimed it.
+    if (it == connections_.end() || it->second->claimed) return;
+    if (arm_locked(*it->second).ok()) return;
+    connection = it->second;
+  }
+  close_connection(connection);
+}
+
+}  // namespace ln::services
