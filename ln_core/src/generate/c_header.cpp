@@ -29,14 +29,11 @@ class Emitter {
   explicit Emitter(const CHeaderOptions& options) : options_(options) {}
 
   void emit(const Definition& def) {
-    if (emitted_.count(&def) || in_progress_.count(&def)) return;
-    in_progress_.insert(&def);
+    if (emitted_.count(&def)) return;
+    // Imports first. Only direct self-recursion exists (the model refuses
+    // longer cycles), so this recursion ends.
     for (const auto& define : def.defines)
-      if (define.definition != &def) {
-        if (in_progress_.count(define.definition)) forward_declare(*define.definition);
-        emit(*define.definition);
-      }
-    in_progress_.erase(&def);
+      if (define.definition != &def) emit(*define.definition);
     emitted_.insert(&def);
     // Each type is guarded by its MD_NAME macro, so a translation unit may
     // include several generated headers that share a type (LN 2.9's
@@ -54,13 +51,6 @@ class Emitter {
   std::string text() const { return out_.str(); }
 
  private:
-  // Mutually recursive types (A holds B*, B holds A*) need A's typedef
-  // before B's body; LN 2.9 only supports direct self-recursion.
-  void forward_declare(const Definition& def) {
-    const std::string id = md::identifier_from_name(def.name);
-    out_ << "struct " << id << "_struct;\ntypedef struct " << id << "_struct " << id << "_t;\n";
-  }
-
   void emit_fields(const std::vector<Field>& fields, const std::string& indent) {
     for (const Field& f : fields) {
       const std::string type = f.primitive ? std::string(md::c_name(*f.primitive)) : struct_type_name(*f.sub);
@@ -230,7 +220,6 @@ class Emitter {
 
   const CHeaderOptions& options_;
   std::set<const Definition*> emitted_;
-  std::set<const Definition*> in_progress_;
   std::ostringstream out_;
 };
 

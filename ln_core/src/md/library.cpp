@@ -101,6 +101,7 @@ struct Library::Loader final : DefineResolver {
   // Runs once the outermost load has parsed everything it imports.
   void finish() {
     for (Definition* def : created) check_no_direct_recursion(*def);
+    for (Definition* def : created) check_no_indirect_recursion(*def);
     // Imports are created after their importers: check them first, so that
     // sizes of already-checked sub-types never overflow.
     for (auto it = created.rbegin(); it != created.rend(); ++it) check_sizes(**it);
@@ -117,6 +118,29 @@ struct Library::Loader final : DefineResolver {
   void check_no_direct_recursion(const Definition& def) {
     std::vector<const Definition*> path{&def};
     walk_by_value(def, path);
+  }
+
+  // Recursion must be direct (a type pointing to itself): signatures write
+  // a recursive reference as "[]", meaning the innermost enclosing type, so
+  // a longer cycle (A holds B*, B holds A*) has no unambiguous signature.
+  // LN 2.9 cannot load such definitions either.
+  void check_no_indirect_recursion(const Definition& def) {
+    std::vector<const Definition*> path{&def};
+    walk_all(def, path);
+  }
+
+  void walk_all(const Definition& current, std::vector<const Definition*>& path) {
+    for (const auto* list : {&current.fields, &current.response_fields})
+      for (const Field& f : *list) {
+        if (!f.sub || f.sub == &current) continue;
+        if (std::find(path.begin(), path.end(), f.sub) != path.end())
+          throw Error(current.path, f.line,
+                      "field '" + f.name + "' closes a cycle of types through '" + f.sub->name +
+                      "'; only a type pointing to itself may be recursive");
+        path.push_back(f.sub);
+        walk_all(*f.sub, path);
+        path.pop_back();
+      }
   }
 
   void walk_by_value(const Definition& current, std::vector<const Definition*>& path) {

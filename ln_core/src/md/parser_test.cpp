@@ -152,9 +152,9 @@ TEST(Parser, AllowsRecursionOnlyThroughPointers) {
   const Definition& node = library.load("r/node");
   EXPECT_EQ(node.fields[2].sub, &node);
   EXPECT_EQ(signature(node), "int32_t 4 1,uint32_t 4 1,[]* 0 1");
-  const Definition& ping = library.load("r/ping");
-  EXPECT_EQ(ping.fields[1].sub->fields[1].sub, &ping);
-  EXPECT_EQ(ping.hash.size(), 64u);
+  // A longer cycle has no unambiguous signature ("[]" names the innermost type).
+  const std::string mutual = load_error(tree, "r/ping");
+  EXPECT_NE(mutual.find("closes a cycle of types"), std::string::npos) << mutual;
 
   EXPECT_NE(load_error(tree, "r/self_by_value").find("recursive types must use a pointer"), std::string::npos);
   const std::string cycle = load_error(tree, "r/a");
