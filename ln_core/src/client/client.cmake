@@ -39,9 +39,11 @@ add_library(ln_client_objects OBJECT
   ${LN_CLIENT_DIR}/peer.cpp
   ${LN_CLIENT_DIR}/ports.cpp
   ${LN_CLIENT_DIR}/remote.cpp
+  ${LN_CLIENT_DIR}/services_glue.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_client.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_definitions.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_topics.cpp
+  ${LN_CLIENT_SRC_DIR}/capi/capi_services.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_not_yet_implemented.cpp
 )
 set_target_properties(ln_client_objects PROPERTIES
@@ -49,7 +51,7 @@ set_target_properties(ln_client_objects PROPERTIES
   CXX_VISIBILITY_PRESET hidden
   VISIBILITY_INLINES_HIDDEN ON)
 target_include_directories(ln_client_objects PUBLIC ${LN_CLIENT_SRC_DIR} ${LN_CLIENT_ROOT_DIR}/include)
-target_link_libraries(ln_client_objects PUBLIC ln_md ln_protocol ln_transport Threads::Threads)
+target_link_libraries(ln_client_objects PUBLIC ln_md ln_protocol ln_transport ln_services Threads::Threads)
 ln_client_warnings(ln_client_objects)
 
 add_library(ln SHARED $<TARGET_OBJECTS:ln_client_objects>)
@@ -60,7 +62,7 @@ set_target_properties(ln PROPERTIES
 target_include_directories(ln PUBLIC
   $<BUILD_INTERFACE:${LN_CLIENT_ROOT_DIR}/include>
   $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
-target_link_libraries(ln PRIVATE ln_md ln_protocol ln_transport Threads::Threads)
+target_link_libraries(ln PRIVATE ln_md ln_protocol ln_transport ln_services Threads::Threads)
 # Only ln.h's LN_API functions leave the library (libln.map; our code is also
 # compiled with hidden visibility), and anything unresolved is an error at
 # link time, not at a user's load time.
@@ -93,5 +95,6 @@ if(BUILD_TESTING)
     gtest_discover_tests(ln_client_tests PROPERTIES TIMEOUT 120)
 
     include(${LN_CLIENT_ROOT_DIR}/tests/topics/topics.cmake)
+    include(${LN_CLIENT_ROOT_DIR}/tests/services/services.cmake)
   endif()
 endif()

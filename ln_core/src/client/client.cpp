@@ -175,6 +175,12 @@ Client::~Client() {
   peer_server_.stop();
   link_.detach("the client was closed");
   connecting_.reset();
+  std::shared_ptr<void> services;
+  {
+    std::lock_guard<std::mutex> lock(services_mutex_);
+    services.swap(services_);
+  }
+  services.reset();  // stops its threads; handlers may still use the client
   std::lock_guard<std::mutex> lock(registry_mutex_);
   waiters_.clear();   // before the ports they look at
   outports_.clear();  // closes the segments: local subscribers see the publisher leave at once
@@ -246,6 +252,12 @@ void Client::add_reconnect_handler(std::function<void()> handler) {
   auto add = [this, handler = std::move(handler)]() mutable { reconnect_handlers_.push_back(std::move(handler)); };
   if (loop_.in_loop_thread()) add();
   else loop_.post(std::move(add));
+}
+
+std::shared_ptr<void> Client::services_state(const std::function<std::shared_ptr<void>()>& make) {
+  std::lock_guard<std::mutex> lock(services_mutex_);
+  if (!services_) services_ = make();
+  return services_;
 }
 
 // ------------------------------------------------------------------ topics

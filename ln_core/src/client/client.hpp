@@ -117,6 +117,10 @@ class Client {
   /// (restarted) manager, to re-establish what the manager forgot. It must
   /// not block; use manager().send_request().
   void add_reconnect_handler(std::function<void()> handler);
+  /// Per-client state of the services part of the library
+  /// (services_glue.hpp): `make`s it on first use. Released in ~Client once
+  /// the I/O thread stopped and the manager link is closed.
+  std::shared_ptr<void> services_state(const std::function<std::shared_ptr<void>()>& make);
 
  private:
   struct Settings {
@@ -194,6 +198,8 @@ class Client {
   std::map<std::int64_t, OutPort*> outports_by_topic_id_;
   std::map<std::int64_t, InPort*> inports_by_subscription_;
   std::vector<std::unique_ptr<MultiWaiter>> waiters_;
+  std::mutex services_mutex_;
+  std::shared_ptr<void> services_;
   // Receives topic data from publishers on other hosts; made with the first
   // subscription (it must be named in the subscribe request).
   std::unique_ptr<RemoteReceiver> receiver_;

@@ -157,11 +157,11 @@ TEST_F(ClientTest, InvalidHandlesAreRefused) {
   EXPECT_EQ(ln_get_library_version(), LN_LIBRARY_VERSION);
 }
 
-TEST_F(ClientTest, UnimplementedFunctionsExistAndSaySo) {
+TEST_F(ClientTest, UnimplementedFunctionsExistAndSaySoAndBadSignaturesAreRefused) {
   ln_client client = nullptr;
   ASSERT_EQ(ln_init_to_manager(&client, "stubs", manager_.address().c_str()), 0);
   ln_service service = nullptr;
-  EXPECT_EQ(ln_service_init(client, &service, "s", "i", "sig"), -LNE_NOT_YET_IMPLEMENTED);
+  EXPECT_EQ(ln_service_init(client, &service, "s", "i", "not a signature"), -LNE_INVALID_SIGNATURE);
   ln_logger logger = nullptr;
   EXPECT_EQ(ln_client_get_logger(client, &logger, "l"), -LNE_NOT_YET_IMPLEMENTED);
   ln_deinit(&client);

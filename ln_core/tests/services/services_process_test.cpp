@@ -1,0 +1,494 @@
+// Services across processes: LN 2.9-style providers (C, and C++ on the
+// generated test_base) started with posix_spawn, called through the C and
+// C++ APIs against a manager in this process.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <ln/ln.h>
+#include <poll.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <sys/wait.h>
+#include <netinet/in.h>
+#include <arpa/inet.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cstring>
+#include <thread>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "client/client_test_support.hpp"
+#include "ln_messages.h"
+#include "protocol/methods.hpp"
+#include "protocol/wire.hpp"
+
+extern char** environ;
+
+namespace {
+
+using namespace ln::clienttest;
+
+
+/// A program of this test, its stdout and stderr captured; killed if still
+/// running at the end.
+class ChildProcess {
+ public:
+  ChildProcess(const std::vector<std::string>& args, const std::string& manager_address,
+               const std::vector<std::string>& extra_env = {}) {
+    int fds[2];
+    if (::pipe2(fds, O_CLOEXEC) != 0) throw std::runtime_error("pipe2 failed");
+    output_ = fds[0];
+    std::vector<std::string> env_strings;
+    for (char** e = environ; *e != nullptr; ++e) {
+      if (std::strncmp(*e, "LN_", 3) != 0) env_strings.emplace_back(*e);
+    }
+    env_strings.push_back("LN_MANAGER=" + manager_address);
+    for (const std::string& entry : extra_env) env_strings.push_back(entry);
+    std::vector<char*> env;
+    for (auto& s : env_strings) env.push_back(s.data());
+    env.push_back(nullptr);
+    std::vector<std::string> arg_strings = args;
+    std::vector<char*> argv;
+    for (auto& s : arg_strings) argv.push_back(s.data());
+    argv.push_back(nullptr);
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_adddup2(&actions, fds[1], STDOUT_FILENO);
+    posix_spawn_file_actions_adddup2(&actions, fds[1], STDERR_FILENO);
+    const int error = ::posix_spawn(&pid_, argv[0], &actions, nullptr, argv.data(), env.data());
+    posix_spawn_file_actions_destroy(&actions);
+    ::close(fds[1]);
+    if (error != 0) throw std::runtime_error("posix_spawn " + args[0] + ": " + std::strerror(error));
+  }
+  ~ChildProcess() {
+    if (pid_ > 0) {
+      ::kill(pid_, SIGKILL);
+      ::waitpid(pid_, nullptr, 0);
+    }
+    ::close(output_);
+  }
+  ChildProcess(const ChildProcess&) = delete;
+  ChildProcess& operator=(const ChildProcess&) = delete;
+
+  /// The next output line starting with `prefix`, or "" after `timeout`.
+  std::string wait_for_line(const std::string& prefix, std::chrono::milliseconds timeout = 10s) {
+    const auto deadline = Clock::now() + timeout;
+    for (;;) {
+      for (auto newline = buffer_.find('\n'); newline != std::string::npos; newline = buffer_.find('\n')) {
+        std::string line = buffer_.substr(0, newline);
+        buffer_.erase(0, newline + 1);
+        if (line.compare(0, prefix.size(), prefix) == 0) return line;
+      }
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
+      if (left <= 0) return "";
+      pollfd readable{output_, POLLIN, 0};
+      if (::poll(&readable, 1, static_cast<int>(left)) <= 0) continue;
+      char chunk[4096];
+      const ssize_t n = ::read(output_, chunk, sizeof chunk);
+      if (n <= 0) return "";
+      buffer_.append(chunk, static_cast<size_t>(n));
+    }
+  }
+  /// Exit status, or -1 if it did not exit within `timeout`.
+  int wait(std::chrono::milliseconds timeout = 15s) {
+    const auto deadline = Clock::now() + timeout;
+    for (;;) {
+      int status = 0;
+      const pid_t done = ::waitpid(pid_, &status, WNOHANG);
+      if (done == pid_) {
+        pid_ = -1;
+        return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+      }
+      if (Clock::now() >= deadline) return -1;
+      std::this_thread::sleep_for(5ms);
+    }
+  }
+  void kill(int signal) { ::kill(pid_, signal); }
+
+ private:
+  pid_t pid_ = -1;
+  int output_ = -1;
+  std::string buffer_;
+};
+
+enum Mode { ECHO = 0, SLOW = 1, USER_ERROR = 2, NO_RESPONSE = 3, LATER = 4, ERROR_TEXT = 5, CONCURRENCY = 6 };
+
+class ServiceProcessTest : public ::testing::Test {
+ protected:
+  void SetUp() override { ASSERT_EQ(ln_init_to_manager(&client_, "driver", manager_.address().c_str()), 0); }
+  void TearDown() override {
+    for (ln_service& svc : services_) ln_service_deinit(&svc);
+    if (client_ != nullptr) ln_deinit(&client_);
+  }
+  std::unique_ptr<ChildProcess> provider(const std::vector<std::string>& extra = {},
+                                         const char* program = LN_SVC_PROVIDER, const char* name = "svc") {
+    std::vector<std::string> args = {program, name};
+    args.insert(args.end(), extra.begin(), extra.end());
+    auto child = std::make_unique<ChildProcess>(args, manager_.address());
+    EXPECT_NE(child->wait_for_line("ready"), "");
+    return child;
+  }
+  ln_service caller(const char* name = "svc", const char* signature = svc_test_signature) {
+    ln_service svc = nullptr;
+    EXPECT_EQ(ln_service_init(client_, &svc, name, "svc/test", signature), 0);
+    services_.push_back(svc);
+    return svc;
+  }
+  int call(ln_service svc, int mode, unsigned delay_ms = 0, double timeout = 0, int error = 0) {
+    svc_test_t data;
+    std::memset(&data, 0, sizeof data);
+    data.req.mode = mode;
+    data.req.delay_ms = delay_ms;
+    data.req.error = error;
+    last_count_ = 0;
+    const int ret = ln_service_call_with_timeout(svc, &data, timeout);
+    last_count_ = data.resp.count;
+    return ret;
+  }
+
+  InProcessManager manager_;
+  ln_client client_ = nullptr;
+  std::vector<ln_service> services_;
+  uint32_t last_count_ = 0;
+};
+
+TEST_F(ServiceProcessTest, SyncCallWithDynamicFieldsAnd16MB) {
+  auto child = provider();
+  ln_service svc = caller();
+  std::string text = "hello, provider";
+  std::vector<uint8_t> blob(16u << 20);
+  for (size_t i = 0; i < blob.size(); ++i) blob[i] = static_cast<uint8_t>(i * 7);
+  std::vector<double> values = {1.5, -2.5, 3.25};
+  std::string labels[2] = {"first", "second item"};
+  svc_item_t items[2];
+  for (int i = 0; i < 2; ++i) {
+    items[i].id = 10 + i;
+    items[i].label_len = static_cast<uint32_t>(labels[i].size());
+    items[i].label = labels[i].data();
+    items[i].values_len = i == 0 ? 3 : 0;
+    items[i].values = i == 0 ? values.data() : nullptr;
+  }
+  svc_test_t data;
+  std::memset(&data, 0, sizeof data);
+  data.req.text_len = static_cast<uint32_t>(text.size());
+  data.req.text = text.data();
+  data.req.blob_len = static_cast<uint32_t>(blob.size());
+  data.req.blob = blob.data();
+  data.req.items_len = 2;
+  data.req.items = items;
+  ASSERT_EQ(ln_service_call(svc, &data), 0) << ln_get_error_message(client_);
+  EXPECT_EQ(std::string(data.resp.text, data.resp.text_len), text);
+  ASSERT_EQ(data.resp.blob_len, blob.size());
+  EXPECT_EQ(std::memcmp(data.resp.blob, blob.data(), blob.size()), 0);
+  ASSERT_EQ(data.resp.items_len, 2u);
+  EXPECT_EQ(data.resp.items[1].id, 11);
+  EXPECT_EQ(std::string(data.resp.items[1].label, data.resp.items[1].label_len), "second item");
+  ASSERT_EQ(data.resp.items[0].values_len, 3u);
+  EXPECT_EQ(data.resp.items[0].values[2], 3.25);
+  EXPECT_EQ(data.resp.count, 2u);
+  // Small calls on the same connection afterwards.
+  for (int i = 0; i < 100; ++i) ASSERT_EQ(call(svc, ECHO), 0);
+}
+
+TEST_F(ServiceProcessTest, TimeoutThenNextCallWorks) {
+  auto child = provider({"pool", "2"});
+  ln_service svc = caller();
+  const auto start = Clock::now();
+  EXPECT_EQ(call(svc, SLOW, 3000, 0.2), -LNE_SVC_TIMEOUT);
+  EXPECT_LT(Clock::now() - start, 2s);
+  EXPECT_EQ(call(svc, ECHO), 0) << ln_get_error_message(client_);
+}
+
+TEST_F(ServiceProcessTest, AbortFromAnotherThread) {
+  auto child = provider({"pool", "2"});
+  ln_service svc = caller();
+  ASSERT_EQ(call(svc, ECHO), 0);
+  std::atomic<int> result{1};
+  std::thread calling([&] { result = call(svc, SLOW, 5000); });
+  std::this_thread::sleep_for(200ms);
+  EXPECT_EQ(ln_service_call_abort(svc), 0);
+  calling.join();
+  EXPECT_EQ(result.load(), -LNE_SVC_REQ_ABORTED);
+  EXPECT_EQ(call(svc, ECHO), 0);
+}
+
+TEST_F(ServiceProcessTest, AsyncWithFinishedFd) {
+  auto child = provider();
+  ln_service svc = caller();
+  svc_test_t data;
+  std::memset(&data, 0, sizeof data);
+  std::string text = "async";
+  data.req.mode = SLOW;
+  data.req.delay_ms = 100;
+  data.req.text_len = 5;
+  data.req.text = text.data();
+  ln_service_request req = nullptr;
+  ASSERT_EQ(ln_service_call_async(svc, &data, &req), 0);
+  int retval = -1;
+  EXPECT_EQ(ln_service_request_finished(req, &retval), 0);
+  int fd = -1;
+  ASSERT_EQ(ln_service_request_get_finished_notification_fd(req, &fd), 0);
+  pollfd p{fd, POLLIN, 0};
+  ASSERT_EQ(::poll(&p, 1, 5000), 1);
+  ASSERT_EQ(ln_service_request_finished(req, &retval), 1);
+  EXPECT_EQ(retval, 0);
+  EXPECT_EQ(std::string(data.resp.text, data.resp.text_len), "async");
+  // ln_service_request_wait, and an aborted asynchronous call.
+  data.req.delay_ms = 50;
+  ASSERT_EQ(ln_service_call_async(svc, &data, &req), 0);
+  EXPECT_EQ(ln_service_request_wait(req, 5, &retval), 1);
+  EXPECT_EQ(retval, 0);
+  data.req.delay_ms = 2000;
+  ASSERT_EQ(ln_service_call_async(svc, &data, &req), 0);
+  EXPECT_EQ(ln_service_request_abort(req), 0);
+  EXPECT_EQ(ln_service_request_finished(req, &retval), 1);
+  EXPECT_EQ(retval, -LNE_SVC_REQ_ABORTED);
+}
+
+TEST_F(ServiceProcessTest, ErrorsFromTheProvider) {
+  auto child = provider();
+  ln_service svc = caller();
+  EXPECT_EQ(call(svc, USER_ERROR, 0, 0, 42), 42);
+  EXPECT_EQ(call(svc, ERROR_TEXT, 0, 0, 7), 7);
+  EXPECT_NE(std::string(ln_get_error_message(client_)).find("the provider refuses"), std::string::npos)
+      << ln_get_error_message(client_);
+  EXPECT_EQ(call(svc, NO_RESPONSE), -LNE_SVC_HANDLER_NO_RESP);
+  EXPECT_EQ(call(svc, LATER, 50), 0) << ln_get_error_message(client_);
+  EXPECT_EQ(call(svc, ECHO), 0);
+}
+
+TEST_F(ServiceProcessTest, CppCallerAndGeneratedCppProvider) {
+  auto child = provider({}, LN_SVC_PROVIDER_CPP, "cppsvc");
+  ln::client clnt("cpp_driver", manager_.address());
+  ln::service* svc = clnt.get_service("cppsvc", "svc/test", svc_test_signature);
+  svc_test_t data;
+  std::memset(&data, 0, sizeof data);
+  std::string text = "from c++";
+  data.req.text_len = static_cast<uint32_t>(text.size());
+  data.req.text = text.data();
+  svc->call(&data);
+  EXPECT_EQ(std::string(data.resp.text, data.resp.text_len), text);
+  data.req.error = 42;
+  try {
+    svc->call(&data);
+    ADD_FAILURE() << "no exception";
+  } catch (const ln::exception& e) {
+    EXPECT_EQ(e.error_code, 42) << e.what();
+  }
+  clnt.release_service(svc);
+}
+
+TEST_F(ServiceProcessTest, ThreadPoolServesEightCallersConcurrently) {
+  auto child = provider({"pool", "8"});
+  std::vector<ln_service> handles;
+  for (int i = 0; i < 8; ++i) handles.push_back(caller());
+  for (ln_service svc : handles) ASSERT_EQ(call(svc, ECHO), 0);  // connect first
+  std::atomic<uint32_t> most{0};
+  std::atomic<int> failures{0};
+  const auto start = Clock::now();
+  std::vector<std::thread> threads;
+  for (ln_service svc : handles) {
+    threads.emplace_back([&, svc] {
+      svc_test_t data;
+      std::memset(&data, 0, sizeof data);
+      data.req.mode = CONCURRENCY;
+      data.req.delay_ms = 300;
+      if (ln_service_call(svc, &data) != 0) ++failures;
+      uint32_t seen = most.load();
+      while (data.resp.count > seen && !most.compare_exchange_weak(seen, data.resp.count)) {
+      }
+    });
+  }
+  for (auto& t : threads) t.join();
+  EXPECT_EQ(failures.load(), 0);
+  EXPECT_GE(most.load(), 4u);
+  EXPECT_LT(Clock::now() - start, 2000ms);
+}
+
+TEST_F(ServiceProcessTest, GroupHandledByOneThreadIsSerialized) {
+  auto child = provider({"group"});
+  std::vector<ln_service> handles;
+  for (int i = 0; i < 4; ++i) handles.push_back(caller());
+  std::atomic<uint32_t> most{0};
+  std::vector<std::thread> threads;
+  for (ln_service svc : handles) {
+    threads.emplace_back([&, svc] {
+      svc_test_t data;
+      std::memset(&data, 0, sizeof data);
+      data.req.mode = CONCURRENCY;
+      data.req.delay_ms = 30;
+      EXPECT_EQ(ln_service_call(svc, &data), 0);
+      if (data.resp.count > most.load()) most = data.resp.count;
+    });
+  }
+  for (auto& t : threads) t.join();
+  EXPECT_EQ(most.load(), 1u);
+}
+
+TEST_F(ServiceProcessTest, ProviderKilledMidCall) {
+  auto child = provider();
+  ln_service svc = caller();
+  ASSERT_EQ(call(svc, ECHO), 0);
+  std::atomic<int> result{1};
+  const auto start = Clock::now();
+  std::thread calling([&] { result = call(svc, SLOW, 10000); });
+  std::this_thread::sleep_for(200ms);
+  child->kill(SIGKILL);
+  calling.join();
+  EXPECT_LT(result.load(), 0);
+  EXPECT_LT(Clock::now() - start, 5s);
+}
+
+TEST_F(ServiceProcessTest, UnknownServiceAndWrongSignature) {
+  ln_service unknown = caller("nobody_provides_this");
+  EXPECT_EQ(call(unknown, ECHO), -LNE_NO_PROVIDER_FOUND);
+  EXPECT_NE(std::string(ln_get_error_message(client_)).find("nobody_provides_this"), std::string::npos);
+  auto child = provider();
+  ln_service wrong = caller("svc", "int32_t 4 1|");
+  svc_test_t data;
+  std::memset(&data, 0, sizeof data);
+  EXPECT_LT(ln_service_call(wrong, &data), 0);
+  EXPECT_STRNE(ln_get_error_message(client_), "");
+}
+
+struct Seen {
+  std::mutex mutex;
+  std::vector<int> states;
+  void add(int state) {
+    std::lock_guard<std::mutex> lock(mutex);
+    states.push_back(state);
+  }
+  std::vector<int> get() {
+    std::lock_guard<std::mutex> lock(mutex);
+    return states;
+  }
+};
+
+void on_availability(ln_client, const char*, int available, void* user_data) {
+  static_cast<Seen*>(user_data)->add(available);
+}
+
+TEST_F(ServiceProcessTest, WaitForServiceAndAvailabilityHandler) {
+  Seen seen;
+  ASSERT_EQ(ln_set_service_availability_handler(client_, "svc", on_availability, &seen), 0);
+  EXPECT_TRUE(wait_until([&] { return seen.get() == std::vector<int>{0}; }));
+  EXPECT_EQ(ln_wait_for_service(client_, "svc", 0), 0);
+  std::unique_ptr<ChildProcess> child;
+  std::thread starting([&] {
+    std::this_thread::sleep_for(100ms);
+    child = provider();
+  });
+  EXPECT_EQ(ln_wait_for_service(client_, "svc", 10), 1);
+  starting.join();
+  EXPECT_TRUE(wait_until([&] { return seen.get() == std::vector<int>{0, 1}; }));
+  EXPECT_EQ(ln_needs_provider(client_, "svc", 1), 0);
+  child->kill(SIGKILL);  // its disconnect releases the service
+  EXPECT_TRUE(wait_until([&] { return seen.get() == std::vector<int>{0, 1, 0}; }));
+  ASSERT_EQ(ln_set_service_availability_handler(client_, "svc", nullptr, nullptr), 0);
+  EXPECT_EQ(ln_needs_provider(client_, "svc", 0.1), -LNE_NO_PROVIDER_FOUND);
+}
+
+TEST_F(ServiceProcessTest, ProviderReRegistersAfterManagerRestart) {
+  auto child = provider();
+  ln_service svc = caller();
+  ASSERT_EQ(call(svc, ECHO), 0);
+  manager_.restart();
+  // The open connection keeps working; a new handle needs the registration.
+  EXPECT_EQ(call(svc, ECHO), 0);
+  EXPECT_TRUE(wait_until([&] { return ln_wait_for_service(client_, "svc", 0) == 1; }, 10000ms));
+  ln_service fresh = caller();
+  EXPECT_EQ(call(fresh, ECHO), 0) << ln_get_error_message(client_);
+}
+
+// ---- a raw connection to the provider, sending garbage
+
+ln::protocol::Message exchange(int fd, const ln::protocol::Message& message) {
+  const std::string frame = ln::protocol::encode(message);
+  EXPECT_EQ(::send(fd, frame.data(), frame.size(), MSG_NOSIGNAL), static_cast<ssize_t>(frame.size()));
+  ln::protocol::FrameReader reader;
+  for (;;) {
+    if (auto answer = reader.next()) return *answer;
+    char chunk[4096];
+    pollfd p{fd, POLLIN, 0};
+    if (::poll(&p, 1, 5000) <= 0) throw std::runtime_error("no answer");
+    const ssize_t n = ::recv(fd, chunk, sizeof chunk, 0);
+    if (n <= 0) throw std::runtime_error("closed");
+    reader.append(chunk, static_cast<size_t>(n));
+  }
+}
+
+int connect_unix(const std::string& name) {
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_un address{};
+  address.sun_family = AF_UNIX;
+  std::memcpy(address.sun_path + 1, name.data(), name.size());
+  const auto size = static_cast<socklen_t>(offsetof(sockaddr_un, sun_path) + 1 + name.size());
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&address), size) != 0) throw std::runtime_error("connect");
+  return fd;
+}
+
+TEST_F(ServiceProcessTest, ProviderSurvivesGarbage) {
+  namespace method = ln::protocol::method;
+  using ln::protocol::Message;
+  auto child = provider();
+  const int manager = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(manager_.port());
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(::connect(manager, reinterpret_cast<sockaddr*>(&address), sizeof address), 0);
+  exchange(manager, Message::request(1, method::hello).set("program_name", "garbage"));
+  const Message found = exchange(
+      manager, Message::request(2, method::lookup_service).set("name", "svc").set("interface", "").set("signature", ""));
+  const std::string socket_name = found.get_string("peer_socket");
+  // Junk straight into the peer server, then junk after a good handshake.
+  for (int round = 0; round < 2; ++round) {
+    const int fd = connect_unix(socket_name);
+    if (round == 1) {
+      const Message ok = exchange(fd, Message::request(1, method::call).set("service_id", found.get_int("service_id")));
+      EXPECT_FALSE(ok.is_error()) << ok.error_text();
+    }
+    std::string junk(100000, '\0');
+    for (size_t i = 0; i < junk.size(); ++i) junk[i] = static_cast<char>(i * 131 + 17);
+    ::send(fd, junk.data(), junk.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+    std::this_thread::sleep_for(50ms);
+    ::close(fd);
+  }
+  ::close(manager);
+  ln_service svc = caller();
+  for (int i = 0; i < 10; ++i) EXPECT_EQ(call(svc, ECHO), 0) << ln_get_error_message(client_);
+}
+
+TEST_F(ServiceProcessTest, RoundTripNumbers) {
+  auto child = provider({"pool", "8"});
+  ln_service svc = caller();
+  ASSERT_EQ(call(svc, ECHO), 0);
+  const int n = 2000;
+  const auto start = Clock::now();
+  for (int i = 0; i < n; ++i) ASSERT_EQ(call(svc, ECHO), 0);
+  const double rtt_us = std::chrono::duration<double, std::micro>(Clock::now() - start).count() / n;
+  std::vector<ln_service> handles;
+  for (int i = 0; i < 8; ++i) handles.push_back(caller());
+  for (ln_service h : handles) ASSERT_EQ(call(h, ECHO), 0);
+  std::atomic<int> total{0};
+  const auto t0 = Clock::now();
+  std::vector<std::thread> threads;
+  for (ln_service h : handles)
+    threads.emplace_back([&, h] {
+      svc_test_t data;
+      for (int i = 0; i < n; ++i) {
+        std::memset(&data, 0, sizeof data);
+        if (ln_service_call(h, &data) == 0) ++total;
+      }
+    });
+  for (auto& t : threads) t.join();
+  const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  std::printf("{\"small_rtt_us\": %.2f, \"eight_caller_calls_per_s\": %.0f}\n", rtt_us, total.load() / seconds);
+  EXPECT_EQ(total.load(), 8 * n);
+}
+
+}  // namespace
