@@ -1,0 +1,135 @@
+"""ln_core vs LN 2.9, C++ topics: the same programs (bench/ln/pingpong.cpp, rate.cpp, setup.cpp,
+written against the LN 2.9 C++ API) compiled against each system and run against each system's
+own manager, interleaved run by run, same CPU placement and sizes.
+
+* Round trip 64 B / 4 KiB / 1 MiB, buffers=1, blocking reads, payload pattern checked on every
+  echo; split cores (measuring side on the first CPU, echo side on the second) and same core.
+  1 MiB also with ln_core's zero-copy paths ("lent read": ln_read_borrow, pong writes from the
+  lent packet; "zero-copy": loaned write via get_next_buffer + lent read, only stamps touched),
+  each against LN's copying read.
+* One-way 64 B rate, buffers 1 and 256, publisher flooding: writes/s, distinct packets delivered
+  per second and delivered fraction (sequence numbers and payload bytes checked by the
+  subscriber); plus, split cores, buffers 256, the publisher paced at 2 M msg/s: is anything lost?
+* Set-up costs: client registration, publish, subscribe, unpublish, client shutdown (medians).
+"""
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "ln"))
+
+import harness as H  # noqa: E402  (bench/ln/harness.py)
+from harness import compare_rows  # noqa: E402
+
+TITLE = "ln_core vs LN 2.9 (ln): C++ pub/sub round trip, one-way rate, set-up costs"
+ORDER = 100
+
+SIZES = [(64, "64 B"), (4096, "4 KiB"), (1048576, "1 MiB")]
+PLACEMENT_TEXT = {"split": "split cores", "same": "same core"}
+MODE_TEXT = {"copy": "copying read", "borrow": "lent read (ln_read_borrow)",
+             "zc": "zero-copy: loaned write + lent read"}
+# (buffers, paced rate or 0 = flood) per placement; the paced run checks "no loss when the
+# buffers suffice" at the 2 M msg/s target rate (publisher busy-waits, so split cores only)
+RATE_CONFIGS = {"split": [(1, 0), (256, 0), (256, 2_000_000)], "same": [(1, 0), (256, 0)]}
+RTT_TARGET = {(64, "copy"): 0.5, (1048576, "copy"): 0.8, (1048576, "zc"): 0.05}
+
+
+def rate_text(paced):
+    return f"paced at {paced / 1e6:g} M msg/s" if paced else "flood"
+
+
+def run(ctx):
+    rtt = {}    # (placement, size, system key, mode) -> [results]
+    rate = {}   # (placement, buffers, system key) -> [(pub, sub)]
+    setup = {}  # system key -> [results]
+    with H.Comparison(ctx) as cmp:
+        for rep in range(ctx.reps):
+            for placement, cpus in ctx.placements.items():
+                for size, size_text in SIZES:
+                    big = size > 4096
+                    n, warmup = (ctx.n(2000, 200), ctx.n(50, 20)) if big else (ctx.n(20000, 2000), ctx.n(500, 100))
+                    for system in cmp.systems:
+                        modes = ["copy"] + (["borrow", "zc"] if big and system is cmp.core else [])
+                        for mode in modes:
+                            ctx.log(f"ln pub/sub RTT {size_text} {placement} {system.label} {mode} run {rep + 1}/{ctx.reps}")
+                            topic = f"lnbench.rtt{size}.{mode}"
+                            common = ["--size", size, "--topic", topic, "--mode", mode]
+                            r = cmp.measure(system, lambda: H.run_pair(
+                                ctx, system, [system.program("pingpong"), "pong", *common],
+                                [system.program("pingpong"), "ping", *common, "--n", n, "--warmup", warmup],
+                                cpus=cpus, timeout=90, what=f"pub/sub RTT {size_text} {mode} {placement}")[0])
+                            if r is not None:
+                                rtt.setdefault((placement, size, system.key, mode), []).append(r)
+            for placement, cpus in ctx.placements.items():
+                for buffers, paced in RATE_CONFIGS[placement]:
+                    for system in cmp.systems:
+                        ctx.log(f"ln rate 64 B buffers={buffers} {rate_text(paced)} {placement} {system.label} "
+                                f"run {rep + 1}/{ctx.reps}")
+                        args = ["--buffers", buffers, "--topic", f"lnbench.rate{buffers}"]
+                        r = cmp.measure(system, lambda: H.run_pair(
+                            ctx, system, [system.program("rate"), "sub", *args],
+                            [system.program("rate"), "pub", *args, "--seconds", ctx.n(2, 0.5), "--rate", paced],
+                            cpus=cpus, timeout=60, what=f"rate buffers={buffers} {rate_text(paced)} {placement}"))
+                        if r is not None:
+                            pub, subs = r
+                            if not subs:
+                                cmp.failures.append(f"{system.label} rate buffers={buffers}: subscriber printed no counts")
+                                continue
+                            rate.setdefault((placement, buffers, paced, system.key), []).append((pub, subs[-1]))
+            for system in cmp.systems:
+                ctx.log(f"ln set-up costs {system.label} run {rep + 1}/{ctx.reps}")
+                r = cmp.measure(system, lambda: H.run_single(
+                    ctx, system, [system.program("setup"), "run", "--reps", ctx.n(30, 10)],
+                    cpu=ctx.placements["split"][0] if "split" in ctx.placements else ctx.cpus[0],
+                    timeout=90, what="set-up costs"))
+                if r is not None:
+                    setup.setdefault(system.key, []).append(r)
+
+    ln29, core = cmp.ln29, cmp.core
+
+    # ---- round trip rows
+    for placement in ctx.placements:
+        for size, size_text in SIZES:
+            group = f"ln: C++ pub/sub RTT {size_text}, {PLACEMENT_TEXT[placement]}"
+            ref_runs = rtt.get((placement, size, ln29.key, "copy"), [])
+            modes = ["copy"] + (["borrow", "zc"] if size > 4096 else [])
+            for mode in modes:
+                core_runs = rtt.get((placement, size, core.key, mode), [])
+                yield from compare_rows(cmp, group, f"pub/sub, {MODE_TEXT[mode]}", "LN 2.9 pub/sub, copying read",
+                                        ref_runs, core_runs, [("median_us", "RTT median"), ("p99_us", "RTT p99")],
+                                        "us", RTT_TARGET.get((size, mode)),
+                                        extra=lambda runs: f"n={runs[0]['n']}; stale echoes {sum(r['stale_echoes'] for r in runs)}",
+                                        ref_only=(mode == "copy"))
+
+    # ---- rate rows
+    for placement in ctx.placements:
+        for buffers, paced in RATE_CONFIGS[placement]:
+            group = f"ln: C++ one-way 64 B {rate_text(paced)}, buffers={buffers}, {PLACEMENT_TEXT[placement]}"
+            ref_runs = [{**p, **{f"sub_{k}": v for k, v in s.items()}} for p, s in rate.get((placement, buffers, paced, ln29.key), [])]
+            core_runs = [{**p, **{f"sub_{k}": v for k, v in s.items()}} for p, s in rate.get((placement, buffers, paced, core.key), [])]
+            for runs in (ref_runs, core_runs):
+                for r in runs:
+                    r["sub_delivered_pct"] = 100.0 * r["sub_delivered_fraction"]
+
+            def extra(runs):
+                last = runs[-1]
+                return (f"last run: written {last['written']}, delivered {last['sub_delivered']}, lost {last['sub_lost']}, "
+                        f"repeated {last['sub_repeats']}, older {last['sub_older']}, torn {last['sub_torn']}")
+            yield from compare_rows(cmp, group, "delivered", "LN 2.9 delivered", ref_runs, core_runs,
+                                    [("sub_delivered_per_s", "msg/s delivered (distinct)")], "msg/s",
+                                    None, extra=extra,
+                                    abs_target=(2e6, ">= 2 M msg/s") if placement == "split" and not paced else None)
+            yield from compare_rows(cmp, group, "delivered fraction", "LN 2.9 delivered fraction", ref_runs, core_runs,
+                                    [("sub_delivered_pct", "distinct packets seen")], "%", None,
+                                    abs_target=(100.0, "no loss") if paced else None)
+            yield from compare_rows(cmp, group, "publisher", "LN 2.9 publisher", ref_runs, core_runs,
+                                    [("writes_per_s", "writes/s")], "msg/s", None)
+
+    # ---- set-up rows
+    group = "ln: C++ set-up costs (median per step)"
+    for step, text in (("register", "client construct (connect + register)"), ("publish", "publish (new topic)"),
+                       ("subscribe", "subscribe"), ("unpublish", "unpublish"), ("shutdown", "client shutdown (delete)")):
+        yield from compare_rows(cmp, group, text, f"LN 2.9 {step}", setup.get(ln29.key, []), setup.get(core.key, []),
+                                [(f"{step}_median_ms", "median")], "ms", None,
+                                extra=lambda runs: f"{runs[0]['reps']} repetitions per run")
+    cmp.finish()
+

@@ -1,0 +1,703 @@
+"""Side-by-side LN 2.9 / ln_core benchmarks: builds the programs of bench/ln/ for both systems,
+starts and stops each system's manager, and runs server/client program pairs pinned to CPUs.
+
+Used by bench/cases/ln_*.py. The C++ programs are written once against the LN 2.9 C++ API and
+compiled twice: with LN 2.9's ln_generate, headers and libln.so (from its venv), and with
+ln_core's ln_generate, headers and libln.so (built here). The Python programs run with either
+system's `links_and_nodes` package.
+
+Environment:
+  LN_CORE_LN29_VENV      LN 2.9 venv (default /root/.cache/ln_core/venv-ln29, then /tmp/ref/ln29)
+  LN_BENCH_LN_CORE_BUILD an existing ln_core build dir to use as is (libln.so, ln_manager,
+                         ln_generate); default: build ln_core in build-bench/ (Release, no tests)
+  LN_CORE_PYTHONPATH     directory holding ln_core's `links_and_nodes` package (default: searched
+                         in ln_core/ and the build dir)
+  LN_CORE_PYTHON         interpreter for ln_core's Python binding (default: this one)
+
+LN 2.9's manager runs with --isolated-test (random port, private ln_daemon that exits with the
+manager) and a temporary HOME/TMPDIR, so its DSA keys, generated files and daemon log stay out of
+the real home. After stopping it, any process still running the venv's binaries with that HOME
+is killed by PID, and /dev/shm segments named after PIDs started here are removed (README P2-P4).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import queue
+import re
+import shlex
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+LN_DIR = Path(__file__).resolve().parent
+REPO_ROOT = LN_DIR.parent.parent
+LN_CORE_SRC = REPO_ROOT / "ln_core"
+MSGDEFS = LN_DIR / "msgdefs"
+MESSAGES = ["lnbench/p64", "lnbench/p4k", "lnbench/p1m", "lnbench/small_srv", "lnbench/blob_srv"]
+PROGRAMS = ["pingpong", "rate", "setup", "srv"]
+CXXFLAGS = ["-O2", "-std=c++17", "-Wall", "-Wextra"]
+
+
+class Unavailable(Exception):
+    """The measured side is not there yet (not built, feature not implemented): a skip."""
+
+
+class MeasureError(Exception):
+    """A program failed, timed out, or found a wrong answer: a failure."""
+
+
+# ---------------------------------------------------------------------------------------------
+# helpers
+def _run(cmd, ctx, timeout, env=None, cwd=None) -> subprocess.CompletedProcess:
+    ctx.log_text(f"$ {shlex.join(str(c) for c in cmd)}\n")
+    try:
+        proc = subprocess.run([str(c) for c in cmd], capture_output=True, text=True, timeout=timeout,
+                              env=None if env is None else {**os.environ, **env}, cwd=cwd)
+    except subprocess.TimeoutExpired as e:
+        raise MeasureError(f"{Path(str(cmd[0])).name}: no result within {timeout} s") from e
+    ctx.log_text(proc.stdout + proc.stderr)
+    return proc
+
+
+def _digest(*parts) -> str:
+    h = hashlib.sha256()
+    for p in parts:
+        h.update(p if isinstance(p, bytes) else str(p).encode())
+        h.update(b"\0")
+    return h.hexdigest()
+
+
+def _tail(text: str, n: int = 4) -> str:
+    lines = [line for line in text.strip().splitlines() if line.strip()]
+    return " / ".join(lines[-n:])
+
+
+def _first_error(text: str) -> str:
+    """The first compiler/linker error line of a build log, else its tail."""
+    for line in text.splitlines():
+        if re.search(r"(\berror\b|undefined reference|FAILED:)", line) and "ninja: build stopped" not in line:
+            if "FAILED:" in line:
+                continue  # the next lines name the actual error
+            return line.strip()[:300]
+    return _tail(text, 3)
+
+
+def _json_lines(text: str) -> list[dict]:
+    out = []
+    for line in text.splitlines():
+        line = line.strip()
+        if line.startswith("{"):
+            try:
+                out.append(json.loads(line))
+            except json.JSONDecodeError:
+                pass
+    return out
+
+
+def _kill_group(proc: subprocess.Popen) -> None:
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except (ProcessLookupError, PermissionError):
+        pass
+
+
+# ---------------------------------------------------------------------------------------------
+# systems
+class System:
+    key = ""
+    label = ""
+
+    def __init__(self) -> None:
+        self.tmp: Path | None = None
+        self.manager: subprocess.Popen | None = None
+        self.address = ""
+        self.bin_dir: Path | None = None
+        self.started_pids: set[int] = set()
+        self._unavailable: str | None = None
+        self._py_unavailable: str | None = None
+        self._tools: tuple | None = None
+
+    # -- to be provided by subclasses
+    def _prepare_tools(self, ctx) -> tuple[list[str], list[str], dict]:
+        """(ln_generate command prefix, extra g++ args, env for ln_generate); raises Unavailable."""
+        raise NotImplementedError
+
+    def _include_digest(self) -> str:
+        return ""
+
+    def _start_manager(self, ctx, config: Path, log: Path) -> None:
+        raise NotImplementedError
+
+    def python(self) -> tuple[list[str], dict]:
+        """Interpreter command and extra env for the Python programs; raises Unavailable."""
+        raise NotImplementedError
+
+    # -- common
+    def prepare(self, ctx, programs: bool = True) -> None:
+        """Builds the system's tools and (unless programs=False) the C++ programs, cached by
+        content; raises Unavailable."""
+        if self._unavailable:
+            raise Unavailable(self._unavailable)
+        if self.bin_dir is not None or (not programs and self._tools is not None):
+            return
+        try:
+            if self._tools is None:
+                self._tools = self._prepare_tools(ctx)
+            if not programs:
+                return
+            gen_cmd, cxx_args, gen_env = self._tools
+            out = ctx.build_dir / "ln" / self.key
+            gen = out / "gen"
+            gen.mkdir(parents=True, exist_ok=True)
+            header = gen / "ln_messages.h"
+            md_digest = _digest(*[(MSGDEFS / m).read_bytes() for m in MESSAGES], *gen_cmd)
+            stamp = gen / "ln_messages.h.stamp"
+            if not header.exists() or not stamp.exists() or stamp.read_text() != md_digest:
+                proc = _run(gen_cmd + ["--md-dir", MSGDEFS, "-f", "-o", header] + MESSAGES, ctx, 120, env=gen_env)
+                if proc.returncode != 0:
+                    raise Unavailable(f"{self.label} ln_generate failed: {_tail(proc.stdout + proc.stderr)}")
+                stamp.write_text(md_digest)
+            common = (LN_DIR / "common.hpp").read_bytes()
+            for name in PROGRAMS:
+                src = LN_DIR / f"{name}.cpp"
+                exe = out / f"ln_{name}"
+                cmd = ["g++", *CXXFLAGS, f"-I{gen}", src, "-o", exe, *cxx_args]
+                key = _digest(src.read_bytes(), common, header.read_bytes(), self._include_digest(), *cmd)
+                exe_stamp = out / f"ln_{name}.stamp"
+                if exe.exists() and exe_stamp.exists() and exe_stamp.read_text() == key:
+                    continue
+                ctx.log(f"ln bench: compiling {name}.cpp against {self.label}")
+                proc = _run(cmd, ctx, 300)
+                if proc.returncode != 0:
+                    raise Unavailable(f"bench/ln/{name}.cpp does not compile against {self.label}: "
+                                      f"{_first_error(proc.stderr)}")
+                exe_stamp.write_text(key)
+            self.bin_dir = out
+        except Unavailable as e:
+            self._unavailable = str(e)
+            raise
+
+    def program(self, name: str) -> str:
+        assert self.bin_dir is not None
+        return str(self.bin_dir / f"ln_{name}")
+
+    def env(self) -> dict:
+        env = {"LN_MANAGER": self.address}
+        if self.tmp is not None:
+            env.update(HOME=str(self.tmp / "home"), TMPDIR=str(self.tmp))
+        return env
+
+    def start(self, ctx) -> None:
+        """Starts this system's manager on a free port (once)."""
+        if self.manager is not None:
+            return
+        self.tmp = Path(tempfile.mkdtemp(prefix=f"lnbench-{self.key}-"))
+        (self.tmp / "home").mkdir()
+        config = self.tmp / "lnbench.lnc"
+        config.write_text(f"instance\nname: lnbench_{self.key}_{os.getpid()}\nmanager: :0\n"
+                          f"add_message_definition_dir: {MSGDEFS}\n")
+        self._start_manager(ctx, config, self.tmp / "manager.log")
+        ctx.log(f"ln bench: {self.label} manager at {self.address}")
+
+    def _spawn_manager(self, cmd, log: Path, env: dict) -> None:
+        self.manager = subprocess.Popen([str(c) for c in cmd], stdin=subprocess.DEVNULL,
+                                        stdout=log.open("w"), stderr=subprocess.STDOUT,
+                                        env={**os.environ, **env}, start_new_session=True)
+
+    def _wait_log(self, log: Path, pattern: str, timeout: float) -> re.Match:
+        """Waits (polling the manager's log file) until `pattern` appears."""
+        deadline = time.monotonic() + timeout
+        rx = re.compile(pattern)
+        while time.monotonic() < deadline:
+            m = rx.search(log.read_text(errors="replace"))
+            if m:
+                return m
+            if self.manager.poll() is not None:
+                break
+            time.sleep(0.05)  # polling interval of the start-up condition
+        raise MeasureError(f"{self.label} manager did not start: {_tail(log.read_text(errors='replace'))}")
+
+    def stop(self, ctx) -> None:
+        if self.manager is not None:
+            if self.manager.poll() is None:
+                try:
+                    os.killpg(self.manager.pid, signal.SIGTERM)
+                except ProcessLookupError:
+                    pass
+                try:
+                    self.manager.wait(timeout=10)
+                except subprocess.TimeoutExpired:
+                    _kill_group(self.manager)
+                    self.manager.wait(timeout=10)
+            self.started_pids.add(self.manager.pid)
+            self.manager = None
+        self._cleanup_leftovers(ctx)
+        if self.tmp is not None:
+            log = self.tmp / "manager.log"
+            if log.exists():
+                ctx.log_text(f"--- {self.label} manager log (tail) ---\n"
+                             + "\n".join(log.read_text(errors="replace").splitlines()[-30:]) + "\n")
+            shutil.rmtree(self.tmp, ignore_errors=True)
+            self.tmp = None
+
+    def _cleanup_leftovers(self, ctx) -> None:
+        """/dev/shm segments named after processes started here (LN 2.9: <pid>_..._src)."""
+        shm = Path("/dev/shm")
+        if not self.started_pids or not shm.is_dir():
+            return
+        for f in shm.iterdir():
+            pid = f.name.split("_", 1)[0]
+            if pid.isdigit() and int(pid) in self.started_pids and f.name.endswith("_src"):
+                try:
+                    f.unlink()
+                    ctx.log_text(f"removed leftover {f}\n")
+                except OSError:
+                    pass
+        self.started_pids.clear()
+
+
+class LN29(System):
+    key = "ln29"
+    label = "LN 2.9"
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.venv = None
+        for cand in (os.environ.get("LN_CORE_LN29_VENV"), "/root/.cache/ln_core/venv-ln29", "/tmp/ref/ln29"):
+            if cand and (Path(cand) / "bin" / "ln_manager").exists():
+                self.venv = Path(cand).resolve()
+                break
+        self.daemons: set[int] = set()
+
+    @property
+    def lib_root(self) -> Path:
+        return next((self.venv / "lib").glob("python3*/site-packages/liblinks_and_nodes"))
+
+    def _prepare_tools(self, ctx):
+        if self.venv is None:
+            raise Unavailable("LN 2.9 venv not found (set LN_CORE_LN29_VENV)")
+        root = self.lib_root
+        gen_home = ctx.build_dir / "ln" / "ln29-home"  # ln_generate may write into $HOME
+        gen_home.mkdir(parents=True, exist_ok=True)
+        return ([str(self.venv / "bin" / "ln_generate")],
+                [f"-I{root / 'include'}", f"-L{root / 'lib'}", f"-Wl,-rpath,{root / 'lib'}", "-lln", "-lpthread"],
+                {"HOME": str(gen_home)})
+
+    def _start_manager(self, ctx, config, log):
+        self._spawn_manager([self.venv / "bin" / "ln_manager", "-c", config, "--without-gui", "--isolated-test",
+                             "--log-level", "info"], log, {"HOME": str(self.tmp / "home"), "TMPDIR": str(self.tmp)})
+        port = self._wait_log(log, r"isolated-test mode on manager port (\d+)", 60).group(1)
+        self._wait_log(log, r"listening on .* for ln-clients", 60)
+        self.address = f"127.0.0.1:{port}"
+
+    def python(self):
+        if self.venv is None:
+            raise Unavailable("LN 2.9 venv not found")
+        return [str(self.venv / "bin" / "python")], {}
+
+    def _cleanup_leftovers(self, ctx):
+        # The private daemon exits with an --isolated-test manager; anything still running the
+        # venv's native binaries with our HOME is ours and is ended by PID.
+        if self.venv is not None and self.tmp is not None:
+            home = f"HOME={self.tmp / 'home'}".encode()
+            venv = str(self.venv)
+            for d in Path("/proc").iterdir():
+                if not d.name.isdigit():
+                    continue
+                try:
+                    exe = os.readlink(d / "exe")
+                    if not exe.startswith(venv):
+                        continue
+                    if home not in (d / "environ").read_bytes().split(b"\0"):
+                        continue
+                    os.kill(int(d.name), signal.SIGKILL)
+                    self.started_pids.add(int(d.name))
+                    ctx.log_text(f"killed leftover LN 2.9 process {d.name} ({exe})\n")
+                except (OSError, ValueError):
+                    continue
+        super()._cleanup_leftovers(ctx)
+
+
+class LnCore(System):
+    key = "ln_core"
+    label = "ln_core"
+    _built: dict = {}
+    _python_build_error = ""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.build: Path | None = None
+        self.lib: Path | None = None
+        self.manager_exe: Path | None = None
+        self.generate_exe: Path | None = None
+
+    def _find(self, root: Path, name: str) -> Path | None:
+        # the newest: a build dir may still hold an older copy from an earlier layout
+        hits = [p for p in root.rglob(name) if p.is_file() and "CMakeFiles" not in p.parts]
+        return max(hits, key=lambda p: p.stat().st_mtime) if hits else None
+
+    @staticmethod
+    def python_interpreter() -> str:
+        venv = Path("/root/.cache/ln_core/venv-ros/bin/python")  # the project venv (numpy, nanobind)
+        return os.environ.get("LN_CORE_PYTHON") or (str(venv) if venv.exists() else sys.executable)
+
+    def _build_ln_core(self, ctx) -> Path:
+        given = os.environ.get("LN_BENCH_LN_CORE_BUILD")
+        if given:
+            return Path(given).resolve()
+        top = (LN_CORE_SRC / "CMakeLists.txt").read_text()
+        fragments = [("transport.cmake", LN_CORE_SRC / "src" / "transport" / "transport.cmake"),
+                     ("services.cmake", LN_CORE_SRC / "src" / "services" / "services.cmake"),
+                     ("client.cmake", LN_CORE_SRC / "src" / "client" / "client.cmake"),
+                     ("python.cmake", LN_CORE_SRC / "python" / "python.cmake")]
+        if not fragments[2][1].exists():
+            raise Unavailable("ln_core has no client library (src/client/client.cmake) yet")
+        missing = [(name, path) for name, path in fragments if path.exists() and name not in top]
+        if not missing:
+            src, build = LN_CORE_SRC, ctx.build_dir / "ln_core-direct"
+        else:
+            # ln_core's CMakeLists does not include every component yet: a scratch top level
+            # that adds ln_core and includes the missing fragments (the Python module only when
+            # nanobind is there, so that it cannot break the C++ build).
+            src, build = ctx.build_dir / "ln_core-scratch-src", ctx.build_dir / "ln_core-scratch"
+            src.mkdir(parents=True, exist_ok=True)
+            text = ("cmake_minimum_required(VERSION 3.16)\nproject(lnbench_ln_core LANGUAGES C CXX)\n"
+                    "set(CMAKE_CXX_STANDARD 17)\ninclude(GNUInstallDirs)\n"
+                    f"add_subdirectory({LN_CORE_SRC} ln_core)\nset(LN_LIBRARY_VERSION 32)\n")
+            for name, path in missing:
+                if name == "python.cmake":
+                    py = self.python_interpreter()
+                    text += (f'set(LN_PYTHON_EXECUTABLE "{py}" CACHE FILEPATH "")\n'
+                             f'execute_process(COMMAND "{py}" -m nanobind --cmake_dir RESULT_VARIABLE _lnb_nb '
+                             "OUTPUT_QUIET ERROR_QUIET)\n"
+                             f"if(_lnb_nb EQUAL 0)\n  include({path})\nendif()\n")
+                else:
+                    text += f"include({path})\n"
+            cm = src / "CMakeLists.txt"
+            if not cm.exists() or cm.read_text() != text:
+                cm.write_text(text)
+        key = str(build)
+        if key in LnCore._built:
+            if isinstance(LnCore._built[key], str):
+                raise Unavailable(LnCore._built[key])
+            return LnCore._built[key]
+        try:
+            if not (build / "build.ninja").exists():
+                ctx.log(f"ln bench: configuring ln_core in {build}")
+                proc = _run(["cmake", "-G", "Ninja", "-S", src, "-B", build, "-DCMAKE_BUILD_TYPE=Release",
+                             "-DBUILD_TESTING=OFF", "-DLN_WERROR=OFF"], ctx, 300)
+                if proc.returncode != 0:
+                    raise Unavailable(f"ln_core does not configure: {_first_error(proc.stdout + proc.stderr)}")
+            ctx.log("ln bench: building ln_core (ln, ln_manager, ln_generate)")
+            proc = _run(["ninja", "-C", build, "ln", "ln_manager", "ln_generate"], ctx, 1200)
+            if proc.returncode != 0:
+                raise Unavailable(f"ln_core does not build: {_first_error(proc.stdout + proc.stderr)}")
+        except (Unavailable, MeasureError) as e:
+            LnCore._built[key] = str(e)
+            raise Unavailable(str(e)) from e
+        # The Python module separately: its failure only takes the Python rows.
+        targets = _run(["ninja", "-C", build, "-t", "targets", "all"], ctx, 60).stdout
+        if re.search(r"^ln_python:", targets, re.MULTILINE):
+            ctx.log("ln bench: building ln_core's Python module")
+            proc = _run(["ninja", "-C", build, "ln_python"], ctx, 1200)
+            if proc.returncode != 0:
+                LnCore._python_build_error = f"ln_core's Python module does not build: {_first_error(proc.stdout + proc.stderr)}"
+        else:
+            LnCore._python_build_error = (f"ln_core's Python module is not part of the build "
+                                          f"(python.cmake missing, or no nanobind for {self.python_interpreter()})")
+        LnCore._built[key] = build
+        return build
+
+    def _prepare_tools(self, ctx):
+        self.build = self._build_ln_core(ctx)
+        self.lib = self._find(self.build, "libln.so")
+        self.manager_exe = self._find(self.build, "ln_manager")
+        self.generate_exe = self._find(self.build, "ln_generate")
+        missing = [n for n, p in (("libln.so", self.lib), ("ln_manager", self.manager_exe),
+                                  ("ln_generate", self.generate_exe)) if p is None]
+        if missing:
+            raise Unavailable(f"ln_core build in {self.build} lacks {', '.join(missing)}")
+        libdir = self.lib.parent
+        return ([str(self.generate_exe)],
+                [f"-I{LN_CORE_SRC / 'include'}", f"-L{libdir}", f"-Wl,-rpath,{libdir}", "-lln", "-lpthread"], {})
+
+    def _include_digest(self) -> str:
+        return _digest(*[p.read_bytes() for p in sorted((LN_CORE_SRC / "include" / "ln").rglob("*.h"))])
+
+    def _start_manager(self, ctx, config, log):
+        self._spawn_manager([self.manager_exe, "-c", config, "--listen", "127.0.0.1:0", "--log-level", "warning"],
+                            log, {"HOME": str(self.tmp / "home")})
+        self.address = self._wait_log(log, r"ln_manager: listening on (\S+)", 30).group(1)
+
+    def python(self):
+        if self._py_unavailable:
+            raise Unavailable(self._py_unavailable)
+        try:
+            pkg_dir = self._python_package()
+            interp = self.python_interpreter()
+            probe = subprocess.run([interp, "-c", "import numpy"], capture_output=True, timeout=60)
+            if probe.returncode != 0:
+                raise Unavailable(f"{interp} has no numpy (set LN_CORE_PYTHON)")
+        except Unavailable as e:
+            self._py_unavailable = str(e)
+            raise
+        return [interp], {"PYTHONPATH": str(pkg_dir)}
+
+    def _python_package(self) -> Path:
+        given = os.environ.get("LN_CORE_PYTHONPATH")
+        if given:
+            if not (Path(given) / "links_and_nodes" / "__init__.py").exists():
+                raise Unavailable(f"LN_CORE_PYTHONPATH={given} holds no links_and_nodes package")
+            return Path(given)
+        if self.build is not None:
+            for init in sorted(self.build.rglob("links_and_nodes/__init__.py")):
+                if list(init.parent.glob("_ln*.so")):
+                    return init.parent.parent
+        if not (LN_CORE_SRC / "python" / "links_and_nodes" / "__init__.py").exists():
+            raise Unavailable("ln_core has no Python binding (links_and_nodes package) yet")
+        raise Unavailable(LnCore._python_build_error or "ln_core's Python module (_ln) is not built")
+
+
+# ---------------------------------------------------------------------------------------------
+# running programs
+def _reader(stream, q: queue.Queue) -> None:
+    for line in stream:
+        q.put(line)
+    q.put(None)
+
+
+def _check_results(system: System, what: str, results: list[dict], rc: int | None, text: str) -> list[dict]:
+    for r in results:
+        if r.get("ok") is False:
+            if r.get("not_implemented") and isinstance(system, LnCore):
+                raise Unavailable(f"{what}: {r.get('error')}")
+            raise MeasureError(f"{system.label} {what}: {r.get('error')}")
+    if rc not in (0, None):
+        raise MeasureError(f"{system.label} {what}: exit {rc}: {_tail(text, 3)}")
+    return [r for r in results if r.get("ok")]
+
+
+def run_pair(ctx, system: System, server: list, client: list, *, cpus: tuple[int, int], timeout: float,
+             what: str, python: bool = False) -> tuple[dict, list[dict]]:
+    """Starts `server` pinned to cpus[1], waits for its ready line, runs `client` pinned to
+    cpus[0]; returns (the client's result, the server's result lines). Both bounded by `timeout`;
+    a failure reported by either side raises."""
+    env = {**os.environ, **system.env()}
+    prefix: list[str] = []
+    if python:
+        interp, py_env = system.python()
+        env.update(py_env)
+        prefix = interp
+    srv_cmd = ["taskset", "-c", str(cpus[1])] + prefix + [str(c) for c in server]
+    cli_cmd = ["taskset", "-c", str(cpus[0])] + prefix + [str(c) for c in client]
+    ctx.log_text(f"$ [{system.label}] {shlex.join(srv_cmd)} &\n")
+    deadline = time.monotonic() + timeout
+    srv = subprocess.Popen(srv_cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                           text=True, env=env, start_new_session=True)
+    system.started_pids.add(srv.pid)
+    q: queue.Queue = queue.Queue()
+    threading.Thread(target=_reader, args=(srv.stdout, q), daemon=True).start()
+    srv_lines: list[str] = []
+    cli = None
+    cli_results: list[dict] = []
+    srv_done = False
+    try:
+        # wait for {"ready": true} (or the server's failure) with a deadline
+        ready = False
+        while not ready:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                raise MeasureError(f"{system.label} {what}: server not ready within {timeout:g} s: "
+                                   f"{_tail(''.join(srv_lines))}")
+            try:
+                line = q.get(timeout=left)
+            except queue.Empty:
+                continue
+            if line is None:
+                srv_done = True
+                srv.wait(timeout=10)
+                text = "".join(srv_lines)
+                _check_results(system, what + " (server)", _json_lines(text), srv.returncode, text)
+                raise MeasureError(f"{system.label} {what}: server exited before it was ready: {_tail(text)}")
+            srv_lines.append(line)
+            ready = '"ready": true' in line
+        ctx.log_text(f"$ [{system.label}] {shlex.join(cli_cmd)}\n")
+        cli = subprocess.Popen(cli_cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                               text=True, env=env, start_new_session=True)
+        system.started_pids.add(cli.pid)
+        try:
+            cli_out, _ = cli.communicate(timeout=max(1.0, deadline - time.monotonic()))
+        except subprocess.TimeoutExpired:
+            _kill_group(cli)
+            cli_out, _ = cli.communicate()
+            ctx.log_text(cli_out)
+            raise MeasureError(f"{system.label} {what}: no result within {timeout:g} s: {_tail(cli_out, 2)}")
+        ctx.log_text(cli_out)
+        cli_results = _check_results(system, what, _json_lines(cli_out), cli.returncode, cli_out)
+        if not cli_results:
+            raise MeasureError(f"{system.label} {what}: printed no result: {_tail(cli_out)}")
+        # the server ends on the client's stop message; give it a few seconds
+        try:
+            srv.wait(timeout=max(1.0, min(10.0, deadline - time.monotonic())))
+        except subprocess.TimeoutExpired:
+            pass
+    finally:
+        if srv.poll() is None:
+            _kill_group(srv)
+            srv.wait(timeout=10)
+        if cli is not None and cli.poll() is None:
+            _kill_group(cli)
+        while not srv_done:  # the reader thread ends at EOF, which follows the exit
+            try:
+                line = q.get(timeout=5)
+            except queue.Empty:
+                break
+            if line is None:
+                break
+            srv_lines.append(line)
+        ctx.log_text("".join(srv_lines))
+    srv_text = "".join(srv_lines)
+    srv_results = _check_results(system, what + " (server)", _json_lines(srv_text), None, srv_text)
+    return cli_results[-1], srv_results
+
+
+def run_single(ctx, system: System, cmd: list, *, cpu: int, timeout: float, what: str) -> dict:
+    env = {**os.environ, **system.env()}
+    full = ["taskset", "-c", str(cpu)] + [str(c) for c in cmd]
+    ctx.log_text(f"$ [{system.label}] {shlex.join(full)}\n")
+    proc = subprocess.Popen(full, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True, env=env, start_new_session=True)
+    system.started_pids.add(proc.pid)
+    try:
+        out, _ = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        _kill_group(proc)
+        out, _ = proc.communicate()
+        ctx.log_text(out)
+        raise MeasureError(f"{system.label} {what}: no result within {timeout:g} s")
+    ctx.log_text(out)
+    results = _check_results(system, what, _json_lines(out), proc.returncode, out)
+    if not results:
+        raise MeasureError(f"{system.label} {what}: printed no result: {_tail(out)}")
+    return results[-1]
+
+
+# ---------------------------------------------------------------------------------------------
+# case plumbing
+class Comparison:
+    """Runs measurements of both systems, keeps going after a failure, and turns the outcome
+    into rows and a final status: failures fail the case (rows are kept), ln_core parts that
+    are not there yet make it a skip ("not available yet: <reason>")."""
+
+    def __init__(self, ctx, python: bool = False) -> None:
+        self.ctx = ctx
+        self.ln29 = LN29()
+        self.core = LnCore()
+        self.systems = [self.ln29, self.core]
+        self.python = python
+        self.unavailable: dict[str, list[str]] = {}   # system label -> reasons
+        self.failures: list[str] = []
+        self.ready: dict[str, bool] = {}
+
+    def __enter__(self):
+        for s in self.systems:
+            self.ready[s.key] = self._bring_up(s)
+        return self
+
+    def _bring_up(self, s: System) -> bool:
+        try:
+            s.prepare(self.ctx, programs=not self.python)
+            if self.python:
+                s.python()
+            s.start(self.ctx)
+            return True
+        except Unavailable as e:
+            self.note_unavailable(s, str(e))
+        except MeasureError as e:
+            self.failures.append(str(e))
+        return False
+
+    def note_unavailable(self, system: System, reason: str) -> None:
+        reasons = self.unavailable.setdefault(system.label, [])
+        # one entry per distinct final error text, whichever measurement met it first
+        if all(r.rsplit(": ", 1)[-1] != reason.rsplit(": ", 1)[-1] for r in reasons):
+            reasons.append(reason)
+
+    def __exit__(self, *exc):
+        for s in self.systems:
+            s.stop(self.ctx)
+        return False
+
+    def measure(self, system: System, fn):
+        """fn() -> result; None when the system is unavailable or the measurement failed."""
+        if not self.ready.get(system.key):
+            return None
+        try:
+            return fn()
+        except Unavailable as e:
+            self.note_unavailable(system, str(e))
+        except MeasureError as e:
+            self.failures.append(str(e))
+            self.ctx.log(f"FAILED: {e}")
+        return None
+
+    def why_missing(self, system: System) -> str:
+        if system.label in self.unavailable:
+            return f"not available yet: {' | '.join(self.unavailable[system.label])}"
+        return "measurement failed (see the case's error)"
+
+    def finish(self):
+        if self.failures:
+            more = f" (+{len(self.failures) - 3} more, see run.log)" if len(self.failures) > 3 else ""
+            raise RuntimeError("; ".join(self.failures[:3]) + more)
+        if self.unavailable:
+            self.ctx.skip("; ".join(f"{k} rows not available yet: {' | '.join(v)}" for k, v in self.unavailable.items()))
+
+
+def compare_rows(cmp: Comparison, group: str, name: str, ref_name: str, ref_runs: list[dict],
+                 core_runs: list[dict], metrics: list[tuple[str, str]], unit: str, target: float | None, *,
+                 extra=None, ref_only: bool = True, abs_target: tuple[float, str] | None = None):
+    """Rows "ln_core <name>" with LN 2.9's figure of the same run as reference (median over the
+    runs of each per-run statistic); LN 2.9's figure alone (no reference) when ln_core has no
+    result (yet), with the reason in the note. `target` (ratio) and `abs_target` (value, text)
+    are checked on the first metric and reported in the note."""
+    from benchlib import Row, median, spread_note
+    better = "lower" if unit in ("us", "ms") else "higher"
+    cmp_word = "<=" if better == "lower" else ">="
+    for i, (key, metric) in enumerate(metrics):
+        core_vals = [r[key] for r in core_runs]
+        ref_vals = [r[key] for r in ref_runs]
+        notes = []
+        if core_runs:
+            value = median(core_vals)
+            ref = median(ref_vals) if ref_runs else None
+            notes.append(spread_note(core_vals))
+            if target is not None and i == 0 and ref:
+                met = value / ref <= target if better == "lower" else value / ref >= target
+                notes.append(f"target {cmp_word} {target:g}x LN 2.9: {'met' if met else 'NOT met'}")
+            if abs_target is not None and i == 0:
+                met = value <= abs_target[0] if better == "lower" else value >= abs_target[0]
+                notes.append(f"target {abs_target[1]}: {'met' if met else 'NOT met'}")
+            if not ref_runs:
+                notes.append(f"LN 2.9: {cmp.why_missing(cmp.ln29)}")
+            if extra:
+                notes.append("ln_core " + extra(core_runs))
+                if ref_runs:
+                    notes.append("LN 2.9 " + extra(ref_runs))
+            yield Row(group=group, name=f"ln_core {name}", metric=metric, unit=unit, value=value,
+                      reference_name=ref_name if ref_runs else "", reference_value=ref, better=better,
+                      note="; ".join(n for n in notes if n))
+        elif ref_runs and ref_only:
+            notes.append(spread_note(ref_vals))
+            notes.append(f"ln_core: {cmp.why_missing(cmp.core)}")
+            if extra:
+                notes.append("LN 2.9 " + extra(ref_runs))
+            yield Row(group=group, name=ref_name, metric=metric, unit=unit, value=median(ref_vals), better=better,
+                      note="; ".join(n for n in notes if n))
