@@ -1,0 +1,34 @@
+"""links_and_nodes: the Python API of Links and Nodes (LN 2.9), on ln_core.
+
+    import links_and_nodes as ln
+    clnt = ln.client("my_program")           # manager from $LN_MANAGER
+    port = clnt.publish("counter.counts", "counter/count_message")
+    port.packet.num_counts = 1
+    port.write()
+
+Scripts written for LN 2.9's Python package run unchanged. Additions of
+ln_core (marked so in their docstrings): port.borrow() (zero-copy reads),
+port.sample_info, service_wrapper.call_future(), request.respond_error(),
+client.wait_for_service(), client.set_*_availability_handler(),
+client.close() and typed errors (LNError with .code, FieldError).
+"""
+
+from . import _ln
+from ._ln import LN_LIBRARY_VERSION, RATE_AS_PUBLISHED, RATE_ON_REQUEST_LAST  # noqa: F401
+from ._errors import *  # noqa: F401,F403  (LNE_* constants)
+from ._errors import ERROR_CODES, LNError, error_name  # noqa: F401
+from ._packets import FieldError, FieldTypeError, FieldValueError, Part as ln_packet_part  # noqa: F401
+from ._client import client, port_wrapper, multi_waiter, borrowed_packet  # noqa: F401
+from ._services import service_wrapper, request_wrapper, ServiceFuture, SVC_RESP_LATER  # noqa: F401
+from ._wrapped import (  # noqa: F401
+    ServiceErrorResponse, service_provider, services_wrapper, wrapped_service, wrapped_service_provider)
+
+ln_packet = ln_packet_part
+LN_MANAGER_CLIENT_ID = 0xFFFFFFFF
+#: RATE_ON_REQUEST_NEXT exists in LN's C API but is not implemented there either.
+RATE_ON_REQUEST_NEXT = -3
+
+get_time = _ln.get_time
+get_monotonic_time = _ln.get_monotonic_time
+format_error = _ln.format_error
+from ._packets import ctor_name as get_packet_ctor_name  # noqa: E402,F401

@@ -1,0 +1,373 @@
+"""The client, topic ports and the multi-waiter (LN 2.9's Python API)."""
+
+import atexit
+import weakref
+
+from . import _ln
+from ._errors import LNError, LNE_INVALID_PARAMETER, LNE_NOT_YET_IMPLEMENTED
+from ._packets import Compiler, ln29_definition
+
+_live_clients = weakref.WeakSet()
+
+
+@atexit.register
+def _close_all():
+    # Library threads must not call into Python while it shuts down.
+    for clnt in list(_live_clients):
+        try:
+            clnt.close()
+        except Exception:
+            pass
+
+
+def _timeout(blocking_or_timeout):
+    """LN's read argument as seconds: True/None block (-1), False polls (0)."""
+    if blocking_or_timeout is True or blocking_or_timeout is None:
+        return -1.0
+    if blocking_or_timeout is False:
+        return 0.0
+    try:
+        timeout = float(blocking_or_timeout)
+    except (TypeError, ValueError):
+        raise TypeError("blocking_or_timeout must be True, False or a timeout in seconds, not %r"
+                        % (blocking_or_timeout,)) from None
+    return timeout if timeout > 0 else 0.0
+
+
+class client:
+    """A connection to the ln_manager.
+
+    client(client_name, ln_manager_or_args=None): ``ln_manager_or_args`` is
+    "HOST:PORT", a list of command-line arguments (``sys.argv``, parsed for
+    --ln-manager, --ln-program-name, ...), or None for $LN_MANAGER.
+    """
+
+    def __init__(self, client_name, ln_manager_or_args=None):
+        if isinstance(ln_manager_or_args, (list, tuple)):
+            native = _ln.Client(client_name, None, [str(a) for a in ln_manager_or_args])
+        elif ln_manager_or_args is None or isinstance(ln_manager_or_args, str):
+            native = _ln.Client(client_name, ln_manager_or_args or None, None)
+        elif isinstance(ln_manager_or_args, bytes):
+            native = _ln.Client(client_name, ln_manager_or_args.decode(), None)
+        else:
+            raise TypeError("ln_manager_or_args must be 'HOST:PORT', a list of arguments or None, not %r"
+                            % (ln_manager_or_args,))
+        self._native = native
+        self.name = native.name
+        self._compiler = Compiler()
+        self._models = {}
+        self._services = set()
+        self._availability = {}
+        _live_clients.add(self)
+
+    # -- life cycle -------------------------------------------------------
+    def close(self):
+        """Unregisters from the manager; ports and services become unusable."""
+        for svc in list(self._services):
+            svc._native.release()
+        self._services.clear()
+        self._native.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def __repr__(self):
+        return "<links_and_nodes.client %r>" % self.name
+
+    # -- message definitions ----------------------------------------------
+    def _model(self, md_name, text=None):
+        model = self._models.get(md_name)
+        if model is None or (text is not None and model.get("_text") != text):
+            model = self._native.model(md_name, text)
+            model["_text"] = text
+            self._models[md_name] = model
+        return model
+
+    def get_message_definition(self, message_definition_name):
+        """(definition, message size, hash, flat definition); the definition
+        is the dict text LN 2.9 returns (fields as [type, name, count])."""
+        text, size, md_hash, flat = self._native.get_message_definition(message_definition_name)
+        model = self._model(message_definition_name)
+        return repr(ln29_definition(model)), size, md_hash, flat
+
+    def get_message_definition_for_topic(self, topic_name):
+        """(message definition name, definition, message size, hash)."""
+        md_name, text, size, md_hash = self._native.get_message_definition_for_topic(topic_name)
+        return md_name, repr(ln29_definition(self._model(md_name))), size, md_hash
+
+    def get_message_definition_text(self, message_definition_name):
+        """ln_core: the definition's own text as in its file."""
+        return self._native.get_message_definition(message_definition_name)[0]
+
+    def describe_message_definition(self, message_definition_name):
+        return self._native.describe_message_definition(message_definition_name)
+
+    def put_message_definition(self, message_definition_name, message_definition):
+        return self._native.put_message_definition(message_definition_name, message_definition)
+
+    def locate_member_in_message_definition(self, message_definition_name, member):
+        """(byte offset, byte length) of a member path such as "pose.position[2]"."""
+        return self._native.locate_member(message_definition_name, member)
+
+    def get_service_signature(self, service_interface):
+        """(definition text, signature) of a service interface."""
+        return self._native.get_service_signature(service_interface)
+
+    def get_service_signature_for_service(self, service_name):
+        """(interface, definition text, signature) of a registered service."""
+        return self._native.get_service_signature_for_service(service_name)
+
+    def find_services_with_interface(self, interface_name):
+        return self._native.find_services_with_interface(interface_name)
+
+    # -- topics -----------------------------------------------------------
+    def _topic_model(self, md_name):
+        model = self._model(md_name)
+        if model["kind"] != "plain":
+            raise LNError("'%s' is a %s definition, not a topic message" % (md_name, model["kind"]),
+                          LNE_INVALID_PARAMETER, 0)
+        cls = self._compiler.part_class(model)
+        if not cls._fixed:
+            raise LNError("'%s' has dynamic fields, which topics cannot carry (LN sends fixed-size "
+                          "packets): use a fixed array and a count field" % md_name, LNE_INVALID_PARAMETER, 0)
+        return model, cls
+
+    def publish(self, topic_name, message_definition_name="", buffers=1):
+        """Becomes the publisher of a topic; returns its port."""
+        md_name = message_definition_name.split("|")[0]
+        model, cls = self._topic_model(md_name)
+        native = _ln.OutPort(self._native, topic_name, message_definition_name, int(buffers))
+        return port_wrapper(md_name, cls, native, self, topic_name)
+
+    def subscribe(self, topic_name, message_definition_name=None, rate=-1, buffers=1,
+                  need_reliable_transport=False):
+        """Subscribes to a topic; `message_definition_name` None asks the manager."""
+        if message_definition_name is None or message_definition_name == "":
+            message_definition_name = self._native.get_message_definition_for_topic(topic_name)[0]
+        elif not isinstance(message_definition_name, str):
+            raise TypeError("subscribe: message_definition_name must be None or a str, not %r"
+                            % (message_definition_name,))
+        md_name = message_definition_name.split("|")[0]
+        model, cls = self._topic_model(md_name)
+        native = _ln.InPort(self._native, topic_name, message_definition_name, float(rate), int(buffers),
+                            bool(need_reliable_transport))
+        return port_wrapper(md_name, cls, native, self, topic_name, need_reliable_transport)
+
+    def unpublish(self, port):
+        port.port.unpublish()
+
+    def unsubscribe(self, port):
+        port.port.unsubscribe()
+
+    def get_multi_waiter(self):
+        return multi_waiter(self)
+
+    # -- services ---------------------------------------------------------
+    def get_service(self, service_name, interface_name="", mainloop=None):
+        """A service to call. Without interface_name the running provider's is used."""
+        from ._services import service_wrapper
+        if mainloop is not None:
+            raise LNError("mainloop integration is not supported by ln_core", LNE_NOT_YET_IMPLEMENTED, 0)
+        if interface_name:
+            definition, signature = self._native.get_service_signature(interface_name)
+        else:
+            interface_name, definition, signature = self._native.get_service_signature_for_service(service_name)
+        return service_wrapper(self, service_name, interface_name, definition, signature, is_provider=False)
+
+    def get_service_provider(self, service_name, interface_name, mainloop=None):
+        """A service to provide: set_handler(), then do_register()."""
+        from ._services import service_wrapper
+        if mainloop is not None:
+            raise LNError("mainloop integration is not supported by ln_core", LNE_NOT_YET_IMPLEMENTED, 0)
+        definition, signature = self._native.get_service_signature(interface_name)
+        svc = service_wrapper(self, service_name, interface_name, definition, signature, is_provider=True)
+        self._services.add(svc)
+        return svc
+
+    def release_service(self, svc):
+        self._services.discard(svc)
+        svc._native.release()
+
+    def wait_and_handle_service_group_requests(self, group_name=None, timeout=-1):
+        """Runs handlers of the group's providers in this thread; waits at most
+        `timeout` seconds (-1: until something was handled)."""
+        self._native.wait_and_handle_service_group_requests(group_name, float(timeout))
+
+    def handle_service_group_in_thread_pool(self, group_name, pool_name):
+        self._native.handle_service_group_in_thread_pool(group_name, pool_name)
+
+    def remove_service_group_from_thread_pool(self, group_name):
+        self._native.remove_service_group_from_thread_pool(group_name)
+
+    def unblock_service_group(self, group_name):
+        self._native.unblock_service_group(group_name)
+
+    def set_max_threads(self, pool_name, n_threads):
+        self._native.set_max_threads(pool_name, int(n_threads))
+
+    def thread_pool_setschedparam(self, pool_name, policy, priority, affinity_mask):
+        self._native.thread_pool_setschedparam(pool_name, int(policy), int(priority), int(affinity_mask))
+
+    def needs_provider(self, service_or_topic_name, timeout=-1):
+        self._native.needs_provider(service_or_topic_name, float(timeout))
+
+    def wait_for_service(self, service_name, timeout=-1):
+        """ln_core: True once a provider of the service is registered (never
+        starts one), False if none came within `timeout` seconds."""
+        return self._native.wait_for_service(service_name, float(timeout))
+
+    def set_service_availability_handler(self, service_name, handler):
+        """ln_core: handler(service_name, available) now and at every change
+        (called from a library thread); None removes it."""
+        self._native.set_availability_handler(True, service_name, handler)
+
+    def set_publisher_availability_handler(self, topic_name, handler):
+        """ln_core: handler(topic_name, has_publisher) now and at every change."""
+        self._native.set_availability_handler(False, topic_name, handler)
+
+    # -- misc -------------------------------------------------------------
+    def ping(self, timeout=-1):
+        return self._native.ping(float(timeout))
+
+    def get_remaining_args(self):
+        return self._native.get_remaining_args()
+
+    def set_thread_safe(self, thread_safe):
+        self._native.set_thread_safe(bool(thread_safe))
+
+    def set_float_parameter(self, name, value):
+        self._native.set_float_parameter(name, float(value))
+
+    def register_as_service_logger(self, logger_service_name, service_name_patterns_to_log):
+        self._native.register_as_service_logger(logger_service_name, service_name_patterns_to_log)
+
+    def _unsupported(self, what):
+        raise LNError("%s is not supported by links_and_nodes on ln_core" % what, LNE_NOT_YET_IMPLEMENTED, 0)
+
+    def get_logger(self, logger_name):
+        self._unsupported("client.get_logger()")
+
+    def get_parameters(self, parameter_group_prefix="", allow_empty=False):
+        self._unsupported("client.get_parameters()")
+
+    def parameter_block(self, parameter_group_name, always_publish=False, topic_name=""):
+        self._unsupported("client.parameter_block()")
+
+    def connect_to_event(self, *args, **kwargs):
+        self._unsupported("client.connect_to_event()")
+
+
+class port_wrapper:
+    """A topic port: `packet` holds the message; read() fills it, write() sends it."""
+
+    def __init__(self, md_name, packet_class, port, client, topic_name, need_reliable_transport=False):
+        self.client = client
+        self.topic_name = topic_name
+        self.msg_def_name = md_name
+        self.msg_def_hash = port.msg_def_hash
+        self.port = port
+        self.packet = packet_class(name=md_name)
+        self._packet_class = packet_class
+        self.need_reliable_transport = need_reliable_transport
+        self.timestamp = 0
+        self.sequence = 0
+        self.lost = 0
+
+    def read(self, blocking_or_timeout=True):
+        """Returns `packet` updated with the next message, or None if there was
+        none (False: don't wait; True: wait; a number: wait that many seconds)."""
+        port = self.port
+        if not port.read(self.packet._buf, _timeout(blocking_or_timeout)):
+            return None
+        self.timestamp = port.timestamp
+        return self.packet
+
+    def write(self, timestamp=None):
+        """Publishes `packet` (timestamp: seconds, default now)."""
+        self.port.write(self.packet._buf, timestamp)
+
+    def has_subscriber(self):
+        return self.port.has_subscriber()
+
+    def has_publisher(self):
+        return self.port.has_publisher()
+
+    def unblock(self):
+        """Ends a blocking read() in another thread (it raises LNError LNE_PORT_UNBLOCKED)."""
+        self.port.unblock()
+
+    @property
+    def sample_info(self):
+        """ln_core: (sequence, lost, timestamp) of the last read."""
+        return self.port.sequence, self.port.lost, self.port.timestamp
+
+    def borrow(self, blocking_or_timeout=True):
+        """ln_core: zero-copy read. A context manager whose value is a read-only
+        packet viewing the message in place (arrays are numpy views), or None
+        when no message came. Valid until the block ends::
+
+            with port.borrow(1.0) as pkt:
+                if pkt is not None:
+                    use(pkt.data)
+        """
+        loan = self.port.borrow(_timeout(blocking_or_timeout))
+        if loan is not None:
+            self.timestamp = self.port.timestamp
+        return borrowed_packet(self, loan)
+
+
+class borrowed_packet:
+    """Context manager of port_wrapper.borrow()."""
+
+    def __init__(self, port, loan):
+        self._loan = loan
+        self.packet = None if loan is None else port._packet_class(loan, 0, name=port.msg_def_name)
+        self.timestamp = port.port.timestamp
+        self.sequence = port.port.sequence
+        self.lost = port.port.lost
+
+    def __enter__(self):
+        return self.packet
+
+    def __exit__(self, *exc):
+        self.release()
+
+    def memoryview(self):
+        """The whole message as a read-only memoryview (release it before the loan ends)."""
+        return memoryview(self._loan)
+
+    def release(self):
+        """Ends the loan (deferred while arrays or memoryviews of it exist)."""
+        if self._loan is not None:
+            if self.packet is not None:
+                self.packet._cache.clear()
+                self.packet = None
+            self._loan.release()
+            self._loan = None
+
+
+class multi_waiter:
+    """Waits until one of several subscribed ports has a new message."""
+
+    def __init__(self, clnt):
+        self.client = clnt
+        self._native = _ln.MultiWaiter(clnt._native)
+        self.ports = []
+
+    def add_port(self, port):
+        self._native.add_port(port.port)
+        self.ports.append(port)
+
+    def remove_port(self, port):
+        self._native.remove_port(port.port)
+        self.ports.remove(port)
+
+    def wait(self, timeout=-1):
+        """True if a port can be read; False after `timeout` seconds (-1: no limit)."""
+        return self._native.wait(float(timeout))
+
+    def can_read(self, port):
+        return self._native.can_read(port.port)

@@ -1,0 +1,38 @@
+"""LN error codes and the exception every failing LN operation raises."""
+
+from . import _ln
+
+_NAMES = """CHECK_ERRNO NO_MEM NO_MANAGER_ADDRESS INVALID_MANAGER_ADDRESS INVALID_HOSTNAME
+UNKNOWN_HOSTNAME HOST_WRONG_NET GOT_INVALID_RESPONSE REGISTER_DENIED CLIENT_NOT_INITIALIZED
+REQUEST_FAILED FIELD_NOT_IN_HEADER STRING_LENGTH_SPEC_MISSING PORT_NOT_FOUND INVALID_PORT_OBJECT
+SHM_IS_TOO_SMALL SHM_IS_TOO_BIG SHM_DOES_NOT_EXIT PACKET_TOO_LARGE SHM_READ_ERROR LOST_CONNECTION
+REGISTER_FAILED SVC_IS_PROVIDER SVC_IS_CLIENT SVC_RECV_RESP SVC_RECV_RESP_MEM SVC_ALREADY_REGISTERED
+SVC_NOT_REGISTERED SVC_RECV_REQ SVC_RECV_REQ_MEM SVC_REQ_SET_DATA_WRONG SVC_HANDLER_NO_RESP
+INVALID_REQ_FIELD_FORMAT USER_DEFINED_ERROR SVC_NO_HANDLER SVC_HANDLER_EXC SVC_REQ_RUNNING
+SVC_REQ_NOT_RUNNING SVC_REQ_ABORTED NO_PROVIDER_FOUND START_PROVIDER_FAILED ERROR_GETTING_SHM_FD
+SHM_NAME_TOO_LONG NOT_YET_IMPLEMENTED NO_LOGGER_TOPICS INTERNAL_ERROR TOPIC_ID_OUT_OF_RANGE
+LOG_FILE_TOO_NEW WRONG_BYTE_ORDER INVALID_SHM_MAGIC SHM_VERSION_TOO_NEW WRONG_SHM_SIZE
+INVALID_SIGNATURE INVALID_PARAMETER SVC_RESP_LATER SVC_GRP_UNKNOWN THREADP_INIT NOT_ON_THIS_OS
+PORT_UNBLOCKED UNKNOWN_PARAMETER SVC_HANDLER_MULTI_RESP MANAGER_TOO_OLD INVALID_DSA_SIGNATURE
+SVC_TIMEOUT SVC_GRP_HANDLED_IN_POOL CLNT_NAME_IN_USE CHECK_ERROR_CODE UNKNOWN WRONG_MD_HASH""".split()
+
+#: {"LNE_NO_MEM": 2, ...}: the LN 2.9 numbering (starting at 1).
+ERROR_CODES = {"LNE_" + name: number for number, name in enumerate(_NAMES, start=1)}
+globals().update(ERROR_CODES)
+
+LNError = _ln.LNError
+LNError.__module__ = "links_and_nodes"
+LNError.message = property(lambda self: self.args[0] if self.args else "", doc="the error text")
+LNError.code = property(lambda self: self.args[1] if len(self.args) > 1 else LNE_UNKNOWN,  # noqa: F821
+                        doc="the LNE_* number")
+LNError.user_code = property(lambda self: self.args[2] if len(self.args) > 2 else 0,
+                             doc="for LNE_USER_DEFINED_ERROR: the error code the provider's handler returned")
+LNError.__str__ = lambda self: str(self.args[0]) if self.args else ""
+
+
+def error_name(code):
+    """'LNE_SVC_TIMEOUT' for 64 (or -64)."""
+    code = abs(code)
+    if 1 <= code <= len(_NAMES):
+        return "LNE_" + _NAMES[code - 1]
+    return "LNE_UNKNOWN"

@@ -1,0 +1,7 @@
+"""Error codes of the area services (quickstart)."""
+
+
+class ErrorCodes:
+    NO_ERROR = 0
+    NEGATIVE_INPUT = 1
+    ZERO_INPUT = 2

@@ -1,0 +1,100 @@
+"""Misuse raises Python exceptions; it never crashes the interpreter."""
+
+import gc
+import threading
+
+import pytest
+
+import links_and_nodes as ln
+from links_and_nodes import _ln
+
+from conftest import handshake
+
+
+def test_native_layer_checks_its_arguments(clnt, unique):
+    port = _ln.InPort(clnt._native, "misuse.%s" % unique, "counter/count_message", -1.0, 1, False)
+    with pytest.raises(TypeError):
+        port.read("not a buffer", 0.0)
+    with pytest.raises(TypeError):
+        port.read(b"read-only bytes!", 0.0)
+    with pytest.raises(ValueError):
+        port.read(bytearray(3), 0.0)
+    out = _ln.OutPort(clnt._native, "misuse.out.%s" % unique, "counter/count_message", 1)
+    with pytest.raises(ValueError):
+        out.write(bytearray(2))
+    with pytest.raises(TypeError):
+        out.write(12)
+
+
+def test_bad_read_arguments(clnt, unique):
+    sub = clnt.subscribe("misuse.read.%s" % unique, "counter/count_message")
+    with pytest.raises(TypeError):
+        sub.read("soon")
+    assert sub.read(-5) is None  # <= 0: poll
+    assert sub.read(0) is None
+
+
+def test_loans_after_release(clnt, unique):
+    pub = clnt.publish("misuse.loan.%s" % unique, "pytest/p64")
+    sub = clnt.subscribe("misuse.loan.%s" % unique, "pytest/p64")
+    handshake(pub, sub)
+    pub.write()
+    borrowed = sub.borrow(2.0)
+    loan = borrowed._loan
+    borrowed.release()
+    borrowed.release()
+    with pytest.raises(BufferError):
+        memoryview(loan)
+    pub.write()
+    with sub.borrow(2.0) as pkt:  # the port lends again once released
+        assert pkt is not None
+
+
+def test_objects_outliving_their_client(manager, unique):
+    c = ln.client("misuse_gc")
+    sub = c.subscribe("misuse.gc.%s" % unique, "counter/count_message")
+    waiter = c.get_multi_waiter()
+    waiter.add_port(sub)
+    c.close()
+    del c
+    gc.collect()
+    with pytest.raises(ln.LNError):
+        sub.read(False)
+    with pytest.raises(ln.LNError):
+        waiter.wait(0)
+    with pytest.raises(ln.LNError):
+        sub.has_publisher()
+
+
+def test_wrong_definition_kinds(clnt, unique):
+    with pytest.raises(ln.LNError, match="service"):
+        clnt.publish("misuse.kind.%s" % unique, "pytest/small_srv")
+    with pytest.raises(ln.LNError):
+        clnt.subscribe("misuse.unknown.%s" % unique)  # no md and no such topic
+
+
+def test_threads_reading_in_parallel(clnt, unique):
+    pairs = []
+    for i in range(4):
+        pub = clnt.publish("misuse.par%d.%s" % (i, unique), "counter/count_message")
+        sub = clnt.subscribe("misuse.par%d.%s" % (i, unique), "counter/count_message", buffers=64)
+        handshake(pub, sub)
+        pairs.append((pub, sub))
+    counts = [0] * 4
+
+    def reader(i):
+        sub = pairs[i][1]
+        while counts[i] < 50:
+            if sub.read(2.0) is None:
+                return
+            counts[i] += 1
+
+    threads = [threading.Thread(target=reader, args=(i,)) for i in range(4)]
+    for t in threads:
+        t.start()
+    for _ in range(50):
+        for pub, _sub in pairs:
+            pub.write()
+    for t in threads:
+        t.join(10)
+    assert counts == [50] * 4

@@ -1,0 +1,135 @@
+"""Packet classes from the md model, without a manager."""
+
+import copy
+
+import numpy as np
+import pytest
+
+import links_and_nodes as ln
+from links_and_nodes import _ln
+from links_and_nodes._packets import Compiler
+
+from conftest import MSGDEFS
+
+
+def part(name, section="fields"):
+    model = _ln.model_from_dirs(name, [MSGDEFS])
+    return Compiler().part_class(model, section)(name=name)
+
+
+def test_model_comes_from_the_md_library():
+    model = _ln.model_from_dirs("pytest/all_types", [MSGDEFS])
+    assert model["kind"] == "plain"
+    assert model["size"] == 4 + 8 + 1 + 1 + 1 + 2 + 2 + 4 + 4 + 8 + 8 + 24 + 8 + 5 + 8 + 16 + 32
+    assert "pytest/point" in model["defs"]
+    assert len(model["hash"]) == 64
+
+
+def test_model_from_sources_resolves_imports_like_the_parser():
+    sources = {"a/top": 'define p as "pt"\np here\n', "a/pt": "double x\n"}
+    model = _ln.model_from_sources("a/top", sources)
+    assert model["fields"][0][3] == "a/pt"
+
+
+def test_scalars_round_trip_through_the_buffer():
+    p = part("pytest/all_types")
+    p.f, p.d, p.i8, p.u8, p.i16, p.u16 = 1.5, 2.25, -5, 250, -300, 60000
+    p.i32, p.u32, p.i64, p.u64 = -70000, 4000000000, -2**40, 2**63
+    p.c = "A"
+    assert (p.f, p.d, p.i8, p.u8, p.i16, p.u16) == (1.5, 2.25, -5, 250, -300, 60000)
+    assert (p.i32, p.u32, p.i64, p.u64, p.c) == (-70000, 4000000000, -2**40, 2**63, 65)
+    assert len(p._buf) == type(p)._size
+
+
+def test_arrays_are_writable_numpy_views_into_the_buffer():
+    p = part("pytest/all_types")
+    assert isinstance(p.vec, np.ndarray) and p.vec.dtype == np.float64
+    p.vec[1] = 3.0
+    assert np.frombuffer(p._buf, np.float64, 3, 4 + 8 + 1 + 1 + 1 + 2 + 2 + 4 + 4 + 8 + 8)[1] == 3.0
+    view = p.vec
+    p.vec = [1, 2, 3]
+    assert view is p.vec and list(view) == [1, 2, 3]
+    p.small = np.array([1, -2, 3, -4], dtype=np.int64)
+    assert p.small.dtype == np.int16 and list(p.small) == [1, -2, 3, -4]
+
+
+def test_char_arrays_are_text_and_subtypes_nested_parts():
+    p = part("pytest/all_types")
+    p.name = "héllo"
+    assert p.name == "héllo"
+    p.name = "ab"
+    assert p.name == "ab"
+    p.origin.x = 1.0
+    p.corners[1].y = 2.0
+    p.origin = {"y": 5.0}
+    assert (p.origin.x, p.origin.y, p.corners[1].y) == (1.0, 5.0, 2.0)
+    assert p.dict()["origin"] == {"x": 1.0, "y": 5.0}
+    assert "origin" in str(p)
+
+
+@pytest.mark.parametrize("field,value,error", [
+    ("u8", 256, ln.FieldValueError),
+    ("i8", -129, ln.FieldValueError),
+    ("u32", -1, ln.FieldValueError),
+    ("u32", 1.5, ln.FieldTypeError),
+    ("d", "x", ln.FieldTypeError),
+    ("vec", [1, 2], ln.FieldValueError),
+    ("vec", ["a", "b", "c"], ln.FieldTypeError),
+    ("small", [1, 2, 3, 70000], ln.FieldValueError),
+    ("small", [1.5, 2, 3, 4], ln.FieldTypeError),
+    ("name", "far too long", ln.FieldValueError),
+    ("name", "\udc80\ud800", ln.FieldValueError),
+    ("name", 5, ln.FieldTypeError),
+    ("c", 300, ln.FieldValueError),
+    ("origin", 3, ln.FieldTypeError),
+    ("corners", [{}, {}, {}], ln.FieldValueError),
+])
+def test_bad_values_raise_naming_the_field_and_leave_the_packet_alone(field, value, error):
+    p = part("pytest/all_types")
+    before = bytes(p._buf)
+    with pytest.raises(error, match="'%s'" % field):
+        setattr(p, field, value)
+    assert bytes(p._buf) == before
+
+
+def test_unknown_field_names_raise():
+    p = part("pytest/all_types")
+    with pytest.raises(AttributeError, match="u33"):
+        p.u33 = 1
+    with pytest.raises(AttributeError, match="nope"):
+        p.origin = {"nope": 1}
+
+
+def test_dynamic_fields_and_flat_form():
+    req = part("pytest/echo")
+    req.counter = 7
+    req.values = [1.0, 2.0]
+    req.text = "hi"
+    req.points = [{"x": 1.0, "y": 2.0}]
+    assert req.values_len == 2 and req.text_len == 2 and req.points_len == 1
+    p = req.new_point_t_packet(x=3.0)
+    req.points.append(p)
+    flat = req._flat()
+    # counter, vec[3], (n, values), (n, text), origin, (n, points)
+    assert len(flat) == 4 + 24 + 4 + 16 + 4 + 2 + 16 + 4 + 32
+    copy_ = part("pytest/echo")
+    copy_._decode(flat)
+    assert copy_ == req
+    assert list(copy_.values) == [1.0, 2.0] and copy_.text == "hi" and copy_.points[1].x == 3.0
+    with pytest.raises(ValueError):
+        copy_._decode(flat[:-1])
+
+
+def test_fixed_service_parts_are_their_buffer():
+    req = part("pytest/small_srv")
+    assert req._flat() is req._buf
+    resp = part("pytest/small_srv", "response_fields")
+    assert resp._fields == ("seq", "y")
+
+
+def test_copy_is_independent():
+    p = part("pytest/all_types")
+    p.vec = [1, 2, 3]
+    q = copy.deepcopy(p)
+    q.vec[0] = 9
+    assert p.vec[0] == 1 and q.vec[0] == 9
