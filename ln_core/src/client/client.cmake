@@ -95,6 +95,7 @@ if(BUILD_TESTING)
     gtest_discover_tests(ln_client_tests PROPERTIES TIMEOUT 120)
 
     include(${LN_CLIENT_ROOT_DIR}/tests/topics/topics.cmake)
+    include(${LN_CLIENT_ROOT_DIR}/tests/remote/remote.cmake)
     include(${LN_CLIENT_ROOT_DIR}/tests/services/services.cmake)
   endif()
 endif()

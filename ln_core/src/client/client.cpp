@@ -1,5 +1,7 @@
 #include "client/client.hpp"
 
+#include <cstring>
+
 #include <unistd.h>
 
 #include <cstdarg>
@@ -60,7 +62,8 @@ std::uint32_t next_peer_request_id() {
 // ------------------------------------------------------------------ creation
 
 std::unique_ptr<Client> Client::create(const char* client_name, int argc, const char* const* argv) {
-  CommandLine command_line = parse_command_line(argc, argv);
+  const bool exact_name = client_name != nullptr && std::strncmp(client_name, "exact:", 6) == 0;
+  CommandLine command_line = parse_command_line(argc, argv, exact_name);
   const std::optional<std::string> address = command_line.manager_address;
   return connect(client_name, std::move(command_line), address);
 }
@@ -113,11 +116,22 @@ Client::Client(Settings settings, CommandLine command_line)
 
 void Client::start(UniqueFd connected_socket) {
   link_.attach(std::move(connected_socket), settings_.address.text());
+  listen_for_remote_peers();
   loop_.start("ln:io");
   register_with_manager();
 }
 
+void Client::listen_for_remote_peers() {
+  try {
+    peer_server_.listen_tcp(link_.local_ip());
+  } catch (const Failure& failure) {
+    // Same-host peers still work over the Unix socket; remote callers cannot reach us.
+    debug("no TCP peer server: %s", failure.what());
+  }
+}
+
 Message Client::hello_request(bool after_restart) {
+  if (after_restart) listen_for_remote_peers();  // loop thread; the local IP may have changed
   Message hello = link_.new_request(method::hello);
   hello.set("program_name", settings_.requested_name)
       .set("exact", settings_.exact)
@@ -127,7 +141,7 @@ Message Client::hello_request(bool after_restart) {
       .set("uid", static_cast<std::int64_t>(::getuid()))
       .set("library_version", LN_LIBRARY_VERSION)
       .set("peer_socket", peer_server_.socket_name())
-      .set("peer_address", std::string());
+      .set("peer_address", peer_server_.tcp_address());
   if (after_restart) hello.set("previous_name", std::string(name()));
   return hello;
 }
@@ -627,6 +641,8 @@ void Client::attach_remote_inbox_locked(InPort* port, std::int64_t subscription_
 }
 
 void Client::serve_open_segment(PeerRequest& request) {
+  if (request.connection->over_tcp())
+    return request.fail(LNE_REQUEST_FAILED, "shared-memory segments cannot be handed over TCP (peer on another host)");
   if (request.connection->peer_uid() != static_cast<long>(::getuid()))
     return request.fail(LNE_REQUEST_FAILED, "shared-memory segments are only handed to processes of the same user");
   const std::int64_t topic_id = request.message.get_int_or("topic_id", -1);

@@ -136,6 +136,8 @@ class Client {
   void start(UniqueFd connected_socket);
   void register_with_manager();
   protocol::Message hello_request(bool after_restart);
+  /// Opens (or moves) the TCP peer server to the IP used towards the manager.
+  void listen_for_remote_peers();
   void adopt_hello_response(const protocol::Message& response);
   void set_name(const std::string& name);
   void require_registered() const;

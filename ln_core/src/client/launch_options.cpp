@@ -12,7 +12,7 @@ bool is_option(const char* arg, const char* gnu, const char* legacy) {
 
 }  // namespace
 
-CommandLine parse_command_line(int argc, const char* const* argv) {
+CommandLine parse_command_line(int argc, const char* const* argv, bool exact_name) {
   CommandLine parsed;
   if (argv == nullptr) return parsed;
   for (int i = 0; i < argc; ++i) {
@@ -21,7 +21,8 @@ CommandLine parse_command_line(int argc, const char* const* argv) {
     const int values_left = argc - i - 1;
     if (i > 0 && values_left >= 1 && is_option(arg, "--ln-manager", "-ln_manager")) {
       parsed.manager_address = argv[++i];
-    } else if (i > 0 && values_left >= 1 && is_option(arg, "--ln-program-name", "-ln_program_name")) {
+    } else if (i > 0 && values_left >= 1 && !exact_name &&
+               is_option(arg, "--ln-program-name", "-ln_program_name")) {
       parsed.program_name = argv[++i];
     } else if (i > 0 && values_left >= 2 && is_option(arg, "--ln-map-topic", "-ln_map_topic")) {
       parsed.topic_mappings.push_back({argv[i + 1], argv[i + 2]});

@@ -23,8 +23,10 @@ struct CommandLine {
 
 /// Parses argv without modifying it. An option missing its value(s) at the
 /// end of argv is left in `remaining`. A repeated address or name option:
-/// the last one wins.
-CommandLine parse_command_line(int argc, const char* const* argv);
+/// the last one wins. With `exact_name` (the name in code starts with
+/// "exact:") --ln-program-name is not an option and stays in `remaining`,
+/// as in LN 2.9.
+CommandLine parse_command_line(int argc, const char* const* argv, bool exact_name = false);
 
 /// The manager address to use: the explicit one (argument or constructor)
 /// wins, LN_MANAGER is the fallback; empty values count as absent.

@@ -38,6 +38,14 @@ TEST(CommandLine, Argv0IsNeverAnOption) {
   EXPECT_TRUE(parse_command_line(0, nullptr).remaining.empty());
 }
 
+TEST(LaunchOptions, ExactNamesLeaveProgramNameOptionsInTheRemainingArguments) {
+  std::vector<const char*> args{"prog", "--ln-program-name", "other", "--ln-manager", "h:1", "x"};
+  const CommandLine parsed = parse_command_line(static_cast<int>(args.size()), args.data(), true);
+  EXPECT_FALSE(parsed.program_name);
+  EXPECT_EQ(parsed.manager_address, "h:1");
+  EXPECT_EQ(parsed.remaining, (std::vector<std::string>{"prog", "--ln-program-name", "other", "x"}));
+}
+
 TEST(ManagerAddress, ExplicitWinsOverEnvironment) {
   EXPECT_EQ(choose_manager_address(std::string("a:1"), "b:2"), "a:1");
   EXPECT_EQ(choose_manager_address(std::nullopt, "b:2"), "b:2");

@@ -1,5 +1,8 @@
 #include "client/peer.hpp"
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -50,12 +53,34 @@ void PeerServer::add_method(std::string name, Method method) { methods_[std::mov
 void PeerServer::start(const std::string& socket_name) {
   listener_ = listen_abstract_unix(socket_name);
   socket_name_ = socket_name;
-  loop_.watch(listener_.get(), POLLIN, [this](short) { accept_all(); });
+  loop_.watch(listener_.get(), POLLIN, [this](short) { accept_all(listener_.get(), false); });
+}
+
+void PeerServer::listen_tcp(const std::string& ipv4) {
+  if (tcp_listener_.valid() && ipv4 == tcp_ip_) return;
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  if (::inet_pton(AF_INET, ipv4.c_str(), &address.sin_addr) != 1 || address.sin_addr.s_addr == htonl(INADDR_ANY))
+    throw Failure(LNE_INVALID_PARAMETER, "no IPv4 address for the TCP peer server: '" + ipv4 + "'");
+  UniqueFd listener(::socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0));
+  socklen_t length = sizeof address;
+  if (!listener.valid() || ::bind(listener.get(), reinterpret_cast<sockaddr*>(&address), sizeof address) != 0 ||
+      ::listen(listener.get(), 64) != 0 ||
+      ::getsockname(listener.get(), reinterpret_cast<sockaddr*>(&address), &length) != 0)
+    throw errno_failure(errno, "opening the TCP peer server on " + ipv4);
+  if (tcp_listener_.valid()) loop_.unwatch(tcp_listener_.get());
+  tcp_listener_ = std::move(listener);
+  tcp_ip_ = ipv4;
+  tcp_address_ = ipv4 + ":" + std::to_string(ntohs(address.sin_port));
+  loop_.watch(tcp_listener_.get(), POLLIN, [this](short) { accept_all(tcp_listener_.get(), true); });
 }
 
 void PeerServer::stop() {
   if (listener_.valid()) loop_.unwatch(listener_.get());
   listener_.reset();
+  if (tcp_listener_.valid()) loop_.unwatch(tcp_listener_.get());
+  tcp_listener_.reset();
+  tcp_address_.clear();
   for (auto& [fd, connection] : connections_) {
     loop_.unwatch(fd);
     std::lock_guard<std::mutex> lock(connection->mutex_);
@@ -73,12 +98,16 @@ UniqueFd PeerServer::take_over(const std::shared_ptr<PeerConnection>& connection
   return std::move(connection->socket_);
 }
 
-void PeerServer::accept_all() {
+void PeerServer::accept_all(int listener, bool over_tcp) {
   for (int i = 0; i < 64; ++i) {
-    UniqueFd accepted(::accept4(listener_.get(), nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC));
+    UniqueFd accepted(::accept4(listener, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC));
     if (!accepted.valid()) return;  // EAGAIN, or a failure we cannot act on
     const int fd = accepted.get();
-    auto connection = std::make_shared<PeerConnection>(std::move(accepted), peer_uid(fd));
+    if (over_tcp) {
+      const int one = 1;
+      ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    }
+    auto connection = std::make_shared<PeerConnection>(std::move(accepted), over_tcp ? -1 : peer_uid(fd), over_tcp);
     connections_[fd] = connection;
     std::weak_ptr<PeerConnection> weak = connection;
     loop_.watch(fd, POLLIN, [this, weak](short) {
@@ -208,6 +237,24 @@ struct PeerCall : std::enable_shared_from_this<PeerCall> {
 };
 
 }  // namespace
+
+UniqueFd connect_peer_tcp(const std::string& address, std::chrono::milliseconds timeout) {
+  ManagerAddress parsed;
+  try {
+    parsed = parse_manager_address(address);
+  } catch (const Failure& failure) {
+    throw Failure(LNE_INVALID_PARAMETER, "invalid peer address '" + address + "': " + failure.what());
+  }
+  sockaddr_in resolved{};
+  resolved.sin_family = AF_INET;
+  resolved.sin_port = htons(parsed.port);
+  if (::inet_pton(AF_INET, parsed.host.c_str(), &resolved.sin_addr) != 1)
+    throw Failure(LNE_INVALID_PARAMETER, "invalid peer address '" + address + "': not an IPv4 address");
+  UniqueFd socket = connect_tcp(resolved, timeout);
+  const int one = 1;
+  ::setsockopt(socket.get(), IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+  return socket;
+}
 
 void call_peer(EventLoop& loop, const std::string& socket_name, protocol::Message request,
                std::chrono::milliseconds timeout, std::function<void(Reply&, UniqueFd)> done) {

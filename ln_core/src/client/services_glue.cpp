@@ -85,6 +85,33 @@ Status read_answer(int fd, Message& out) {
 
 }  // namespace
 
+Status ServicesGlue::connect_to_provider(const Message& found, UniqueFd& socket) {
+  const std::string provider = found.get_string_or("provider", "");
+  const std::string socket_name = found.get_string_or("peer_socket", "");
+  const std::string address = found.get_string_or("peer_address", "");
+  std::string unix_error;
+  if (found.get_string_or("host_id", "") == client_.host_id() && !socket_name.empty()) {
+    try {
+      socket = connect_abstract_unix(socket_name);
+      return {};
+    } catch (const Failure& failure) {
+      unix_error = failure.what();
+    }
+  }
+  if (address.empty())
+    return Status::failure(LNE_NO_PROVIDER_FOUND,
+                           "cannot reach its provider '" + provider + "': " +
+                               (unix_error.empty() ? "it runs on another host and offers no TCP address"
+                                                   : unix_error));
+  try {
+    socket = connect_peer_tcp(address, kHandshakeTimeout);
+    return {};
+  } catch (const Failure& failure) {
+    return Status::failure(LNE_NO_PROVIDER_FOUND,
+                           "cannot reach its provider '" + provider + "' at " + address + ": " + failure.what());
+  }
+}
+
 std::shared_ptr<ServicesGlue> ServicesGlue::of(Client& client) {
   bool made = false;
   auto state = client.services_state([&] {
@@ -151,20 +178,9 @@ services::Connector ServicesGlue::connector(std::string name, std::string interf
     } catch (const std::exception& error) {
       return Status::failure(LNE_GOT_INVALID_RESPONSE, "service '" + name + "': " + error.what());
     }
-    const std::string host_id = found.get_string_or("host_id", "");
-    const std::string socket_name = found.get_string_or("peer_socket", "");
-    if (host_id != client_.host_id() || socket_name.empty())
-      return Status::failure(LNE_NOT_YET_IMPLEMENTED, "service '" + name + "': its provider '" +
-                                                          found.get_string_or("provider", "") +
-                                                          "' runs on another host; ln_core calls services on "
-                                                          "the same host only");
     UniqueFd socket;
-    try {
-      socket = connect_abstract_unix(socket_name);
-    } catch (const Failure& failure) {
-      return Status::failure(LNE_NO_PROVIDER_FOUND,
-                             "service '" + name + "': cannot reach its provider: " + failure.what());
-    }
+    Status reached = connect_to_provider(found, socket);
+    if (!reached.ok()) return Status::failure(-reached.code(), "service '" + name + "': " + reached.detail());
     Message handshake = Message::request(1, method::call);
     handshake.set("service_id", found.get_int_or("service_id", 0));
     if (const int error = send_all(socket.get(), protocol::encode(handshake), -1, kHandshakeTimeout); error != 0)
@@ -251,6 +267,8 @@ Status ServicesGlue::release_provider(std::uint32_t local_id) {
 }
 
 void ServicesGlue::on_call(PeerRequest& request) {
+  // No uid check: over TCP there is none to make, and LN does not restrict
+  // services by user either.
   const std::int64_t manager_id = request.message.get_int_or("service_id", -1);
   std::uint32_t local_id = 0;
   {

@@ -10,8 +10,9 @@
 // translation table (re-registration runs in the reconnect handler), and
 // callers that are already connected are not affected at all.
 //
-// Callers connect to the provider's peer server (abstract Unix socket, so
-// provider and caller must share a host id; there is no TCP peer server).
+// Callers connect to the provider's peer server: its abstract Unix socket
+// when both share a host id, else (or when that socket cannot be reached) its
+// TCP address (peer_address, TCP_NODELAY). Service frames are byte-order safe.
 //
 // Availability handlers run in a notifier thread of this object. Service
 // availability comes from the manager's service_available/service_gone
@@ -94,6 +95,9 @@ class ServicesGlue : public std::enable_shared_from_this<ServicesGlue> {
   using WatchKey = std::pair<bool, std::string>;
 
   void install_hooks();
+  /// Connects to the peer server of the provider described by a
+  /// lookup_service answer (Unix socket on the same host, else TCP).
+  services::Status connect_to_provider(const protocol::Message& found, UniqueFd& socket);
   void on_call(PeerRequest& request);
   void on_service_notification(const std::string& name, bool available);
   void reregister_all();

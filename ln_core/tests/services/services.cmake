@@ -13,7 +13,7 @@ generate_ln_message_headers(ln_svc_process_messages
   MESSAGES svc/test
   DIRECTORIES ${LN_SERVICES_TEST_DIR}/msgdefs)
 
-foreach(program ln_svc_provider.c ln_svc_provider_cpp.cpp)
+foreach(program ln_svc_provider.c ln_svc_provider_cpp.cpp ln_svc_caller.c)
   get_filename_component(name ${program} NAME_WE)
   add_executable(${name} ${LN_SERVICES_TEST_DIR}/${program})
   target_link_libraries(${name} PRIVATE ln ln_svc_process_messages_lib Threads::Threads)
@@ -27,7 +27,9 @@ target_include_directories(ln_service_tests PRIVATE ${LN_CLIENT_SRC_DIR})
 target_compile_definitions(ln_service_tests PRIVATE
   LN_TEST_MD_DIR="${LN_SERVICES_TEST_DIR}/msgdefs"
   LN_SVC_PROVIDER="$<TARGET_FILE:ln_svc_provider>"
-  LN_SVC_PROVIDER_CPP="$<TARGET_FILE:ln_svc_provider_cpp>")
-add_dependencies(ln_service_tests ln_svc_provider ln_svc_provider_cpp)
+  LN_SVC_PROVIDER_CPP="$<TARGET_FILE:ln_svc_provider_cpp>"
+  LN_SVC_CALLER="$<TARGET_FILE:ln_svc_caller>"
+  LN_MANAGER_PROGRAM="$<TARGET_FILE:ln_manager>")
+add_dependencies(ln_service_tests ln_svc_provider ln_svc_provider_cpp ln_svc_caller ln_manager)
 ln_client_warnings(ln_service_tests)
 gtest_discover_tests(ln_service_tests PROPERTIES TIMEOUT 120)

@@ -1,6 +1,7 @@
 // Services across processes: LN 2.9-style providers (C, and C++ on the
 // generated test_base) started with posix_spawn, called through the C and
 // C++ APIs against a manager in this process.
+#include <dirent.h>
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <ln/ln.h>
@@ -15,6 +16,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cstdlib>
 #include <cstring>
 #include <thread>
 #include <set>
@@ -489,6 +491,237 @@ TEST_F(ServiceProcessTest, RoundTripNumbers) {
   const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   std::printf("{\"small_rtt_us\": %.2f, \"eight_caller_calls_per_s\": %.0f}\n", rtt_us, total.load() / seconds);
   EXPECT_EQ(total.load(), 8 * n);
+}
+
+TEST_F(ServiceProcessTest, TcpPeerServerServesCallsButRefusesSharedMemory) {
+  namespace method = ln::protocol::method;
+  using ln::protocol::Message;
+  auto child = provider();
+  const int manager = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(manager_.port());
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(::connect(manager, reinterpret_cast<sockaddr*>(&address), sizeof address), 0);
+  exchange(manager, Message::request(1, method::hello).set("program_name", "tcp_probe"));
+  const Message found = exchange(
+      manager, Message::request(2, method::lookup_service).set("name", "svc").set("interface", "").set("signature", ""));
+  ::close(manager);
+  // The provider reaches the manager over loopback, so that is where its TCP peer server listens.
+  const std::string peer = found.get_string("peer_address");
+  ASSERT_EQ(peer.compare(0, 10, "127.0.0.1:"), 0) << peer;
+  sockaddr_in peer_address{};
+  peer_address.sin_family = AF_INET;
+  peer_address.sin_port = htons(static_cast<uint16_t>(std::stoi(peer.substr(10))));
+  peer_address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  auto connect_peer = [&] {
+    const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    EXPECT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&peer_address), sizeof peer_address), 0);
+    return fd;
+  };
+  const int segment = connect_peer();
+  const Message refused =
+      exchange(segment, Message::request(1, method::open_segment).set("topic_id", 1).set("topic", "t").set("buffers", 1));
+  EXPECT_TRUE(refused.is_error());
+  EXPECT_NE(refused.error_text().find("TCP"), std::string::npos) << refused.error_text();
+  ::close(segment);
+  const int call_fd = connect_peer();
+  const Message ok = exchange(call_fd, Message::request(1, method::call).set("service_id", found.get_int("service_id")));
+  EXPECT_FALSE(ok.is_error()) << ok.error_text();
+  ::close(call_fd);
+}
+
+// ------------------------------------------------- calls over TCP (remote)
+
+/// ESTABLISHED TCP sockets owned by this process (its manager included).
+int established_tcp_sockets_of_this_process() {
+  std::set<std::string> inodes;
+  if (DIR* fds = ::opendir("/proc/self/fd")) {
+    while (dirent* entry = ::readdir(fds)) {
+      char target[64] = {};
+      const std::string path = std::string("/proc/self/fd/") + entry->d_name;
+      const ssize_t n = ::readlink(path.c_str(), target, sizeof target - 1);
+      if (n > 8 && std::strncmp(target, "socket:[", 8) == 0) inodes.insert(std::string(target + 8, n - 9));
+    }
+    ::closedir(fds);
+  }
+  int count = 0;
+  FILE* table = std::fopen("/proc/self/net/tcp", "r");
+  if (table == nullptr) return -1;
+  char line[512];
+  std::fgets(line, sizeof line, table);  // header
+  while (std::fgets(line, sizeof line, table) != nullptr) {
+    char state[8] = {}, inode[32] = {};
+    if (std::sscanf(line, "%*s %*s %*s %7s %*s %*s %*s %*s %*s %31s", state, inode) == 2 &&
+        std::strcmp(state, "01") == 0 && inodes.count(inode) != 0)
+      ++count;
+  }
+  std::fclose(table);
+  return count;
+}
+
+/// Caller and provider claim different hosts (LN_CORE_HOST_ID), so calls
+/// must go over the provider's TCP peer server.
+class RemoteServiceProcessTest : public ServiceProcessTest {
+ protected:
+  void SetUp() override {
+    host_ = std::make_unique<ScopedEnv>("LN_CORE_HOST_ID", std::string("caller-host"));
+    ServiceProcessTest::SetUp();
+  }
+  void TearDown() override {
+    ServiceProcessTest::TearDown();
+    host_.reset();
+  }
+  std::unique_ptr<ChildProcess> remote_provider(const std::vector<std::string>& extra = {}) {
+    std::vector<std::string> args = {LN_SVC_PROVIDER, "svc"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    auto child = std::make_unique<ChildProcess>(args, manager_.address(),
+                                                std::vector<std::string>{"LN_CORE_HOST_ID=provider-host"});
+    EXPECT_NE(child->wait_for_line("ready"), "");
+    return child;
+  }
+  std::unique_ptr<ScopedEnv> host_;
+};
+
+TEST_F(RemoteServiceProcessTest, DynamicFieldsAnd1MBOverTcp) {
+  auto child = remote_provider();
+  ln_service svc = caller();
+  const int tcp_before = established_tcp_sockets_of_this_process();
+  std::string text = "over tcp";
+  std::vector<uint8_t> blob(1u << 20);
+  for (size_t i = 0; i < blob.size(); ++i) blob[i] = static_cast<uint8_t>(i * 13 + 1);
+  std::vector<double> values = {0.5, -1.25};
+  std::string label = "remote item";
+  svc_item_t item;
+  item.id = 42;
+  item.label_len = static_cast<uint32_t>(label.size());
+  item.label = label.data();
+  item.values_len = 2;
+  item.values = values.data();
+  svc_test_t data;
+  std::memset(&data, 0, sizeof data);
+  data.req.text_len = static_cast<uint32_t>(text.size());
+  data.req.text = text.data();
+  data.req.blob_len = static_cast<uint32_t>(blob.size());
+  data.req.blob = blob.data();
+  data.req.items_len = 1;
+  data.req.items = &item;
+  ASSERT_EQ(ln_service_call(svc, &data), 0) << ln_get_error_message(client_);
+  EXPECT_EQ(std::string(data.resp.text, data.resp.text_len), text);
+  ASSERT_EQ(data.resp.blob_len, blob.size());
+  EXPECT_EQ(std::memcmp(data.resp.blob, blob.data(), blob.size()), 0);
+  ASSERT_EQ(data.resp.items_len, 1u);
+  EXPECT_EQ(data.resp.items[0].id, 42);
+  EXPECT_EQ(std::string(data.resp.items[0].label, data.resp.items[0].label_len), label);
+  ASSERT_EQ(data.resp.items[0].values_len, 2u);
+  EXPECT_EQ(data.resp.items[0].values[1], -1.25);
+  // The call opened a TCP connection of ours (the Unix path makes none).
+  EXPECT_EQ(established_tcp_sockets_of_this_process(), tcp_before + 1);
+  for (int i = 0; i < 50; ++i) ASSERT_EQ(call(svc, ECHO), 0);
+}
+
+TEST_F(RemoteServiceProcessTest, TimeoutThenNextCallWorksOverTcp) {
+  auto child = remote_provider({"pool", "2"});
+  ln_service svc = caller();
+  const int tcp_before = established_tcp_sockets_of_this_process();
+  const auto start = Clock::now();
+  EXPECT_EQ(call(svc, SLOW, 3000, 0.2), -LNE_SVC_TIMEOUT);
+  EXPECT_LT(Clock::now() - start, 2s);
+  EXPECT_EQ(call(svc, ECHO), 0) << ln_get_error_message(client_);
+  EXPECT_GE(established_tcp_sockets_of_this_process(), tcp_before + 1);
+}
+
+TEST_F(RemoteServiceProcessTest, ProviderKilledMidCallOverTcp) {
+  auto child = remote_provider();
+  ln_service svc = caller();
+  const int tcp_before = established_tcp_sockets_of_this_process();
+  ASSERT_EQ(call(svc, ECHO), 0) << ln_get_error_message(client_);
+  EXPECT_EQ(established_tcp_sockets_of_this_process(), tcp_before + 1);
+  std::atomic<int> result{1};
+  const auto start = Clock::now();
+  std::thread calling([&] { result = call(svc, SLOW, 10000); });
+  std::this_thread::sleep_for(200ms);
+  child->kill(SIGKILL);
+  calling.join();
+  EXPECT_LT(result.load(), 0);
+  EXPECT_LT(Clock::now() - start, 5s);
+}
+
+// ------------------------------------- across two network namespaces (veth)
+
+/// Runs `command` through the shell, quietly; true when it exited 0.
+bool run_quietly(const std::string& command) { return std::system((command + " >/dev/null 2>&1").c_str()) == 0; }
+
+/// Two fresh network namespaces A and B joined by a veth pair (A .1, B .2 on
+/// a /24); everything is deleted again at the end.
+class NetnsPair {
+ public:
+  NetnsPair() {
+    const std::string id = std::to_string(::getpid());
+    a_ = "lncore-svc-a-" + id;
+    b_ = "lncore-svc-b-" + id;
+    const std::string veth_a = "lnsa" + id, veth_b = "lnsb" + id;  // <= 15 chars
+    const std::string net = "10.213." + std::to_string(::getpid() % 250) + ".";
+    ip_a_ = net + "1";
+    ip_b_ = net + "2";
+    ok_ = run_quietly("ip netns add " + a_) && run_quietly("ip netns add " + b_) &&
+          run_quietly("ip link add " + veth_a + " netns " + a_ + " type veth peer name " + veth_b + " netns " + b_) &&
+          run_quietly("ip -n " + a_ + " addr add " + ip_a_ + "/24 dev " + veth_a) &&
+          run_quietly("ip -n " + b_ + " addr add " + ip_b_ + "/24 dev " + veth_b) &&
+          run_quietly("ip -n " + a_ + " link set " + veth_a + " up") &&
+          run_quietly("ip -n " + b_ + " link set " + veth_b + " up") &&
+          run_quietly("ip -n " + a_ + " link set lo up") && run_quietly("ip -n " + b_ + " link set lo up");
+  }
+  ~NetnsPair() {
+    // Deleting a namespace deletes its end of the veth pair, and with it the other.
+    run_quietly("ip netns del " + a_);
+    run_quietly("ip netns del " + b_);
+  }
+  NetnsPair(const NetnsPair&) = delete;
+  NetnsPair& operator=(const NetnsPair&) = delete;
+
+  bool ok() const { return ok_; }
+  /// argv that runs `program` in namespace A or B.
+  std::vector<std::string> in_a(std::vector<std::string> program) const { return in(a_, std::move(program)); }
+  std::vector<std::string> in_b(std::vector<std::string> program) const { return in(b_, std::move(program)); }
+  const std::string& ip_a() const { return ip_a_; }
+
+ private:
+  static std::vector<std::string> in(const std::string& ns, std::vector<std::string> program) {
+    std::vector<std::string> args = {"/usr/sbin/ip", "netns", "exec", ns};
+    args.insert(args.end(), program.begin(), program.end());
+    return args;
+  }
+  std::string a_, b_, ip_a_, ip_b_;
+  bool ok_ = false;
+};
+
+TEST(ServiceNetnsTest, CallerInAnotherNetworkNamespaceCallsOverVeth) {
+  const bool in_ci = std::getenv("CI") != nullptr;
+  if (::geteuid() != 0 || ::access("/usr/sbin/ip", X_OK) != 0) {
+    if (in_ci) FAIL() << "CI: network namespaces need root and /usr/sbin/ip";
+    GTEST_SKIP() << "cannot make network namespaces here (needs root and /usr/sbin/ip)";
+  }
+  NetnsPair namespaces;
+  if (!namespaces.ok()) {
+    if (in_ci) FAIL() << "CI: creating two network namespaces with a veth pair failed";
+    GTEST_SKIP() << "cannot make network namespaces with a veth pair here";
+  }
+  // Manager and provider in A, the manager listening on A's veth address only.
+  ChildProcess manager(namespaces.in_a({LN_MANAGER_PROGRAM, "--listen", namespaces.ip_a() + ":0", "--without-gui"}),
+                       "unused:1");
+  const std::string listening = manager.wait_for_line("ln_manager: listening on ");
+  ASSERT_NE(listening, "") << "the manager in namespace A did not start";
+  const std::string address = listening.substr(std::strlen("ln_manager: listening on "));
+  ASSERT_EQ(address.compare(0, namespaces.ip_a().size() + 1, namespaces.ip_a() + ":"), 0) << address;
+  // A pool, so the call after the timed-out one need not wait for it.
+  ChildProcess provider(namespaces.in_a({LN_SVC_PROVIDER, "svc", "pool", "2"}), address);
+  ASSERT_NE(provider.wait_for_line("ready"), "") << "the provider in namespace A did not register";
+  // The caller in B reaches A only through the veth pair: over TCP.
+  ChildProcess caller(namespaces.in_b({LN_SVC_CALLER, "svc"}), address);
+  const std::string result = caller.wait_for_line("", 20s);
+  EXPECT_EQ(result, "ok");
+  EXPECT_EQ(caller.wait(), 0);
 }
 
 }  // namespace

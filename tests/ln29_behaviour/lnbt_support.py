@@ -1,0 +1,444 @@
+"""Support of the LN 2.9 behaviour tests: finding both systems, building the
+LN 2.9-style programs against each, running a manager per system and the
+programs against it, and cleaning up everything that was started.
+
+"System" is either the LN 2.9 reference (its ln_manager, ln_generate, headers
+and libln.so from the reference venv) or ln_core (its ln_manager, ln_generate,
+headers and libln.so). The programs in programs/ are compiled once per system
+from the same source; each pair runs against its own system's manager.
+
+Nothing here asserts; the tests do. Standard library only.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import glob
+import os
+import queue
+import re
+import shutil
+import signal
+import socket
+import subprocess
+import threading
+import time
+import uuid
+from dataclasses import dataclass, field
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+REPO_ROOT = HERE.parent.parent
+PROGRAMS_DIR = HERE / "programs"
+MSGDEFS_DIR = HERE / "msgdefs"
+OUR_SOURCE_INCLUDE_DIR = REPO_ROOT / "ln_core" / "include"
+PROGRAMS = ("lnbt_probe", "lnbt_publisher", "lnbt_subscriber")
+MESSAGES = ("lnbt/counter", "lnbt/other")
+
+IN_CI = bool(os.environ.get("CI"))
+#: Marks the environment of every process of this run, so that the LN 2.9
+#: daemons the reference manager starts (and which detach) can be told apart
+#: from anybody else's.
+RUN_MARK = f"lnbt-{os.getpid()}-{uuid.uuid4().hex[:12]}"
+RUN_MARK_VAR = "LN29_BEHAVIOUR_RUN"
+
+#: Documented differences the tests observed; conftest prints them at the end.
+DIFFERENCES: list[str] = []
+
+COMPILE_TIMEOUT = 180
+MANAGER_START_TIMEOUT = 30
+PROGRAM_TIMEOUT = 20
+
+
+class MissingPrerequisite(Exception):
+    """A system or a tool is not available."""
+
+
+def require(thing, what: str):
+    """Returns `thing`, or fails (CI set) / skips (locally) with the reason."""
+    import pytest
+
+    if isinstance(thing, MissingPrerequisite) or thing is None:
+        message = str(thing) if thing is not None else what
+        if IN_CI:
+            pytest.fail(f"{message} (CI is set, so this is an error, not a skip)", pytrace=False)
+        pytest.skip(message)
+    return thing
+
+
+# ------------------------------------------------------------------ systems
+
+
+@dataclass
+class System:
+    """One LN implementation: where its tools, headers and library are."""
+
+    label: str  # "ln29" or "ln_core"
+    ln_manager: Path
+    ln_generate: Path
+    include_dir: Path
+    lib_dir: Path
+    is_reference: bool
+    #: filled by build()
+    programs: dict[str, Path] = field(default_factory=dict)
+
+    def __str__(self) -> str:
+        return self.label
+
+
+def _is_elf(path: Path) -> bool:
+    try:
+        with open(path, "rb") as f:
+            return f.read(4) == b"\x7fELF"
+    except OSError:
+        return False
+
+
+def find_reference() -> System | MissingPrerequisite:
+    venv_text = os.environ.get("LN_CORE_LN29_VENV") or str(Path.home() / ".cache" / "ln_core" / "venv-ln29")
+    venv = Path(venv_text)
+    packages = sorted(glob.glob(str(venv / "lib" / "python3*" / "site-packages" / "liblinks_and_nodes")))
+    manager, generate = venv / "bin" / "ln_manager", venv / "bin" / "ln_generate"
+    if not packages or not manager.is_file() or not generate.is_file():
+        origin = "LN_CORE_LN29_VENV" if os.environ.get("LN_CORE_LN29_VENV") else "the default"
+        return MissingPrerequisite(
+            f"no LN 2.9 reference at {venv} ({origin}): expected bin/ln_manager, bin/ln_generate and "
+            "lib/python3*/site-packages/liblinks_and_nodes; set LN_CORE_LN29_VENV "
+            "(launchless_scripts/env.sh does; launchless_scripts/setup.sh installs it)")
+    package = Path(packages[-1])
+    if not (package / "include" / "ln" / "ln.h").is_file() or not (package / "lib" / "libln.so").exists():
+        return MissingPrerequisite(f"LN 2.9 at {venv} lacks include/ln/ln.h or lib/libln.so")
+    return System("ln29", manager, generate, package / "include", package / "lib", True)
+
+
+def find_ours() -> System | MissingPrerequisite:
+    """ln_core from LN_CORE_BUILD_DIR (a cmake build tree) or, failing that,
+    from PATH (an install prefix, as after `. launchless_scripts/env.sh`)."""
+    build = os.environ.get("LN_CORE_BUILD_DIR")
+    if build:
+        base = Path(build)
+        manager, generate, lib = base / "ln_manager", base / "ln_generate", base / "libln.so"
+        if manager.is_file() and generate.is_file() and lib.exists():
+            return System("ln_core", manager, generate, OUR_SOURCE_INCLUDE_DIR, base, False)
+        return MissingPrerequisite(
+            f"LN_CORE_BUILD_DIR={build} lacks ln_manager, ln_generate or libln.so (build ln_core there first)")
+    for directory in os.environ.get("PATH", "").split(os.pathsep):
+        manager = Path(directory or ".") / "ln_manager"
+        if not manager.is_file() or not _is_elf(manager):
+            continue  # LN 2.9's ln_manager is a Python script
+        prefix = manager.resolve().parent.parent
+        generate = manager.parent / "ln_generate"
+        include, lib = prefix / "include", prefix / "lib"
+        if generate.is_file() and _is_elf(generate) and (include / "ln" / "ln.h").is_file() and (lib / "libln.so").exists():
+            return System("ln_core", manager, generate, include, lib, False)
+    return MissingPrerequisite(
+        "ln_core not found: set LN_CORE_BUILD_DIR to its cmake build directory or put an installed "
+        "ln_core (bin/ln_manager, bin/ln_generate, lib/libln.so, include/ln) on PATH "
+        "(. launchless_scripts/env.sh)")
+
+
+# ------------------------------------------------------------- processes
+
+
+class Started:
+    """Every process this run started (for cleanup and /dev/shm sweeping)."""
+
+    pids: set[int] = set()
+    lock = threading.Lock()
+
+    @classmethod
+    def add(cls, pid: int) -> None:
+        with cls.lock:
+            cls.pids.add(pid)
+
+
+def base_environment(home: Path, tmp: Path) -> dict[str, str]:
+    """The environment of every manager and program: a private HOME and
+    TMPDIR, no LN_* variables of the caller, the run mark."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith("LN_") and k not in (
+        "PYTHONPATH", "PYTHONHOME", "PYTHONSTARTUP", "LD_LIBRARY_PATH")}
+    env.update(HOME=str(home), TMPDIR=str(tmp), LC_ALL="C.UTF-8", PYTHONUNBUFFERED="1")
+    env[RUN_MARK_VAR] = RUN_MARK
+    return env
+
+
+class Program:
+    """A started program: stdout lines collected by a thread; bounded waits."""
+
+    def __init__(self, argv, env, stdin_pipe=False, cwd=None):
+        self.argv = [str(a) for a in argv]
+        self.proc = subprocess.Popen(self.argv, env=env, cwd=cwd,
+                                     stdin=subprocess.PIPE if stdin_pipe else subprocess.DEVNULL,
+                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        Started.add(self.proc.pid)
+        self.lines: list[str] = []
+        self._queue: queue.Queue[str | None] = queue.Queue()
+        self._stderr: list[str] = []
+        self._out_thread = threading.Thread(target=self._pump, args=(self.proc.stdout, True), daemon=True)
+        self._err_thread = threading.Thread(target=self._pump, args=(self.proc.stderr, False), daemon=True)
+        self._out_thread.start()
+        self._err_thread.start()
+        self.returncode: int | None = None
+
+    def _pump(self, stream, is_stdout):
+        for raw in stream:
+            line = raw.decode("utf-8", "replace").rstrip("\n")
+            if is_stdout:
+                self.lines.append(line)
+                self._queue.put(line)
+            else:
+                self._stderr.append(line)
+        if is_stdout:
+            self._queue.put(None)
+
+    @property
+    def stderr(self) -> str:
+        return "\n".join(self._stderr)
+
+    def wait_for_line(self, prefix: str, timeout: float) -> str | None:
+        deadline = time.monotonic() + timeout
+        while True:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return None
+            try:
+                line = self._queue.get(timeout=left)
+            except queue.Empty:
+                return None
+            if line is None:
+                return None
+            if line.startswith(prefix):
+                return line
+
+    def finish(self, timeout: float = PROGRAM_TIMEOUT) -> int:
+        """Closes stdin, waits at most `timeout` s, kills it after that."""
+        if self.proc.stdin:
+            try:
+                self.proc.stdin.close()
+            except OSError:
+                pass
+        try:
+            self.returncode = self.proc.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait()
+            self.returncode = -9
+        self._out_thread.join(5)
+        self._err_thread.join(5)
+        return self.returncode
+
+    def kill(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.wait()
+
+    def describe(self) -> str:
+        return (f"$ {' '.join(self.argv)}\nexit status {self.returncode}\n--- stdout ---\n"
+                + "\n".join(self.lines[:200]) + f"\n--- stderr ---\n{self.stderr[-3000:]}")
+
+
+def run(argv, env, timeout=PROGRAM_TIMEOUT, cwd=None) -> Program:
+    program = Program(argv, env, cwd=cwd)
+    program.finish(timeout)
+    return program
+
+
+# --------------------------------------------------------------- building
+
+
+def build(system: System, out_dir: Path, env: dict[str, str]) -> System | MissingPrerequisite:
+    """ln_generate (the system's own) + g++ for every program."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    header = out_dir / "ln_messages.h"
+    gen = subprocess.run([str(system.ln_generate), "--md-dir", str(MSGDEFS_DIR), "-f", "-o", str(header), *MESSAGES],
+                         env=env, capture_output=True, timeout=COMPILE_TIMEOUT)
+    if gen.returncode != 0 or not header.is_file():
+        return MissingPrerequisite(f"{system}: ln_generate failed:\n{gen.stderr.decode(errors='replace')}")
+    cxx = shutil.which("g++") or shutil.which("c++")
+    if not cxx:
+        return MissingPrerequisite("no C++ compiler (g++)")
+
+    def compile_one(name: str):
+        target = out_dir / name
+        argv = [cxx, "-std=c++17", "-O1", "-g0", "-w", f"-I{out_dir}", f"-I{system.include_dir}",
+                str(PROGRAMS_DIR / f"{name}.cpp"), "-o", str(target), f"-L{system.lib_dir}",
+                f"-Wl,-rpath,{system.lib_dir}", "-lln", "-lpthread"]
+        p = subprocess.run(argv, env=env, capture_output=True, timeout=COMPILE_TIMEOUT)
+        return name, target, p
+
+    programs = {}
+    with concurrent.futures.ThreadPoolExecutor(max_workers=max(1, min(3, os.cpu_count() or 1))) as pool:
+        for name, target, p in pool.map(compile_one, PROGRAMS):
+            if p.returncode != 0:
+                return MissingPrerequisite(
+                    f"{system}: compiling {name} failed:\n$ {' '.join(p.args)}\n{p.stderr.decode(errors='replace')[-4000:]}")
+            programs[name] = target
+    # Each program must load its own system's libln.so.1 (same SONAME in both).
+    ldd = subprocess.run(["ldd", str(programs["lnbt_probe"])], env=env, capture_output=True, text=True, timeout=30)
+    m = re.search(r"libln\.so\.1 => (\S+)", ldd.stdout)
+    if ldd.returncode == 0 and (not m or Path(m.group(1)).resolve().parent != system.lib_dir.resolve()):
+        return MissingPrerequisite(f"{system}: lnbt_probe does not load libln.so.1 from {system.lib_dir}:\n{ldd.stdout}")
+    system.programs = programs
+    return system
+
+
+# --------------------------------------------------------------- managers
+
+
+def free_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@dataclass
+class Manager:
+    system: System
+    process: subprocess.Popen
+    address: str  # "127.0.0.1:PORT"
+    log_file: Path
+
+    def log_tail(self, n=4000) -> str:
+        try:
+            return self.log_file.read_text(errors="replace")[-n:]
+        except OSError:
+            return ""
+
+
+def start_manager(system: System, work: Path, env: dict[str, str]) -> Manager | MissingPrerequisite:
+    """Starts the system's manager with a config that adds msgdefs/; returns
+    once it listens. LN 2.9 runs in --isolated-test mode (free port, private
+    ln_daemon); ln_core on 127.0.0.1 with port 0 (a free port)."""
+    work.mkdir(parents=True, exist_ok=True)
+    config = work / "lnbt.lnc"
+    config.write_text(f"instance\nname: lnbt_{system.label}_{os.getpid()}\nmanager: :{free_port()}\n"
+                      f"add_message_definition_dir: {MSGDEFS_DIR}\n")
+    log_file = work / "manager.log"
+    if system.is_reference:
+        argv = [str(system.ln_manager), "-c", str(config), "--without-gui", "--isolated-test", "--log-level", "info"]
+        pattern = re.compile(r"listening on '[^']*:(\d+)' for ln-clients")
+    else:
+        argv = [str(system.ln_manager), "-c", str(config), "--listen", "127.0.0.1:0"]
+        pattern = re.compile(r"ln_manager: listening on [0-9.]+:(\d+)")
+    with open(log_file, "wb") as log:
+        process = subprocess.Popen(argv, env=env, cwd=work, stdin=subprocess.DEVNULL, stdout=log,
+                                   stderr=subprocess.STDOUT)
+    Started.add(process.pid)
+    deadline = time.monotonic() + MANAGER_START_TIMEOUT
+    while time.monotonic() < deadline:
+        text = log_file.read_text(errors="replace")
+        m = pattern.search(text)
+        if m:
+            return Manager(system, process, f"127.0.0.1:{m.group(1)}", log_file)
+        if process.poll() is not None:
+            break
+        time.sleep(0.05)
+    stop_manager_process(process)
+    return MissingPrerequisite(f"{system}: the manager did not start listening within {MANAGER_START_TIMEOUT} s:\n"
+                               f"$ {' '.join(argv)}\n{log_file.read_text(errors='replace')[-3000:]}")
+
+
+def stop_manager_process(process: subprocess.Popen) -> None:
+    if process.poll() is None:
+        process.send_signal(signal.SIGTERM)
+        try:
+            process.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+
+
+def our_marked_processes(exe_prefix: Path) -> list[int]:
+    """PIDs whose executable lies below `exe_prefix` and whose environment
+    carries this run's mark: the LN 2.9 daemons our reference manager started
+    (they detach to PID 1)."""
+    found = []
+    prefix = str(exe_prefix.resolve())
+    mark = f"{RUN_MARK_VAR}={RUN_MARK}".encode()
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            exe = os.readlink(f"/proc/{entry}/exe")
+            if not exe.startswith(prefix):
+                continue
+            with open(f"/proc/{entry}/environ", "rb") as f:
+                if mark in f.read().split(b"\0"):
+                    found.append(int(entry))
+        except OSError:
+            continue
+    return found
+
+
+def stop_manager(manager: Manager) -> None:
+    stop_manager_process(manager.process)
+    if manager.system.is_reference:
+        # The ln_daemon of --isolated-test mode normally ends with the manager;
+        # make sure, by PID, and only for daemons of this run.
+        venv_package = manager.system.include_dir.parent
+        deadline = time.monotonic() + 3
+        while time.monotonic() < deadline and our_marked_processes(venv_package):
+            time.sleep(0.1)
+        for pid in our_marked_processes(venv_package):
+            Started.add(pid)
+            try:
+                os.kill(pid, signal.SIGTERM)
+            except ProcessLookupError:
+                pass
+        time.sleep(0.2)
+        for pid in our_marked_processes(venv_package):
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+
+
+def sweep_dev_shm() -> list[str]:
+    """Removes /dev/shm/<pid>_* segments of processes this run started (LN
+    2.9 names its segments after the publisher's PID; see README P4) once
+    those processes are gone. Returns the names removed."""
+    removed = []
+    try:
+        names = os.listdir("/dev/shm")
+    except OSError:
+        return removed
+    pids = {str(p) for p in Started.pids}
+    for name in names:
+        head = name.split("_", 1)[0]
+        if head in pids and not os.path.exists(f"/proc/{head}"):
+            try:
+                os.unlink(f"/dev/shm/{name}")
+                removed.append(name)
+            except OSError:
+                pass
+    return removed
+
+
+# ------------------------------------------------------------- scenarios
+
+
+@dataclass
+class Session:
+    """Both systems, built, each with a running manager."""
+
+    work: Path
+    env: dict[str, str]
+    managers: dict[str, Manager]
+
+    def systems(self) -> list[System]:
+        return [m.system for m in self.managers.values()]
+
+    def client_env(self, system: System, **extra: str | None) -> dict[str, str]:
+        """Environment of a program of `system`: LN_MANAGER = its manager,
+        plus `extra` (a value of None removes the variable)."""
+        env = dict(self.env)
+        env["LN_MANAGER"] = self.managers[system.label].address
+        for key, value in extra.items():
+            if value is None:
+                env.pop(key, None)
+            else:
+                env[key] = value
+        return env
+
+    def address(self, system: System) -> str:
+        return self.managers[system.label].address
