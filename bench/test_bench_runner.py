@@ -21,7 +21,7 @@ def run_bench(*args, timeout=120):
 
 
 def test_quick_memcpy_run_writes_table_and_csv(tmp_path):
-    proc = run_bench("--quick", "--only", "memcpy", "--out", str(tmp_path))
+    proc = run_bench("--quick", "--only", "^phys_memcpy$", "--out", str(tmp_path))
     assert proc.returncode == 0, proc.stdout + proc.stderr
     header = next(line for line in proc.stdout.splitlines() if line.startswith("group"))
     assert "ratio" in header.split() and "reference" in header.split()
