@@ -2,7 +2,8 @@
 # The demo, run by demo.sh inside the project environment (env.sh sourced).
 # What it shows today: ln_core's ln_generate turning the elevator example's
 # message definitions into the LN 2.9 header API, used from C and from C++.
-# (The LN -> ROS 2 bridge part of the demo arrives with ln_ros2_bridge.)
+# Then the elevator example on ln_core, bridged to ROS 2 by ln_ros2_bridge
+# inside a private network namespace (demo_bridge.sh).
 set -euo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 MSGDEFS=$ROOT/ln_core/examples/elevator/msgdefs
@@ -58,3 +59,6 @@ gcc -std=c11 -Wall -Wextra -Werror -I"$WORK" -I"$INCLUDE" -o "$WORK/sizes" "$WOR
 "$WORK/sizes"
 g++ -std=c++17 -Wall -Wextra -Werror -I"$WORK" -I"$INCLUDE" -c -o "$WORK/provider.o" "$WORK/provider.cpp"
 echo "C++: an LN 2.9-style provider class compiles against the generated header"
+
+echo; echo "== the elevator on ln_core, bridged to ROS 2 (LN publisher -> bridge -> ROS 2 subscriber, plus a ROS 2 service call)"
+bash "$(dirname "${BASH_SOURCE[0]}")/demo_bridge.sh" --ln ln_core

@@ -110,6 +110,8 @@ colcon_build() {
   export AMENT_PREFIX_PATH=$ROS_VENV CMAKE_PREFIX_PATH=$ROS_VENV ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
   unset COLCON_PREFIX_PATH
   log "colcon build in $ROOT"
+  # Build trees of the benchmarks and the sanitizer run are not packages.
+  for d in build-bench build-asan; do mkdir -p "$ROOT/$d" && touch "$ROOT/$d/COLCON_IGNORE"; done
   timeout 2700 colcon build --event-handlers desktop_notification- console_cohesion+ \
     --cmake-args -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     || die "colcon build failed (logs: $ROOT/log/latest_build/)"

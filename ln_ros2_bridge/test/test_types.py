@@ -1,0 +1,61 @@
+"""Type resolution against the generated test interfaces (no LN, no DDS)."""
+
+import json
+import os
+
+import pytest
+
+from conftest import MD_DIRS
+from ln_ros2_bridge.services import fill_error_fields
+from ln_ros2_bridge.types import TypeRegistry, UnknownType
+
+
+@pytest.fixture
+def registry():
+    return TypeRegistry([str(d) for d in MD_DIRS])
+
+
+def test_generated_types_and_codecs(registry):
+    from rclpy.serialization import deserialize_message, serialize_message
+    from bridgetest_ln_msgs.msg import Sample
+    topic = registry.topic_type("bridgetest/sample")
+    assert topic.ros_type == "bridgetest_ln_msgs/msg/Sample" and topic.msg_class is Sample
+    message = Sample(seq=7, stamp=2.5, vec=[1.0, 2.0, 3.0], small=-4, flags=200, label=list(b"hello") + [0] * 11)
+    ln_bytes = topic.codec.cdr_to_ln(serialize_message(message))
+    assert len(ln_bytes) == topic.ln_size
+    assert deserialize_message(topic.codec.ln_to_cdr(ln_bytes), Sample) == message
+    assert registry.ln_name_for_ros("bridgetest_ln_msgs/msg/Sample") == "bridgetest/sample"
+    service = registry.service_type("bridgetest/compute")
+    assert service.ros_type == "bridgetest_ln_msgs/srv/Compute"
+
+
+def test_unknown_and_stale_types(registry, tmp_path):
+    with pytest.raises(UnknownType, match="cannot be loaded"):
+        registry.topic_type("bridgetest/nope")
+    with pytest.raises(UnknownType, match="is a service, not a message"):
+        registry.topic_type("bridgetest/compute")
+    with pytest.raises(UnknownType, match="has no LN counterpart"):
+        registry.topic_type(ros_type="std_msgs/msg/String")
+    # an interface generated from an older version of the definition
+    share = tmp_path / "share" / "bridgetest_ln_msgs"
+    share.mkdir(parents=True)
+    original = next(p for p in os.environ["AMENT_PREFIX_PATH"].split(os.pathsep)
+                    if os.path.exists(os.path.join(p, "share", "bridgetest_ln_msgs", "ln_mapping.json")))
+    mapping = json.load(open(os.path.join(original, "share", "bridgetest_ln_msgs", "ln_mapping.json")))
+    for entry in mapping["interfaces"]:
+        entry["ln_hash"] = "0" * 64
+    (share / "ln_mapping.json").write_text(json.dumps(mapping))
+    stale = TypeRegistry([str(d) for d in MD_DIRS], share_dirs=[str(tmp_path / "share")])
+    with pytest.raises(UnknownType, match="generated from another version.*regenerate"):
+        stale.topic_type("bridgetest/sample")
+
+
+def test_error_fields():
+    from bridgetest_ln_msgs.srv import Compute, Plain
+    response = Compute.Response()
+    assert fill_error_fields(response, 64, "timed out")
+    assert (response.error_code, response.error_message) == (64, "timed out")
+    assert not fill_error_fields(Plain.Response(), 64, "timed out")
+    from std_srvs.srv import Trigger
+    trigger = Trigger.Response(success=True)
+    assert fill_error_fields(trigger, 1, "failed") and (trigger.success, trigger.message) == (False, "failed")
