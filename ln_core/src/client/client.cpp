@@ -1,6 +1,8 @@
 #include "client/client.hpp"
 
 #include <cstring>
+#include <tuple>
+#include <algorithm>
 
 #include <unistd.h>
 
@@ -375,24 +377,27 @@ OutPort* Client::publish(const std::string& topic_name, const std::string& md_na
   return port;
 }
 
+template <typename Port>
+std::pair<std::unique_ptr<Port>, std::int64_t> Client::forget_port(std::vector<std::unique_ptr<Port>>& ports,
+                                                                   std::map<std::int64_t, Port*>& by_id,
+                                                                   Port* port, const char* kind) {
+  const auto found = std::find_if(ports.begin(), ports.end(), [&](const auto& p) { return p.get() == port; });
+  if (found == ports.end()) throw Failure(LNE_INVALID_PORT_OBJECT, std::string("not an ") + kind + " of this client");
+  std::unique_ptr<Port> owned = std::move(*found);
+  ports.erase(found);
+  const Registration& registration = registrations_.at(port);
+  const std::int64_t manager_id = registration.session == link_.session() ? registration.manager_id : -1;
+  for (auto it = by_id.begin(); it != by_id.end();) it = it->second == port ? by_id.erase(it) : std::next(it);
+  registrations_.erase(port);
+  return {std::move(owned), manager_id};
+}
+
 void Client::unpublish(OutPort* port) {
   std::unique_ptr<OutPort> owned;
   std::int64_t topic_id = -1;
   {
     std::lock_guard<std::mutex> lock(registry_mutex_);
-    for (auto it = outports_.begin(); it != outports_.end(); ++it) {
-      if (it->get() == port) {
-        owned = std::move(*it);
-        outports_.erase(it);
-        break;
-      }
-    }
-    if (!owned) throw Failure(LNE_INVALID_PORT_OBJECT, "not an output port of this client");
-    const Registration& registration = registrations_.at(port);
-    if (registration.session == link_.session()) topic_id = registration.manager_id;
-    for (auto it = outports_by_topic_id_.begin(); it != outports_by_topic_id_.end();)
-      it = it->second == port ? outports_by_topic_id_.erase(it) : std::next(it);
-    registrations_.erase(port);
+    std::tie(owned, topic_id) = forget_port(outports_, outports_by_topic_id_, port, "output port");
   }
   owned.reset();  // closes the segment first: local subscribers notice at once
   if (topic_id >= 0 && registered_.load()) {
@@ -470,19 +475,7 @@ void Client::unsubscribe(InPort* port) {
   std::int64_t subscription_id = -1;
   {
     std::lock_guard<std::mutex> lock(registry_mutex_);
-    for (auto it = inports_.begin(); it != inports_.end(); ++it) {
-      if (it->get() == port) {
-        owned = std::move(*it);
-        inports_.erase(it);
-        break;
-      }
-    }
-    if (!owned) throw Failure(LNE_INVALID_PORT_OBJECT, "not an input port of this client");
-    const Registration& registration = registrations_.at(port);
-    if (registration.session == link_.session()) subscription_id = registration.manager_id;
-    for (auto it = inports_by_subscription_.begin(); it != inports_by_subscription_.end();)
-      it = it->second == port ? inports_by_subscription_.erase(it) : std::next(it);
-    registrations_.erase(port);
+    std::tie(owned, subscription_id) = forget_port(inports_, inports_by_subscription_, port, "input port");
     for (const auto& waiter : waiters_) waiter->remove_port(port);
     if (receiver_) receiver_->close_inbox(port);
   }

@@ -194,6 +194,14 @@ class Client {
   std::vector<std::function<void()>> reconnect_handlers_;
 
   mutable std::mutex registry_mutex_;  // ports, their registrations and the lookup maps
+  // Takes `port` out of the bookkeeping (registry_mutex_ held): the port,
+  // and its manager-side id when the manager knows it in this session (-1
+  // otherwise). Throws LNE_INVALID_PORT_OBJECT for a foreign port.
+  template <typename Port>
+  std::pair<std::unique_ptr<Port>, std::int64_t> forget_port(std::vector<std::unique_ptr<Port>>& ports,
+                                                             std::map<std::int64_t, Port*>& by_id, Port* port,
+                                                             const char* kind);
+
   std::vector<std::unique_ptr<OutPort>> outports_;
   std::vector<std::unique_ptr<InPort>> inports_;
   std::map<const PortBase*, Registration> registrations_;
