@@ -769,19 +769,22 @@ void Client::on_reconnected() {
   for (auto& handler : reconnect_handlers_) handler();
 }
 
+std::optional<Client::ClaimedRegistration> Client::claim_registration(const PortBase* port) {
+  std::lock_guard<std::mutex> lock(registry_mutex_);
+  auto it = registrations_.find(port);
+  if (it == registrations_.end()) return std::nullopt;
+  Registration& registration = it->second;
+  if (registration.in_flight || (registration.manager_id >= 0 && registration.session == link_.session()))
+    return std::nullopt;
+  registration.in_flight = true;
+  return ClaimedRegistration{registration.serial, registration.md_requested};
+}
+
 void Client::republish(OutPort* port) {
-  std::uint64_t serial;
-  std::string md_name;
-  {
-    std::lock_guard<std::mutex> lock(registry_mutex_);
-    auto it = registrations_.find(port);
-    if (it == registrations_.end()) return;
-    Registration& registration = it->second;
-    if (registration.in_flight || (registration.manager_id >= 0 && registration.session == link_.session())) return;
-    registration.in_flight = true;
-    serial = registration.serial;
-    md_name = registration.md_requested;
-  }
+  const std::optional<ClaimedRegistration> claimed = claim_registration(port);
+  if (!claimed) return;
+  const std::uint64_t serial = claimed->serial;
+  const std::string& md_name = claimed->md_name;
   Message publish = link_.new_request(method::publish);
   publish.set("topic", port->topic()).set("message_definition", md_name).set("buffers", port->buffers());
   link_.send_request(std::move(publish), [this, port, serial](Reply& reply) {
@@ -823,18 +826,10 @@ void Client::republish(OutPort* port) {
 }
 
 void Client::resubscribe(InPort* port) {
-  std::uint64_t serial;
-  std::string md_name;
-  {
-    std::lock_guard<std::mutex> lock(registry_mutex_);
-    auto it = registrations_.find(port);
-    if (it == registrations_.end()) return;
-    Registration& registration = it->second;
-    if (registration.in_flight || (registration.manager_id >= 0 && registration.session == link_.session())) return;
-    registration.in_flight = true;
-    serial = registration.serial;
-    md_name = registration.md_requested;
-  }
+  const std::optional<ClaimedRegistration> claimed = claim_registration(port);
+  if (!claimed) return;
+  const std::uint64_t serial = claimed->serial;
+  const std::string& md_name = claimed->md_name;
   Message subscribe = link_.new_request(method::subscribe);
   subscribe.set("topic", port->topic())
       .set("message_definition", md_name)

@@ -30,6 +30,7 @@
 #include <chrono>
 #include <functional>
 #include <map>
+#include <optional>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -205,6 +206,15 @@ class Client {
   std::vector<std::unique_ptr<OutPort>> outports_;
   std::vector<std::unique_ptr<InPort>> inports_;
   std::map<const PortBase*, Registration> registrations_;
+
+  // Marks `port` as being (re-)registered, unless it is gone, already
+  // registered in this session or already on its way: then nullopt.
+  // Returns its serial and requested definition for the request.
+  struct ClaimedRegistration {
+    std::uint64_t serial;
+    std::string md_name;
+  };
+  std::optional<ClaimedRegistration> claim_registration(const PortBase* port);
   std::map<std::int64_t, OutPort*> outports_by_topic_id_;
   std::map<std::int64_t, InPort*> inports_by_subscription_;
   std::vector<std::unique_ptr<MultiWaiter>> waiters_;
