@@ -467,6 +467,18 @@ constexpr int max_depth = 64;  // nesting of recursive (opaque) LN data
   throw CodecError(where + ": " + e.what());
 }
 
+// Runs `step` for each op of a routine; a failure names the field it failed in.
+template <class Step>
+void for_each_op(const CodecProgram& p, int routine, Step&& step) {
+  for (const Op& op : p.routines[routine].ops) {
+    try {
+      step(op);
+    } catch (const CodecError& e) {
+      rethrow_in(p.names[op.field], e);
+    }
+  }
+}
+
 // --------------------------------------------------------------- LN -> CDR
 
 template <class Out>
@@ -475,14 +487,7 @@ class Encoder {
   Encoder(const CodecProgram& p, Reader& in, Out& out, int depth = 0) : p_(p), in_(in), out_(out), depth_(depth) {}
 
   void run(int routine) {
-    const Routine& r = p_.routines[routine];
-    for (const Op& op : r.ops) {
-      try {
-        step(op);
-      } catch (const CodecError& e) {
-        rethrow_in(p_.names[op.field], e);
-      }
-    }
+    for_each_op(p_, routine, [this](const Op& op) { step(op); });
   }
 
  private:
@@ -632,14 +637,7 @@ class Decoder {
   Decoder(const CodecProgram& p, Reader& in, Out& out) : p_(p), in_(in), out_(out) {}
 
   void run(int routine) {
-    const Routine& r = p_.routines[routine];
-    for (const Op& op : r.ops) {
-      try {
-        step(op);
-      } catch (const CodecError& e) {
-        rethrow_in(p_.names[op.field], e);
-      }
-    }
+    for_each_op(p_, routine, [this](const Op& op) { step(op); });
   }
 
  private:

@@ -12,14 +12,6 @@ set(LN_SERVICES_SOURCE_DIR ${CMAKE_CURRENT_LIST_DIR})
 get_filename_component(LN_SERVICES_INCLUDE_DIR ${CMAKE_CURRENT_LIST_DIR} DIRECTORY)
 find_package(Threads REQUIRED)
 
-function(ln_services_warnings target)
-  if(COMMAND ln_target_warnings)
-    ln_target_warnings(${target})
-  else()
-    target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Werror)
-  endif()
-endfunction()
-
 add_library(ln_services STATIC
   ${LN_SERVICES_SOURCE_DIR}/signature.cpp
   ${LN_SERVICES_SOURCE_DIR}/marshal.cpp
@@ -31,7 +23,7 @@ set_target_properties(ln_services PROPERTIES POSITION_INDEPENDENT_CODE ON)
 target_compile_features(ln_services PUBLIC cxx_std_17)
 target_include_directories(ln_services PUBLIC $<BUILD_INTERFACE:${LN_SERVICES_INCLUDE_DIR}>)
 target_link_libraries(ln_services PUBLIC ln_md Threads::Threads)
-ln_services_warnings(ln_services)
+ln_target_warnings(ln_services)
 
 # Headers of the test definitions (testdata/md), written by our ln_generate.
 set(LN_SERVICES_TEST_MDS
@@ -53,7 +45,7 @@ add_executable(service_rtt_bench ${LN_SERVICES_SOURCE_DIR}/service_rtt_bench.cpp
 target_link_libraries(service_rtt_bench PRIVATE ln_services ln_protocol)
 target_include_directories(service_rtt_bench PRIVATE ${LN_SERVICES_GENERATED_DIR})
 add_dependencies(service_rtt_bench ln_services_test_messages)
-ln_services_warnings(service_rtt_bench)
+ln_target_warnings(service_rtt_bench)
 
 if(BUILD_TESTING)
   find_package(GTest REQUIRED)
@@ -68,6 +60,6 @@ if(BUILD_TESTING)
   target_link_libraries(services_unit_tests PRIVATE ln_services GTest::gtest GTest::gtest_main)
   target_include_directories(services_unit_tests PRIVATE ${LN_SERVICES_GENERATED_DIR})
   add_dependencies(services_unit_tests ln_services_test_messages)
-  ln_services_warnings(services_unit_tests)
+  ln_target_warnings(services_unit_tests)
   gtest_discover_tests(services_unit_tests PROPERTIES TIMEOUT 120)
 endif()

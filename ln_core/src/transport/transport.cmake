@@ -12,14 +12,6 @@ set(LN_TRANSPORT_SOURCE_DIR ${CMAKE_CURRENT_LIST_DIR})
 get_filename_component(LN_TRANSPORT_INCLUDE_DIR ${CMAKE_CURRENT_LIST_DIR} DIRECTORY)
 find_package(Threads REQUIRED)
 
-function(ln_transport_warnings target)
-  if(COMMAND ln_target_warnings)
-    ln_target_warnings(${target})
-  else()
-    target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Werror)
-  endif()
-endfunction()
-
 add_library(ln_transport STATIC
   ${LN_TRANSPORT_SOURCE_DIR}/shm_segment.cpp
   ${LN_TRANSPORT_SOURCE_DIR}/shm_ring.cpp)
@@ -27,11 +19,11 @@ set_target_properties(ln_transport PROPERTIES POSITION_INDEPENDENT_CODE ON)
 target_compile_features(ln_transport PUBLIC cxx_std_17)
 target_include_directories(ln_transport PUBLIC $<BUILD_INTERFACE:${LN_TRANSPORT_INCLUDE_DIR}>)
 target_link_libraries(ln_transport PUBLIC Threads::Threads)
-ln_transport_warnings(ln_transport)
+ln_target_warnings(ln_transport)
 
 add_executable(shm_ring_bench ${LN_TRANSPORT_SOURCE_DIR}/shm_ring_bench.cpp)
 target_link_libraries(shm_ring_bench PRIVATE ln_transport)
-ln_transport_warnings(shm_ring_bench)
+ln_target_warnings(shm_ring_bench)
 
 if(BUILD_TESTING)
   enable_testing()  # idempotent; makes the include order irrelevant
@@ -39,6 +31,6 @@ if(BUILD_TESTING)
   include(GoogleTest)
   add_executable(shm_ring_test ${LN_TRANSPORT_SOURCE_DIR}/shm_ring_test.cpp)
   target_link_libraries(shm_ring_test PRIVATE ln_transport GTest::gtest GTest::gtest_main)
-  ln_transport_warnings(shm_ring_test)
+  ln_target_warnings(shm_ring_test)
   gtest_discover_tests(shm_ring_test PROPERTIES TIMEOUT 60)
 endif()

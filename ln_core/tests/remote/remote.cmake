@@ -26,11 +26,7 @@ generate_ln_message_headers(ln_remote_test_messages
 foreach(program remote_publisher remote_subscriber)
   add_executable(ln_${program} ${LN_REMOTE_TEST_DIR}/${program}.cpp)
   target_link_libraries(ln_${program} PRIVATE ln ln_remote_test_messages_lib)
-  if(COMMAND ln_client_warnings)
-    ln_client_warnings(ln_${program})
-  elseif(COMMAND ln_target_warnings)
-    ln_target_warnings(ln_${program})
-  endif()
+  ln_target_warnings(ln_${program})
 endforeach()
 
 find_package(Python3 COMPONENTS Interpreter)

@@ -18,7 +18,7 @@ foreach(program ln_test_publisher.c ln_test_subscriber.cpp ln_bench_pingpong.cpp
   get_filename_component(name ${program} NAME_WE)
   add_executable(${name} ${LN_TOPICS_TEST_DIR}/${program})
   target_link_libraries(${name} PRIVATE ln ln_topics_test_messages_lib)
-  ln_client_warnings(${name})
+  ln_target_warnings(${name})
 endforeach()
 
 add_executable(ln_topic_tests ${LN_TOPICS_TEST_DIR}/topics_process_test.cpp)
@@ -31,5 +31,5 @@ target_compile_definitions(ln_topic_tests PRIVATE
   LN_BENCH_PINGPONG="$<TARGET_FILE:ln_bench_pingpong>"
   LN_BENCH_RATE="$<TARGET_FILE:ln_bench_rate>")
 add_dependencies(ln_topic_tests ln_test_publisher ln_test_subscriber ln_bench_pingpong ln_bench_rate)
-ln_client_warnings(ln_topic_tests)
+ln_target_warnings(ln_topic_tests)
 gtest_discover_tests(ln_topic_tests PROPERTIES TIMEOUT 120)
