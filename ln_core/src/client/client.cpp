@@ -611,7 +611,8 @@ void Client::open_publisher_segment(InPort* port, std::uint64_t serial, const Me
     }
     const SegmentIdentity identity{socket, reply.message.get_int_or("segment_generation", 0)};
     if (port->knows_segment(identity)) return;
-    port->offer_segment(std::move(fd), identity, static_cast<std::uint32_t>(reply.message.get_int_or("slots", 1)));
+    port->offer_segment(std::move(fd), identity, static_cast<std::uint32_t>(reply.message.get_int_or("slots", 1)),
+                        static_cast<std::uint64_t>(reply.message.get_int_or("last_sequence", 0)));
   });
 }
 

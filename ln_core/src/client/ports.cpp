@@ -212,41 +212,17 @@ int OutPort::next_buffer(void** buffer, unsigned* length) noexcept {
 
 // -------------------------------------------------------------------- InPort
 
-/// When a read has to give up: never (< 0), at once (0) or at a time.
-class InPort::Deadline {
- public:
-  explicit Deadline(double timeout_seconds)
-      : forever_(timeout_seconds < 0 || std::isnan(timeout_seconds)), poll_(timeout_seconds == 0) {
-    if (!forever_ && !poll_) {
-      const double capped = std::min(timeout_seconds, 1e9);  // ~31 years: "forever" without overflow
-      full_ = std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::duration<double>(capped));
-      at_ = Clock::now() + full_;
-    }
-  }
-  bool forever() const { return forever_; }
-  bool poll() const { return poll_; }
-  Clock::time_point at() const { return at_; }
-  std::chrono::nanoseconds remaining() const {
-    if (forever_) return transport::kWaitForever;
-    if (poll_) return transport::kNoWait;
-    // The first attempt starts right away: skip the clock.
-    if (first_attempt_) {
-      first_attempt_ = false;
-      return full_;
-    }
-    const auto left = at_ - Clock::now();
-    // An expired deadline still makes one last non-blocking attempt.
-    return left <= Clock::duration::zero() ? transport::kNoWait
-                                           : std::chrono::duration_cast<std::chrono::nanoseconds>(left);
-  }
+namespace {
 
- private:
-  bool forever_;
-  bool poll_;
-  std::chrono::nanoseconds full_{0};
-  Clock::time_point at_{};
-  mutable bool first_attempt_ = true;
-};
+/// LN's read timeout in seconds: < 0 (or NaN) waits without limit, 0 polls.
+transport::WaitDeadline wait_deadline(double timeout_seconds) {
+  if (timeout_seconds < 0 || std::isnan(timeout_seconds)) return transport::WaitDeadline(transport::kWaitForever);
+  const double capped = std::min(timeout_seconds, 1e9);  // ~31 years: "forever" without overflow
+  return transport::WaitDeadline(
+      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::duration<double>(capped)));
+}
+
+}  // namespace
 
 InPort::InPort(ErrorSlot& errors, std::string topic, std::string md_name, double rate, std::uint32_t buffers,
                bool reliable)
@@ -268,10 +244,11 @@ bool InPort::knows_segment(const SegmentIdentity& identity) const {
   return (reader_ && current_ == identity) || (pending_ && pending_->identity == identity);
 }
 
-void InPort::offer_segment(UniqueFd fd, SegmentIdentity identity, std::uint32_t slots) {
+void InPort::offer_segment(UniqueFd fd, SegmentIdentity identity, std::uint32_t slots,
+                           std::uint64_t written_before) {
   std::lock_guard<std::mutex> lock(state_mutex_);
   const bool other_publisher = reader_ && identity.publisher_socket != current_.publisher_socket;
-  pending_ = PendingSegment{std::move(fd), std::move(identity), slots};
+  pending_ = PendingSegment{std::move(fd), std::move(identity), slots, written_before};
   has_pending_.store(true, std::memory_order_release);
   // A reader blocked on a segment of another publisher would wait there in
   // vain: wake it so that it switches. (A segment of the same publisher
@@ -316,7 +293,7 @@ void InPort::adopt_pending_segment() {
   options.buffers = std::min(buffers_, std::max<std::uint32_t>(segment.slots, 1));
   options.max_borrows = 1;
   const bool continues = !resume_socket_.empty() && resume_socket_ == segment.identity.publisher_socket;
-  options.resume_after = continues ? resume_after_ : 0;
+  options.resume_after = continues ? resume_after_ : segment.written_before;
   resume_after_ = 0;
   resume_socket_.clear();
   std::unique_ptr<transport::ShmReader> attached;
@@ -342,13 +319,13 @@ void InPort::adopt_pending_segment() {
   current_ = std::move(segment.identity);
 }
 
-int InPort::wait_for_segment(const Deadline& deadline) {
+int InPort::wait_for_segment(transport::WaitDeadline& deadline) {
   std::unique_lock<std::mutex> lock(state_mutex_);
   auto changed = [&] { return pending_.has_value() || user_unblock_; };
-  if (deadline.poll()) return pending_ ? 1 : 0;
+  if (deadline.polls()) return pending_ ? 1 : 0;
   if (deadline.forever()) {
     state_changed_.wait(lock, changed);
-  } else if (!state_changed_.wait_until(lock, deadline.at(), changed)) {
+  } else if (!state_changed_.wait_until(lock, deadline.at(Clock::now()), changed)) {
     return 0;
   }
   if (pending_) return 1;
@@ -357,7 +334,7 @@ int InPort::wait_for_segment(const Deadline& deadline) {
 }
 
 template <typename Attempt>
-int InPort::next_packet(const Deadline& deadline, Attempt&& attempt, SampleInfo& info) {
+int InPort::next_packet(transport::WaitDeadline& deadline, Attempt&& attempt, SampleInfo& info) {
   for (;;) {
     adopt_pending_segment();
     if (!reader_) {
@@ -365,7 +342,7 @@ int InPort::next_packet(const Deadline& deadline, Attempt&& attempt, SampleInfo&
       if (changed <= 0) return changed;
       continue;
     }
-    const ReadStatus status = attempt(*reader_, deadline.remaining(), info);
+    const ReadStatus status = attempt(*reader_, deadline, info);
     switch (status) {
       case ReadStatus::ok: return 1;
       case ReadStatus::no_data:
@@ -427,7 +404,7 @@ int InPort::read(void* packet, unsigned size, ln_sample_info* info, double timeo
   if (on_request_) return read_on_request(packet, size, info);
   try {
     std::lock_guard<std::mutex> reading(read_mutex_);
-    const Deadline deadline(timeout);
+    transport::WaitDeadline deadline = wait_deadline(timeout);
     // Straight into the caller's buffer unless a packet may still be
     // rejected (rate limit) or may not fit: a read copies all or nothing.
     const bool direct = rate_ <= 0 && size >= message_size_;
@@ -438,7 +415,7 @@ int InPort::read(void* packet, unsigned size, ln_sample_info* info, double timeo
     for (;;) {
       const int got = next_packet(
           deadline,
-          [&](transport::ShmReader& reader, std::chrono::nanoseconds wait, SampleInfo& out) {
+          [&](transport::ShmReader& reader, transport::WaitDeadline& wait, SampleInfo& out) {
             return reader.read(target, capacity, out, wait);
           },
           received);
@@ -461,9 +438,10 @@ int InPort::read_on_request(void* packet, unsigned size, ln_sample_info* info) n
     const std::size_t capacity = std::max<std::uint32_t>(message_size_, 1);
     if (bounce_.size() < capacity) bounce_.resize(capacity);
     SampleInfo received;
+    transport::WaitDeadline no_wait(transport::kNoWait);
     const int got = next_packet(
-        Deadline(0),
-        [&](transport::ShmReader& reader, std::chrono::nanoseconds, SampleInfo& out) {
+        no_wait,
+        [&](transport::ShmReader& reader, transport::WaitDeadline&, SampleInfo& out) {
           return reader.read(bounce_.data(), capacity, out, transport::kNoWait, ReadMode::newest);
         },
         received);
@@ -509,13 +487,13 @@ int InPort::borrow(const void** packet, unsigned* size, ln_sample_info* info, do
       return 1;
     }
     std::lock_guard<std::mutex> reading(read_mutex_);
-    const Deadline deadline(timeout);
+    transport::WaitDeadline deadline = wait_deadline(timeout);
     transport::BorrowedSample sample;
     SampleInfo received;
     for (;;) {
       const int got = next_packet(
           deadline,
-          [&](transport::ShmReader& reader, std::chrono::nanoseconds wait, SampleInfo& out) {
+          [&](transport::ShmReader& reader, transport::WaitDeadline& wait, SampleInfo& out) {
             const ReadStatus status = reader.borrow(sample, wait);
             if (status == ReadStatus::ok) out = sample.info();
             return status;

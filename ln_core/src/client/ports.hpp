@@ -162,7 +162,10 @@ class InPort : public PortBase {
   /// True if `identity` is the segment being read or about to be.
   bool knows_segment(const SegmentIdentity& identity) const;
   /// A publisher's segment to read from now on (replacing a pending one).
-  void offer_segment(UniqueFd fd, SegmentIdentity identity, std::uint32_t slots);
+  /// `written_before`: the publisher's newest packet when it handed the
+  /// segment over; later ones are this subscriber's even if they come
+  /// before its next read adopts the segment (0: only those after adopting).
+  void offer_segment(UniqueFd fd, SegmentIdentity identity, std::uint32_t slots, std::uint64_t written_before = 0);
   /// The publisher left: forget a segment that was not adopted yet.
   void forget_pending_segment();
 
@@ -171,13 +174,13 @@ class InPort : public PortBase {
     UniqueFd fd;
     SegmentIdentity identity;
     std::uint32_t slots = 0;
+    std::uint64_t written_before = 0;
   };
-  class Deadline;
 
   template <typename Attempt>
-  int next_packet(const Deadline& deadline, Attempt&& attempt, transport::SampleInfo& info);
+  int next_packet(transport::WaitDeadline& deadline, Attempt&& attempt, transport::SampleInfo& info);
   void adopt_pending_segment();
-  int wait_for_segment(const Deadline& deadline);
+  int wait_for_segment(transport::WaitDeadline& deadline);
   void drop_reader();
   bool passes_rate_limit(const transport::SampleInfo& info);
   void deliver_info(const transport::SampleInfo& info, ln_sample_info* out);

@@ -67,6 +67,9 @@ struct SegmentHeader {
   std::atomic<std::int32_t> publisher_cpu;  // CPU of the last write: readers on the same CPU yield instead of spinning
   std::atomic<std::uint32_t> state;  // SegmentState
   std::int32_t publisher_pid;  // informational only
+  // Steady-clock nanoseconds of the last write that woke sleeping readers (0 = none yet):
+  // a woken reader learns when its packet came, not when it got a CPU back.
+  std::atomic<std::int64_t> last_wake_ns;
 
   // Written by readers when they go to sleep, read by the publisher on every packet.
   alignas(kCacheLine) std::atomic<std::uint32_t> sleeping_readers;

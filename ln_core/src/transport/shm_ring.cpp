@@ -95,11 +95,6 @@ double wall_clock_seconds() noexcept {
   return std::chrono::duration<double>(since_epoch).count();
 }
 
-TimePoint deadline_after(nanoseconds timeout) noexcept {
-  if (timeout < nanoseconds::zero()) return TimePoint::max();
-  return Clock::now() + timeout;
-}
-
 // Addresses of the parts of a mapped segment, computed from a validated geometry.
 struct SegmentView {
   layout::Geometry geometry;
@@ -224,7 +219,10 @@ struct WriterCore {
     spares[loan_spare] = ring_slots[position];
     ring_slots[position] = index;
     view.ring[position].store(index, std::memory_order_release);
-    next_spare = loan_spare + 1 == spares.size() ? 0 : loan_spare + 1;
+    // The evicted slot now sits at loan_spare: the next write reuses it, so
+    // a stream cycles through two warm slots instead of all spares (for
+    // large packets that is the difference between cache and memory).
+    next_spare = loan_spare;
     loan_open = false;
     last_sequence = sequence;
 
@@ -250,6 +248,7 @@ struct WriterCore {
     SegmentHeader& header = *view.header;
     header.wake_word.fetch_add(1, std::memory_order_seq_cst);
     if (always || header.sleeping_readers.load(std::memory_order_seq_cst) != 0) {
+      header.last_wake_ns.store(Clock::now().time_since_epoch().count(), std::memory_order_relaxed);
       futex_wake_all(&header.wake_word);
     }
   }
@@ -369,6 +368,9 @@ WriteStatus ShmWriter::commit(std::size_t size) noexcept {
 
 void ShmWriter::discard_loan() noexcept { core_->discard_loan(); }
 std::uint64_t ShmWriter::last_sequence() const noexcept { return core_->last_sequence; }
+std::uint64_t ShmWriter::published_sequence() const noexcept {
+  return core_->view.header->head_sequence.load(std::memory_order_relaxed);
+}
 
 std::uint32_t ShmWriter::sleeping_readers() const noexcept {
   return core_->view.header->sleeping_readers.load(std::memory_order_acquire);
@@ -626,28 +628,41 @@ struct ReaderCore {
            unblock_requested.load(std::memory_order_acquire);
   }
 
-  // Spin phase of a blocking wait. When the publisher last wrote from this
-  // CPU, spinning would only keep it off the CPU: yield once instead, which
-  // lets a runnable publisher (or ping-pong partner) go first without a
-  // futex round trip. A yield that takes long means the publisher hogs this
-  // CPU; then yielding only hurts (the scheduler also pushes a yielding task
-  // back, so later wake-ups stop preempting), and we sleep instead for a while.
-  bool spin_until_ready(TimePoint start, TimePoint deadline) noexcept {
-    if (spin_limit <= nanoseconds::zero()) return false;
-    if (header().publisher_cpu.load(std::memory_order_relaxed) == sched_getcpu()) {
-      if (start < no_yield_until) return false;
-      sched_yield();
+  bool publisher_on_this_cpu() const noexcept {
+    return header().publisher_cpu.load(std::memory_order_relaxed) == sched_getcpu();
+  }
+
+  // First phase of a blocking wait when the publisher last wrote from this
+  // CPU: spinning would only keep it off the CPU, so yield once instead,
+  // which lets a runnable publisher (or ping-pong partner) go first without a
+  // futex round trip. A publisher that streams on this CPU (it wrote several
+  // packets during a long yield) is better served by sleeping: the scheduler
+  // pushes a yielding task back, so later wake-ups stop preempting it; then we
+  // sleep instead for a while. A long yield that brought one packet is a
+  // partner that simply worked that long (e.g. copying a large packet): no
+  // reason to give up the cheaper hand-over.
+  bool yield_to_publisher(TimePoint start) noexcept {
+    if (start < no_yield_until) return false;
+    const std::uint64_t head_before = header().head_sequence.load(std::memory_order_relaxed);
+    sched_yield();
+    const bool ready = wake_condition();
+    const std::uint64_t written = header().head_sequence.load(std::memory_order_relaxed) - head_before;
+    if (written > 1) {
       const TimePoint after = Clock::now();
-      const bool ready = wake_condition();
       if (after - start > options.spin.max_spin) {
         no_yield_until = after + yield_backoff;
         yield_backoff = std::min(2 * yield_backoff, kMaxYieldBackoff);
         ++stats.yield_backoffs;
-      } else if (ready) {
-        yield_backoff = kMinYieldBackoff;
+        return ready;
       }
-      return ready;
     }
+    if (ready) yield_backoff = kMinYieldBackoff;
+    return ready;
+  }
+
+  // First phase of a blocking wait when the publisher runs elsewhere: spin
+  // for the learned spin_limit.
+  bool spin_until_ready(TimePoint start, TimePoint deadline) const noexcept {
     const TimePoint spin_end = std::min(deadline, start + spin_limit);
     for (;;) {
       for (int i = 0; i < 4; ++i) {
@@ -660,7 +675,11 @@ struct ReaderCore {
 
   // Spin as long as max_spin while packets keep arriving within it (a
   // futex sleep and wake-up costs more than that); when they arrive later,
-  // spinning is wasted CPU, so halve the limit towards min_spin.
+  // spinning is wasted CPU, so halve the limit towards min_spin. `delay` is
+  // when the packet came, never when a sleeping reader got its CPU back:
+  // that wake-up latency (15-25 µs across cores on a VM) would otherwise
+  // exceed max_spin by itself, and two ping-pong partners with a few µs of
+  // work per message would both stop spinning for good.
   void learn_arrival(nanoseconds delay) noexcept {
     const nanoseconds lower = options.spin.min_spin;
     const nanoseconds upper = options.spin.max_spin;
@@ -672,13 +691,27 @@ struct ReaderCore {
     }
   }
 
-  // Returns ok when woken for any reason worth a new attempt.
-  ReadStatus wait_for_packet(TimePoint deadline) noexcept {
-    const TimePoint start = Clock::now();
-    if (spin_until_ready(start, deadline)) {
-      ++stats.spin_wakeups;
-      learn_arrival(Clock::now() - start);
-      return ReadStatus::ok;
+  // Time from `start` until the writer woke this sleeping reader (now, if
+  // the stamp is from an earlier wake-up or a publisher without stamps).
+  static nanoseconds arrival_since(TimePoint start, const SegmentHeader& shared) noexcept {
+    const TimePoint now = Clock::now();
+    const TimePoint woken_at{nanoseconds(shared.last_wake_ns.load(std::memory_order_relaxed))};
+    return (woken_at >= start && woken_at <= now ? woken_at : now) - start;
+  }
+
+  // Returns ok when woken for any reason worth a new attempt. `start` is now.
+  ReadStatus wait_for_packet(TimePoint start, TimePoint deadline) noexcept {
+    if (spin_limit > nanoseconds::zero()) {
+      if (publisher_on_this_cpu()) {
+        if (yield_to_publisher(start)) {
+          ++stats.spin_wakeups;
+          return ReadStatus::ok;
+        }
+      } else if (spin_until_ready(start, deadline)) {
+        ++stats.spin_wakeups;
+        learn_arrival(Clock::now() - start);
+        return ReadStatus::ok;
+      }
     }
     SegmentHeader& shared = header();
     const nanoseconds check_interval = options.liveness_check_interval;
@@ -706,16 +739,16 @@ struct ReaderCore {
       futex_wait(&shared.wake_word, word, sleep);
     }
     shared.sleeping_readers.fetch_sub(1, std::memory_order_seq_cst);
-    if (result == ReadStatus::ok) learn_arrival(Clock::now() - start);
+    if (result == ReadStatus::ok) learn_arrival(arrival_since(start, shared));
     if (result == ReadStatus::timeout && !publisher_alive()) result = ReadStatus::publisher_gone;
     return result;
   }
 
   template <typename TryOnce>
-  ReadStatus run(TryOnce&& try_once, nanoseconds timeout) noexcept {
-    const bool blocking = timeout != kNoWait;
-    const TimePoint deadline = blocking ? deadline_after(timeout) : TimePoint{};
-    TimePoint last_busy_check = Clock::now();
+  ReadStatus run(TryOnce&& try_once, WaitDeadline& wait) noexcept {
+    const bool blocking = !wait.polls();
+    bool busy_before = false;
+    TimePoint last_busy_check{};
     for (;;) {
       // Read the state before trying: packets written before a close are still delivered.
       const std::uint32_t state = header().state.load(std::memory_order_acquire);
@@ -724,18 +757,22 @@ struct ReaderCore {
       if (state != kOpen) return status_for_state(state);
       if (!blocking) return ReadStatus::no_data;
       if (unblock_requested.exchange(false, std::memory_order_acq_rel)) return ReadStatus::unblocked;
+      const TimePoint now = Clock::now();
+      const TimePoint deadline = wait.at(now);
+      if (now >= deadline) return publisher_alive() ? ReadStatus::timeout : ReadStatus::publisher_gone;
       if (attempt.kind == Attempt::busy) {
         // The writer keeps overwriting our packet, or stopped half-way through publishing one.
-        const TimePoint now = Clock::now();
-        if (now >= deadline) return publisher_alive() ? ReadStatus::timeout : ReadStatus::publisher_gone;
-        if (now - last_busy_check >= options.liveness_check_interval) {
+        if (!busy_before) {
+          busy_before = true;
+          last_busy_check = now;
+        } else if (now - last_busy_check >= options.liveness_check_interval) {
           last_busy_check = now;
           if (!publisher_alive()) return ReadStatus::publisher_gone;
         }
         sched_yield();
         continue;
       }
-      const ReadStatus waited = wait_for_packet(deadline);
+      const ReadStatus waited = wait_for_packet(now, deadline);
       if (waited != ReadStatus::ok) return waited;
     }
   }
@@ -886,14 +923,25 @@ ShmReader::~ShmReader() = default;
 
 ReadStatus ShmReader::read(void* buffer, std::size_t capacity, SampleInfo& info,
                            nanoseconds timeout, ReadMode mode) {
+  WaitDeadline deadline(timeout);
+  return read(buffer, capacity, info, deadline, mode);
+}
+
+ReadStatus ShmReader::read(void* buffer, std::size_t capacity, SampleInfo& info, WaitDeadline& deadline,
+                           ReadMode mode) {
   detail::ReaderCore& core = *core_;
-  return core.run([&] { return core.try_copy(buffer, capacity, info, mode); }, timeout);
+  return core.run([&] { return core.try_copy(buffer, capacity, info, mode); }, deadline);
 }
 
 ReadStatus ShmReader::borrow(BorrowedSample& sample, nanoseconds timeout, ReadMode mode) {
+  WaitDeadline deadline(timeout);
+  return borrow(sample, deadline, mode);
+}
+
+ReadStatus ShmReader::borrow(BorrowedSample& sample, WaitDeadline& deadline, ReadMode mode) {
   sample.release();
   detail::ReaderCore& core = *core_;
-  const ReadStatus status = core.run([&] { return core.try_borrow(sample, mode); }, timeout);
+  const ReadStatus status = core.run([&] { return core.try_borrow(sample, mode); }, deadline);
   if (status == ReadStatus::ok) sample.core_ = core_;
   return status;
 }

@@ -47,9 +47,10 @@
 // Writing packet n: the writer takes a spare slot (skipping any that is
 // borrowed), marks it "being written" (slot sequence = 0), copies the payload,
 // stores sequence = n, points ring[n % history] at it, turns the slot that was
-// there into a spare, and publishes head_sequence = n. The slot just evicted
-// is reused only after borrow_slots + 1 further writes, which gives slow
-// copying readers extra grace.
+// there into a spare, and publishes head_sequence = n. The next write takes
+// the slot just evicted (unless a reader pinned it), so a stream keeps
+// reusing the same two cache-warm slots; a copying reader still busy with
+// that older packet sees the overwrite and retries (see below).
 //
 // Copying read (seqlock): look up the slot of the wanted sequence, check its
 // sequence, copy, check the sequence again; a mismatch means the writer reused
@@ -80,7 +81,8 @@
 // A crashed reader thus costs nothing permanent.
 //
 // Blocking: readers spin adaptively (bounded by SpinPolicy; they yield once
-// instead of spinning when the publisher last wrote from their own CPU), then
+// instead of spinning when the publisher last wrote from their own CPU, unless
+// it streams there: see ReaderCore::yield_to_publisher), then
 // sleep in FUTEX_WAIT on SegmentHeader::wake_word, announced in
 // `sleeping_readers`. The writer bumps wake_word on every write and issues
 // FUTEX_WAKE only when sleeping_readers != 0 (LN 2.9 wakes on every write).
@@ -124,6 +126,32 @@ namespace ln::transport {
 
 inline constexpr std::chrono::nanoseconds kNoWait{0};
 inline constexpr std::chrono::nanoseconds kWaitForever{-1};
+
+/// How long blocking reads may wait, as a deadline whose clock starts only
+/// when a read first has to wait: a reader that keeps up with a stream finds
+/// its packet at once, and reading the clock would cost as much as the read.
+/// Consecutive reads given the same WaitDeadline share one deadline.
+class WaitDeadline {
+ public:
+  using TimePoint = std::chrono::steady_clock::time_point;
+  /// timeout: kNoWait, kWaitForever (any negative value) or a duration.
+  explicit WaitDeadline(std::chrono::nanoseconds timeout) noexcept : timeout_(timeout) {}
+  bool polls() const noexcept { return timeout_ == kNoWait; }
+  bool forever() const noexcept { return timeout_ < std::chrono::nanoseconds::zero(); }
+  /// The deadline; the first call starts the clock at `now`.
+  TimePoint at(TimePoint now) noexcept {
+    if (!started_) {
+      started_ = true;
+      at_ = forever() ? TimePoint::max() : now + timeout_;
+    }
+    return at_;
+  }
+
+ private:
+  std::chrono::nanoseconds timeout_;
+  bool started_ = false;
+  TimePoint at_{};
+};
 
 struct RingConfig {
   std::uint32_t message_size = 0;  ///< largest packet in bytes (packets may be shorter)
@@ -244,6 +272,9 @@ class ShmWriter {
 
   /// Sequence number of the newest packet written, first_sequence - 1 before any.
   std::uint64_t last_sequence() const noexcept;
+  /// last_sequence() as readers see it, for threads other than the writer's
+  /// (one atomic load, never blocks the writer).
+  std::uint64_t published_sequence() const noexcept;
   /// Readers currently asleep in a blocking read (for tests and diagnostics).
   std::uint32_t sleeping_readers() const noexcept;
 
@@ -310,11 +341,14 @@ class ShmReader {
   /// returns no_data with the buffer possibly overwritten.
   ReadStatus read(void* buffer, std::size_t capacity, SampleInfo& info,
                   std::chrono::nanoseconds timeout = kNoWait, ReadMode mode = ReadMode::next);
+  ReadStatus read(void* buffer, std::size_t capacity, SampleInfo& info, WaitDeadline& deadline,
+                  ReadMode mode = ReadMode::next);
 
   /// Pins the next packet in place (same selection rules as read()).
   /// Releases whatever `sample` held before.
   ReadStatus borrow(BorrowedSample& sample, std::chrono::nanoseconds timeout = kNoWait,
                     ReadMode mode = ReadMode::next);
+  ReadStatus borrow(BorrowedSample& sample, WaitDeadline& deadline, ReadMode mode = ReadMode::next);
 
   /// True if a read would deliver a packet now.
   bool has_new_data() const noexcept;

@@ -17,6 +17,7 @@
 //     --repeat N        run every case N times
 //     --max-spin-us N   SpinPolicy::max_spin of all readers (default 20; 0 = futex only)
 //     --lag-policy newest|window   LagPolicy of the rate subscriber (default newest, like LN)
+//     --wait-quiet S    wait at most S seconds for quiet CPUs before every case (default 60)
 //   Before every case the driver waits (at most 60 s) until both CPUs are at
 //   most 15 % busy, so that other load on the machine disturbs less; the JSON
 //   line says whether it succeeded ("quiet").
@@ -48,6 +49,7 @@ using Clock = std::chrono::steady_clock;
 
 // Global knobs set from the command line.
 long g_max_spin_us = 20;
+long g_wait_quiet_s = 60;
 bool g_quiet = true;
 LagPolicy g_lag_policy = LagPolicy::skip_to_newest;
 
@@ -90,7 +92,7 @@ std::vector<double> cpu_busy_shares(std::chrono::milliseconds window) {
 }
 
 bool wait_for_quiet_cpus() {
-  const auto deadline = Clock::now() + 60s;
+  const auto deadline = Clock::now() + std::chrono::seconds(g_wait_quiet_s);
   while (Clock::now() < deadline) {
     const std::vector<double> shares = cpu_busy_shares(250ms);
     if (std::all_of(shares.begin(), shares.end(), [](double share) { return share <= 0.15; })) return true;
@@ -514,9 +516,11 @@ int main(int argc, char** argv) {
   std::vector<std::string> args(argv + 1, argv + argc);
   int repeat = 1;
   while (args.size() >= 2 &&
-         (args[0] == "--repeat" || args[0] == "--max-spin-us" || args[0] == "--lag-policy")) {
+         (args[0] == "--repeat" || args[0] == "--max-spin-us" || args[0] == "--lag-policy" ||
+          args[0] == "--wait-quiet")) {
     if (args[0] == "--repeat") repeat = std::max(1, std::atoi(args[1].c_str()));
     if (args[0] == "--max-spin-us") g_max_spin_us = std::max(0L, std::atol(args[1].c_str()));
+    if (args[0] == "--wait-quiet") g_wait_quiet_s = std::max(0L, std::atol(args[1].c_str()));
     if (args[0] == "--lag-policy") {
       g_lag_policy = args[1] == "window" ? LagPolicy::keep_latest_window : LagPolicy::skip_to_newest;
     }
@@ -539,7 +543,7 @@ int main(int argc, char** argv) {
                     std::atof(args[4].c_str()), pace) && ok;
     } else {
       std::fprintf(stderr,
-                   "usage: shm_ring_bench [--repeat N] [--max-spin-us N] [--lag-policy newest|window] [rtt SIZE copy|zero_copy|write_borrow|copy_nospin "
+                   "usage: shm_ring_bench [--repeat N] [--max-spin-us N] [--lag-policy newest|window] [--wait-quiet S] [rtt SIZE copy|zero_copy|write_borrow|copy_nospin "
                    "same|split [N] | rate SIZE BUFFERS same|split SECONDS [MSGS_PER_S]]\n");
       return 2;
     }

@@ -6,6 +6,7 @@
 #include <dirent.h>
 #include <fcntl.h>
 #include <poll.h>
+#include <sched.h>
 #include <signal.h>
 #include <sys/mman.h>
 #include <sys/socket.h>
@@ -682,6 +683,92 @@ TEST(ShmRingBlocking, WriteWakesSleepingReaderAfterSpinning) {
   expect_write_wakes_sleeping_reader(SpinPolicy{});
 }
 
+// Pins the calling thread to one CPU for its lifetime.
+class PinnedThread {
+ public:
+  explicit PinnedThread(int cpu) {
+    ::sched_getaffinity(0, sizeof(previous_), &previous_);
+    cpu_set_t one;
+    CPU_ZERO(&one);
+    CPU_SET(cpu, &one);
+    ::sched_setaffinity(0, sizeof(one), &one);
+  }
+  ~PinnedThread() { ::sched_setaffinity(0, sizeof(previous_), &previous_); }
+  PinnedThread(const PinnedThread&) = delete;
+  PinnedThread& operator=(const PinnedThread&) = delete;
+
+ private:
+  cpu_set_t previous_;
+};
+
+// The first two CPUs this process may run on, or {-1, -1}.
+std::pair<int, int> two_allowed_cpus() {
+  cpu_set_t allowed;
+  if (::sched_getaffinity(0, sizeof(allowed), &allowed) != 0) return {-1, -1};
+  std::vector<int> cpus;
+  for (int cpu = 0; cpu < CPU_SETSIZE && cpus.size() < 2; ++cpu) {
+    if (CPU_ISSET(cpu, &allowed)) cpus.push_back(cpu);
+  }
+  return cpus.size() == 2 ? std::make_pair(cpus[0], cpus[1]) : std::make_pair(-1, -1);
+}
+
+// A reader learns its spin limit from when packets come, not from when it
+// got a CPU back after sleeping: here its wake-up is delayed (SIGSTOP) far
+// beyond max_spin although the packet came soon, and it must still spin
+// longer afterwards. Long limits (20..200 ms) keep scheduling noise out;
+// reader and writer on different CPUs, where readers spin (not yield).
+TEST(ShmRingBlocking, LateWakeUpDoesNotShortenSpinning) {
+  const auto [writer_cpu, reader_cpu] = two_allowed_cpus();
+  if (writer_cpu < 0) GTEST_SKIP() << "needs two CPUs";
+  PinnedThread pinned(writer_cpu);
+  SocketPair sockets;
+  ShmWriter writer = ShmWriter::create(config(64));
+  Child reader_process([&, reader_cpu = reader_cpu] {
+    PinnedThread reader_pinned(reader_cpu);
+    ReaderOptions options;
+    options.spin.min_spin = 20ms;
+    options.spin.max_spin = 200ms;
+    ShmReader reader = ShmReader::attach(writer.fd(), options);
+    std::vector<std::byte> buffer(64);
+    SampleInfo info;
+    std::uint64_t spins_before_last = 0;
+    for (int i = 0; i < 6; ++i) {
+      spins_before_last = reader.stats().spin_wakeups;
+      send_byte(sockets.child.get(), 'r');  // about to read
+      if (reader.read(buffer.data(), buffer.size(), info, 10s) != ReadStatus::ok) return 2;
+    }
+    return reader.stats().spin_wakeups == spins_before_last + 1 ? 0 : 10;  // the last packet caught spinning?
+  });
+  std::uint64_t sequence = 0;
+  auto write_when_asleep = [&](std::chrono::milliseconds after) {
+    ASSERT_EQ(receive_byte(sockets.parent.get(), 10s), 'r');
+    ASSERT_TRUE(wait_until([&] { return writer.sleeping_readers() == 1; }, 10s));
+    std::this_thread::sleep_for(after);
+    ASSERT_EQ(writer.write(packet(64, ++sequence).data(), 64), WriteStatus::ok);
+  };
+  // Packets long after max_spin halve the limit down to min_spin (200 -> 20 ms).
+  for (int i = 0; i < 4; ++i) {
+    write_when_asleep(220ms);
+    ASSERT_FALSE(HasFatalFailure());
+  }
+  // A packet right after the reader fell asleep, but the reader gets no CPU for 250 ms.
+  ASSERT_EQ(receive_byte(sockets.parent.get(), 10s), 'r');
+  ASSERT_TRUE(wait_until([&] { return writer.sleeping_readers() == 1; }, 10s));
+  ASSERT_EQ(::kill(reader_process.pid(), SIGSTOP), 0);
+  int status = 0;
+  ASSERT_EQ(::waitpid(reader_process.pid(), &status, WUNTRACED), reader_process.pid());
+  ASSERT_TRUE(WIFSTOPPED(status));
+  ASSERT_EQ(writer.write(packet(64, ++sequence).data(), 64), WriteStatus::ok);
+  std::this_thread::sleep_for(250ms);
+  ASSERT_EQ(::kill(reader_process.pid(), SIGCONT), 0);
+  // It came ~20 ms after the wait began, so the limit doubled to 40 ms: a
+  // packet 30 ms into the next wait is caught spinning (at 20 ms it would sleep).
+  ASSERT_EQ(receive_byte(sockets.parent.get(), 10s), 'r');
+  std::this_thread::sleep_for(30ms);
+  ASSERT_EQ(writer.write(packet(64, ++sequence).data(), 64), WriteStatus::ok);
+  EXPECT_EQ(reader_process.wait(), 0);
+}
+
 TEST(ShmRingBlocking, PublisherDeathEndsBlockingRead) {
   SocketPair sockets;
   Child publisher([&] {
@@ -704,6 +791,112 @@ TEST(ShmRingBlocking, PublisherDeathEndsBlockingRead) {
   EXPECT_LT(Clock::now() - start, 10s);
   EXPECT_FALSE(reader.publisher_alive());
   EXPECT_EQ(publisher.wait(), -2);
+}
+
+// Consecutive reads given one WaitDeadline share it, and its clock starts
+// only when a read first has to wait.
+TEST(ShmRingBlocking, SharedWaitDeadline) {
+  ShmWriter writer = ShmWriter::create(config(64, 4));
+  ReaderOptions options;
+  options.buffers = 4;
+  ShmReader reader = ShmReader::attach(writer.fd(), options);
+  std::vector<std::byte> buffer(64);
+  SampleInfo info;
+  WaitDeadline deadline(50ms);
+  ASSERT_EQ(writer.write(packet(64, 1).data(), 64), WriteStatus::ok);
+  std::this_thread::sleep_for(100ms);  // longer than the timeout, but nobody waited yet
+  EXPECT_EQ(reader.read(buffer.data(), buffer.size(), info, deadline), ReadStatus::ok);
+  auto start = Clock::now();
+  EXPECT_EQ(reader.read(buffer.data(), buffer.size(), info, deadline), ReadStatus::timeout);
+  EXPECT_GE(Clock::now() - start, 50ms);
+  // Expired: the next read only looks once, and still gets a packet that is there.
+  start = Clock::now();
+  EXPECT_EQ(reader.read(buffer.data(), buffer.size(), info, deadline), ReadStatus::timeout);
+  ASSERT_EQ(writer.write(packet(64, 2).data(), 64), WriteStatus::ok);
+  BorrowedSample sample;
+  EXPECT_EQ(reader.borrow(sample, deadline), ReadStatus::ok);
+  EXPECT_EQ(sample.info().sequence, 2u);
+  EXPECT_LT(Clock::now() - start, 40ms);
+}
+
+// The first CPU this process may run on.
+int first_allowed_cpu() {
+  cpu_set_t allowed;
+  if (::sched_getaffinity(0, sizeof(allowed), &allowed) == 0) {
+    for (int cpu = 0; cpu < CPU_SETSIZE; ++cpu) {
+      if (CPU_ISSET(cpu, &allowed)) return cpu;
+    }
+  }
+  return 0;
+}
+
+// Ping-pong on one CPU, the partner working 200 µs (far beyond max_spin) per
+// echo: each wait brings exactly one packet, so the reader keeps handing the
+// CPU over by yielding and never backs off to futex sleeps for it.
+TEST(ShmRingBlocking, SameCpuPartnerThatWorksLongIsNotAHog) {
+  PinnedThread pinned(first_allowed_cpu());  // the child inherits it
+  SocketPair sockets;
+  ShmWriter ping = ShmWriter::create(config(64));
+  Child echo([&] {
+    ShmWriter pong = ShmWriter::create(config(64));
+    send_fd(sockets.child.get(), pong.fd());
+    ShmReader reader = ShmReader::attach(ping.fd());
+    send_byte(sockets.child.get(), 'a');
+    std::vector<std::byte> buffer(64);
+    SampleInfo info;
+    for (int i = 0; i < 50; ++i) {
+      if (reader.read(buffer.data(), buffer.size(), info, 10s) != ReadStatus::ok) return 2;
+      const auto busy_until = Clock::now() + 200us;
+      while (Clock::now() < busy_until) {
+      }
+      if (pong.write(buffer.data(), buffer.size()) != WriteStatus::ok) return 3;
+    }
+    return receive_byte(sockets.child.get(), 10s) == 'd' ? 0 : 4;  // keep pong open until read
+  });
+  ShmReader reader = ShmReader::attach(receive_fd(sockets.parent.get()));
+  ASSERT_EQ(receive_byte(sockets.parent.get(), 10s), 'a');
+  std::vector<std::byte> buffer(64);
+  SampleInfo info;
+  for (std::uint64_t s = 1; s <= 50; ++s) {
+    ASSERT_EQ(ping.write(packet(64, s).data(), 64), WriteStatus::ok);
+    ASSERT_EQ(reader.read(buffer.data(), buffer.size(), info, 10s), ReadStatus::ok);
+    ASSERT_EQ(buffer, packet(64, s));
+  }
+  send_byte(sockets.parent.get(), 'd');
+  EXPECT_EQ(reader.stats().yield_backoffs, 0u);
+  EXPECT_EQ(echo.wait(), 0);
+}
+
+// A publisher streaming on the reader's CPU writes many packets during a
+// yield: the reader then sleeps in the kernel for a while instead.
+TEST(ShmRingBlocking, SameCpuStreamingPublisherMakesTheReaderBackOff) {
+  PinnedThread pinned(first_allowed_cpu());  // the child inherits it
+  SocketPair sockets;
+  Child publisher([&] {
+    ShmWriter stream = ShmWriter::create(config(64, 256));
+    send_fd(sockets.child.get(), stream.fd());
+    if (receive_byte(sockets.child.get(), 10s) != 'a') return 2;
+    std::uint64_t s = 0;
+    const auto end = Clock::now() + 5s;
+    for (;;) {  // until told to stop (or 5 s): a byte on the socket ends it
+      for (int i = 0; i < 1000; ++i) stream.write(packet(64, ++s).data(), 64);
+      if (receive_byte(sockets.child.get(), 0ms) == 'd') return 0;
+      if (Clock::now() >= end) return 3;
+    }
+  });
+  ReaderOptions options;
+  options.buffers = 256;
+  ShmReader reader = ShmReader::attach(receive_fd(sockets.parent.get()), options);
+  send_byte(sockets.parent.get(), 'a');
+  std::vector<std::byte> buffer(64);
+  SampleInfo info;
+  const auto end = Clock::now() + 3s;
+  while (reader.stats().yield_backoffs == 0 && Clock::now() < end) {
+    ASSERT_EQ(reader.read(buffer.data(), buffer.size(), info, 1s), ReadStatus::ok);
+  }
+  send_byte(sockets.parent.get(), 'd');
+  EXPECT_GT(reader.stats().yield_backoffs, 0u);
+  EXPECT_EQ(publisher.wait(), 0);
 }
 
 // ------------------------------------------------------------------ cross-process
