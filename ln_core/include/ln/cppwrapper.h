@@ -190,6 +190,54 @@ class event_connection {
   void* user_data_;
 };
 
+/// ln_core: a topic the manager knows (client::list_topics(); see
+/// ln_topic_info).
+struct topic_info {
+  std::string name;
+  std::string message_definition;
+  std::string hash;
+  unsigned int message_size;
+  std::string publisher;  ///< client name of the publisher, "" if none
+  unsigned int subscribers;
+  uint64_t packets;  ///< packets the publisher wrote, as it last reported
+  double rate;       ///< packets per second over its last report interval; 0 when idle
+};
+
+/// ln_core: a registered client (client::list_clients(); see ln_client_info).
+struct client_info {
+  std::string name;
+  int64_t id;
+  int64_t pid;
+  std::string host;
+  std::string host_id;
+  std::vector<std::string> published;   ///< topic names, sorted
+  std::vector<std::string> subscribed;  ///< topic names, sorted
+  std::vector<std::string> services;    ///< provided service names, sorted
+};
+
+/// ln_core: a registered service (client::list_services(); see
+/// ln_service_info).
+struct service_info {
+  std::string name;
+  std::string interface;
+  std::string signature;
+  std::string provider;
+  std::string group;  ///< "" for none
+};
+
+/// ln_core: the manager itself (client::get_manager_status(); see
+/// ln_manager_status).
+struct manager_status {
+  std::string version;
+  int64_t pid;
+  std::string address;  ///< "IP:PORT"
+  double uptime;        ///< seconds
+  unsigned int clients;
+  unsigned int topics;
+  unsigned int services;
+  std::vector<std::string> message_definition_dirs;  ///< in search order
+};
+
 /// A connection to the ln_manager; see ln_init() for how the manager and the
 /// client name are found. Owns everything created through it. Not copyable.
 class client {
@@ -382,6 +430,16 @@ class client {
   /// topic.
   void set_publisher_availability_handler(const std::string& topic_name,
                                           availability_handler_t handler);
+
+  /// ln_core: the topics the manager knows, in the order they appeared.
+  std::vector<topic_info> list_topics();
+  /// ln_core: the registered clients, in the order they registered.
+  std::vector<client_info> list_clients();
+  /// ln_core: the registered services, in the order they registered.
+  std::vector<service_info> list_services();
+  /// ln_core: version, pid, address, uptime, counts and definition search
+  /// path of the manager.
+  manager_status get_manager_status();
 
  private:
   friend class service;

@@ -64,6 +64,33 @@ inline void take_c_string(char* source, std::string& target) {
   free(source);
 }
 
+/// Releases a result of the ln_list_* functions.
+struct free_list {
+  void operator()(void* list) const { ln_free_list(list); }
+};
+
+/// The names of a NULL-terminated array.
+inline std::vector<std::string> string_list(const char* const* names) {
+  std::vector<std::string> out;
+  for (; names != nullptr && *names != nullptr; ++names) out.push_back(*names);
+  return out;
+}
+
+/// Calls an ln_list_* function and converts its rows with @p convert.
+template <typename Info, typename Row, typename Convert>
+std::vector<Info> list_rows(ln_client clnt, int (*list)(ln_client, Row**, unsigned int*), const char* context,
+                            Convert convert) {
+  Row* rows = nullptr;
+  unsigned int count = 0;
+  const int ret = list(clnt, &rows, &count);
+  if (ret < 0) throw_failure(ret, context, ln_get_error_message(clnt));
+  const std::unique_ptr<Row, free_list> owned(rows);
+  std::vector<Info> out;
+  out.reserve(count);
+  for (unsigned int i = 0; i < count; ++i) out.push_back(convert(rows[i]));
+  return out;
+}
+
 }  // namespace detail
 
 // ---------------------------------------------------------------- client
@@ -470,6 +497,67 @@ inline void client::set_service_availability_handler(const std::string& service_
 inline void client::set_publisher_availability_handler(const std::string& topic_name,
                                                        availability_handler_t handler) {
   set_availability_handler(false, topic_name, std::move(handler));
+}
+
+inline std::vector<topic_info> client::list_topics() {
+  return detail::list_rows<topic_info>(clnt, ln_list_topics, "ln::client::list_topics()", [](const ln_topic_info& row) {
+    topic_info info;
+    info.name = row.name;
+    info.message_definition = row.message_definition;
+    info.hash = row.hash;
+    info.message_size = row.message_size;
+    info.publisher = row.publisher;
+    info.subscribers = row.subscribers;
+    info.packets = row.packets;
+    info.rate = row.rate;
+    return info;
+  });
+}
+
+inline std::vector<client_info> client::list_clients() {
+  return detail::list_rows<client_info>(clnt, ln_list_clients, "ln::client::list_clients()",
+                                        [](const ln_client_info& row) {
+                                          client_info info;
+                                          info.name = row.name;
+                                          info.id = row.id;
+                                          info.pid = row.pid;
+                                          info.host = row.host;
+                                          info.host_id = row.host_id;
+                                          info.published = detail::string_list(row.published);
+                                          info.subscribed = detail::string_list(row.subscribed);
+                                          info.services = detail::string_list(row.services);
+                                          return info;
+                                        });
+}
+
+inline std::vector<service_info> client::list_services() {
+  return detail::list_rows<service_info>(clnt, ln_list_services, "ln::client::list_services()",
+                                         [](const ln_service_info& row) {
+                                           service_info info;
+                                           info.name = row.name;
+                                           info.interface = row.interface;
+                                           info.signature = row.signature;
+                                           info.provider = row.provider;
+                                           info.group = row.group;
+                                           return info;
+                                         });
+}
+
+inline manager_status client::get_manager_status() {
+  ln_manager_status* status = nullptr;
+  const int ret = ln_get_manager_status(clnt, &status);
+  if (ret < 0) throw_error(ret, "ln::client::get_manager_status()");
+  const std::unique_ptr<ln_manager_status, detail::free_list> owned(status);
+  manager_status info;
+  info.version = status->version;
+  info.pid = status->pid;
+  info.address = status->address;
+  info.uptime = status->uptime;
+  info.clients = status->clients;
+  info.topics = status->topics;
+  info.services = status->services;
+  info.message_definition_dirs = detail::string_list(status->message_definition_dirs);
+  return info;
 }
 
 inline void client::set_availability_handler(bool for_service, const std::string& watched_name,

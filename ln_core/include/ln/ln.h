@@ -1060,6 +1060,90 @@ LN_API int ln_set_service_availability_handler(ln_client clnt, const char* servi
 LN_API int ln_set_publisher_availability_handler(ln_client clnt, const char* topic_name,
                                                  ln_availability_handler handler, void* user_data);
 
+/* ---- Introspection: what the manager knows (like `ln topic list`) ---- */
+
+/** One topic of ln_list_topics(). */
+typedef struct ln_topic_info {
+  const char* name;
+  const char* message_definition; /**< the topic's message-definition name */
+  const char* hash;               /**< that definition's hash */
+  unsigned int message_size;      /**< bytes per packet */
+  const char* publisher;          /**< client name of the publisher, "" if none */
+  unsigned int subscribers;       /**< number of subscriptions */
+  /** Packets the publisher wrote, as it last reported: publishers report
+      about once per second while they write. 0 without publisher. */
+  uint64_t packets;
+  /** Packets per second over the publisher's last report interval (about
+      one second); 0 once it stopped writing or reporting, or without
+      publisher. */
+  double rate;
+} ln_topic_info;
+
+/** One client of ln_list_clients(). The name lists are NULL-terminated
+    arrays (possibly just the NULL), sorted by name. */
+typedef struct ln_client_info {
+  const char* name;
+  int64_t id;              /**< the manager's id of the client */
+  int64_t pid;             /**< process id on its host (0 if it did not say) */
+  const char* host;        /**< host name */
+  const char* host_id;     /**< boot id + network namespace: clients with equal
+                                ids share memory */
+  const char* const* published;  /**< topics it publishes */
+  const char* const* subscribed; /**< topics it subscribes to */
+  const char* const* services;   /**< services it provides */
+} ln_client_info;
+
+/** One service of ln_list_services(). */
+typedef struct ln_service_info {
+  const char* name;
+  const char* interface;   /**< service definition name, may carry "|hash" */
+  const char* signature;   /**< the provider's service signature */
+  const char* provider;    /**< client name of the provider */
+  const char* group;       /**< its service group, "" for none */
+} ln_service_info;
+
+/** The manager itself (ln_get_manager_status()). */
+typedef struct ln_manager_status {
+  const char* version;     /**< e.g. "ln_core 0.1.0" */
+  int64_t pid;             /**< process id of the manager */
+  const char* address;     /**< "IP:PORT" it listens on */
+  double uptime;           /**< seconds since it started listening */
+  unsigned int clients;    /**< clients registered now */
+  unsigned int topics;     /**< topics known now */
+  unsigned int services;   /**< services registered now */
+  /** Its message-definition search path, in search order, NULL-terminated. */
+  const char* const* message_definition_dirs;
+} ln_manager_status;
+
+/** Lists the topics the manager knows (published or only subscribed), in
+    the order they appeared.
+    @param[out] topics receives @p *count entries in a single block of memory,
+                strings included; release it with ln_free_list(). Never NULL
+                on success, even when the list is empty.
+    @param[out] count number of entries.
+    @return 0, -LNE_LOST_CONNECTION, -LNE_MANAGER_TOO_OLD (a manager without
+            introspection), or another error. */
+LN_API int ln_list_topics(ln_client clnt, ln_topic_info** topics, unsigned int* count);
+
+/** Lists the registered clients in the order they registered; otherwise as
+    ln_list_topics(). */
+LN_API int ln_list_clients(ln_client clnt, ln_client_info** clients, unsigned int* count);
+
+/** Lists the registered services in the order they registered; otherwise as
+    ln_list_topics(). */
+LN_API int ln_list_services(ln_client clnt, ln_service_info** services, unsigned int* count);
+
+/** Describes the manager.
+    @param[out] status receives one entry in a single block of memory;
+                release it with ln_free_list().
+    @return as ln_list_topics(). */
+LN_API int ln_get_manager_status(ln_client clnt, ln_manager_status** status);
+
+/** Releases the result of ln_list_topics(), ln_list_clients(),
+    ln_list_services() or ln_get_manager_status(); NULL does nothing. Every
+    pointer into the block becomes invalid. */
+LN_API void ln_free_list(void* list);
+
 /**@}*/
 
 #ifdef __cplusplus

@@ -18,14 +18,6 @@ set(LN_CLIENT_DIR ${CMAKE_CURRENT_LIST_DIR})
 get_filename_component(LN_CLIENT_SRC_DIR ${CMAKE_CURRENT_LIST_DIR} DIRECTORY)
 get_filename_component(LN_CLIENT_ROOT_DIR ${LN_CLIENT_SRC_DIR} DIRECTORY)
 
-function(ln_client_warnings target)
-  if(COMMAND ln_target_warnings)
-    ln_target_warnings(${target})
-  else()
-    target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Werror)
-  endif()
-endfunction()
-
 add_library(ln_client_objects OBJECT
   ${LN_CLIENT_DIR}/client.cpp
   ${LN_CLIENT_DIR}/definitions.cpp
@@ -42,6 +34,7 @@ add_library(ln_client_objects OBJECT
   ${LN_CLIENT_DIR}/services_glue.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_client.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_definitions.cpp
+  ${LN_CLIENT_SRC_DIR}/capi/capi_introspection.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_topics.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_services.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_not_yet_implemented.cpp
@@ -52,7 +45,7 @@ set_target_properties(ln_client_objects PROPERTIES
   VISIBILITY_INLINES_HIDDEN ON)
 target_include_directories(ln_client_objects PUBLIC ${LN_CLIENT_SRC_DIR} ${LN_CLIENT_ROOT_DIR}/include)
 target_link_libraries(ln_client_objects PUBLIC ln_md ln_protocol ln_transport ln_services Threads::Threads)
-ln_client_warnings(ln_client_objects)
+ln_target_warnings(ln_client_objects)
 
 add_library(ln SHARED $<TARGET_OBJECTS:ln_client_objects>)
 set_target_properties(ln PROPERTIES
@@ -77,9 +70,11 @@ if(BUILD_TESTING)
   add_executable(ln_client_unit_tests
     ${LN_CLIENT_DIR}/launch_options_test.cpp
     ${LN_CLIENT_DIR}/net_test.cpp
-    ${LN_CLIENT_DIR}/peer_test.cpp)
+    ${LN_CLIENT_DIR}/peer_test.cpp
+    ${LN_CLIENT_DIR}/ports_test.cpp
+    ${LN_CLIENT_DIR}/topic_stats_test.cpp)
   target_link_libraries(ln_client_unit_tests PRIVATE ln_client_objects GTest::gtest GTest::gtest_main)
-  ln_client_warnings(ln_client_unit_tests)
+  ln_target_warnings(ln_client_unit_tests)
   gtest_discover_tests(ln_client_unit_tests PROPERTIES TIMEOUT 60)
 
   if(TARGET ln_manager_core)
@@ -91,11 +86,12 @@ if(BUILD_TESTING)
     target_include_directories(ln_client_tests PRIVATE ${LN_CLIENT_SRC_DIR})
     target_compile_definitions(ln_client_tests PRIVATE
       LN_TEST_MD_DIR="${LN_CLIENT_ROOT_DIR}/tests/topics/msgdefs")
-    ln_client_warnings(ln_client_tests)
+    ln_target_warnings(ln_client_tests)
     gtest_discover_tests(ln_client_tests PROPERTIES TIMEOUT 120)
 
     include(${LN_CLIENT_ROOT_DIR}/tests/topics/topics.cmake)
     include(${LN_CLIENT_ROOT_DIR}/tests/remote/remote.cmake)
     include(${LN_CLIENT_ROOT_DIR}/tests/services/services.cmake)
+    include(${LN_CLIENT_ROOT_DIR}/tests/introspection/introspection.cmake)
   endif()
 endif()

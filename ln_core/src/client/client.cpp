@@ -119,6 +119,7 @@ Client::Client(Settings settings, CommandLine command_line)
 void Client::start(UniqueFd connected_socket) {
   link_.attach(std::move(connected_socket), settings_.address.text());
   listen_for_remote_peers();
+  loop_.run_after(PacketCountReports::kPeriod, [this] { report_packet_counts(); });
   loop_.start("ln:io");
   register_with_manager();
 }
@@ -336,6 +337,7 @@ OutPort* Client::publish(const std::string& topic_name, const std::string& md_na
       registration.manager_id = registration.topic_id = topic_id;
       registration.session = link_.session();
       registration.in_flight = false;
+      registration.packet_reports.restart(0, PacketCountReports::Clock::now());
       outports_by_topic_id_[topic_id] = port;
     });
     port->create_segment(message_size, hash, std::max(buffers, port->wanted_history()));
@@ -363,7 +365,8 @@ OutPort* Client::publish(const std::string& topic_name, const std::string& md_na
     return port;
   }
   Message ready = link_.new_request(method::publisher_ready);
-  ready.set("topic_id", topic_id).set("segment_generation", port->generation());
+  // Nothing is written yet: the program gets the port when this returns.
+  ready.set("topic_id", topic_id).set("segment_generation", port->generation()).set("packets", 0);
   try {
     link_.call(std::move(ready), kRequestTimeout);
   } catch (const Failure& failure) {
@@ -671,18 +674,48 @@ void Client::serve_open_segment(PeerRequest& request) {
 
 void Client::send_publisher_ready(OutPort* port) {
   std::int64_t topic_id;
+  std::uint64_t packets;
   {
     std::lock_guard<std::mutex> lock(registry_mutex_);
     auto it = registrations_.find(port);
     if (it == registrations_.end() || it->second.manager_id < 0 || it->second.session != link_.session()) return;
     topic_id = it->second.manager_id;
+    // Until publish() lists the port, the program cannot have written, and
+    // publish() may still be setting up the segment.
+    const bool listed =
+        std::any_of(outports_.begin(), outports_.end(), [port](const auto& owned) { return owned.get() == port; });
+    packets = listed ? port->packets_written() : 0;
+    it->second.packet_reports.restart(packets, PacketCountReports::Clock::now());
   }
   Message ready = link_.new_request(method::publisher_ready);
-  ready.set("topic_id", topic_id).set("segment_generation", port->generation());
+  ready.set("topic_id", topic_id)
+      .set("segment_generation", port->generation())
+      .set("packets", static_cast<std::int64_t>(packets));
   const std::string topic = port->topic();
   link_.send_request(std::move(ready), [this, topic](Reply& reply) {
     if (reply.error != 0) debug("announcing the segment of '%s' failed: %s", topic.c_str(), reply.error_text.c_str());
   });
+}
+
+void Client::report_packet_counts() {
+  loop_.run_after(PacketCountReports::kPeriod, [this] { report_packet_counts(); });
+  if (!registered_.load()) return;
+  std::vector<Message> reports;
+  {
+    std::lock_guard<std::mutex> lock(registry_mutex_);
+    const std::uint64_t session = link_.session();
+    const auto now = PacketCountReports::Clock::now();
+    for (const auto& port : outports_) {
+      Registration& registration = registrations_.at(port.get());
+      if (registration.manager_id < 0 || registration.session != session) continue;
+      const std::uint64_t packets = port->packets_written();
+      if (!registration.packet_reports.due(packets, now)) continue;
+      Message report = Message::notification(method::topic_stats);
+      report.set("topic_id", registration.manager_id).set("packets", static_cast<std::int64_t>(packets));
+      reports.push_back(std::move(report));
+    }
+  }
+  for (const Message& report : reports) link_.send_notification(report);
 }
 
 void Client::on_disconnect(const std::string& reason) {

@@ -46,6 +46,7 @@
 #include "client/peer.hpp"
 #include "client/ports.hpp"
 #include "client/remote.hpp"
+#include "client/topic_stats.hpp"
 
 namespace ln::clientlib {
 
@@ -154,6 +155,9 @@ class Client {
   bool handle_subscribe_answer(InPort* port, const protocol::Message& answer);
   void open_publisher_segment(InPort* port, std::uint64_t serial, const protocol::Message& publisher);
   void send_publisher_ready(OutPort* port);
+  /// topic_stats for the outports whose count is due (topic_stats.hpp);
+  /// re-arms itself every PacketCountReports::kPeriod.
+  void report_packet_counts();
   /// Makes the port read the inbox of remote data (registry lock held).
   void attach_remote_inbox_locked(InPort* port, std::int64_t subscription_id, std::uint64_t serial);
   void serve_open_segment(PeerRequest& request);
@@ -168,6 +172,7 @@ class Client {
     bool in_flight = false;        // a (re-)registration request is out
     std::uint64_t serial = 0;      // tells a port apart from a later one at the same address
     std::string md_requested;      // the message definition as the program gave it
+    PacketCountReports packet_reports;  // outports: what the manager knows of the count
   };
 
   Settings settings_;

@@ -57,14 +57,17 @@ class TempDir {
 /// An ln_manager running in a thread of the test process.
 class InProcessManager {
  public:
-  /// Starts on `port` (0: any free port).
-  explicit InProcessManager(std::uint16_t port = 0) { start(port); }
+  /// Starts on `port` (0: any free port), searching `md_dirs` for definitions.
+  explicit InProcessManager(std::uint16_t port = 0, std::vector<std::string> md_dirs = {LN_TEST_MD_DIR})
+      : md_dirs_(std::move(md_dirs)) {
+    start(port);
+  }
   ~InProcessManager() { stop(); }
 
   void start(std::uint16_t port = 0) {
     manager::ManagerOptions options;
     options.port = port;
-    options.message_definition_dirs = {LN_TEST_MD_DIR};
+    options.message_definition_dirs = md_dirs_;
     options.generated_definition_dir = generated_.path();
     manager_ = std::make_unique<manager::Manager>(options);
     // A restart on the same port may briefly race the old socket's teardown.
@@ -91,6 +94,7 @@ class InProcessManager {
   std::string address() const { return "127.0.0.1:" + std::to_string(port_); }
 
  private:
+  std::vector<std::string> md_dirs_;
   TempDir generated_;
   std::unique_ptr<manager::Manager> manager_;
   std::uint16_t port_ = 0;
@@ -201,6 +205,7 @@ class ChildProcess {
     }
   }
   void kill(int signal) { ::kill(pid_, signal); }
+  pid_t pid() const { return pid_; }
 
  private:
   pid_t pid_ = -1;

@@ -142,15 +142,30 @@ void ManagerLink::send_request(protocol::Message request, ReplyHandler handler) 
     fd = socket_.get();
     pending_[id] = Pending{session, std::move(handler)};
   }
-  if (const int error = send_all(fd, frame, -1, kSendTimeout); error != 0) {
-    // Part of a frame may be out: the stream is unusable, end the session.
-    const std::string reason = std::string("sending to the ln_manager failed: ") + std::strerror(error);
-    loop_.post([this, session, reason] {
-      if (this->session() != session || !connected()) return;
-      detach(reason);
-      on_disconnect_(reason);
-    });
+  if (const int error = send_all(fd, frame, -1, kSendTimeout); error != 0) end_session_after_send_error(session, error);
+}
+
+void ManagerLink::end_session_after_send_error(std::uint64_t session, int error) {
+  const std::string reason = std::string("sending to the ln_manager failed: ") + std::strerror(error);
+  loop_.post([this, session, reason] {
+    if (this->session() != session || !connected()) return;
+    detach(reason);
+    on_disconnect_(reason);
+  });
+}
+
+void ManagerLink::send_notification(const protocol::Message& notification) {
+  const std::string frame = protocol::encode(notification);
+  std::lock_guard<std::mutex> send_lock(send_mutex_);
+  std::uint64_t session;
+  int fd;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!connected_) return;
+    session = session_;
+    fd = socket_.get();
   }
+  if (const int error = send_all(fd, frame, -1, kSendTimeout); error != 0) end_session_after_send_error(session, error);
 }
 
 protocol::Message ManagerLink::call(protocol::Message request, std::chrono::milliseconds timeout,

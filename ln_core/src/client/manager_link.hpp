@@ -56,6 +56,10 @@ class ManagerLink {
   /// is no session now: then it runs in the loop thread soon). Any thread.
   void send_request(protocol::Message request, ReplyHandler handler);
 
+  /// Sends a one-way message (no reply); dropped while there is no
+  /// session. Any thread.
+  void send_notification(const protocol::Message& notification);
+
   /// Sends `request` and waits for the reply, at most `timeout`. Returns the
   /// successful response; throws Failure otherwise (the manager's error,
   /// LNE_LOST_CONNECTION, or LNE_REQUEST_FAILED on timeout). `in_loop`, if
@@ -74,6 +78,9 @@ class ManagerLink {
   void on_readable(short revents);
   void handle_message(protocol::Message message);
   void fail_pending_of_session(std::uint64_t session, const std::string& reason);
+  /// After a failed send (part of a frame may be out) the stream is
+  /// unusable: ends `session` from the loop thread.
+  void end_session_after_send_error(std::uint64_t session, int error);
   void close_socket_locked();
 
   EventLoop& loop_;

@@ -156,6 +156,8 @@ std::int64_t OutPort::generation() const {
   return generation_;
 }
 
+std::uint64_t OutPort::packets_written() const noexcept { return writer_ ? writer_->published_sequence() : 0; }
+
 OutPort::SegmentOffer OutPort::offer_segment() const {
   std::lock_guard<std::mutex> lock(write_mutex_);
   SegmentOffer offer;

@@ -100,6 +100,12 @@ class OutPort : public PortBase {
   /// Returns true if it switched. Throws Failure.
   bool ensure_history(std::uint32_t history);
   std::int64_t generation() const;
+  /// Packets written since the port was created (sequence numbers continue
+  /// across segments). Reads the segment's counter without the write lock,
+  /// so that counting never delays a writer. Only from the I/O thread and
+  /// once publish() listed the port in its client: from then on only that
+  /// thread replaces the segment.
+  std::uint64_t packets_written() const noexcept;
   void set_subscribers(int count) noexcept { subscribers_.store(count, std::memory_order_relaxed); }
   /// Remembers the largest `buffers` a local subscriber asked for.
   void want_history(std::uint32_t history) noexcept;

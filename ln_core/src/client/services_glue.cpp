@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cstdlib>
 #include <cstring>
+#include <set>
 
 #include "client/c_api.hpp"
 #include "client/failure.hpp"
@@ -25,7 +26,6 @@ using Clock = std::chrono::steady_clock;
 namespace {
 
 constexpr std::chrono::milliseconds kHandshakeTimeout{5000};
-constexpr std::chrono::milliseconds kTopicPollPeriod{100};
 
 services::Limits limits_from_environment() {
   services::Limits limits;
@@ -151,14 +151,24 @@ void ServicesGlue::install_hooks() {
   };
   if (client_.loop().in_loop_thread()) add_call();
   else client_.loop().post(add_call);
-  client_.add_notification_handler(std::string(method::service_available), [weak](const Message& message) {
-    if (auto glue = weak.lock()) glue->on_service_notification(message.get_string_or("name", ""), true);
-  });
-  client_.add_notification_handler(std::string(method::service_gone), [weak](const Message& message) {
-    if (auto glue = weak.lock()) glue->on_service_notification(message.get_string_or("name", ""), false);
-  });
+  const std::pair<std::string_view, bool> availability[] = {
+      {method::service_available, true},
+      {method::service_gone, false},
+      {method::topic_publisher_available, true},
+      {method::topic_publisher_gone, false},
+  };
+  for (const auto& [notification, up] : availability) {
+    const bool topic =
+        notification == method::topic_publisher_available || notification == method::topic_publisher_gone;
+    client_.add_notification_handler(std::string(notification), [weak, topic, up = up](const Message& message) {
+      if (auto glue = weak.lock()) glue->on_availability_notification(topic, message.get_string_or("name", ""), up);
+    });
+  }
   client_.add_reconnect_handler([weak] {
-    if (auto glue = weak.lock()) glue->reregister_all();
+    if (auto glue = weak.lock()) {
+      glue->reregister_all();
+      glue->refresh_watches();
+    }
   });
   notifier_ = std::thread([this] { notifier_main(); });
 }
@@ -359,18 +369,54 @@ bool ServicesGlue::topic_has_publisher(const std::string& name) {
   return false;
 }
 
-void ServicesGlue::on_service_notification(const std::string& name, bool available) {
+void ServicesGlue::on_availability_notification(bool topic, const std::string& name, bool available) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    ++service_changes_;
-    auto it = watches_.find(WatchKey{false, name});
+    if (!topic) ++service_changes_;
+    auto it = watches_.find(WatchKey{topic, name});
     if (it != watches_.end()) {
       it->second.changed = true;
-      events_.push_back(Event{false, name, available ? 1 : 0, 0});
+      events_.push_back(Event{topic, name, available ? 1 : 0, 0});
     }
   }
   service_changed_.notify_all();
   events_changed_.notify_all();
+}
+
+void ServicesGlue::refresh_watches() {
+  std::vector<WatchKey> keys;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& entry : watches_) keys.push_back(entry.first);
+  }
+  if (keys.empty()) return;
+  std::weak_ptr<ServicesGlue> weak = weak_from_this();
+  // One list of each kind tells the state of every watched name.
+  for (const bool topic : {false, true}) {
+    if (std::none_of(keys.begin(), keys.end(), [topic](const WatchKey& key) { return key.first == topic; })) continue;
+    Message request = client_.new_request(topic ? method::list_topics : method::list_services);
+    client_.manager().send_request(std::move(request), [weak, topic](Reply& reply) {
+      auto glue = weak.lock();
+      if (!glue || reply.error != 0) return;  // lost again: the next reconnect looks again
+      std::set<std::string> present;
+      try {
+        const auto& names = reply.message.get_list("names");
+        const auto& owners = reply.message.get_list(topic ? "publishers" : "providers");
+        for (std::size_t i = 0; i < names.size() && i < owners.size(); ++i)
+          if (!owners[i].empty()) present.insert(names[i]);
+      } catch (const protocol::ProtocolError&) {
+        return;
+      }
+      {
+        std::lock_guard<std::mutex> lock(glue->mutex_);
+        for (const auto& [key, watch] : glue->watches_) {
+          if (key.first != topic) continue;
+          glue->events_.push_back(Event{topic, key.second, present.count(key.second) ? 1 : 0, watch.generation});
+        }
+      }
+      glue->events_changed_.notify_all();
+    });
+  }
 }
 
 void ServicesGlue::set_availability_handler(bool topic, const std::string& name, AvailabilityHandler handler,
@@ -397,7 +443,6 @@ void ServicesGlue::set_availability_handler(bool topic, const std::string& name,
     std::lock_guard<std::mutex> lock(mutex_);
     auto it = watches_.find(key);
     if (it == watches_.end() || it->second.generation != generation) return;
-    if (topic) it->second.state = available;
     // A notification that came meanwhile is queued and tells a newer state.
     if (!it->second.changed) events_.push_back(Event{topic, name, available, generation});
   }
@@ -422,60 +467,18 @@ void ServicesGlue::deliver(const Event& event) {
   handler(static_cast<void*>(&client_), event.name.c_str(), event.available, user_data);
 }
 
-void ServicesGlue::poll_topics() {
-  std::vector<std::string> names;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    for (const auto& [key, watch] : watches_)
-      if (key.first) names.push_back(key.second);
-  }
-  if (names.empty() || !client_.registered()) return;
-  Message topics;
-  try {
-    topics = client_.request(client_.new_request(method::list_topics));
-  } catch (...) {
-    return;  // next round
-  }
-  std::map<std::string, int> state;
-  try {
-    const auto& all = topics.get_list("names");
-    const auto& publishers = topics.get_list("publishers");
-    for (std::size_t i = 0; i < all.size() && i < publishers.size(); ++i) state[all[i]] = publishers[i].empty() ? 0 : 1;
-  } catch (...) {
-    return;
-  }
-  std::lock_guard<std::mutex> lock(mutex_);
-  for (const auto& name : names) {
-    auto it = watches_.find(WatchKey{true, name});
-    if (it == watches_.end() || it->second.state < 0) continue;  // its first state is still being looked up
-    const int now = state.count(name) != 0 ? state[name] : 0;
-    if (now != it->second.state) {
-      it->second.state = now;
-      events_.push_back(Event{true, name, now, it->second.generation});
-    }
-  }
-}
-
 void ServicesGlue::notifier_main() {
-  auto next_poll = Clock::now() + kTopicPollPeriod;
   std::unique_lock<std::mutex> lock(mutex_);
   while (!stopping_) {
-    if (!events_.empty()) {
-      Event event = std::move(events_.front());
-      events_.pop_front();
-      lock.unlock();
-      deliver(event);
-      lock.lock();
+    if (events_.empty()) {
+      events_changed_.wait(lock, [this] { return stopping_ || !events_.empty(); });
       continue;
     }
-    if (Clock::now() >= next_poll) {
-      lock.unlock();
-      poll_topics();
-      lock.lock();
-      next_poll = Clock::now() + kTopicPollPeriod;
-      continue;
-    }
-    events_changed_.wait_until(lock, next_poll, [this] { return stopping_ || !events_.empty(); });
+    Event event = std::move(events_.front());
+    events_.pop_front();
+    lock.unlock();
+    deliver(event);
+    lock.lock();
   }
 }
 

@@ -14,10 +14,10 @@
 // when both share a host id, else (or when that socket cannot be reached) its
 // TCP address (peer_address, TCP_NODELAY). Service frames are byte-order safe.
 //
-// Availability handlers run in a notifier thread of this object. Service
-// availability comes from the manager's service_available/service_gone
-// notifications; publisher availability is polled (list_topics, every
-// 100 ms) while such a handler is installed.
+// Availability handlers run in a notifier thread of this object, driven by
+// the manager's service_available/service_gone and topic_publisher_available/
+// topic_publisher_gone notifications. After a manager restart (which may
+// have missed changes) the watched names are looked up once more.
 #pragma once
 
 #include <condition_variable>
@@ -83,7 +83,6 @@ class ServicesGlue : public std::enable_shared_from_this<ServicesGlue> {
     void* user_data = nullptr;
     std::uint64_t generation = 0;
     int delivered = -1;  // state last given to the handler
-    int state = -1;      // last known state (polled topics)
     bool changed = false;  // a notification came since installing
   };
   struct Event {
@@ -99,11 +98,12 @@ class ServicesGlue : public std::enable_shared_from_this<ServicesGlue> {
   /// lookup_service answer (Unix socket on the same host, else TCP).
   services::Status connect_to_provider(const protocol::Message& found, UniqueFd& socket);
   void on_call(PeerRequest& request);
-  void on_service_notification(const std::string& name, bool available);
+  void on_availability_notification(bool topic, const std::string& name, bool available);
   void reregister_all();
+  /// Looks the watched names up again (loop thread, after a manager restart).
+  void refresh_watches();
   bool service_registered(const std::string& name);
   void notifier_main();
-  void poll_topics();
   void deliver(const Event& event);
 
   Client& client_;

@@ -1,5 +1,8 @@
 #include "manager/dispatch.hpp"
 
+#include <unistd.h>
+
+#include <cmath>
 #include <limits>
 #include <set>
 
@@ -59,7 +62,28 @@ Dispatcher::Dispatcher(Registry& registry, DefinitionStore& definitions, std::st
       {std::string(method::list_clients), &Dispatcher::list_clients},
       {std::string(method::list_topics), &Dispatcher::list_topics},
       {std::string(method::list_services), &Dispatcher::list_services},
+      {std::string(method::manager_status), &Dispatcher::manager_status},
   };
+}
+
+void Dispatcher::listening_at(std::string address) {
+  listen_address_ = std::move(address);
+  started_ = std::chrono::steady_clock::now();
+}
+
+void Dispatcher::handle_notification(Session& session, const Message& notification, const LogFunction& log) {
+  const std::string name = notification.get_string_or("method", "");
+  if (name != method::topic_stats || !session.client) {
+    if (log) log(LogLevel::Debug, "ignored the notification '" + name + "'");
+    return;
+  }
+  try {
+    registry_.count_packets(*session.client, get_id(notification, "topic_id"),
+                            notification.get_int("packets", 0, std::numeric_limits<std::int64_t>::max()));
+  } catch (const std::exception& e) {
+    // A report may race an unpublish; nothing a client sends this way is answered.
+    if (log) log(LogLevel::Debug, "dropped the notification '" + name + "': " + e.what());
+  }
 }
 
 Message Dispatcher::handle(Session& session, const Message& request, Outbox& out, const LogFunction& log) {
@@ -149,8 +173,11 @@ Message Dispatcher::publish(Session& session, const Message& request, Outbox& ou
 }
 
 Message Dispatcher::publisher_ready(Session& session, const Message& request, Outbox& out) {
-  registry_.publisher_ready(*session.client, get_id(request, "topic_id"),
-                            request.get_int("segment_generation", 0, std::numeric_limits<std::int64_t>::max()), out);
+  constexpr std::int64_t max = std::numeric_limits<std::int64_t>::max();
+  std::optional<std::int64_t> packets;
+  if (request.has("packets")) packets = request.get_int("packets", 0, max);
+  registry_.publisher_ready(*session.client, get_id(request, "topic_id"), request.get_int("segment_generation", 0, max),
+                            packets, out);
   return Message::response_to(request);
 }
 
@@ -268,7 +295,7 @@ Message Dispatcher::list_clients(Session&, const Message& request, Outbox&) {
 }
 
 Message Dispatcher::list_topics(Session&, const Message& request, Outbox&) {
-  StringList names, ids, definitions, hashes, sizes, publishers, subscribers;
+  StringList names, ids, definitions, hashes, sizes, publishers, subscribers, packets, rates;
   for (const auto& [id, topic] : registry_.topics()) {
     names.push_back(topic.name);
     ids.push_back(std::to_string(id));
@@ -277,6 +304,8 @@ Message Dispatcher::list_topics(Session&, const Message& request, Outbox&) {
     sizes.push_back(std::to_string(topic.message_size));
     publishers.push_back(topic.publisher ? registry_.client(*topic.publisher).name : "");
     subscribers.push_back(std::to_string(topic.subscriptions.size()));
+    packets.push_back(std::to_string(topic.publisher ? topic.packets : 0));
+    rates.push_back(shortest_text(std::round(registry_.current_rate(topic) * 1000) / 1000));
   }
   return Message::response_to(request)
       .set("names", std::move(names))
@@ -285,7 +314,9 @@ Message Dispatcher::list_topics(Session&, const Message& request, Outbox&) {
       .set("hashes", std::move(hashes))
       .set("message_sizes", std::move(sizes))
       .set("publishers", std::move(publishers))
-      .set("subscribers", std::move(subscribers));
+      .set("subscribers", std::move(subscribers))
+      .set("packets", std::move(packets))
+      .set("rates", std::move(rates));
 }
 
 Message Dispatcher::list_services(Session&, const Message& request, Outbox&) {
@@ -305,6 +336,19 @@ Message Dispatcher::list_services(Session&, const Message& request, Outbox&) {
       .set("signatures", std::move(signatures))
       .set("providers", std::move(providers))
       .set("groups", std::move(groups));
+}
+
+Message Dispatcher::manager_status(Session&, const Message& request, Outbox&) {
+  const double uptime = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
+  return Message::response_to(request)
+      .set("version", manager_version_)
+      .set("pid", static_cast<std::int64_t>(::getpid()))
+      .set("address", listen_address_)
+      .set("uptime", uptime)
+      .set("clients", static_cast<std::int64_t>(registry_.clients().size()))
+      .set("topics", static_cast<std::int64_t>(registry_.topics().size()))
+      .set("services", static_cast<std::int64_t>(registry_.services().size()))
+      .set("message_definition_dirs", definitions_.search_dirs());
 }
 
 }  // namespace ln::manager

@@ -2,6 +2,7 @@
 // reads and checks the fields methods.hpp names, never evaluates anything.
 #pragma once
 
+#include <chrono>
 #include <map>
 #include <optional>
 #include <string>
@@ -30,6 +31,12 @@ class Dispatcher {
   /// `out`. Never throws: every failure becomes an error response.
   protocol::Message handle(Session& session, const protocol::Message& request, Outbox& out,
                            const LogFunction& log);
+  /// A notification from a client (methods.hpp: only topic_stats counts).
+  /// Never throws; what cannot be used is dropped.
+  void handle_notification(Session& session, const protocol::Message& notification, const LogFunction& log);
+  /// The manager listens at `address` ("IP:PORT") from now on: manager_status
+  /// reports it and counts the uptime from here.
+  void listening_at(std::string address);
 
  private:
   using Handler = protocol::Message (Dispatcher::*)(Session&, const protocol::Message&, Outbox&);
@@ -54,10 +61,13 @@ class Dispatcher {
   protocol::Message list_clients(Session&, const protocol::Message&, Outbox&);
   protocol::Message list_topics(Session&, const protocol::Message&, Outbox&);
   protocol::Message list_services(Session&, const protocol::Message&, Outbox&);
+  protocol::Message manager_status(Session&, const protocol::Message&, Outbox&);
 
   Registry& registry_;
   DefinitionStore& definitions_;
   std::string manager_version_;
+  std::string listen_address_;
+  std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
   std::map<std::string, Handler, std::less<>> handlers_;
 };
 

@@ -30,6 +30,7 @@ if(BUILD_TESTING)
     ${LN_MANAGER_SOURCE_DIR}/names_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/config_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/manager_test.cpp
+    ${LN_MANAGER_SOURCE_DIR}/introspection_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/robustness_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/binary_test.cpp
   )

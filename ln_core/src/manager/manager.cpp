@@ -122,6 +122,7 @@ struct Manager::Impl {
     socklen_t size = sizeof address;
     ::getsockname(listen_fd, reinterpret_cast<sockaddr*>(&address), &size);
     bound_port = ntohs(address.sin_port);
+    dispatcher.listening_at(endpoint_text(address));
     watch(listen_fd, EPOLLIN);
     log(LogLevel::Info, "instance '" + options.instance_name + "' listening on " + endpoint_text(address));
     std::string dirs;
@@ -273,9 +274,13 @@ struct Manager::Impl {
   }
 
   void handle(Connection& connection, const protocol::Message& message) {
+    if (message.kind() == protocol::Kind::Notification) {
+      dispatcher.handle_notification(connection.session, message, options.log);
+      return;
+    }
     if (message.kind() != protocol::Kind::Request) {
-      // Clients send nothing but requests; other kinds are dropped, so a
-      // newer client's additions do not break the conversation.
+      // The manager asks clients nothing, so responses are dropped: a newer
+      // client's additions do not break the conversation.
       log(LogLevel::Debug, describe(connection) + ": ignored a message that is not a request ('" +
                                message.get_string_or("method", "") + "')");
       return;

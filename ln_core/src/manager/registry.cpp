@@ -26,12 +26,6 @@ void check_name(const std::optional<std::string>& problem) {
   if (problem) throw RequestError(LNE_INVALID_PARAMETER, *problem);
 }
 
-std::string shortest_text(double value) {
-  char buffer[64];
-  const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
-  return std::string(buffer, result.ptr);
-}
-
 void check_buffers(std::int64_t buffers) {
   require(buffers >= 1 && buffers <= max_topic_buffers, LNE_INVALID_PARAMETER,
           "buffers must lie within 1.." + std::to_string(max_topic_buffers) + ", not " + std::to_string(buffers));
@@ -45,6 +39,12 @@ void check_rate(double rate) {
 }
 
 }  // namespace
+
+std::string shortest_text(double value) {
+  char buffer[64];
+  const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
+  return std::string(buffer, result.ptr);
+}
 
 // ----------------------------------------------------------------- clients
 
@@ -160,14 +160,25 @@ const Topic& Registry::publish(Id client, const std::string& name, const std::st
   topic.publisher_buffers = buffers;
   topic.publisher_ready = false;
   topic.segment_generation = 0;
+  restart_packet_count(topic, 0);
   notify_publisher(topic, out);  // the publisher always learns the current subscribers first-hand
   return topic;
 }
 
-void Registry::publisher_ready(Id client, Id id, std::int64_t segment_generation, Outbox& out) {
+void Registry::publisher_ready(Id client, Id id, std::int64_t segment_generation,
+                               std::optional<std::int64_t> packets, Outbox& out) {
   Topic& topic = owned_topic(client, id);
+  if (!topic.publisher_ready) {
+    auto message = protocol::Message::notification(method::topic_publisher_available);
+    message.set("name", topic.name).set("publisher", clients_.at(client).name);
+    notify_all_clients(message, out);
+  }
   topic.publisher_ready = true;
   topic.segment_generation = segment_generation;
+  if (packets) {
+    topic.packets = *packets;
+    topic.counted_at = std::chrono::steady_clock::now();
+  }
   for (Id subscription_id : topic.subscriptions) {
     const Subscription& subscription = subscriptions_.at(subscription_id);
     auto message = protocol::Message::notification(method::publisher_available);
@@ -183,6 +194,7 @@ void Registry::unpublish(Id client, Id id, Outbox& out) {
   topic.publisher.reset();
   topic.publisher_ready = false;
   topic.publisher_buffers = 0;
+  restart_packet_count(topic, 0);
   if (was_announced) {
     for (Id subscription_id : topic.subscriptions) {
       const Subscription& subscription = subscriptions_.at(subscription_id);
@@ -190,8 +202,33 @@ void Registry::unpublish(Id client, Id id, Outbox& out) {
       message.set("subscription_id", subscription.id).set("topic_id", topic.id);
       out.push_back({subscription.client, std::move(message)});
     }
+    auto message = protocol::Message::notification(method::topic_publisher_gone);
+    message.set("name", topic.name);
+    notify_all_clients(message, out);
   }
   erase_topic_if_unused(id);
+}
+
+void Registry::restart_packet_count(Topic& topic, std::int64_t packets) {
+  topic.packets = packets;
+  topic.rate = 0;
+  topic.counted_at = std::chrono::steady_clock::now();
+}
+
+void Registry::count_packets(Id client, Id id, std::int64_t packets) {
+  Topic& topic = owned_topic(client, id);
+  if (packets < topic.packets) return restart_packet_count(topic, packets);
+  const auto now = std::chrono::steady_clock::now();
+  const double seconds = std::chrono::duration<double>(now - topic.counted_at).count();
+  // Two reports in the same instant say nothing about the rate.
+  if (seconds > 0) topic.rate = static_cast<double>(packets - topic.packets) / seconds;
+  topic.packets = packets;
+  topic.counted_at = now;
+}
+
+double Registry::current_rate(const Topic& topic) const {
+  if (!topic.publisher || std::chrono::steady_clock::now() - topic.counted_at > topic_rate_lifetime) return 0;
+  return topic.rate;
 }
 
 const Subscription& Registry::subscribe(Id client, const SubscribeRequest& request, Outbox& out) {

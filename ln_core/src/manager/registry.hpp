@@ -3,6 +3,7 @@
 // that others must hear about is queued as a notification in an Outbox.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <map>
 #include <optional>
@@ -70,6 +71,11 @@ struct Topic {
   bool publisher_ready = false;
   std::int64_t segment_generation = 0;
   std::vector<Id> subscriptions;  ///< in subscription order
+  /// The publisher's packet count (topic_stats) when it was last learned,
+  /// and the rate over the interval that ended then.
+  std::int64_t packets = 0;
+  double rate = 0;
+  std::chrono::steady_clock::time_point counted_at{};
 };
 
 struct Service {
@@ -93,6 +99,14 @@ struct SubscribeRequest {
 /// Largest `buffers` a publish or subscribe may ask for.
 constexpr std::int64_t max_topic_buffers = 65536;
 
+/// Publishers report their packet count about once a second while it
+/// changes: a rate older than this is from a publisher that stopped
+/// reporting (stalled, or a library without topic_stats) and shows as 0.
+constexpr std::chrono::seconds topic_rate_lifetime{3};
+
+/// `value` in the shortest text that reads back as the same double ("10", "0.5").
+std::string shortest_text(double value);
+
 /// All operations throw RequestError and change nothing when they refuse.
 class Registry {
  public:
@@ -107,7 +121,12 @@ class Registry {
   // -------------------------------------------------------------- topics
   const Topic& publish(Id client, const std::string& topic, const std::string& definition, std::int64_t buffers,
                        Outbox& out);
-  void publisher_ready(Id client, Id topic, std::int64_t segment_generation, Outbox& out);
+  /// `packets`, when known, starts a new rate interval (methods.hpp).
+  void publisher_ready(Id client, Id topic, std::int64_t segment_generation, std::optional<std::int64_t> packets,
+                       Outbox& out);
+  /// A topic_stats report of the topic's publisher. Throws RequestError
+  /// (LNE_PORT_NOT_FOUND) for a topic the client does not publish.
+  void count_packets(Id client, Id topic, std::int64_t packets);
   void unpublish(Id client, Id topic, Outbox& out);
   const Subscription& subscribe(Id client, const SubscribeRequest& request, Outbox& out);
   void unsubscribe(Id client, Id subscription, Outbox& out);
@@ -122,6 +141,8 @@ class Registry {
   /// The subscribers_changed notification for the topic's publisher.
   protocol::Message subscribers_changed(const Topic& topic) const;
   bool definition_in_use(const std::string& definition) const;
+  /// Packets per second as list_topics shows it now (0 once stale).
+  double current_rate(const Topic& topic) const;
 
   // ------------------------------------------------------------ services
   const Service& register_service(Id client, const std::string& name, const std::string& interface,
@@ -151,6 +172,7 @@ class Registry {
   Topic& create_topic(const std::string& name, const ResolvedDefinition& definition);
   Topic& owned_topic(Id client, Id topic);
   void notify_publisher(const Topic& topic, Outbox& out) const;
+  static void restart_packet_count(Topic& topic, std::int64_t packets);
   void erase_topic_if_unused(Id topic);
   void notify_all_clients(const protocol::Message& message, Outbox& out) const;
 

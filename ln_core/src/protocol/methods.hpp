@@ -9,10 +9,11 @@
 // LNE_MANAGER_TOO_OLD; invalid topic/service/definition names ->
 // LNE_INVALID_PARAMETER; an unknown topic or a topic/subscription id the
 // client does not own -> LNE_PORT_NOT_FOUND; other refusals ->
-// LNE_REQUEST_FAILED unless a method names a code. Notifications and
-// responses sent to the manager are ignored. A malformed frame, a request
-// larger than 4 MiB, or more than 16 MiB of unsent messages (a client that
-// does not read) closes the connection, which releases the client.
+// LNE_REQUEST_FAILED unless a method names a code. Responses and
+// notifications other than topic_stats sent to the manager are ignored.
+// A malformed frame, a request larger than 4 MiB, or more than 16 MiB of
+// unsent messages (a client that does not read) closes the connection,
+// which releases the client.
 //
 // ---------------------------------------------------------------------------
 // Client -> manager requests (over the client's TCP connection)
@@ -65,10 +66,16 @@
 //   definition than the topic's ("you requested message_definition 'X' but
 //   topic 'T' uses 'Y'"), service/event definitions and definitions with
 //   dynamic fields (LNE_INVALID_PARAMETER), a wrong |hash (LNE_WRONG_MD_HASH).
-// publisher_ready  topic_id (int), segment_generation (int >= 0) -> ok
-//   May be repeated (a new segment): subscribers get publisher_available again.
+// publisher_ready  topic_id (int), segment_generation (int >= 0),
+//                  packets (int >= 0, optional: the publisher's packet count
+//                  now, see topic_stats) -> ok
+//   May be repeated (a new segment): subscribers get publisher_available
+//   again. The first one after a publish is announced to every client as
+//   topic_publisher_available. `packets` starts a new rate interval.
 // unpublish        topic_id (int) -> ok   (publisher_gone goes to the
-//                  subscribers that were told publisher_available)
+//                  subscribers that were told publisher_available, and
+//                  topic_publisher_gone to every client if
+//                  topic_publisher_available was sent)
 //
 // subscribe        topic (str), message_definition (str, may carry |hash;
 //                  "" = whatever the topic uses), buffers (int >= 1),
@@ -108,8 +115,38 @@
 //   list_clients:  names, ids, pids, hosts (host_name), host_ids, published,
 //                  subscribed, services (comma-joined names, sorted)
 //   list_topics:   names, ids, definitions, hashes, message_sizes,
-//                  publishers ("" = none), subscribers (count)
+//                  publishers ("" = none), subscribers (count),
+//                  packets (the current publisher's packet count at its last
+//                  topic_stats report; "0" without publisher), rates
+//                  (packets per second over the interval that report closed,
+//                  in shortest form rounded to 0.001, e.g. "99.87"; "0" when
+//                  the count stopped changing, without publisher, and when
+//                  the publisher sent no report for 3 s)
 //   list_services: names, ids, interfaces, signatures, providers, groups
+//
+// manager_status   (no fields) -> version (str: as hello's manager_version),
+//                  pid (int), address (str: "IP:PORT" it listens on),
+//                  uptime (double: seconds since it started listening),
+//                  clients, topics, services (int: how many there are now),
+//                  message_definition_dirs (list: the definition search path
+//                  in search order: configured dirs, generated dir, standard
+//                  dirs; only directories that exist)
+//
+// ---------------------------------------------------------------------------
+// Client -> manager notifications (the only notifications the manager reads;
+// others, and those of a connection without hello, are dropped)
+//
+// topic_stats      topic_id (int: a topic the client publishes), packets
+//                  (int >= 0: the publisher's total packets written on it)
+//   Topic data never passes the manager, so publishers count for it: the
+//   client library's I/O thread sends this about once per second per
+//   published topic while the count changes, once more when it stopped
+//   changing (so the rate drops to 0), then nothing until it changes again.
+//   The manager's rate is (packets - previous count) / (seconds between the
+//   two, by its own clock); the first interval starts at publish (count 0)
+//   or at a publisher_ready that carries `packets`. A count below the
+//   previous one restarts the interval (rate 0); reports for topics the
+//   client does not publish are ignored.
 //
 // ---------------------------------------------------------------------------
 // Manager -> client notifications
@@ -128,6 +165,12 @@
 // service_gone         name (str)
 //   Both go to every registered client (the provider too), for changes after
 //   its hello; lookup_service tells the current state.
+// topic_publisher_available  name (str: topic), publisher (str: client name)
+// topic_publisher_gone       name (str: topic)
+//   Both go to every registered client (the publisher too): available at the
+//   first publisher_ready after a publish, gone when that publisher
+//   unpublishes or leaves (crashes included). For publisher availability
+//   callbacks; list_topics tells the current state.
 //
 // ---------------------------------------------------------------------------
 // Client -> client (peer server: abstract Unix socket on one host, TCP across)
@@ -178,12 +221,16 @@ inline constexpr std::string_view find_services_with_interface = "find_services_
 inline constexpr std::string_view list_clients = "list_clients";
 inline constexpr std::string_view list_topics = "list_topics";
 inline constexpr std::string_view list_services = "list_services";
+inline constexpr std::string_view manager_status = "manager_status";
+inline constexpr std::string_view topic_stats = "topic_stats";
 
 inline constexpr std::string_view publisher_available = "publisher_available";
 inline constexpr std::string_view publisher_gone = "publisher_gone";
 inline constexpr std::string_view subscribers_changed = "subscribers_changed";
 inline constexpr std::string_view service_available = "service_available";
 inline constexpr std::string_view service_gone = "service_gone";
+inline constexpr std::string_view topic_publisher_available = "topic_publisher_available";
+inline constexpr std::string_view topic_publisher_gone = "topic_publisher_gone";
 
 inline constexpr std::string_view open_segment = "open_segment";
 inline constexpr std::string_view call = "call";

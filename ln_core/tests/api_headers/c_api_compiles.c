@@ -241,6 +241,11 @@ void c_api_signatures(void) {
   CHECK(const char*, ln_service_request_get_error_message, (ln_service_request));
   CHECK(int, ln_set_service_availability_handler, (ln_client, const char*, ln_availability_handler, void*));
   CHECK(int, ln_set_publisher_availability_handler, (ln_client, const char*, ln_availability_handler, void*));
+  CHECK(int, ln_list_topics, (ln_client, ln_topic_info**, unsigned int*));
+  CHECK(int, ln_list_clients, (ln_client, ln_client_info**, unsigned int*));
+  CHECK(int, ln_list_services, (ln_client, ln_service_info**, unsigned int*));
+  CHECK(int, ln_get_manager_status, (ln_client, ln_manager_status**));
+  CHECK(void, ln_free_list, (void*));
 }
 
 /* ---- a typical C program (never called) ---- */

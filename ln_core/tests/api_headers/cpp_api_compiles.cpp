@@ -190,6 +190,10 @@ void cpp_api_signatures() {
   CHECK_METHOD(ln::service_future (ln::service::*)(void*), ln::service::call_future);
   CHECK_METHOD(void (ln::service_request::*)(int, const string&), ln::service_request::respond_error);
   CHECK_METHOD(bool (ln::service_request::*)(double), ln::service_request::wait);
+  CHECK_METHOD(std::vector<ln::topic_info> (client::*)(), client::list_topics);
+  CHECK_METHOD(std::vector<ln::client_info> (client::*)(), client::list_clients);
+  CHECK_METHOD(std::vector<ln::service_info> (client::*)(), client::list_services);
+  CHECK_METHOD(ln::manager_status (client::*)(), client::get_manager_status);
 }
 
 // ---- calls with default arguments and the shapes generated code uses ----
