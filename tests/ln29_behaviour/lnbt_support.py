@@ -32,8 +32,8 @@ REPO_ROOT = HERE.parent.parent
 PROGRAMS_DIR = HERE / "programs"
 MSGDEFS_DIR = HERE / "msgdefs"
 OUR_SOURCE_INCLUDE_DIR = REPO_ROOT / "ln_core" / "include"
-PROGRAMS = ("lnbt_probe", "lnbt_publisher", "lnbt_subscriber")
-MESSAGES = ("lnbt/counter", "lnbt/other")
+PROGRAMS = ("lnbt_probe", "lnbt_publisher", "lnbt_subscriber", "lnbt_services")
+MESSAGES = ("lnbt/counter", "lnbt/other", "lnbt/echo")
 
 IN_CI = bool(os.environ.get("CI"))
 #: Marks the environment of every process of this run, so that the LN 2.9

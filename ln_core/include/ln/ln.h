@@ -724,8 +724,13 @@ LN_API int ln_unblock_service_group(ln_client clnt_, const char* group_name);
     in one thread; 1 also one request at a time but accepts connections in a
     thread of its own; n >= 2 serves up to n requests concurrently. */
 LN_API int ln_set_max_threads(ln_client clnt, const char* pool_name, unsigned int n_threads);
-/** Scheduling of a pool's threads: policy (SCHED_*) and priority (-1 keeps
-    each unchanged) and CPU affinity (bit mask; 0 keeps it). */
+/** Scheduling of a pool's threads, also of those it starts later: policy
+    (SCHED_*) and priority (-1 keeps each unchanged) and CPU affinity (bit
+    mask; 0 keeps it).
+    @return 0, or (ln_core; LN 2.9 ignores such failures) -LNE_CHECK_ERRNO
+            when the system refuses, e.g. a real-time policy without the
+            privilege or a CPU that does not exist; ln_get_error_message()
+            says why, and nothing has changed. */
 LN_API int ln_thread_pool_setschedparam(ln_client clnt, const char* pool_name, int policy, int priority,
                                         unsigned int affinity_mask);
 

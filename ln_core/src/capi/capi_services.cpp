@@ -145,7 +145,7 @@ int ln_service_init(ln_client clnt, ln_service* svc, const char* service_name, c
     service->interface = service_interface;
     service->caller = std::make_unique<services::ServiceCaller>(
         service->signature, service->glue->connector(service->name, service->interface, signature),
-        service->glue->reactor(), service->glue->limits(), service->glue->wait_policy());
+        service->glue->reactor(), service->glue->limits(), service->glue->wait_policy(), service->name);
     {
       std::lock_guard<std::mutex> lock(live_services_mutex());
       live_services().insert(service.get());

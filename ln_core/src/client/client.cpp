@@ -105,11 +105,12 @@ Client::Client(Settings settings, CommandLine command_line)
           loop_, [this](const Message& message) { on_notification(message); },
           [this](const std::string& reason) { on_disconnect(reason); }),
       peer_server_(loop_) {
-  // Environment mappings first, then the command line's, each refining the last.
-  topic_mapping_.add_from_environment(std::getenv("LN_MAP_TOPICS"));
+  // The command line's mappings first, then the environment's, each
+  // refining the result of the ones before (as LN 2.9 does).
   topic_mapping_.add_all(command_line.topic_mappings);
-  service_mapping_.add_from_environment(std::getenv("LN_MAP_SERVICES"));
+  topic_mapping_.add_from_environment(std::getenv("LN_MAP_TOPICS"));
   service_mapping_.add_all(command_line.service_mappings);
+  service_mapping_.add_from_environment(std::getenv("LN_MAP_SERVICES"));
   for (const std::string& arg : remaining_args_) remaining_args_block_.append(arg).push_back('\0');
   set_name(settings_.requested_name);
   peer_server_.add_method(std::string(method::open_segment), [this](PeerRequest& request) { serve_open_segment(request); });

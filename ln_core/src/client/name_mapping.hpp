@@ -13,6 +13,8 @@ class NameMapping {
  public:
   /// A source pattern and its replacement. Pattern forms: "^abc$" the whole
   /// name, "^abc" a prefix, "abc$" a suffix, "abc" the first occurrence.
+  /// (LN 2.9 replaces every name that merely starts with abc by "^abc$";
+  /// we keep to the documented meaning.)
   struct Rule {
     std::string source;
     std::string destination;

@@ -184,26 +184,25 @@ services::Connector ServicesGlue::connector(std::string name, std::string interf
       lookup.set("name", name).set("interface", interface).set("signature", signature);
       found = client_.request(std::move(lookup));
     } catch (const Failure& failure) {
-      return Status::failure(failure.code(), "service '" + name + "': " + failure.what());
+      return Status::failure(failure.code(), failure.what());
     } catch (const std::exception& error) {
-      return Status::failure(LNE_GOT_INVALID_RESPONSE, "service '" + name + "': " + error.what());
+      return Status::failure(LNE_GOT_INVALID_RESPONSE, error.what());
     }
     UniqueFd socket;
     Status reached = connect_to_provider(found, socket);
-    if (!reached.ok()) return Status::failure(-reached.code(), "service '" + name + "': " + reached.detail());
+    if (!reached.ok()) return reached;
     Message handshake = Message::request(1, method::call);
     handshake.set("service_id", found.get_int_or("service_id", 0));
     if (const int error = send_all(socket.get(), protocol::encode(handshake), -1, kHandshakeTimeout); error != 0)
-      return Status::failure(LNE_NO_PROVIDER_FOUND, "service '" + name + "': handshake: " + std::strerror(error));
+      return Status::failure(LNE_NO_PROVIDER_FOUND, std::string("handshake: ") + std::strerror(error));
     Message answer;
     Status read = read_answer(socket.get(), answer);
     if (!read.ok()) return read;
     if (answer.is_error())
-      return Status::failure(answer.error_code() > 0 ? answer.error_code() : LNE_REQUEST_FAILED,
-                             "service '" + name + "': " + answer.error_text());
+      return Status::failure(answer.error_code() > 0 ? answer.error_code() : LNE_REQUEST_FAILED, answer.error_text());
     const std::int64_t local_id = answer.get_int_or("service_id", -1);
     if (local_id <= 0 || local_id > 0xffffffffLL || !set_blocking(socket.get()))
-      return Status::failure(LNE_GOT_INVALID_RESPONSE, "service '" + name + "': invalid handshake answer");
+      return Status::failure(LNE_GOT_INVALID_RESPONSE, "invalid handshake answer");
     link.fd = socket.release();
     link.service_id = static_cast<std::uint32_t>(local_id);
     return {};

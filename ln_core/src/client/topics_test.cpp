@@ -411,10 +411,11 @@ TEST_F(TopicTest, TopicNameMappingFromArguments) {
   ln_deinit(&mapped);
 }
 
-TEST_F(TopicTest, TopicNameMappingFromEnvironmentThenArguments) {
-  ScopedEnv mapping("LN_MAP_TOPICS", std::string("^cam$|camera.left|nothing|matters"));
+// LN 2.9's order (tests/ln29_behaviour/test_ln29b_services.py checks it).
+TEST_F(TopicTest, TopicNameMappingFromArgumentsThenEnvironment) {
+  ScopedEnv mapping("LN_MAP_TOPICS", std::string(".left$|.front|nothing|matters"));
   const std::string address = manager_.address();
-  std::vector<const char*> argv = {"prog", "--ln-manager", address.c_str(), "-ln_map_topic", ".left$", ".front"};
+  std::vector<const char*> argv = {"prog", "--ln-manager", address.c_str(), "-ln_map_topic", "^cam$", "camera.left"};
   ln_client mapped = nullptr;
   ASSERT_EQ(ln_init(&mapped, "env_mapped", static_cast<int>(argv.size()), const_cast<char**>(argv.data())), 0);
   ln_outport out = publish("cam", 1, mapped);  // cam -> camera.left -> camera.front

@@ -10,6 +10,7 @@
 #include <atomic>
 #include <cerrno>
 #include <cstring>
+#include <sstream>
 
 #define NO_CPP_WRAPPER
 #include "ln/ln.h"
@@ -19,7 +20,7 @@ namespace ln::services {
 
 struct CallerConnection {
   CallerConnection(int socket, std::uint32_t id, std::size_t max_payload)
-      : fd(socket), service_id(id), assembler(max_payload) {}
+      : fd(socket), service_id(id), local(is_unix_socket(socket)), assembler(max_payload) {}
   ~CallerConnection() { ::close(fd); }
 
   // Tells the provider at once that its request is abandoned, and makes
@@ -29,8 +30,17 @@ struct CallerConnection {
     ::shutdown(fd, SHUT_RDWR);
   }
 
+  static bool is_unix_socket(int fd) {
+    int domain = 0;
+    socklen_t size = sizeof domain;
+    return ::getsockopt(fd, SOL_SOCKET, SO_DOMAIN, &domain, &size) == 0 && domain == AF_UNIX;
+  }
+
   const int fd;
   const std::uint32_t service_id;
+  // A Unix socket: a request sent after the provider closed it fails at
+  // once (EPIPE) instead of vanishing, as it can over TCP.
+  const bool local;
   frames::FrameAssembler assembler;  // used by the one call in flight
   std::uint32_t next_request_id = 1;
   std::atomic<bool> broken{false};
@@ -45,6 +55,21 @@ std::string describe(const io::Result& r, const char* while_doing) {
     default: return std::string("unexpected data from the provider ") + while_doing;
   }
 }
+
+// What the caller learns of a failure the provider reported.
+std::string provider_failure(int result, std::string_view text) {
+  if (!text.empty()) return std::string(text);
+  return "the provider failed the call with error " + std::to_string(result);
+}
+
+// 0.25 -> "0.25", 5 -> "5".
+std::string seconds_text(double seconds) {
+  std::ostringstream text;
+  text << seconds;
+  return text.str();
+}
+
+const char* const kAborted = "the call was aborted";
 
 // The response body, validated for `data` (or as flat bytes if data is null).
 Status take_response(const ServiceSignature& signature, frames::Payload& response, std::size_t body_offset,
@@ -69,9 +94,12 @@ AsyncCall* caller_request(void* handle) {
   return h != nullptr && h->side() == RequestHandle::Side::Caller ? static_cast<AsyncCall*>(h) : nullptr;
 }
 
-AsyncCall::AsyncCall(std::shared_ptr<const ServiceSignature> signature, const Limits& limits)
+AsyncCall::AsyncCall(std::shared_ptr<const ServiceSignature> signature, const Limits& limits, std::string context)
     : RequestHandle(Side::Caller),
-      signature_(std::move(signature)), limits_(limits), notify_fd_(::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK)) {}
+      signature_(std::move(signature)),
+      limits_(limits),
+      context_(std::move(context)),
+      notify_fd_(::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK)) {}
 
 AsyncCall::~AsyncCall() {
   if (notify_fd_ >= 0) ::close(notify_fd_);
@@ -107,7 +135,7 @@ void AsyncCall::finish_locked(int result, std::string text) {
   reactor_key_ = 0;
   state_ = State::Finished;
   result_ = result;
-  error_ = std::move(text);
+  error_ = result != 0 ? context_ + text : std::string();
   const std::uint64_t one = 1;
   [[maybe_unused]] const ssize_t n = ::write(notify_fd_, &one, sizeof one);
   done_.notify_all();
@@ -146,7 +174,7 @@ void AsyncCall::on_ready(std::uint64_t key, std::uint32_t events) {
       connection.give_up();
       finish_locked(-LNE_SVC_RECV_RESP, s.detail());
     } else {
-      finish_locked(head.result, std::string(text));
+      finish_locked(head.result, head.result != 0 ? provider_failure(head.result, text) : std::string());
     }
     return;
   }
@@ -165,7 +193,7 @@ int AsyncCall::deliver_locked(int* retval) {
       const Status s = take_response(*signature_, response_, body_offset_, data_, limits_, arena_);
       if (!s.ok()) {
         result_ = s.code();
-        error_ = s.detail();
+        error_ = context_ + s.detail();
       }
     }
   }
@@ -197,13 +225,13 @@ int AsyncCall::abort() {
   if (state_ == State::Idle) return -LNE_SVC_REQ_NOT_RUNNING;
   if (state_ == State::Running) {
     connection_->give_up();
-    finish_locked(-LNE_SVC_REQ_ABORTED, "the call was aborted");
+    finish_locked(-LNE_SVC_REQ_ABORTED, kAborted);
   } else if (!delivered_) {
     // Finished, but the program has not looked: the response is dropped
     // unseen, so the data is never written after abort().
     delivered_ = true;
     result_ = -LNE_SVC_REQ_ABORTED;
-    error_ = "the call was aborted";
+    error_ = context_ + kAborted;
     response_ = frames::Payload();
   }
   return 0;
@@ -313,12 +341,14 @@ void AsyncReactor::run() {
 // --------------------------------------------------------- ServiceCaller
 
 ServiceCaller::ServiceCaller(std::shared_ptr<const ServiceSignature> signature, Connector connector,
-                             std::shared_ptr<AsyncReactor> reactor, Limits limits, WaitPolicy wait)
+                             std::shared_ptr<AsyncReactor> reactor, Limits limits, WaitPolicy wait,
+                             const std::string& service_name)
     : signature_(std::move(signature)),
       connector_(std::move(connector)),
       reactor_(std::move(reactor)),
       limits_(limits),
-      wait_(wait) {}
+      wait_(wait),
+      context_(service_name.empty() ? std::string() : "service '" + service_name + "': ") {}
 
 ServiceCaller::~ServiceCaller() {
   if (async_) async_->abort();
@@ -326,7 +356,7 @@ ServiceCaller::~ServiceCaller() {
 
 int ServiceCaller::fail(int code, std::string detail) {
   std::lock_guard<std::mutex> lock(state_mutex_);
-  error_ = std::move(detail);
+  error_ = context_ + detail;
   return code;
 }
 
@@ -380,20 +410,22 @@ int ServiceCaller::build_request(const void* data, std::string_view flat_request
   return 0;
 }
 
-int ServiceCaller::ensure_connection(std::shared_ptr<CallerConnection>& out) {
+int ServiceCaller::ensure_connection(std::shared_ptr<CallerConnection>& out, bool resend_possible, bool& fresh) {
   std::shared_ptr<CallerConnection> connection;
   {
     std::lock_guard<std::mutex> lock(state_mutex_);
     connection = connection_;
   }
   // A provider that went away since the last call (restarted, say) shows
-  // as a closed idle connection: connect again instead of failing.
-  // (One poll() per call; skipping it for recently used connections would
-  // fail the first call after a quick re-registration.)
-  if (connection && (connection->broken || io::idle_connection_spoiled(connection->fd))) {
+  // as a closed idle connection: connect again instead of failing. One
+  // poll() per call finds out - unless the caller can resend a request
+  // refused by a closed local connection (see run_call()).
+  const bool check_idle = connection && !(resend_possible && connection->local);
+  if (connection && (connection->broken || (check_idle && io::idle_connection_spoiled(connection->fd)))) {
     drop_connection(connection);
     connection.reset();
   }
+  fresh = !connection;
   if (!connection) {
     ProviderLink link;
     Status s = connector_ ? connector_(link)
@@ -411,7 +443,7 @@ int ServiceCaller::ensure_connection(std::shared_ptr<CallerConnection>& out) {
     // abort() came before there was a connection to shut down.
     connection->give_up();
     connection_.reset();
-    error_ = "the call was aborted";
+    error_ = context_ + kAborted;
     return -LNE_SVC_REQ_ABORTED;
   }
   out = std::move(connection);
@@ -449,13 +481,26 @@ int ServiceCaller::run_call(void* data, std::string_view flat_request, double ti
   int rc = build_request(data, flat_request, frame_);
   if (rc != 0) return rc;
   std::shared_ptr<CallerConnection> connection;
-  rc = ensure_connection(connection);
-  if (rc != 0) return rc;
-  const std::uint32_t request_id = connection->next_request_id++;
-  frames::write_request_head(frame_.data(), {connection->service_id, request_id},
-                             frame_.size() - frames::request_overhead);
-
-  io::Result r = io::send_all(connection->fd, frame_.data(), frame_.size(), deadline);
+  std::uint32_t request_id = 0;
+  io::Result r;
+  for (bool first_attempt = true;; first_attempt = false) {
+    bool fresh = false;
+    rc = ensure_connection(connection, first_attempt, fresh);
+    if (rc != 0) return rc;
+    request_id = connection->next_request_id++;
+    frames::write_request_head(frame_.data(), {connection->service_id, request_id},
+                               frame_.size() - frames::request_overhead);
+    r = io::send_all(connection->fd, frame_.data(), frame_.size(), deadline);
+    // A local connection the provider closed while it was idle refuses the
+    // request (EPIPE): no provider has seen it (a frame is only handled
+    // once complete), so it goes out once more, on a new connection. (One
+    // we shut down ourselves, for abort(), is `broken`.)
+    if (r.outcome == io::Outcome::Closed && !fresh && first_attempt && connection->local && !connection->broken) {
+      drop_connection(connection);
+      continue;
+    }
+    break;
+  }
   Status malformed;
   if (r.outcome == io::Outcome::Done)
     r = io::receive_frame(connection->fd, connection->assembler, deadline, response_, malformed, wait_.spin_us);
@@ -465,12 +510,12 @@ int ServiceCaller::run_call(void* data, std::string_view flat_request, double ti
     {
       std::lock_guard<std::mutex> lock(state_mutex_);
       if (abort_requested_) {
-        error_ = "the call was aborted";
+        error_ = context_ + kAborted;
         return -LNE_SVC_REQ_ABORTED;
       }
     }
     if (r.outcome == io::Outcome::Timeout)
-      return fail(-LNE_SVC_TIMEOUT, "no response within " + std::to_string(timeout) + " s");
+      return fail(-LNE_SVC_TIMEOUT, "no response within " + seconds_text(timeout) + " s");
     if (r.outcome == io::Outcome::Malformed)
       return fail(-LNE_SVC_RECV_RESP, "invalid data from the provider: " + malformed.detail());
     return fail(-LNE_SVC_RECV_RESP, describe(r, "before it responded"));
@@ -489,7 +534,7 @@ int ServiceCaller::run_call(void* data, std::string_view flat_request, double ti
   }
   if (head.result != 0) {
     const int result = head.result;
-    std::string why(text);
+    std::string why = provider_failure(result, text);
     response_ = frames::Payload();
     return fail(result, std::move(why));
   }
@@ -517,7 +562,7 @@ int ServiceCaller::start_async(void* data, std::string_view flat_request, AsyncC
     return fail(-LNE_SVC_REQ_RUNNING, "an asynchronous call is still running on this handle");
   if (!reactor_) return fail(-LNE_NOT_YET_IMPLEMENTED, "asynchronous calls need a reactor");
   if (!async_) {
-    async_ = std::make_shared<AsyncCall>(signature_, limits_);
+    async_ = std::make_shared<AsyncCall>(signature_, limits_, context_);
     if (async_->notify_fd_ < 0) {
       const int err = errno;
       async_.reset();
@@ -528,7 +573,8 @@ int ServiceCaller::start_async(void* data, std::string_view flat_request, AsyncC
   int rc = build_request(data, flat_request, async_->frame_);
   if (rc != 0) return rc;
   std::shared_ptr<CallerConnection> connection;
-  rc = ensure_connection(connection);
+  bool fresh = false;
+  rc = ensure_connection(connection, false, fresh);
   if (rc != 0) return rc;
   const std::uint32_t request_id = connection->next_request_id++;
   frames::write_request_head(async_->frame_.data(), {connection->service_id, request_id},

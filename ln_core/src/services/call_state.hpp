@@ -16,6 +16,10 @@
 // The next call connects again through the Connector. A provider that dies
 // mid-call closes the connection too: the call fails at once with
 // -LNE_SVC_RECV_RESP, never hangs.
+//
+// Every failure comes with a text that says why (last_error(),
+// AsyncCall::error_message()): the provider's own explanation, or ours.
+// A caller made for a named service starts each with "service 'NAME': ".
 #pragma once
 
 #include <condition_variable>
@@ -58,7 +62,8 @@ class AsyncReactor;
 /// its next asynchronous call.
 class AsyncCall : public RequestHandle {
  public:
-  AsyncCall(std::shared_ptr<const ServiceSignature> signature, const Limits& limits);
+  /// `context` starts every error message (e.g. "service 'x': ").
+  AsyncCall(std::shared_ptr<const ServiceSignature> signature, const Limits& limits, std::string context = {});
   ~AsyncCall();
   AsyncCall(const AsyncCall&) = delete;
   AsyncCall& operator=(const AsyncCall&) = delete;
@@ -100,6 +105,7 @@ class AsyncCall : public RequestHandle {
 
   const std::shared_ptr<const ServiceSignature> signature_;
   const Limits limits_;
+  const std::string context_;
   int notify_fd_ = -1;
 
   mutable std::mutex mutex_;
@@ -151,9 +157,11 @@ class AsyncReactor {
 /// The calling side of one service handle.
 class ServiceCaller {
  public:
-  /// Blocking calls wait for the response as `wait` says.
+  /// Blocking calls wait for the response as `wait` says; error texts name
+  /// `service_name` if one is given.
   ServiceCaller(std::shared_ptr<const ServiceSignature> signature, Connector connector,
-                std::shared_ptr<AsyncReactor> reactor, Limits limits = {}, WaitPolicy wait = {});
+                std::shared_ptr<AsyncReactor> reactor, Limits limits = {}, WaitPolicy wait = {},
+                const std::string& service_name = {});
   /// Aborts a running asynchronous call.
   ~ServiceCaller();
   ServiceCaller(const ServiceCaller&) = delete;
@@ -189,7 +197,9 @@ class ServiceCaller {
   // Flattens the request into `frame` after the frame head; the head is
   // written once the connection (service id) is known.
   int build_request(const void* data, std::string_view flat_request, frames::FrameBuffer& frame);
-  int ensure_connection(std::shared_ptr<CallerConnection>& out);
+  // The handle's connection, made if needed (`fresh` then). With
+  // `resend_possible` an idle local connection is not checked first.
+  int ensure_connection(std::shared_ptr<CallerConnection>& out, bool resend_possible, bool& fresh);
   void drop_connection(const std::shared_ptr<CallerConnection>& connection);
   int fail(int code, std::string detail);
 
@@ -198,6 +208,7 @@ class ServiceCaller {
   const std::shared_ptr<AsyncReactor> reactor_;
   const Limits limits_;
   const WaitPolicy wait_;
+  const std::string context_;  // starts every error text
 
   std::mutex call_mutex_;  // one call (blocking, or the start of an asynchronous one) at a time
   mutable std::mutex state_mutex_;

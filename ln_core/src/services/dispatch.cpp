@@ -75,10 +75,12 @@ Status errno_failure(const std::string& what, int err) {
   return Status::failure(LNE_CHECK_ERRNO, what + ": " + std::strerror(err), err);
 }
 
-// epoll_wait() that first polls, yielding, for up to `spin_us` (WaitPolicy).
+// epoll_wait() that first polls, yielding, for up to `spin_us` (WaitPolicy);
+// `yield_first` when nothing can have come yet.
 int wait_for_events(int epoll_fd, epoll_event* events, int max_events, const io::Deadline& deadline,
-                    unsigned spin_us) {
+                    unsigned spin_us, bool yield_first = false) {
   if (spin_us > 0) {
+    if (yield_first) ::sched_yield();
     const io::Clock::time_point until = io::Clock::now() + std::chrono::microseconds(spin_us);
     do {
       const int n = ::epoll_wait(epoll_fd, events, max_events, 0);
@@ -136,6 +138,7 @@ struct ServiceGroup {
   EventSet events;              // its connections while it is handled directly
   ThreadPool* pool = nullptr;   // set while a pool serves it
   bool busy = false;            // a thread is in wait_and_handle(); others take turns
+  bool answered_last_turn = false;  // the last wait_and_handle() served requests
   std::condition_variable turn;
   bool unblock_pending = false;
   std::vector<PendingEvent> observer_events;
@@ -183,6 +186,28 @@ Status apply_schedparam(const ThreadPool& pool, pthread_t thread) {
     if (err != 0) return errno_failure("thread pool '" + pool.name + "': pthread_setaffinity_np", err);
   }
   return {};
+}
+
+// A thread's scheduling as it was, to undo a change that failed half-way.
+struct ThreadScheduling {
+  int policy = SCHED_OTHER;
+  sched_param param{};
+  bool has_policy = false;
+  cpu_set_t cpus;
+  bool has_cpus = false;
+};
+
+ThreadScheduling scheduling_of(pthread_t thread) {
+  ThreadScheduling s;
+  s.has_policy = ::pthread_getschedparam(thread, &s.policy, &s.param) == 0;
+  CPU_ZERO(&s.cpus);
+  s.has_cpus = ::pthread_getaffinity_np(thread, sizeof s.cpus, &s.cpus) == 0;
+  return s;
+}
+
+void restore_scheduling(pthread_t thread, const ThreadScheduling& s) {
+  if (s.has_policy) ::pthread_setschedparam(thread, s.policy, &s.param);
+  if (s.has_cpus) ::pthread_setaffinity_np(thread, sizeof s.cpus, &s.cpus);
 }
 
 // Writes one response frame to `connection`. A caller that has gone (it
@@ -694,6 +719,7 @@ Status Dispatcher::wait_and_handle(const char* group_name, double timeout, int* 
     Status s = group_locked(group_name, group);
     if (!s.ok()) return s;
   }
+  bool yield_first = false;
   {
     std::unique_lock<std::mutex> lock(mutex_);
     const auto free = [&] { return !group->busy; };
@@ -702,18 +728,23 @@ Status Dispatcher::wait_and_handle(const char* group_name, double timeout, int* 
     else if (!group->turn.wait_until(lock, deadline.when(), free))
       return {};  // another thread kept the group for the whole timeout
     group->busy = true;
+    // Right after answering, the next request needs the caller's turn first:
+    // if the caller shares our CPU, let it have it before looking.
+    yield_first = group->answered_last_turn;
   }
+  int count = 0;
   struct EndOfTurn {
     Dispatcher& dispatcher;
     ServiceGroup& group;
+    const int& count;
     ~EndOfTurn() {
       std::lock_guard<std::mutex> lock(dispatcher.mutex_);
       group.busy = false;
+      group.answered_last_turn = count > 0;
       group.turn.notify_one();
     }
-  } end_of_turn{*this, *group};
+  } end_of_turn{*this, *group, count};
 
-  int count = 0;
   epoll_event events[8];
   for (;;) {
     deliver_events(group, nullptr);
@@ -728,7 +759,8 @@ Status Dispatcher::wait_and_handle(const char* group_name, double timeout, int* 
       }
     }
     if (count > 0) break;
-    const int n = wait_for_events(group->events.epoll_fd, events, 8, deadline, wait_.spin_us);
+    const int n = wait_for_events(group->events.epoll_fd, events, 8, deadline, wait_.spin_us, yield_first);
+    yield_first = false;
     if (n < 0 && errno == EINTR) continue;
     if (n < 0) return errno_failure("epoll_wait", errno);
     if (n == 0) break;
@@ -801,13 +833,26 @@ Status Dispatcher::set_pool_schedparam(const char* pool_name, int policy, int pr
   ThreadPool* pool = nullptr;
   Status s = pool_locked(pool_name, pool);
   if (!s.ok()) return s;
+  const int old_policy = pool->policy, old_priority = pool->priority;
+  const unsigned old_mask = pool->affinity_mask;
   pool->policy = policy;
   pool->priority = priority;
   pool->affinity_mask = affinity_mask;
+  // All or nothing: after a failure (EPERM, EINVAL, ...) every thread and the
+  // pool's settings for later threads are as they were.
+  std::vector<std::pair<pthread_t, ThreadScheduling>> changed;
   for (PoolThread& t : pool->threads) {
     if (t.finished) continue;
-    s = apply_schedparam(*pool, t.thread.native_handle());
-    if (!s.ok()) return s;
+    const pthread_t thread = t.thread.native_handle();
+    changed.emplace_back(thread, scheduling_of(thread));
+    s = apply_schedparam(*pool, thread);
+    if (!s.ok()) {
+      for (const auto& [changed_thread, before] : changed) restore_scheduling(changed_thread, before);
+      pool->policy = old_policy;
+      pool->priority = old_priority;
+      pool->affinity_mask = old_mask;
+      return s;
+    }
   }
   return {};
 }

@@ -195,8 +195,9 @@ class Dispatcher {
   /// Scheduling of the pool's threads, now and for threads it starts later:
   /// `policy` (SCHED_*) and `priority` (-1 keeps each; a priority without
   /// policy keeps the thread's policy), CPU `affinity_mask` (bit i = CPU i;
-  /// 0 keeps it). Errors (e.g. EPERM for real-time policies) are returned
-  /// as -LNE_CHECK_ERRNO with the errno.
+  /// 0 keeps it). Errors (e.g. EPERM for real-time policies without the
+  /// privilege, EINVAL) are returned as -LNE_CHECK_ERRNO with the errno, and
+  /// then nothing has changed.
   Status set_pool_schedparam(const char* pool_name, int policy, int priority, unsigned affinity_mask);
 
  private:

@@ -101,6 +101,9 @@ Result receive_frame(int fd, frames::FrameAssembler& assembler, const Deadline& 
                      Status& malformed, unsigned spin_us) {
   const Clock::time_point spin_until = Clock::now() + std::chrono::microseconds(spin_us);
   bool spinning = spin_us > 0;
+  // Called right after the request went out, when the answer cannot be
+  // there yet: let the provider have the CPU first if it shares ours.
+  if (spinning) ::sched_yield();
   while (!assembler.next(out)) {
     if (spinning && (Clock::now() >= spin_until || deadline.expired())) spinning = false;
     // Without a deadline a plain blocking read saves the ppoll() call.

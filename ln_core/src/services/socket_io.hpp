@@ -59,7 +59,9 @@ Result send_all(int fd, const char* data, std::size_t size, const Deadline& dead
 Result send_some(int fd, const char* data, std::size_t size, std::size_t& sent);
 
 /// Waits (until `deadline`) for a complete frame and takes it; polls
-/// (yielding) for up to `spin_us` before it sleeps (see WaitPolicy).
+/// (yielding) for up to `spin_us` before it sleeps (see WaitPolicy). For a
+/// response right after its request: when spinning it yields before the
+/// first look, so that a provider on the same CPU can answer first.
 Result receive_frame(int fd, frames::FrameAssembler& assembler, const Deadline& deadline, frames::Payload& out,
                      Status& malformed, unsigned spin_us = 0);
 

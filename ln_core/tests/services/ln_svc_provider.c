@@ -6,12 +6,23 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/uio.h>
 #include <time.h>
 #include <unistd.h>
 
 #include "ln_messages.h"
 
-enum { ECHO = 0, SLOW = 1, USER_ERROR = 2, NO_RESPONSE = 3, LATER = 4, ERROR_TEXT = 5, CONCURRENCY = 6 };
+enum {
+  ECHO = 0,
+  SLOW = 1,
+  USER_ERROR = 2,
+  NO_RESPONSE = 3,
+  LATER = 4,
+  ERROR_TEXT = 5,
+  CONCURRENCY = 6,
+  RESPONDV = 7,
+  RESPONDV_INVALID = 8
+};
 
 static pthread_mutex_t lock = PTHREAD_MUTEX_INITIALIZER;
 static int running, most_running;
@@ -29,6 +40,21 @@ static void echo(svc_test_t* data) {
   data->resp.items_len = data->req.items_len;
   data->resp.items = data->req.items;
   data->resp.count = data->req.items_len;
+}
+
+/* Responds with the request's text reversed and count 77, as the flat
+   response fields of svc/test (text, blob, items, count) in an iovec list;
+   `truncated` leaves out the count. */
+static int respond_flat(ln_service_request req, const svc_test_t* data, int truncated) {
+  char reversed[256];
+  uint32_t text_len = data->req.text_len < sizeof reversed ? data->req.text_len : (uint32_t)sizeof reversed;
+  for (uint32_t i = 0; i < text_len; ++i) reversed[i] = data->req.text[text_len - 1 - i];
+  uint32_t no_elements = 0;
+  uint32_t count = 77;
+  struct iovec iov[5] = {
+      {&text_len, sizeof text_len}, {reversed, text_len}, {&no_elements, sizeof no_elements},
+      {&no_elements, sizeof no_elements}, {&count, sizeof count}};
+  return ln_service_request_respondv(req, iov, truncated ? 4 : 5);
 }
 
 struct later {
@@ -70,6 +96,9 @@ static int handle(ln_client clnt, ln_service_request req, void* user_data) {
       pthread_detach(thread);
       return -LNE_SVC_RESP_LATER;
     }
+    case RESPONDV:
+    case RESPONDV_INVALID:
+      return respond_flat(req, &data, data.req.mode == RESPONDV_INVALID);
     case CONCURRENCY:
       pthread_mutex_lock(&lock);
       if (++running > most_running) most_running = running;

@@ -23,59 +23,16 @@
 #include <string>
 #include <vector>
 
-#include "client/client_test_support.hpp"
 #include "ln_messages.h"
 #include "protocol/methods.hpp"
 #include "protocol/wire.hpp"
+#include "service_process_fixture.hpp"
 
 extern char** environ;
 
 namespace {
 
-using namespace ln::clienttest;
-
-
-
-enum Mode { ECHO = 0, SLOW = 1, USER_ERROR = 2, NO_RESPONSE = 3, LATER = 4, ERROR_TEXT = 5, CONCURRENCY = 6 };
-
-class ServiceProcessTest : public ::testing::Test {
- protected:
-  void SetUp() override { ASSERT_EQ(ln_init_to_manager(&client_, "driver", manager_.address().c_str()), 0); }
-  void TearDown() override {
-    for (ln_service& svc : services_) ln_service_deinit(&svc);
-    if (client_ != nullptr) ln_deinit(&client_);
-  }
-  std::unique_ptr<ChildProcess> provider(const std::vector<std::string>& extra = {},
-                                         const char* program = LN_SVC_PROVIDER, const char* name = "svc") {
-    std::vector<std::string> args = {program, name};
-    args.insert(args.end(), extra.begin(), extra.end());
-    auto child = std::make_unique<ChildProcess>(args, manager_.address());
-    EXPECT_NE(child->wait_for_line("ready"), "");
-    return child;
-  }
-  ln_service caller(const char* name = "svc", const char* signature = svc_test_signature) {
-    ln_service svc = nullptr;
-    EXPECT_EQ(ln_service_init(client_, &svc, name, "svc/test", signature), 0);
-    services_.push_back(svc);
-    return svc;
-  }
-  int call(ln_service svc, int mode, unsigned delay_ms = 0, double timeout = 0, int error = 0) {
-    svc_test_t data;
-    std::memset(&data, 0, sizeof data);
-    data.req.mode = mode;
-    data.req.delay_ms = delay_ms;
-    data.req.error = error;
-    last_count_ = 0;
-    const int ret = ln_service_call_with_timeout(svc, &data, timeout);
-    last_count_ = data.resp.count;
-    return ret;
-  }
-
-  InProcessManager manager_;
-  ln_client client_ = nullptr;
-  std::vector<ln_service> services_;
-  uint32_t last_count_ = 0;
-};
+using namespace ln::servicetest;
 
 TEST_F(ServiceProcessTest, SyncCallWithDynamicFieldsAnd16MB) {
   auto child = provider();
@@ -548,6 +505,17 @@ TEST_F(RemoteServiceProcessTest, TimeoutThenNextCallWorksOverTcp) {
   EXPECT_LT(Clock::now() - start, 2s);
   EXPECT_EQ(call(svc, ECHO), 0) << ln_get_error_message(client_);
   EXPECT_GE(established_tcp_sockets_of_this_process(), tcp_before + 1);
+}
+
+TEST_F(RemoteServiceProcessTest, IdleCallerReachesARestartedProviderOverTcp) {
+  ln_service svc = caller();
+  for (int round = 0; round < 2; ++round) {
+    auto child = remote_provider();
+    EXPECT_EQ(call(svc, ECHO), 0) << "round " << round << ": " << error_message();
+    child->kill(SIGKILL);
+    ASSERT_EQ(child->wait(), 128 + SIGKILL);
+    ASSERT_TRUE(wait_until([&] { return ln_wait_for_service(client_, "svc", 0) == 0; }));
+  }
 }
 
 TEST_F(RemoteServiceProcessTest, ProviderKilledMidCallOverTcp) {
