@@ -20,20 +20,6 @@ def _close_all():
             pass
 
 
-def _timeout(blocking_or_timeout):
-    """LN's read argument as seconds: True/None block (-1), False polls (0)."""
-    if blocking_or_timeout is True or blocking_or_timeout is None:
-        return -1.0
-    if blocking_or_timeout is False:
-        return 0.0
-    try:
-        timeout = float(blocking_or_timeout)
-    except (TypeError, ValueError):
-        raise TypeError("blocking_or_timeout must be True, False or a timeout in seconds, not %r"
-                        % (blocking_or_timeout,)) from None
-    return timeout if timeout > 0 else 0.0
-
-
 class client:
     """A connection to the ln_manager.
 
@@ -280,7 +266,7 @@ class port_wrapper:
         """Returns `packet` updated with the next message, or None if there was
         none (False: don't wait; True: wait; a number: wait that many seconds)."""
         port = self.port
-        if not port.read(self.packet._buf, _timeout(blocking_or_timeout)):
+        if not port.read(self.packet._buf, blocking_or_timeout):
             return None
         self.timestamp = port.timestamp
         return self.packet
@@ -313,7 +299,7 @@ class port_wrapper:
                 if pkt is not None:
                     use(pkt.data)
         """
-        loan = self.port.borrow(_timeout(blocking_or_timeout))
+        loan = self.port.borrow(blocking_or_timeout)
         if loan is not None:
             self.timestamp = self.port.timestamp
         return borrowed_packet(self, loan)

@@ -155,10 +155,11 @@ class _Char(_Scalar):
 
 class _Array:
     """Fixed numeric array: a numpy view into the buffer."""
-    __slots__ = ("name", "offset", "count", "dtype")
+    __slots__ = ("name", "offset", "count", "dtype", "shape")
 
     def __init__(self, name, offset, count, dtype):
         self.name, self.offset, self.count, self.dtype = name, offset, count, dtype
+        self.shape = (count,)
 
     def __get__(self, obj, cls=None):
         if obj is None:
@@ -169,8 +170,15 @@ class _Array:
         return view
 
     def __set__(self, obj, value):
-        view = self.__get__(obj)
+        view = obj._cache.get(self.name)
+        if view is None:
+            view = self.__get__(obj)
         if value is view:
+            return
+        if (type(value) is np.ndarray and (value.dtype is self.dtype or value.dtype == self.dtype)
+                and value.shape == self.shape):
+            # e.g. the same field of a received packet: nothing to convert or check
+            view[...] = value
             return
         view[...] = _as_numeric_array(obj, self.name, value, self.dtype, self.count)
 

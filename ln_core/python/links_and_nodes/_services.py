@@ -73,6 +73,9 @@ class service_wrapper:
 
     # -- calling ----------------------------------------------------------
     def __call__(self, *args, **kwargs):
+        if not (args or kwargs):  # the request is in `req` already: the shortest path
+            with self.lock:
+                return self._call(0.0)
         timeout = kwargs.pop("_timeout", 0) if "_timeout" in kwargs else 0
         is_async = kwargs.pop("is_async", kwargs.pop("async", False)) if kwargs else False
         with self.lock:
@@ -80,11 +83,14 @@ class service_wrapper:
                 self._fill_request(args, kwargs)
             if is_async:
                 return self._start_async()
-            resp = self.resp
-            flat = self._native.call(self.req._flat(), float(timeout or 0), resp._buf if resp._fixed else None)
-            if flat is not None:
-                resp._decode(flat)
-            return self
+            return self._call(float(timeout or 0))
+
+    def _call(self, timeout):
+        resp = self.resp
+        flat = self._native.call(self.req._flat(), timeout, resp._buf if resp._fixed else None)
+        if flat is not None:
+            resp._decode(flat)
+        return self
 
     def _fill_request(self, args, kwargs):
         req = self.req
@@ -102,6 +108,9 @@ class service_wrapper:
     def call(self, *args, **kwargs):
         """Blocking call: fields as keyword arguments (or set on `req`); returns
         self with `resp` filled. Raises LNError on failure."""
+        if not (args or kwargs):
+            with self.lock:
+                return self._call(0.0)
         return self(*args, **kwargs)
 
     def call_with_timeout(self, *args, **kwargs):

@@ -77,14 +77,16 @@ struct NoInterruptAction {
 template <class Step, class OnInterrupt = NoInterruptAction>
 int wait_in_slices(double timeout, const ClientState* state, Step step, OnInterrupt on_interrupt = {}) {
   if (timeout == 0) return step(0.0);
-  const double deadline = timeout < 0 ? INFINITY : now() + timeout;
+  // The clock is read only to end a finite wait: most waits end in their
+  // first slice, and every read costs on the latency path of a round trip.
+  const bool forever = timeout < 0;
+  const double deadline = forever ? INFINITY : now() + timeout;
+  double slice = forever ? kSlice : std::min(kSlice, timeout);
   for (;;) {
     if (state != nullptr && is_closed(state)) {
       on_interrupt();
       throw_closed();
     }
-    const double remaining = deadline - now();
-    const double slice = timeout < 0 ? kSlice : std::max(0.0, std::min(kSlice, remaining));
     int ret;
     {
       nb::gil_scoped_release release;
@@ -95,8 +97,34 @@ int wait_in_slices(double timeout, const ClientState* state, Step step, OnInterr
       on_interrupt();
       throw nb::python_error();
     }
-    if (timeout >= 0 && now() >= deadline) return 0;
+    if (!forever) {
+      const double remaining = deadline - now();
+      if (remaining <= 0) return 0;
+      slice = std::min(kSlice, remaining);
+    }
   }
+}
+
+// LN's blocking_or_timeout argument in seconds: True or None wait without
+// limit (-1), False polls (0), a number waits that long (<= 0: polls).
+double timeout_argument(nb::handle value) {
+  if (value.is_none() || value.ptr() == Py_True) return -1.0;
+  if (value.ptr() == Py_False) return 0.0;
+  double timeout;
+  if (PyFloat_CheckExact(value.ptr())) {
+    timeout = PyFloat_AS_DOUBLE(value.ptr());
+  } else {
+    PyObject* number = PyNumber_Float(value.ptr());  // what float() accepts
+    if (number == nullptr) {
+      PyErr_Clear();
+      throw nb::type_error(("blocking_or_timeout must be True, False or a timeout in seconds, not " +
+                            std::string(nb::repr(value).c_str()))
+                               .c_str());
+    }
+    timeout = PyFloat_AS_DOUBLE(number);
+    Py_DECREF(number);
+  }
+  return timeout > 0 ? timeout : 0.0;
 }
 
 // A Python buffer held for the duration of a call.
@@ -399,11 +427,12 @@ class Client {
     } done{*state_, group.value_or("")};
     // Handling runs Python handlers (they take the GIL themselves). Like
     // LN's single call, return once requests were handled (or on timeout).
+    // As in wait_in_slices, the clock is read only to end a finite wait.
     const std::uint64_t handled_before = state_->handled.load();
-    const double deadline = timeout < 0 ? INFINITY : now() + timeout;
+    const bool forever = timeout < 0;
+    const double deadline = forever ? INFINITY : now() + timeout;
+    double slice = forever ? kSlice : std::min(kSlice, timeout);
     for (;;) {
-      const double remaining = deadline - now();
-      const double slice = timeout < 0 ? kSlice : std::max(0.0, std::min(kSlice, remaining));
       int ret;
       {
         nb::gil_scoped_release release;
@@ -412,7 +441,12 @@ class Client {
       if (ret < 0) fail(ret, "wait_and_handle_service_group_requests", state_->handle);
       if (timeout == 0 || state_->handled.load() != handled_before) return;
       if (PyErr_CheckSignals() != 0) throw nb::python_error();
-      if (state_->handle == nullptr || (timeout >= 0 && now() >= deadline)) return;
+      if (state_->handle == nullptr) return;
+      if (!forever) {
+        const double remaining = deadline - now();
+        if (remaining <= 0) return;
+        slice = std::min(kSlice, remaining);
+      }
     }
   }
 
@@ -606,16 +640,17 @@ class InPort {
     state_->inports.insert(port_);
   }
 
-  // Copies the next packet into `data`; false if none within the timeout.
-  bool read(nb::handle data, double timeout) {
+  // Copies the next packet into `data`; false if none came within
+  // `blocking_or_timeout` (see timeout_argument).
+  bool read(nb::handle data, nb::handle blocking_or_timeout) {
+    const double timeout = timeout_argument(blocking_or_timeout);
     Use use(*state_);
     ln_inport port = get();
     Buffer buffer(data, true, "packet");
     if (buffer.size() < size_) throw nb::value_error("packet buffer is smaller than the message size");
     ln_sample_info info{};
-    const int ret = wait_in_slices(timeout, state_.get(), [&](double slice) {
-      return ln_read_with_info(port, buffer.data(), size_, &info, slice);
-    });
+    const int ret =
+        read_packet(timeout, [&](double slice) { return ln_read_with_info(port, buffer.data(), size_, &info, slice); });
     if (ret < 0) fail(ret, "read", state_->handle);
     if (ret == 0) return false;
     timestamp = info.timestamp;
@@ -625,7 +660,8 @@ class InPort {
   }
 
   // The next packet in place (a Loan), or None.
-  nb::object borrow(nb::handle self, double timeout) {
+  nb::object borrow(nb::handle self, nb::handle blocking_or_timeout) {
+    const double timeout = timeout_argument(blocking_or_timeout);
     Use use(*state_);
     ln_inport port = get();
     if (loan_ != nullptr)
@@ -636,9 +672,8 @@ class InPort {
     const void* packet = nullptr;
     unsigned int size = 0;
     ln_sample_info info{};
-    const int ret = wait_in_slices(timeout, state_.get(), [&](double slice) {
-      return ln_read_borrow(port, &packet, &size, &info, slice);
-    });
+    const int ret =
+        read_packet(timeout, [&](double slice) { return ln_read_borrow(port, &packet, &size, &info, slice); });
     if (ret < 0) fail(ret, "borrow", state_->handle);
     if (ret == 0) return nb::none();
     timestamp = info.timestamp;
@@ -701,11 +736,36 @@ class InPort {
     if (port_ == nullptr || state_->handle == nullptr) throw Failure{LNE_INVALID_PORT_OBJECT, "the port is closed"};
     return port_;
   }
+
+  // Runs `attempt(slice_timeout)` (a libln read) as wait_in_slices does, but
+  // takes a packet that is there already with the GIL held: releasing and
+  // retaking the GIL costs about as much as the read itself. Not while
+  // another thread reads this port: libln lets one read at a time in and
+  // holds the others while it waits, which must not happen with the GIL held.
+  template <class Attempt>
+  int read_packet(double timeout, Attempt attempt) {
+    if (reads_waiting_ == 0) {
+      const int ret = attempt(0.0);
+      if (ret != 0 || timeout == 0) return ret;
+    }
+    ++reads_waiting_;  // changed only with the GIL held
+    struct Leave {
+      int& count;
+      ~Leave() { --count; }
+    } leave{reads_waiting_};
+    if (timeout == 0) {
+      nb::gil_scoped_release release;
+      return attempt(0.0);
+    }
+    return wait_in_slices(timeout, state_.get(), attempt);
+  }
+
   StatePtr state_;
   ln_inport port_ = nullptr;
   unsigned int size_ = 0;
   std::string hash_;
   Loan* loan_ = nullptr;
+  int reads_waiting_ = 0;  // reads of this port in other threads, waiting with the GIL released
 };
 
 void Loan::finish() {
@@ -1229,9 +1289,10 @@ NB_MODULE(_ln, m) {
 
   nb::class_<InPort>(m, "InPort")
       .def(nb::init<Client&, const std::string&, const std::string&, double, unsigned int, bool>())
-      .def("read", &InPort::read, "data"_a, "timeout"_a)
-      .def("borrow", [](nb::handle self, double timeout) { return nb::inst_ptr<InPort>(self)->borrow(self, timeout); },
-           "timeout"_a)
+      .def("read", &InPort::read, "data"_a, "blocking_or_timeout"_a.none())
+      .def("borrow",
+           [](nb::handle self, nb::handle timeout) { return nb::inst_ptr<InPort>(self)->borrow(self, timeout); },
+           "blocking_or_timeout"_a.none())
       .def("has_publisher", &InPort::has_publisher)
       .def("unblock", &InPort::unblock)
       .def("unsubscribe", &InPort::unsubscribe)

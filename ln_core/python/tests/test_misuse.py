@@ -2,7 +2,9 @@
 
 import gc
 import threading
+import time
 
+import numpy as np
 import pytest
 
 import links_and_nodes as ln
@@ -28,10 +30,13 @@ def test_native_layer_checks_its_arguments(clnt, unique):
 
 def test_bad_read_arguments(clnt, unique):
     sub = clnt.subscribe("misuse.read.%s" % unique, "counter/count_message")
-    with pytest.raises(TypeError):
+    with pytest.raises(TypeError, match="blocking_or_timeout"):
         sub.read("soon")
+    with pytest.raises(TypeError, match="blocking_or_timeout"):
+        sub.borrow([1.0])
     assert sub.read(-5) is None  # <= 0: poll
     assert sub.read(0) is None
+    assert sub.read(np.float32(0.01)) is None  # anything float() takes
 
 
 def test_loans_after_release(clnt, unique):
@@ -98,3 +103,32 @@ def test_threads_reading_in_parallel(clnt, unique):
     for t in threads:
         t.join(10)
     assert counts == [50] * 4
+
+
+def test_threads_reading_one_port(clnt, unique):
+    """Each packet is read exactly once by the threads reading the same port,
+    whether it was there already or came while they waited (they share
+    port.packet, so only the count is theirs to compare)."""
+    pub = clnt.publish("misuse.shared.%s" % unique, "pytest/p64")
+    sub = clnt.subscribe("misuse.shared.%s" % unique, "pytest/p64", buffers=64)
+    handshake(pub, sub)
+    counts = [0, 0]
+
+    def reader(i):
+        for _ in range(200):  # bounded; ends when no packet came for 0.5 s
+            if sub.read(0.5) is None:
+                return
+            counts[i] += 1
+
+    threads = [threading.Thread(target=reader, args=(i,)) for i in range(2)]
+    for t in threads:
+        t.start()
+    for seq in range(1, 101):
+        pub.packet.seq = seq
+        pub.write()
+        if seq % 10 == 0:
+            time.sleep(0.002)  # some packets wait for a reader, some readers for a packet
+    for t in threads:
+        t.join(10)
+    assert not any(t.is_alive() for t in threads)
+    assert sum(counts) == 100  # none lost, none twice

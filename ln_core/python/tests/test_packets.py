@@ -51,6 +51,15 @@ def test_arrays_are_writable_numpy_views_into_the_buffer():
     assert view is p.vec and list(view) == [1, 2, 3]
     p.small = np.array([1, -2, 3, -4], dtype=np.int64)
     assert p.small.dtype == np.int16 and list(p.small) == [1, -2, 3, -4]
+    # another packet's field (same dtype and shape) is copied, never shared
+    q = part("pytest/all_types")
+    q.vec = p.vec
+    p.vec[0] = 9.0
+    assert list(q.vec) == [1, 2, 3] and q.vec is not p.vec
+    with pytest.raises(ln.FieldValueError):
+        q.vec = np.zeros(4)
+    q.vec = np.zeros((3, 1))  # any shape with the right count, as before
+    assert list(q.vec) == [0, 0, 0]
 
 
 def test_char_arrays_are_text_and_subtypes_nested_parts():
