@@ -3,7 +3,7 @@
 import atexit
 import weakref
 
-from . import _ln
+from . import _ln, _introspection
 from ._errors import LNError, LNE_INVALID_PARAMETER, LNE_NOT_YET_IMPLEMENTED
 from ._packets import Compiler, ln29_definition
 
@@ -213,6 +213,24 @@ class client:
     def set_publisher_availability_handler(self, topic_name, handler):
         """ln_core: handler(topic_name, has_publisher) now and at every change."""
         self._native.set_availability_handler(False, topic_name, handler)
+
+    # -- introspection (ln_core) -------------------------------------------
+    def list_topics(self):
+        """ln_core: the topics the manager knows, as a list of ln.topic_info."""
+        return _introspection.list_topics(self._native)
+
+    def list_clients(self):
+        """ln_core: the registered clients, as a list of ln.client_info."""
+        return _introspection.list_clients(self._native)
+
+    def list_services(self):
+        """ln_core: the registered services, as a list of ln.service_info."""
+        return _introspection.list_services(self._native)
+
+    def get_manager_status(self):
+        """ln_core: the manager's version, pid, address, uptime, counts and
+        definition search path, as ln.manager_status."""
+        return _introspection.get_manager_status(self._native)
 
     # -- misc -------------------------------------------------------------
     def ping(self, timeout=-1):

@@ -28,6 +28,7 @@
 #include <thread>
 
 #include "ln/ln.h"
+#include "introspection.hpp"
 #include "model.hpp"
 
 namespace nb = nanobind;
@@ -1332,4 +1333,10 @@ NB_MODULE(_ln, m) {
       .def("register", &Service::register_in_group, "group_name"_a = nb::none())
       .def("get_fd", &Service::get_fd)
       .def("release", &Service::release);
+
+  register_introspection(m, [](nb::handle client, const std::function<void(ln_client)>& body) {
+    Client& native = nb::cast<Client&>(client);
+    Use use(*native.state());
+    body(native.handle());
+  });
 }

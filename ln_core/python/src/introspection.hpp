@@ -1,0 +1,25 @@
+// links_and_nodes._ln: introspection -- what the manager knows -- over ln.h's
+// ln_list_topics(), ln_list_clients(), ln_list_services() and
+// ln_get_manager_status(). module.cpp owns the client objects and lends
+// their handles through a WithClient function.
+#pragma once
+
+#include <functional>
+
+#include <nanobind/nanobind.h>
+
+#include "ln/ln.h"
+
+namespace lnpy {
+
+/// Runs `body` with the ln_client of `client` (a links_and_nodes._ln.Client)
+/// while a concurrent close() waits; raises LNError if it is closed.
+using WithClient = void (*)(nanobind::handle client, const std::function<void(ln_client)>& body);
+
+/// Adds list_topics(client), list_clients(client), list_services(client)
+/// (lists of dicts) and manager_status(client) (a dict) to `module`, whose
+/// LNError must exist already. The dict keys are the field names of
+/// links_and_nodes.topic_info, client_info, service_info and manager_status.
+void register_introspection(nanobind::module_& module, WithClient with_client);
+
+}  // namespace lnpy
