@@ -58,18 +58,28 @@ set_target_properties(ln_python PROPERTIES
   OUTPUT_NAME _ln
   LIBRARY_OUTPUT_DIRECTORY ${LN_PYTHON_PACKAGE_BUILD_DIR})
 
-# The pure-Python part is copied next to the module in the build tree.
-file(GLOB LN_PYTHON_SOURCES CONFIGURE_DEPENDS ${LN_PYTHON_DIR}/links_and_nodes/*.py)
+# The pure-Python part (with its sub-packages, e.g. cli/) is copied next to
+# the module in the build tree.
+file(GLOB_RECURSE LN_PYTHON_SOURCES CONFIGURE_DEPENDS RELATIVE ${LN_PYTHON_DIR}/links_and_nodes
+  ${LN_PYTHON_DIR}/links_and_nodes/*.py)
 set(_ln_python_copies)
-foreach(_src ${LN_PYTHON_SOURCES})
-  get_filename_component(_name ${_src} NAME)
+foreach(_name ${LN_PYTHON_SOURCES})
   add_custom_command(OUTPUT ${LN_PYTHON_PACKAGE_BUILD_DIR}/${_name}
-    COMMAND ${CMAKE_COMMAND} -E copy_if_different ${_src} ${LN_PYTHON_PACKAGE_BUILD_DIR}/${_name}
-    DEPENDS ${_src} VERBATIM)
+    COMMAND ${CMAKE_COMMAND} -E copy_if_different ${LN_PYTHON_DIR}/links_and_nodes/${_name}
+            ${LN_PYTHON_PACKAGE_BUILD_DIR}/${_name}
+    DEPENDS ${LN_PYTHON_DIR}/links_and_nodes/${_name} VERBATIM)
   list(APPEND _ln_python_copies ${LN_PYTHON_PACKAGE_BUILD_DIR}/${_name})
 endforeach()
 add_custom_target(ln_python_package ALL DEPENDS ${_ln_python_copies})
 add_dependencies(ln_python ln_python_package)
+
+# install(FILES) of the pure-Python part into DESTINATION/<its sub-directory>.
+function(ln_python_install_sources destination)
+  foreach(_name ${LN_PYTHON_SOURCES})
+    get_filename_component(_subdir ${_name} DIRECTORY)
+    install(FILES ${LN_PYTHON_DIR}/links_and_nodes/${_name} DESTINATION ${destination}/${_subdir} ${ARGN})
+  endforeach()
+endfunction()
 
 if(SKBUILD)
   # pip install: a self-contained wheel with libln.so beside the module.
@@ -78,7 +88,7 @@ if(SKBUILD)
   set_target_properties(ln PROPERTIES INSTALL_RPATH "$ORIGIN" VERSION 1 SOVERSION 1)
   install(TARGETS ln_python LIBRARY DESTINATION links_and_nodes COMPONENT python)
   install(TARGETS ln LIBRARY DESTINATION links_and_nodes NAMELINK_SKIP COMPONENT python)
-  install(FILES ${LN_PYTHON_SOURCES} DESTINATION links_and_nodes COMPONENT python)
+  ln_python_install_sources(links_and_nodes COMPONENT python)
 else()
   set(LN_PYTHON_INSTALL_DIR
     "${CMAKE_INSTALL_LIBDIR}/python${Python_VERSION_MAJOR}.${Python_VERSION_MINOR}/site-packages"
@@ -86,8 +96,17 @@ else()
   file(RELATIVE_PATH _ln_rpath "/x/${LN_PYTHON_INSTALL_DIR}/links_and_nodes" "/x/${CMAKE_INSTALL_LIBDIR}")
   set_target_properties(ln_python PROPERTIES INSTALL_RPATH "$ORIGIN/${_ln_rpath}")
   install(TARGETS ln_python LIBRARY DESTINATION ${LN_PYTHON_INSTALL_DIR}/links_and_nodes)
-  install(FILES ${LN_PYTHON_SOURCES} DESTINATION ${LN_PYTHON_INSTALL_DIR}/links_and_nodes)
+  ln_python_install_sources(${LN_PYTHON_INSTALL_DIR}/links_and_nodes)
+  # The `ln` command (links_and_nodes.cli) in <prefix>/bin, which env.sh puts
+  # on PATH; in the build tree as python/ln (LN_CORE_LN of the tests).
+  file(RELATIVE_PATH LN_CLI_PACKAGE_PARENT "/x/${CMAKE_INSTALL_BINDIR}" "/x/${LN_PYTHON_INSTALL_DIR}")
+  configure_file(${LN_PYTHON_DIR}/ln.in ${CMAKE_BINARY_DIR}/python/ln.install @ONLY)
+  install(PROGRAMS ${CMAKE_BINARY_DIR}/python/ln.install DESTINATION ${CMAKE_INSTALL_BINDIR} RENAME ln)
 endif()
+set(LN_CLI_PACKAGE_PARENT ".")
+configure_file(${LN_PYTHON_DIR}/ln.in ${CMAKE_BINARY_DIR}/ln-launcher/ln @ONLY)
+file(COPY ${CMAKE_BINARY_DIR}/ln-launcher/ln DESTINATION ${CMAKE_BINARY_DIR}/python
+  FILE_PERMISSIONS OWNER_READ OWNER_WRITE OWNER_EXECUTE GROUP_READ GROUP_EXECUTE WORLD_READ WORLD_EXECUTE)
 
 # Not in a sanitizer build: an instrumented extension module would need the
 # sanitizer runtime preloaded into the interpreter. The sanitizer build still
@@ -97,5 +116,5 @@ if(BUILD_TESTING AND TARGET ln_manager AND NOT LN_SANITIZE)
     COMMAND ${Python_EXECUTABLE} -m pytest -q -p no:cacheprovider ${LN_PYTHON_DIR}/tests)
   set_tests_properties(ln_python_tests PROPERTIES
     TIMEOUT 600
-    ENVIRONMENT "PYTHONPATH=${CMAKE_BINARY_DIR}/python;LN_CORE_MANAGER=$<TARGET_FILE:ln_manager>;LN_CORE_GENERATE=$<TARGET_FILE:ln_generate>;LN_CORE_INCLUDE_DIR=${CMAKE_CURRENT_LIST_DIR}/../include;LN_CORE_LIB=$<TARGET_FILE:ln>")
+    ENVIRONMENT "PYTHONPATH=${CMAKE_BINARY_DIR}/python;LN_CORE_MANAGER=$<TARGET_FILE:ln_manager>;LN_CORE_GENERATE=$<TARGET_FILE:ln_generate>;LN_CORE_INCLUDE_DIR=${CMAKE_CURRENT_LIST_DIR}/../include;LN_CORE_LIB=$<TARGET_FILE:ln>;LN_CORE_LN=${CMAKE_BINARY_DIR}/python/ln")
 endif()
