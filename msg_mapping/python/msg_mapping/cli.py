@@ -15,6 +15,7 @@ examples:
   ln_ros2_gen --recursive defs --out ws/src/ln_interfaces --dry-run
   ln_ros2_gen --recursive defs --package robot_interfaces --out ws/src/robot_interfaces
   ln_ros2_gen --md-dir defs --rules rules.yaml --out ws/src/ln_interfaces my_robot/state
+  ln_ros2_gen --from-manager localhost:54414 --out ws/src --dry-run
   ln_ros2_gen --from-ros std_msgs geometry_msgs/msg/PoseStamped std_srvs/srv/SetBool --out ln_defs
 
 Naming (LN a/b/c -> ROS): package a_ln_msgs (one-component names: ln_msgs), type BC,
@@ -34,6 +35,9 @@ def parse_args(argv):
                    help="LN message-definition directory to search (repeatable, LN's search order)")
     p.add_argument("--recursive", action="append", default=[], metavar="DIR",
                    help="map every definition found under DIR (repeatable; DIR is searched too)")
+    p.add_argument("--from-manager", metavar="HOST:PORT",
+                   help="map the definition of every topic and the interface of every service this running "
+                        "LN manager (ln_core) knows, with the texts the manager has")
     p.add_argument("--standard-search-path", action="store_true",
                    help="after --md-dir, search LN's standard directories ($LN_MESSAGE_DEFINITION_DIRS, md.conf, ...)")
     p.add_argument("--out", metavar="DIR", help="output directory (packages go to DIR/<package>/)")
@@ -60,8 +64,9 @@ def parse_args(argv):
     ros.add_argument("--capacity", action="append", default=[], metavar="TYPE.FIELD=N",
                      help="capacity of one field, e.g. sensor_msgs/msg/Image.data=6220800 (repeatable)")
     args = p.parse_args(argv)
-    if not args.definitions and not args.recursive and not args.from_ros and not args.rules:
-        p.error("nothing to do: name definitions, --recursive DIR, --from-ros TYPE or --rules FILE")
+    if not (args.definitions or args.recursive or args.from_manager or args.from_ros or args.rules):
+        p.error("nothing to do: name definitions, --recursive DIR, --from-manager HOST:PORT, --from-ros TYPE "
+                "or --rules FILE")
     if not args.out and not args.dry_run:
         p.error("--out DIR is required (or --dry-run)")
     return args
@@ -146,6 +151,9 @@ def generate_ln_to_ros(args, out, report):
     for name in dict.fromkeys(names):  # keeps order, drops duplicates
         if name not in rule_mapped:
             gen.add(library, name)
+    # (the manager's definitions stay loaded while gen uses them)
+    manager_library = add_from_manager(args.from_manager, gen, rule_mapped, set(names), report) \
+        if args.from_manager else None  # noqa: F841
     packages = gen.packages()
     for package in packages:
         report.append(f"package {package['name']}" +
@@ -173,6 +181,22 @@ def generate_ln_to_ros(args, out, report):
     return packages
 
 
+def add_from_manager(address, gen, rule_mapped, added, report):
+    """Adds what the manager's topics and services use, from the manager's own texts
+    (names also given locally come from the local files). Returns the library that
+    holds them (it must outlive the generator's use of them)."""
+    from .manager import ManagerDefinitions
+    with ManagerDefinitions(address) as manager:
+        names = [n for n in manager.names() if n not in rule_mapped and n not in added]
+        count = len(manager.names())
+        report.append(f"from the LN manager at {address}: {count} definition{'' if count == 1 else 's'}")
+        for name in names:
+            report.append(f"  {name}: {', '.join(manager.used_by[name])}")
+            manager.load(name)
+            gen.add(manager.library, name)
+        return manager.library
+
+
 def generate_ros_to_ln(args, out, report):
     ros = _native.RosToLn(share_dirs(args), prefix=args.ln_prefix, string_capacity=args.string_capacity,
                           sequence_capacity=args.sequence_capacity, capacities=capacities(args))
@@ -195,16 +219,25 @@ def generate_ros_to_ln(args, out, report):
     out.write(os.path.join(args.ln_prefix, "ros_mapping.json"), ros.mapping_json())
 
 
+def input_errors():
+    """The exceptions that mean bad input. With ln_core's links_and_nodes loaded
+    (--from-manager), nanobind's process-wide translators may turn msg_mapping's
+    errors into its LNError."""
+    ln = sys.modules.get("links_and_nodes")
+    ln_error = getattr(ln, "LNError", None) if ln is not None else None
+    return (_native.MappingError, _native.DefinitionError) + ((ln_error,) if ln_error else ())
+
+
 def main(argv=None):
     args = parse_args(sys.argv[1:] if argv is None else argv)
     out = Output(args.out or ".", args.dry_run, args.check)
     report = []
     try:
-        if args.definitions or args.recursive or args.rules:
+        if args.definitions or args.recursive or args.rules or args.from_manager:
             generate_ln_to_ros(args, out, report)
         if args.from_ros:
             generate_ros_to_ln(args, out, report)
-    except (_native.MappingError, _native.DefinitionError) as e:
+    except input_errors() as e:
         print(f"ln_ros2_gen: error: {e}", file=sys.stderr)
         return 1
     if args.dry_run:
