@@ -2,7 +2,9 @@
 the configuration asks for, given what the LN manager and the ROS graph show.
 
 A reconciler thread does everything that creates or removes endpoints, once
-per `auto.period` (at once when LN 2.9's manager reports a change):
+per `auto.period`, and at once when the LN manager reports a change (a
+publisher or provider of a topic or service it knows came or went; see
+ln_introspection):
 
 1. (re)connect to the LN manager when there is no connection or it is gone;
 2. read the LN side (topics with publisher, services with provider) and the
@@ -17,11 +19,11 @@ per `auto.period` (at once when LN 2.9's manager reports a change):
 Loop prevention: an LN topic or service whose publisher/provider is a bridge
 client (loop_prevention.bridge_names) is never bridged to ROS, a ROS topic or
 service whose only publishers/servers are bridge nodes is never bridged to LN,
-and a ROS->LN subscription drops what arrives while all of its topic's publishers are
-bridges (rclpy does not say which publisher sent a message; see RosToLnTopic). Two
-bridges on one LN instance and ROS domain therefore never echo; when both could
-bridge the same thing automatically, a claim registered with the LN manager decides
-who does (see _should_take).
+and a ROS->LN subscription drops the messages of bridge publishers, telling them
+apart from other publishers on the same topic by the sender of each message (see
+RosToLnTopic, ros_senders). Two bridges on one LN instance and ROS domain therefore
+never echo; when both could bridge the same thing automatically, a claim registered
+with the LN manager decides who does (see _should_take).
 """
 
 import logging
@@ -136,7 +138,8 @@ class Bridge:
             return False
         try:
             self.ln = self._connect()
-            self._introspection = open_introspection(self.ln)
+            self._introspection = open_introspection(self.ln, [t.ln for t in self.config.topics],
+                                                     [s.ln for s in self.config.services])
             self._broken.clear()
             self._ln_retry_delay = 0.2
             log.info("connected to the LN manager at %s as %r (%s)", self.ln.manager_address, self.ln.name,
@@ -245,9 +248,11 @@ class Bridge:
         return self.config.is_bridge_name(fq_name)
 
     def _should_take(self, key, ros_name, others, graph):
-        """Whether this bridge should carry an automatic LN->ROS entry that other
-        bridges on this LN instance and ROS domain could carry too (`others`: the nodes
-        that already publish/serve its ROS name).
+        """Whether this bridge should carry an automatic entry that other bridges on this
+        LN instance and ROS domain could carry too (`others`: the nodes that already
+        publish/serve its ROS name; LN->ROS only). For ROS->LN entries this also keeps
+        two bridges from publishing one LN topic at once (LN 2.9's manager then never
+        answers the second publish).
 
         * another bridge already carries it: leave it (if both do, the one sorting first
           keeps it);
@@ -255,7 +260,7 @@ class Bridge:
           service name only once: whoever registers the claim (an LN service named after
           the ROS domain and name) carries the entry. The claim ends with the bridge's LN
           connection, so another bridge takes over when one goes away.
-        * LN without services (ln_core, for now): the bridge whose node name sorts first
+        * LN where the claim cannot be registered: the bridge whose node name sorts first
           gets SETTLE seconds to take it, and nothing is taken in the first SETTLE seconds
           (discovery) -- a heuristic that avoids most, not all, start-up races."""
         other_bridges = [n for n in others if self._is_bridge_node(n) and n != self.node_fq_name]
@@ -285,7 +290,8 @@ class Bridge:
         do not work with this LN (then _claims_supported turns False)."""
         if key in self._claims:
             return True
-        name = "%s.d%d%s" % (self.CLAIM_PREFIX, self.node.context.get_domain_id(), ros_name.replace("/", "."))
+        name = "%s.%s.d%d%s" % (self.CLAIM_PREFIX, key[0], self.node.context.get_domain_id(),
+                                ros_name.replace("/", "."))
         client = self.ln.client
         try:
             if not self._claim_type_ready:
@@ -405,6 +411,8 @@ class Bridge:
                     self._report(("ros-type", types[0]), "ROS topic %s: type %s has no LN counterpart; not bridged"
                                  % (ros_name, types[0]), level=logging.INFO)
                     continue
+                if not self._should_take(("topic", ln_name, "ros_to_ln"), ros_name, [], graph):
+                    continue   # another bridge publishes it into LN (LN allows one publisher)
                 desired[("topic", ln_name, "ros_to_ln")] = TopicEntry(
                     ln_name, ros_name, "ros_to_ln", ln_type=ln_type, ros_type=types[0],
                     qos=replace(config.qos, reliability="best_available", durability="best_available"),
@@ -426,6 +434,8 @@ class Bridge:
                     self._report(("ros-type", ros_type), "ROS service %s: type %s has no LN counterpart; "
                                  "not bridged" % (ros_name, ros_type), level=logging.INFO)
                     continue
+                if not self._should_take(("service", ln_name, "ros_to_ln"), ros_name, [], graph):
+                    continue   # another bridge provides it in LN
                 desired[("service", ln_name, "ros_to_ln")] = ServiceEntry(
                     ln_name, ros_name, "ros_to_ln", ln_type=ln_type, ros_type=ros_type,
                     timeout=config.service_timeout, origin="auto")

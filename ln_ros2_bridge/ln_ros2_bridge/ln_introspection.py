@@ -1,13 +1,14 @@
-"""What the LN manager knows: its topics (with publisher) and services (with provider).
+"""What the LN manager knows: its topics (with publisher) and services (with provider),
+and when that changes.
 
-LN's client API has no "list everything" call, so each manager is asked in its
+LN 2.9's client API has no "list everything" call, so each manager is asked in its
 own way:
 
-* ln_core's manager answers `list_topics` / `list_services` (src/protocol/
-  methods.hpp). The client package exposes them as client.list_topics() /
-  list_services() when available; otherwise we speak the manager's small
-  binary protocol on a connection of our own (wire.hpp: u32 size | u8 kind |
-  u32 id | u16 n | fields).
+* ln_core: the client package's introspection API on the bridge's own LN
+  connection (client.list_topics() / list_services()). The manager pushes
+  publisher and provider changes to every client; availability handlers on the
+  names the bridge knows raise `changed`, so the bridge reacts at once. Names it
+  has not seen yet show up at its next pass (auto.period).
 * LN 2.9's manager serves its GUI over the same port ("GUI\\0" + pickled
   tuples, the protocol of links_and_nodes_base.lnm_remote). We call its
   `get_topics` and `get_clients` and read the pickled objects with stub
@@ -226,136 +227,92 @@ class Ln29Introspection:
 
 
 # ---------------------------------------------------------------------------------------------
-# ln_core: list_topics / list_services
-_REQUEST, _RESPONSE = 1, 2
-
-
-def _encode_field(key, value):
-    k = key.encode()
-    if isinstance(value, bool):
-        return struct.pack("<B", len(k)) + k + struct.pack("<BB", 3, int(value))
-    if isinstance(value, int):
-        return struct.pack("<B", len(k)) + k + struct.pack("<Bq", 1, value)
-    data = str(value).encode()
-    return struct.pack("<B", len(k)) + k + struct.pack("<BI", 4, len(data)) + data
-
-
-def _decode_fields(payload):
-    kind, msg_id, count = struct.unpack_from("<BIH", payload, 0)
-    pos, fields = 7, {}
-    for _ in range(count):
-        (key_size,) = struct.unpack_from("<B", payload, pos)
-        key = payload[pos + 1:pos + 1 + key_size].decode()
-        pos += 1 + key_size
-        (kind_of_value,) = struct.unpack_from("<B", payload, pos)
-        pos += 1
-        if kind_of_value == 1:
-            (value,) = struct.unpack_from("<q", payload, pos)
-            pos += 8
-        elif kind_of_value == 2:
-            (value,) = struct.unpack_from("<d", payload, pos)
-            pos += 8
-        elif kind_of_value == 3:
-            value = bool(payload[pos])
-            pos += 1
-        elif kind_of_value == 4:
-            (size,) = struct.unpack_from("<I", payload, pos)
-            value = payload[pos + 4:pos + 4 + size].decode("utf-8", "replace")
-            pos += 4 + size
-        elif kind_of_value == 5:
-            (n,) = struct.unpack_from("<I", payload, pos)
-            pos += 4
-            value = []
-            for _ in range(n):
-                (size,) = struct.unpack_from("<I", payload, pos)
-                value.append(payload[pos + 4:pos + 4 + size].decode("utf-8", "replace"))
-                pos += 4 + size
-        else:
-            raise IntrospectionError("ln_core manager sent a field of unknown type %d" % kind_of_value)
-        fields[key] = value
-    return kind, msg_id, fields
-
-
+# ln_core: the client's introspection API
 class LnCoreIntrospection:
-    """The topics and services of an ln_core manager: through the client package
-    when it offers list_topics/list_services, else on a connection of our own."""
+    """The topics and services of an ln_core manager, asked through an ln_core
+    links_and_nodes client. `watch_topics` / `watch_services`: names to watch even
+    before the manager lists them (explicit entries)."""
 
-    def __init__(self, address, client=None, program_name="ln_ros2_bridge.introspection", timeout=5.0):
-        self.changed = threading.Event()   # ln_core pushes nothing here: the bridge polls
-        self._client = client if client is not None and hasattr(client, "list_topics") else None
-        self._timeout = timeout
-        self._sock = None
-        self._next_id = 0
+    MAX_WATCHED = 4096   # names per kind; beyond that the ones unlisted longest are let go
+
+    def __init__(self, client, watch_topics=(), watch_services=()):
+        if not hasattr(client, "list_topics") or not hasattr(client, "set_publisher_availability_handler"):
+            raise IntrospectionError("this ln_core links_and_nodes has no introspection API "
+                                     "(client.list_topics()): rebuild ln_core")
+        self.changed = threading.Event()
+        self.error = None   # (LN 2.9's watcher reports here; ln_core's connection fails ping instead)
+        self._client = client
+        self._explicit = {"topic": set(watch_topics), "service": set(watch_services)}
+        self._watched = {"topic": {}, "service": {}}   # name -> when it was last listed
         self._lock = threading.Lock()
-        if self._client is None:
-            self._sock = socket.create_connection(_split_address(address), timeout=timeout)
-            self._call("hello", program_name=program_name, pid=os.getpid(), library_version=32)
+        self._watch("topic", ())
+        self._watch("service", ())
 
-    def _call(self, method, **fields):
+    def _on_change(self, name, available):
+        self.changed.set()
+
+    def _set_handler(self, kind, name, handler):
+        if kind == "topic":
+            self._client.set_publisher_availability_handler(name, handler)
+        else:
+            self._client.set_service_availability_handler(name, handler)
+
+    def _watch(self, kind, listed):
+        """Watches the names listed now, the explicit ones, and the ones listed before
+        (a publisher or provider that left and comes back is reported too)."""
+        now = time.monotonic()
         with self._lock:
-            self._next_id += 1
-            body = _encode_field("method", method) + b"".join(_encode_field(k, v) for k, v in fields.items())
-            payload = struct.pack("<BIH", _REQUEST, self._next_id, 1 + len(fields)) + body
-            self._sock.sendall(struct.pack("<I", len(payload)) + payload)
-            while True:   # skip notifications until our response
-                size = struct.unpack("<I", self._recv_exact(4))[0]
-                kind, msg_id, answer = _decode_fields(self._recv_exact(size))
-                if kind == _RESPONSE and msg_id == self._next_id:
-                    break
-        if "error_code" in answer:
-            raise IntrospectionError("ln_core manager refused %s: %s" % (method, answer.get("error", "")))
-        return answer
+            watched = self._watched[kind]
+            for name in sorted(set(listed) | self._explicit[kind]):
+                if name not in watched:
+                    self._set_handler(kind, name, self._on_change)
+                watched[name] = now
+            if len(watched) > self.MAX_WATCHED:
+                for name in sorted(watched, key=watched.get)[:len(watched) - self.MAX_WATCHED]:
+                    self._set_handler(kind, name, None)
+                    del watched[name]
 
-    def _recv_exact(self, n):
-        chunks = []
-        while n:
-            data = self._sock.recv(n)
-            if not data:
-                raise IntrospectionError("ln_core manager closed the connection")
-            chunks.append(data)
-            n -= len(data)
-        return b"".join(chunks)
-
-    def _table(self, method):
-        if self._client is not None:
-            return getattr(self._client, method)()
+    def _list(self, method):
         try:
-            return self._call(method)
-        except (OSError, struct.error) as error:
-            raise IntrospectionError("ln_core manager: %s" % error) from error
+            return getattr(self._client, method)()
+        except Exception as error:   # LNError: connection lost, ...
+            raise IntrospectionError("ln_core manager: %s: %s" % (method, " ".join(str(error).split()))) from error
 
     def topics(self):
-        t = self._table("list_topics")
-        if isinstance(t, list):   # the client package's form: a list of dicts
-            return [LnTopicInfo(d["name"], d.get("definition", ""), d.get("publisher", "")) for d in t]
-        return [LnTopicInfo(n, md.split("|")[0], p)
-                for n, md, p in zip(t["names"], t["definitions"], t["publishers"])]
-
-    def snapshot(self):
-        return self.topics(), self.services()
+        return [LnTopicInfo(t.name, t.message_definition.split("|")[0], t.publisher)
+                for t in self._list("list_topics")]
 
     def services(self):
-        t = self._table("list_services")
-        if isinstance(t, list):
-            return [LnServiceInfo(d["name"], d.get("interface", ""), d.get("provider", "")) for d in t]
-        return [LnServiceInfo(n, i.split("|")[0], p)
-                for n, i, p in zip(t["names"], t["interfaces"], t["providers"])]
+        return [LnServiceInfo(s.name, s.interface.split("|")[0], s.provider) for s in self._list("list_services")]
+
+    def snapshot(self):
+        """(topics, services) as the manager sees them now; from now on changes of
+        their publishers and providers raise `changed`."""
+        topics, services = self.topics(), self.services()
+        try:
+            self._watch("topic", [t.name for t in topics])
+            self._watch("service", [s.name for s in services])
+        except Exception as error:
+            raise IntrospectionError("ln_core manager: watching publishers and providers: %s"
+                                     % " ".join(str(error).split())) from error
+        return topics, services
 
     def close(self):
-        if self._sock is not None:
-            try:
-                self._call("goodbye")
-            except Exception:
-                pass
-            self._sock.close()
-            self._sock = None
+        with self._lock:
+            for kind, names in self._watched.items():
+                for name in names:
+                    try:
+                        self._set_handler(kind, name, None)
+                    except Exception:   # the connection may be gone already
+                        pass
+                names.clear()
 
 
-def open_introspection(conn):
+def open_introspection(conn, watch_topics=(), watch_services=()):
     """The introspection for an LnConnection's manager."""
-    address = conn.manager_address or os.environ.get("LN_MANAGER", "")
-    if not address:
-        raise IntrospectionError("no LN manager address (ln.manager in the configuration or $LN_MANAGER)")
     if conn.flavor == "ln29":
+        address = conn.manager_address or os.environ.get("LN_MANAGER", "")
+        if not address:
+            raise IntrospectionError("no LN manager address (ln.manager in the configuration or $LN_MANAGER)")
         return Ln29Introspection(address)
-    return LnCoreIntrospection(address, conn.client)
+    return LnCoreIntrospection(conn.client, watch_topics, watch_services)

@@ -56,9 +56,10 @@ def main(argv=None):
               % (config.source, len(config.topics), len(config.services), "on" if config.auto.enabled else "off"))
         return 0
 
-    from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+    from rclpy.executors import ExternalShutdownException
 
     from .bridge import Bridge
+    from .ros_senders import SenderAwareExecutor
     from .types import UnknownType
 
     # LN reader threads hand packets to rclpy: let a woken thread get the GIL within
@@ -73,7 +74,7 @@ def main(argv=None):
         node.destroy_node()
         rclpy.shutdown()
         return 2
-    executor = MultiThreadedExecutor(num_threads=config.executor_threads)
+    executor = SenderAwareExecutor(num_threads=config.executor_threads)   # loop prevention per publisher
     executor.add_node(node)
     stop = threading.Event()
 

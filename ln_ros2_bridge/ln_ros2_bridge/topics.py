@@ -8,6 +8,8 @@ import time
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
+from .ros_senders import SenderFilter, endpoint_gid, publisher_gid, want_sender
+
 log = logging.getLogger("ln_ros2_bridge.topics")
 
 _RELIABILITY = {"reliable": ReliabilityPolicy.RELIABLE, "best_effort": ReliabilityPolicy.BEST_EFFORT,
@@ -117,16 +119,22 @@ class LnToRosTopic:
 class RosToLnTopic:
     """A raw ROS subscription written into an LN topic this bridge publishes.
 
-    Loop prevention: rclpy does not say which publisher sent a message, so the decision
-    is per topic, from the ROS graph. While every publisher on the topic is a bridge
-    (this one or another: is_bridge_node), messages are dropped -- they came from LN
-    and must not go back. A publisher whose node is not known yet (discovery still
-    running) counts as a bridge for up to PENDING seconds. The graph is looked at again
-    whenever the subscription's publisher count changes, so a bridge publisher that
-    appears is caught before its first message is forwarded."""
+    Loop prevention: messages from bridge publishers (this bridge's and other
+    bridges', is_bridge_node on the publisher's node) came from LN and must not go
+    back. Per publisher where the message says who sent it (SenderAwareExecutor,
+    see ros_senders): a bridge's messages are dropped, everybody else's forwarded,
+    on the same topic.
+
+    Without the sender (rclpy's plain take) the decision is per topic, from the
+    ROS graph: while every publisher on the topic is a bridge, messages are
+    dropped; a publisher whose node is not known yet counts as a bridge for up to
+    PENDING seconds; the graph is looked at again whenever the subscription's
+    publisher count changes, so a bridge publisher that appears is caught before
+    its first message is forwarded. If bridges and others share the topic, all of
+    it goes to LN, and a warning says so."""
 
     direction = "ros_to_ln"
-    PENDING = 2.0
+    PENDING = SenderFilter.PENDING
     UNKNOWN_NODE = "_NODE_NAME_UNKNOWN_"
 
     def __init__(self, node, ln, entry, topic_type, is_bridge_node):
@@ -134,14 +142,18 @@ class RosToLnTopic:
         self.topic_type = topic_type
         self.count = 0
         self.errors = 0
-        self.ignored = 0
+        self._ignored = 0   # messages dropped by the per-topic decision
         self._node = node
         self._ln = ln
         self._is_bridge_node = is_bridge_node
         self._warn = _RateLimitedLog(log)
+        self._write_lock = threading.Lock()   # the packet buffer: executor thread and reconciler
+        self._senders = SenderFilter(entry.ros, self._publisher_nodes, is_bridge_node, hold=entry.qos.depth)
+        self._per_publisher = False
         self._publisher_count = -1
         self._forward = False
         self._pending_since = None
+        self._mixed = None   # (bridges, others) publishing the topic, when both do
         self._mixed_reported = False
         self.port = ln.publish(entry.ln, topic_type.ln_name, entry.ln_port.buffers)
         if len(self.port.buffer) != topic_type.ln_size:
@@ -149,24 +161,41 @@ class RosToLnTopic:
             raise ValueError("LN topic %s carries %d-byte packets but %s is %d bytes: the definitions differ"
                              % (entry.ln, len(self.port.buffer), topic_type.ln_name, topic_type.ln_size))
         # One callback at a time per topic (the packet buffer is shared), topics in parallel.
-        self.subscription = node.create_subscription(
+        self.subscription = want_sender(node.create_subscription(
             topic_type.msg_class, entry.ros, self._on_message, qos_profile(entry.qos, False),
-            callback_group=MutuallyExclusiveCallbackGroup(), raw=True)
+            callback_group=MutuallyExclusiveCallbackGroup(), raw=True))
+
+    @property
+    def ignored(self):
+        """Messages not forwarded because a bridge sent them."""
+        return self._senders.dropped + self._ignored
+
+    def _publisher_nodes(self):
+        """{gid: fully qualified node name, "" when not known yet} of the topic's publishers."""
+        nodes = {}
+        for i in self._node.get_publishers_info_by_topic(self.entry.ros):
+            known = i.node_name and i.node_name != self.UNKNOWN_NODE
+            nodes[endpoint_gid(i)] = ((i.node_namespace.rstrip("/") + "/" + i.node_name) if known else "")
+        return nodes
 
     def refresh_sources(self):
-        """Re-reads who publishes the topic (also called by the bridge every pass)."""
+        """Re-reads who publishes the topic (called by the bridge every pass): held
+        messages whose publisher is known now are forwarded or dropped."""
+        with self._write_lock:
+            for cdr, stamp in self._senders.resolve():
+                self._write(cdr, stamp)
+        if not self._per_publisher:
+            self._refresh_topic_sources()
+
+    def _refresh_topic_sources(self):
         self._publisher_count = self.subscription.get_publisher_count()
         nodes = [i.node_name for i in self._node.get_publishers_info_by_topic(self.entry.ros)]
         bridges = [n for n in nodes if self._is_bridge_node(n)]
         unknown = [n for n in nodes if n == self.UNKNOWN_NODE]
         others = [n for n in nodes if n not in bridges and n not in unknown]
+        self._mixed = (bridges, others) if bridges and others else None
         if others:
             self._forward, self._pending_since = True, None
-            if bridges and not self._mixed_reported:
-                self._mixed_reported = True
-                log.warning("ROS topic %s has publishers from bridges (%s) and from others (%s): a ROS message "
-                            "does not say who sent it, so the bridges' messages go to LN %s too",
-                            self.entry.ros, ", ".join(bridges), ", ".join(others), self.entry.ln)
         elif unknown:
             now = time.monotonic()
             self._pending_since = self._pending_since or now
@@ -175,14 +204,29 @@ class RosToLnTopic:
             self._forward, self._pending_since = False, None
 
     def _on_message(self, cdr, info):
-        if self._pending_since is not None or self.subscription.get_publisher_count() != self._publisher_count:
-            self.refresh_sources()
-        if not self._forward:
-            self.ignored += 1
-            return
+        stamp = info.get("source_timestamp")
+        gid = publisher_gid(info)
+        with self._write_lock:
+            if gid is not None:
+                self._per_publisher = True
+                for held_cdr, held_stamp in self._senders.admit(gid, (cdr, stamp)):
+                    self._write(held_cdr, held_stamp)
+                return
+            if self._pending_since is not None or self.subscription.get_publisher_count() != self._publisher_count:
+                self._refresh_topic_sources()
+            if not self._forward:
+                self._ignored += 1
+                return
+            if self._mixed and not self._mixed_reported:
+                self._mixed_reported = True
+                log.warning("ROS topic %s has publishers from bridges (%s) and from others (%s): without the "
+                            "sender of each message, the bridges' messages go to LN %s too",
+                            self.entry.ros, ", ".join(self._mixed[0]), ", ".join(self._mixed[1]), self.entry.ln)
+            self._write(cdr, stamp)
+
+    def _write(self, cdr, stamp):
         try:
             self.topic_type.cdr_to_ln_into(cdr, self.port.buffer)
-            stamp = info.get("source_timestamp")
             self.port.write(stamp / 1e9 if stamp else None)
             self.count += 1
         except Exception as error:   # e.g. a string longer than the LN field: drop this one

@@ -19,12 +19,12 @@ import importlib
 import json
 import logging
 import os
-import re
 import threading
 import time
 from dataclasses import dataclass
 
 import msg_mapping
+from msg_mapping.manager import load_fetching
 from msg_mapping.rules import compile_rules, load_rules
 
 log = logging.getLogger("ln_ros2_bridge.types")
@@ -126,26 +126,12 @@ class TypeRegistry:
             self._fetched.clear()
 
     def _load(self, ln_name):
-        """The definition's model; missing definitions (and their imports) are
+        """The definition's model; missing definitions (and what they import) are
         fetched from the LN manager first, each name at most once."""
-        for _ in range(32):
-            try:
-                return self._library.load(ln_name)
-            except Exception as error:
-                # Usually msg_mapping.DefinitionError; but when ln_core's links_and_nodes is
-                # loaded too, its exception translator (nanobind's are process-wide) turns
-                # the same C++ error into LNError.
-                match = re.search(r"definition '([^']+)' not found", str(error))
-                missing = match.group(1) if match else None
-                if self._fetch_definition is None or missing is None or missing in self._fetched:
-                    raise
-                self._fetched.add(missing)
-                try:
-                    self._fetch_definition(missing)
-                except Exception as fetch_error:
-                    log.debug("cannot fetch LN definition %s: %s", missing, fetch_error)
-                    raise error from None
-        return self._library.load(ln_name)
+        if self._fetch_definition is None:
+            return self._library.load(ln_name)
+        return load_fetching(lambda name: self._library.load(name), ln_name, self._fetch_definition,
+                             self._fetched)
 
     def ln_hash(self, ln_name):
         with self._lock:

@@ -206,3 +206,29 @@ def ros():
 
 def wait_until(predicate, timeout, what):
     return support.wait_for(predicate, timeout, what, interval=0.02)
+
+
+def ln_snapshot(ln):
+    """(topics, services) the LN manager knows now, as the bridge reads them; the probe's
+    client name matches the bridges' pattern, so bridges ignore it."""
+    from ln_ros2_bridge.ln_introspection import Ln29Introspection, LnCoreIntrospection
+    if ln.kind == "ln29":
+        intro = Ln29Introspection(ln.address)
+        try:
+            return intro.snapshot()
+        finally:
+            intro.close()
+    client = ln_core_probe(ln)
+    try:
+        intro = LnCoreIntrospection(client)
+        return intro.topics(), intro.services()
+    finally:
+        client.close()
+
+
+def ln_core_probe(ln):
+    """An ln_core links_and_nodes client of the test's manager (close it)."""
+    if ln.python_path() not in sys.path:
+        sys.path.insert(0, ln.python_path())
+    import links_and_nodes
+    return links_and_nodes.client("ln_ros2_bridge_test_probe", ln.address)

@@ -3,19 +3,9 @@ they come and go; filters; unknown types; two bridges without echo."""
 
 import time
 
-from conftest import wait_until
-from ln_ros2_bridge.ln_introspection import Ln29Introspection, LnCoreIntrospection
+from conftest import ln_core_probe, ln_snapshot, wait_until
 
 AUTO = {"auto": {"enabled": True, "period": 0.3}}
-
-
-def ln_snapshot(ln):
-    intro = Ln29Introspection(ln.address) if ln.kind == "ln29" else \
-        LnCoreIntrospection(ln.address, program_name="ln_ros2_bridge_test_probe")
-    try:
-        return intro.snapshot()
-    finally:
-        intro.close()
 
 
 def ros_publishers(ros, topic):
@@ -57,6 +47,38 @@ def test_services_follow_ln_providers(ln, start_bridge, ln_peer, ros):
     provider.stop()
     wait_until(lambda: not served_by(ros, "ln_ros2_bridge", "/bt/acompute"), 20, "/bt/acompute to go away")
     assert bridge.running()
+
+
+def test_ln_changes_reach_ros_at_once(ln, start_bridge, ln_peer, ros):
+    """With auto.period a minute away, an LN publisher or provider leaving, and coming
+    back, changes the ROS side within seconds: the manager reports it, the bridge does
+    not wait for its next pass."""
+    def ros_side():
+        return bool(ros_publishers(ros, "/bt/prompt")), served_by(ros, "ln_ros2_bridge", "/bt/prompt_srv")
+
+    def start_ln_side():
+        peers = (ln_peer("lnpub", "publish", "bt.prompt", "--count", 100000, "--rate", 20),
+                 ln_peer("lnsrv", "provide", "bt.prompt_srv"))
+        for peer in peers:
+            peer.wait_event("ready")
+        return peers
+
+    peers = start_ln_side()
+    start_bridge({"auto": {"enabled": True, "period": 60.0}})
+    wait_until(lambda: ros_side() == (True, True), 20, "the bridge's first pass bridging both")
+    for peer in peers:
+        peer.stop()
+    wait_until(lambda: ros_side() == (False, False), 8, "both to leave ROS after the LN side left")
+    start_ln_side()
+    wait_until(lambda: ros_side() == (True, True), 8, "both back on ROS")
+    if ln.kind == "ln_core":   # and it asks the manager on its one LN connection
+        probe = ln_core_probe(ln)
+        try:
+            clients = [c.name for c in probe.list_clients()]
+        finally:
+            probe.close()
+        assert [c for c in clients if c.startswith("ln_ros2_bridge") and c != probe.name] == ["ln_ros2_bridge"], \
+            clients
 
 
 def test_ros_publishers_and_servers_appear_in_ln(ln, start_bridge, ln_peer, ros):
@@ -133,31 +155,47 @@ def test_two_bridges_do_not_echo_or_duplicate(ln, start_bridge, ln_peer, ros):
     assert ros_publishers(ros, "/bt/ros_side") == [(ros.node.get_name(), "bridgetest_ln_msgs/msg/Sample")]
 
 
+def packets(subscriber):
+    return [e for e in subscriber.events() if e["event"] == "packet"]
+
+
+def ros_label(text):
+    data = list(text.encode())
+    return data + [0] * (16 - len(data))
+
+
 def test_messages_from_bridge_publishers_are_not_bridged_back(ln, start_bridge, ln_peer, ros):
     """Bridge A carries LN bt.x to ROS /bt/x; bridge B is told to carry ROS /bt/x into LN
-    bt.y. While only bridges publish /bt/x, B forwards nothing. A plain ROS publisher's
-    messages are forwarded; rclpy cannot say who sent a message, so from then on A's go
-    along too, which B reports once."""
+    bt.y. B drops what A publishes -- per publisher: when a plain ROS node publishes on
+    /bt/x too, B forwards exactly that node's messages, while A keeps publishing."""
     from bridgetest_ln_msgs.msg import Sample
     start_bridge({"topics": [{"ln": "bt.x", "type": "bridgetest/sample"}]}, name="bridge_a",
                  extra_args=["--node-name", "ln_ros2_bridge_a", "--ln-client-name", "ln_ros2_bridge_a"],
                  wait=["bridging topic bt.x"])
     bridge_b = start_bridge({"topics": [{"ln": "bt.y", "ros": "/bt/x", "type": "bridgetest/sample",
-                                         "direction": "ros_to_ln"}]},
-                 name="bridge_b", extra_args=["--node-name", "ln_ros2_bridge_b", "--ln-client-name", "ln_ros2_bridge_b"],
-                 wait=["bridging topic bt.y"])
+                                         "direction": "ros_to_ln"}]}, name="bridge_b",
+                            extra_args=["--node-name", "ln_ros2_bridge_b", "--ln-client-name", "ln_ros2_bridge_b"],
+                            wait=["bridging topic bt.y"])
     from_ros = []
     ros.node.create_subscription(Sample, "/bt/x", from_ros.append, 50)
-    subscriber = ln_peer("lnsub", "subscribe", "bt.y", "--count", 5)
+    subscriber = ln_peer("lnsub", "subscribe", "bt.y", "--count", 10)
     subscriber.wait_event("ready")
     ln_peer("lnpub", "publish", "bt.x", "--count", 100000, "--rate", 50)
     wait_until(lambda: len(from_ros) >= 25, 20, "bridge A's samples on /bt/x")
-    assert not [e for e in subscriber.events() if e["event"] == "packet"], "bridge B re-bridged bridge A's data"
+    assert packets(subscriber) == [], "bridge B re-bridged bridge A's data"
+    last_of_a = max(m.seq for m in from_ros)
+
     publisher = ros.node.create_publisher(Sample, "/bt/x", 10)
     wait_until(lambda: publisher.get_subscription_count() >= 2, 20, "bridge B matching our publisher")
     deadline = time.monotonic() + 20
-    while time.monotonic() < deadline and len([e for e in subscriber.events() if e["event"] == "packet"]) < 5:
-        publisher.publish(Sample(seq=90000, label=[0] * 16))
+    seq = 90000
+    while time.monotonic() < deadline and len(packets(subscriber)) < 10:
+        publisher.publish(Sample(seq=seq, label=ros_label("ros%d" % seq)))
+        seq += 1
         time.sleep(0.02)
-    assert 90000 in {e["seq"] for e in subscriber.wait_event("packet", 10, count=5)}
-    bridge_b.wait_log("has publishers from bridges .*ln_ros2_bridge_a.* and from others", 10)
+    received = subscriber.wait_event("packet", 10, count=10)
+    assert [p["label"] for p in received if not p["label"].startswith("ros")] == [], \
+        "bridge B forwarded bridge A's messages"
+    assert all(p["seq"] >= 90000 for p in received)
+    assert any(last_of_a < m.seq < 90000 for m in from_ros), "bridge A stopped publishing meanwhile"
+    assert "without the sender of each message" not in bridge_b.text()

@@ -55,3 +55,25 @@ def test_cyclone_to_ln(ln, start_bridge, ln_peer, processes, tmp_path, dds_env):
     last = packets[-1]
     assert last["vec"] == [1.0, 2.0, float(last["seq"])] and last["stamp"] == last["seq"] * 0.25
     assert (last["small"], last["flags"], last["label"]) == (-3, 7, "cyc%d" % last["seq"])
+
+
+def test_cyclone_publisher_beside_a_bridge_publisher(ln, start_bridge, ln_peer, processes, tmp_path, dds_env):
+    """/bt/cyc_mix has two publishers: bridge A (from LN) and a plain Cyclone DDS writer,
+    which has no ROS node. Bridge B carries /bt/cyc_mix into LN: the Cyclone writer's
+    samples only (held until the writer counts as a non-bridge), none of bridge A's."""
+    start_bridge({"topics": [{"ln": "bt.cyc_mix", "ros": "/bt/cyc_mix", "type": "bridgetest/sample"}]},
+                 name="bridge_a", wait=["bridging topic bt.cyc_mix"], env=dds_env,
+                 extra_args=["--node-name", "ln_ros2_bridge_a", "--ln-client-name", "ln_ros2_bridge_a"])
+    start_bridge({"topics": [{"ln": "bt.cyc_back", "ros": "/bt/cyc_mix", "type": "bridgetest/sample",
+                              "direction": "ros_to_ln"}]},
+                 name="bridge_b", wait=["bridging topic bt.cyc_back"], env=dds_env,
+                 extra_args=["--node-name", "ln_ros2_bridge_b", "--ln-client-name", "ln_ros2_bridge_b"])
+    subscriber = ln_peer("lnsub", "subscribe", "bt.cyc_back", "--count", 10)
+    subscriber.wait_event("ready")
+    ln_peer("lnpub", "publish", "bt.cyc_mix", "--count", 100000, "--rate", 50)
+    reader = cyclone_peer(processes, tmp_path, dds_env, "sub", "/bt/cyc_mix", "--count", 10)
+    reader.wait_event("sample", 30, count=10)   # bridge A's samples are on the topic
+    cyclone_peer(processes, tmp_path, dds_env, "pub", "/bt/cyc_mix", "--count", 100000, "--rate", 50)
+    packets = subscriber.wait_event("packet", 30, count=10)
+    assert [p["label"] for p in packets if not p["label"].startswith("cyc")] == [], \
+        "bridge B forwarded bridge A's samples"

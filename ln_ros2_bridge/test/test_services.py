@@ -64,10 +64,12 @@ def test_ln_caller_calls_ros_server(ln, start_bridge, ln_peer, ros):
         return response
 
     ros.node.create_service(Compute, "/bt/rcompute", handle)
+    # (the timeout includes the bridge's wait for DDS discovery of our server: seconds on a busy machine)
     start_bridge({"services": [{"ln": "bt.rcompute", "ros": "/bt/rcompute", "type": "bridgetest/compute",
-                                "direction": "ros_to_ln", "timeout": 2.0}]},
+                                "direction": "ros_to_ln", "timeout": 10.0}]},
                  wait=["bridging service bt.rcompute"])
-    caller = ln_peer("lncall", "call", "bt.rcompute", "--request", '{"a": 2, "values": [1, 2, 3.5], "op": "x"}')
+    caller = ln_peer("lncall", "call", "bt.rcompute", "--request", '{"a": 2, "values": [1, 2, 3.5], "op": "x"}',
+                     "--timeout", 15)
     (answer,) = caller.wait_event("response", 20)
     assert answer["result"] == 13.0 and answer["error_message"] == "ros:x", answer
 

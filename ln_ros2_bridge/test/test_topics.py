@@ -18,7 +18,8 @@ def test_ln_to_ros_fields(ln, start_bridge, ln_peer, ros):
     bridge = start_bridge(_sample_config(), wait=["bridging topic bt.sample"])
     received = []
     ros.node.create_subscription(Sample, "/bt/sample", received.append, 50)
-    publisher = ln_peer("lnpub", "publish", "bt.sample", "--count", 200, "--rate", 100, "--wait-subscriber")
+    # for up to 20 s: samples published before DDS discovery matched our subscription are lost
+    publisher = ln_peer("lnpub", "publish", "bt.sample", "--count", 2000, "--rate", 100, "--wait-subscriber")
     wait_until(lambda: len(received) >= 20, 30, "20 samples on /bt/sample")
     message = received[-1]
     seq = message.seq
