@@ -209,7 +209,7 @@ class System:
     def _spawn_manager(self, cmd, log: Path, env: dict) -> None:
         self.manager = subprocess.Popen([str(c) for c in cmd], stdin=subprocess.DEVNULL,
                                         stdout=log.open("w"), stderr=subprocess.STDOUT,
-                                        env={**os.environ, **env}, start_new_session=True)
+                                        env={**os.environ, **env}, process_group=0)
 
     def _wait_log(self, log: Path, pattern: str, timeout: float) -> re.Match:
         """Waits (polling the manager's log file) until `pattern` appears."""
@@ -500,7 +500,7 @@ def run_pair(ctx, system: System, server: list, client: list, *, cpus: tuple[int
     ctx.log_text(f"$ [{system.label}] {shlex.join(srv_cmd)} &\n")
     deadline = time.monotonic() + timeout
     srv = subprocess.Popen(srv_cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                           text=True, env=env, start_new_session=True)
+                           text=True, env=env, process_group=0)
     system.started_pids.add(srv.pid)
     q: queue.Queue = queue.Queue()
     threading.Thread(target=_reader, args=(srv.stdout, q), daemon=True).start()
@@ -530,7 +530,7 @@ def run_pair(ctx, system: System, server: list, client: list, *, cpus: tuple[int
             ready = '"ready": true' in line
         ctx.log_text(f"$ [{system.label}] {shlex.join(cli_cmd)}\n")
         cli = subprocess.Popen(cli_cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                               text=True, env=env, start_new_session=True)
+                               text=True, env=env, process_group=0)
         system.started_pids.add(cli.pid)
         try:
             cli_out, _ = cli.communicate(timeout=max(1.0, deadline - time.monotonic()))
@@ -573,7 +573,7 @@ def run_single(ctx, system: System, cmd: list, *, cpu: int, timeout: float, what
     full = ["taskset", "-c", str(cpu)] + [str(c) for c in cmd]
     ctx.log_text(f"$ [{system.label}] {shlex.join(full)}\n")
     proc = subprocess.Popen(full, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True, env=env, start_new_session=True)
+                            text=True, env=env, process_group=0)
     system.started_pids.add(proc.pid)
     try:
         out, _ = proc.communicate(timeout=timeout)

@@ -1,6 +1,6 @@
 // Pub/sub round trip, LN 2.9 C++ API (compiled against LN 2.9 and ln_core).
 //
-//   ln_pingpong pong --size S [--topic T] [--mode copy|borrow|zc] [--idle 20]
+//   ln_pingpong pong --size S [--topic T] [--mode copy|loan|borrow|zc] [--idle 20]
 //   ln_pingpong ping --size S [--topic T] [--mode ...] --n N --warmup W
 //
 // Topics T.ping (ping -> pong) and T.pong (pong -> ping), buffers=1, rate -1,
@@ -8,6 +8,11 @@
 // pattern, writes, and reads T.pong until the echo of that number arrives
 // (timed: write -> matching read), then checks the payload. Modes:
 //   copy    LN 2.9 usage: write() copies in, read() copies out (4 copies/RTT)
+//   loan    LN 2.9 API too: loaned writes (get_next_buffer) + copying reads:
+//           ping produces the stamped packet in the loaned buffer before the
+//           timer starts, pong reads straight into its loaned buffer and
+//           writes that (2 copies/RTT where write() of a loaned buffer does
+//           not copy it again)
 //   borrow  ln_core: reads lend the packet in place (ln_read_borrow); pong
 //           writes straight from the lent packet (2 copies/RTT)
 //   zc      ln_core: loaned writes (get_next_buffer) + lent reads, no payload
@@ -30,6 +35,7 @@ struct Ports {
 std::string g_mode;
 
 bool mode_lends() { return g_mode == "borrow" || g_mode == "zc"; }
+bool mode_loans_writes() { return g_mode == "loan" || g_mode == "zc"; }
 
 #ifdef LN_CORE_EXTENSIONS
 // Waits (at most `timeout` s) for a packet on `in` and lends it.
@@ -37,7 +43,7 @@ ln::borrowed_sample borrow(ln::inport* in, double timeout) { return in->borrow(t
 #endif
 
 void check_mode() {
-  if (g_mode == "copy") return;
+  if (g_mode == "copy" || g_mode == "loan") return;
 #ifdef LN_CORE_EXTENSIONS
   if (g_mode == "borrow" || g_mode == "zc") return;
 #endif
@@ -58,10 +64,13 @@ int pong(ln::client& clnt, const Args& args) {
     uint32_t seq = 0;
     bool got = false;
     if (!mode_lends()) {
-      got = in->read(packet.data(), 0.5);
+      // A loan stays open across a read that timed out: the same buffer comes back.
+      unsigned int len = 0;
+      void* target = g_mode == "loan" ? out->get_next_buffer(&len) : packet.data();
+      got = in->read(target, 0.5);
       if (got) {
-        std::memcpy(&seq, packet.data(), 4);
-        if (seq != kStop) out->write(packet.data());
+        std::memcpy(&seq, target, 4);
+        if (seq != kStop) out->write(target);
       }
     }
 #ifdef LN_CORE_EXTENSIONS
@@ -95,7 +104,7 @@ int pong(ln::client& clnt, const Args& args) {
 
 // Writes packet `seq` (stamped) on ports.out.
 void send(Ports& p, std::vector<unsigned char>& local, long size, uint32_t seq) {
-  if (g_mode == "zc") {
+  if (mode_loans_writes()) {
     unsigned int len = 0;
     void* buf = p.out->get_next_buffer(&len);
     stamp(buf, size, seq);
@@ -183,9 +192,9 @@ int ping(ln::client& clnt, const Args& args) {
     if (seconds_since(t_start) > max_seconds)
       throw Failure("round trips took longer than " + std::to_string(max_seconds) + " s");
     // The packet is produced before the timed part: in the local buffer, or
-    // (zc) in place in the loaned slot.
+    // (loan, zc) in place in the loaned buffer.
     void* produced = local.data();
-    if (g_mode == "zc") {
+    if (mode_loans_writes()) {
       unsigned int len = 0;
       produced = p.out->get_next_buffer(&len);
     }

@@ -10,7 +10,10 @@
 // The subscriber (started first; prints "ready" once subscribed) does reads
 // with a 1 s timeout and classifies every packet by its sequence number: new
 // (higher than any seen), repeated (same as the previous one), older; it
-// counts the numbers skipped (lost) and checks every payload byte (torn).
+// counts the numbers skipped (lost) after the first packet it got (first_seq;
+// packets before that one are missing from `delivered` but not counted as
+// lost: typically written before the subscription was in place) and checks
+// every payload byte (torn).
 // The publisher waits for has_subscriber(), writes as fast as it can for S
 // seconds (payload bytes = seq & 0xff), then writes a stop packet carrying the
 // number written and waits (bounded) for the subscriber to go away.
@@ -40,6 +43,7 @@ int sub(ln::client& clnt, const Args& args) {
   long long reads = 0, fresh = 0, repeats = 0, older = 0, lost = 0, torn = 0;
   long long written = -1;
   long long last = -1;
+  long long first = -1;
   Clock::time_point t_first{}, t_last{};
   for (long long i = 0; i < 2000000000LL; ++i) {
     if (seconds_since(t_start) > max_seconds) throw Failure("no stop packet within max-seconds");
@@ -61,7 +65,10 @@ int sub(ln::client& clnt, const Args& args) {
     }
     const long long s = pkt.seq;
     if (s > last) {
-      if (fresh == 0) t_first = now;
+      if (fresh == 0) {
+        t_first = now;
+        first = s;
+      }
       if (last >= 0) lost += s - last - 1;
       ++fresh;
       last = s;
@@ -84,6 +91,7 @@ int sub(ln::client& clnt, const Args& args) {
       .integer("repeats", repeats)
       .integer("older", older)
       .integer("lost", lost)
+      .integer("first_seq", first)
       .integer("torn", torn)
       .num("window_s", window)
       .num("delivered_per_s", window > 0 ? fresh / window : 0)
