@@ -204,6 +204,52 @@ def test_rate_decimation(lnbt):
         assert min(steps) >= 15, f"{system}: packets closer than 1/rate: {seen}"
 
 
+@pytest.mark.parametrize("order,pub_buffers", [("subscriber_first", 1), ("publisher_first", 256),
+                                               ("publisher_first", 1)])
+def test_waiting_publisher_loses_nothing(lnbt, order, pub_buffers):
+    """The publisher waits for has_subscriber() and then writes 200 packets
+    back to back; the subscriber (256 buffers) gets every one, in order.
+    LN 2.9 does too as long as its segment already has the subscriber's
+    buffers; a publisher with 1 buffer and a later subscriber makes it
+    re-create the segment, and the packets written meanwhile are lost (all of
+    them here). ln_core loses none there either (documented difference)."""
+    results = {}
+    for system in lnbt.systems():
+        name = topic(f"join.{order}.{pub_buffers}")
+        env = lnbt.client_env(system)
+        sub_argv = [system.programs["lnbt_subscriber"], name, "--buffers", "256", "--count", "200",
+                    "--first-timeout", "5", "--duration", "3"]
+        pub_argv = [system.programs["lnbt_publisher"], name, "200", "0", "--wait-subscriber", "5",
+                    "--buffers", str(pub_buffers), "--linger", "1"]
+        if order == "subscriber_first":
+            subscriber = support.Program(sub_argv, env)
+            try:
+                assert subscriber.wait_for_line("subscribed", 10) is not None, subscriber.describe()
+                publisher = support.run(pub_argv, env)
+                subscriber.finish()
+            finally:
+                subscriber.kill()
+        else:
+            publisher = support.Program(pub_argv, env)
+            try:
+                assert publisher.wait_for_line("publishing", 10) is not None, publisher.describe()
+                subscriber = support.run(sub_argv, env)
+                publisher.finish()
+            finally:
+                publisher.kill()
+        assert "subscriber seen" in publisher.lines, f"{system}\n{publisher.describe()}"
+        results[system.label] = (counters(subscriber), subscriber)
+    everything = list(range(1, 201))
+    assert results["ln_core"][0] == everything, results["ln_core"][1].describe()
+    if order == "publisher_first" and pub_buffers == 1:
+        if results["ln29"][0] != everything:
+            support.DIFFERENCES.append(
+                f"publisher (1 buffer) waits for has_subscriber, then writes 200: a later subscriber with 256 "
+                f"buffers gets {len(results['ln29'][0])} of them from LN 2.9, all from ln_core")
+    else:
+        assert results["ln29"][0] == everything, results["ln29"][1].describe()
+
+
 def test_subscribe_before_publish_and_has_publisher(lnbt):
     """A subscription made before the topic exists gets the data once a
     publisher appears (has_publisher false at first); after the publisher

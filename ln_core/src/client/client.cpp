@@ -27,6 +27,9 @@ namespace {
 constexpr milliseconds kConnectTimeout{5000};
 constexpr milliseconds kGoodbyeTimeout{1000};
 constexpr milliseconds kPeerTimeout{2000};
+// How long a publisher holds a subscriber's open_segment for the manager's
+// subscribers_changed that names it; well below kPeerTimeout.
+constexpr milliseconds kListingWait{500};
 constexpr milliseconds kFirstBackoff{50};
 constexpr milliseconds kLongestBackoff{1000};
 
@@ -558,19 +561,10 @@ void Client::on_notification(const Message& message) {
         std::lock_guard<std::mutex> lock(registry_mutex_);
         port = find_outport_locked(message.get_int("topic_id"), std::string());
         if (port == nullptr) return;
-        port->set_subscribers(static_cast<int>(message.get_int("subscribers")));
-        port->want_history(static_cast<std::uint32_t>(message.get_int_or("subscriber_buffers", 1)));
-        grew = port->ensure_history(port->wanted_history());
-        std::vector<RemoteTarget> targets;
-        if (message.has("remote")) {
-          for (const std::string& entry : message.get_list("remote")) {
-            RemoteTarget target;
-            if (RemoteTarget::parse(entry, target)) targets.push_back(target);
-          }
-        }
-        port->set_remote_targets(targets);
+        grew = update_subscribers_locked(port, message);
       }
       if (grew) send_publisher_ready(port);
+      serve_listed_opens();
     }
   } catch (const std::exception& error) {
     debug("ignoring notification '%s': %s", name.c_str(), error.what());
@@ -578,6 +572,48 @@ void Client::on_notification(const Message& message) {
   if (auto handlers = notification_handlers_.find(name); handlers != notification_handlers_.end()) {
     for (auto& handler : handlers->second) handler(message);
   }
+}
+
+bool Client::update_subscribers_locked(OutPort* port, const Message& message) {
+  // Grown first: what the program writes once it sees the new count has to
+  // land in the segment the new subscribers are handed.
+  port->want_history(static_cast<std::uint32_t>(message.get_int_or("subscriber_buffers", 1)));
+  bool grew = false;
+  try {
+    grew = port->ensure_history(port->wanted_history());
+  } catch (const Failure& failure) {
+    // The subscribers still count; they read with the buffers there are.
+    debug("topic '%s': %s", port->topic().c_str(), failure.what());
+  }
+
+  std::map<std::int64_t, std::uint64_t>& joined = registrations_.at(port).local_joined_after;
+  std::map<std::int64_t, std::uint64_t> listed;
+  std::optional<std::uint64_t> newest;
+  if (message.has("local")) {
+    for (const std::string& entry : message.get_list("local")) {
+      char* end = nullptr;
+      const long long id = std::strtoll(entry.c_str(), &end, 10);
+      if (end == entry.c_str() || *end != '\0') continue;
+      if (auto known = joined.find(id); known != joined.end()) {
+        listed.emplace(id, known->second);
+        continue;
+      }
+      if (!newest) newest = port->newest_sequence();
+      listed.emplace(id, *newest);
+    }
+  }
+  joined.swap(listed);  // subscriptions no longer listed are forgotten
+  port->set_subscribers(static_cast<int>(message.get_int("subscribers")));
+
+  std::vector<RemoteTarget> targets;
+  if (message.has("remote")) {
+    for (const std::string& entry : message.get_list("remote")) {
+      RemoteTarget target;
+      if (RemoteTarget::parse(entry, target)) targets.push_back(target);
+    }
+  }
+  port->set_remote_targets(targets);
+  return grew;
 }
 
 void Client::open_publisher_segment(InPort* port, std::uint64_t serial, const Message& publisher) {
@@ -615,8 +651,11 @@ void Client::open_publisher_segment(InPort* port, std::uint64_t serial, const Me
     }
     const SegmentIdentity identity{socket, reply.message.get_int_or("segment_generation", 0)};
     if (port->knows_segment(identity)) return;
+    std::optional<std::uint64_t> written_before;
+    if (const std::int64_t last = reply.message.get_int_or("last_sequence", -1); last >= 0)
+      written_before = static_cast<std::uint64_t>(last);
     port->offer_segment(std::move(fd), identity, static_cast<std::uint32_t>(reply.message.get_int_or("slots", 1)),
-                        static_cast<std::uint64_t>(reply.message.get_int_or("last_sequence", 0)));
+                        written_before);
   });
 }
 
@@ -638,21 +677,63 @@ void Client::attach_remote_inbox_locked(InPort* port, std::int64_t subscription_
   }
 }
 
-void Client::serve_open_segment(PeerRequest& request) {
+void Client::serve_listed_opens() {
+  std::vector<PeerRequest> listed;
+  {
+    std::lock_guard<std::mutex> lock(registry_mutex_);
+    for (auto it = held_opens_.begin(); it != held_opens_.end();) {
+      const OutPort* port = find_outport_locked(it->request.message.get_int_or("topic_id", -1),
+                                                it->request.message.get_string_or("topic", ""));
+      const bool counted = port == nullptr || registrations_.at(port).local_joined_after.count(
+                                                  it->request.message.get_int_or("subscription_id", -1)) != 0;
+      if (!counted) {
+        ++it;
+        continue;
+      }
+      loop_.cancel(it->timer);
+      listed.push_back(std::move(it->request));
+      it = held_opens_.erase(it);
+    }
+  }
+  for (PeerRequest& request : listed) serve_open_segment(request, false);
+}
+
+void Client::serve_open_segment(PeerRequest& request, bool may_wait) {
   if (request.connection->over_tcp())
     return request.fail(LNE_REQUEST_FAILED, "shared-memory segments cannot be handed over TCP (peer on another host)");
   if (request.connection->peer_uid() != static_cast<long>(::getuid()))
     return request.fail(LNE_REQUEST_FAILED, "shared-memory segments are only handed to processes of the same user");
   const std::int64_t topic_id = request.message.get_int_or("topic_id", -1);
+  const std::int64_t subscription_id = request.message.get_int_or("subscription_id", -1);
   const std::string topic = request.message.get_string_or("topic", "");
   const std::int64_t buffers = request.message.get_int_or("buffers", 1);
   OutPort::SegmentOffer offer;
+  std::optional<std::uint64_t> joined_after;
   std::uint32_t message_size = 0;
   OutPort* grown = nullptr;
   {
     std::lock_guard<std::mutex> lock(registry_mutex_);
     OutPort* port = find_outport_locked(topic_id, topic);
     if (port == nullptr) return request.fail(LNE_PORT_NOT_FOUND, "this client does not publish topic '" + topic + "'");
+    const Registration& registration = registrations_.at(port);
+    if (may_wait && subscription_id >= 0 && registration.manager_id >= 0 &&
+        registration.session == link_.session() && registration.local_joined_after.count(subscription_id) == 0) {
+      // The manager answered the subscriber before telling us: wait for its
+      // subscribers_changed, so that the subscriber gets no packet before
+      // has_subscriber() counts it and every one after. A subscriber it
+      // never names (an id of a manager that is gone) is answered later.
+      const std::uint64_t serial = ++last_held_open_;
+      const EventLoop::TimerId timer = loop_.run_after(kListingWait, [this, serial] {
+        auto it = std::find_if(held_opens_.begin(), held_opens_.end(),
+                               [serial](const HeldOpen& held) { return held.serial == serial; });
+        if (it == held_opens_.end()) return;
+        PeerRequest late = std::move(it->request);
+        held_opens_.erase(it);
+        serve_open_segment(late, false);
+      });
+      held_opens_.push_back({serial, timer, request});
+      return;
+    }
     // A subscriber that wants more buffers than the segment has: grow it now
     // (before the manager's subscribers_changed, which may come later), so
     // that this subscriber never reads with fewer buffers than it asked for.
@@ -662,14 +743,23 @@ void Client::serve_open_segment(PeerRequest& request) {
     }
     offer = port->offer_segment();
     message_size = port->message_size();
+    // Not listed (held for too long, or no manager): the program cannot
+    // have seen this subscriber counted, so the newest packet is the right
+    // starting point.
+    const auto& joined = registration.local_joined_after;
+    if (auto it = joined.find(subscription_id); it != joined.end()) joined_after = it->second;
   }
   if (grown != nullptr) send_publisher_ready(grown);
   if (!offer.fd.valid()) return request.fail(LNE_ERROR_GETTING_SHM_FD, "the segment of topic '" + topic + "' is not ready");
+  std::uint64_t last_sequence = offer.last_sequence;
+  // Packets from before a segment switch are not in this one: a reader
+  // must not wait for them.
+  if (joined_after) last_sequence = std::max(*joined_after, offer.first_sequence - 1);
   Message answer = Message::response_to(request.message);
   answer.set("message_size", message_size)
       .set("slots", offer.slots)
       .set("segment_generation", offer.generation)
-      .set("last_sequence", static_cast<std::int64_t>(offer.last_sequence));
+      .set("last_sequence", static_cast<std::int64_t>(last_sequence));
   request.connection->send(answer, offer.fd.get());
 }
 
@@ -728,6 +818,7 @@ void Client::on_disconnect(const std::string& reason) {
       registration.manager_id = -1;
       registration.topic_id = -1;
       registration.in_flight = false;
+      registration.local_joined_after.clear();  // the next manager hands out its own ids
     }
     outports_by_topic_id_.clear();
     inports_by_subscription_.clear();

@@ -160,7 +160,14 @@ class Client {
   void report_packet_counts();
   /// Makes the port read the inbox of remote data (registry lock held).
   void attach_remote_inbox_locked(InPort* port, std::int64_t subscription_id, std::uint64_t serial);
-  void serve_open_segment(PeerRequest& request);
+  /// `may_wait`: a subscriber this port has not counted yet is answered
+  /// once subscribers_changed lists it (or after a while).
+  void serve_open_segment(PeerRequest& request, bool may_wait = true);
+  /// Answers the held open_segment requests whose subscriber is listed now.
+  void serve_listed_opens();
+  /// subscribers_changed for one of our outports; registry lock held.
+  /// Returns true if the port switched to a bigger segment.
+  bool update_subscribers_locked(OutPort* port, const protocol::Message& message);
   OutPort* find_outport_locked(std::int64_t topic_id, const std::string& topic) const;
   InPort* find_inport_locked(std::int64_t subscription_id) const;
 
@@ -173,6 +180,11 @@ class Client {
     std::uint64_t serial = 0;      // tells a port apart from a later one at the same address
     std::string md_requested;      // the message definition as the program gave it
     PacketCountReports packet_reports;  // outports: what the manager knows of the count
+    // Outports: each local subscription the manager listed (this session's
+    // ids) -> the newest sequence when this port first counted it. The
+    // subscriber's segment starts after it: has_subscriber() may turn true
+    // before that subscriber asks for the segment (open_segment).
+    std::map<std::int64_t, std::uint64_t> local_joined_after;
   };
 
   Settings settings_;
@@ -198,6 +210,14 @@ class Client {
   UniqueFd connecting_;
   std::map<std::string, std::vector<NotificationHandler>, std::less<>> notification_handlers_;
   std::vector<std::function<void()>> reconnect_handlers_;
+  // open_segment requests held until the port counts their subscriber.
+  struct HeldOpen {
+    std::uint64_t serial;
+    EventLoop::TimerId timer;  // answers it anyway when the manager stays silent
+    PeerRequest request;
+  };
+  std::vector<HeldOpen> held_opens_;
+  std::uint64_t last_held_open_ = 0;
 
   mutable std::mutex registry_mutex_;  // ports, their registrations and the lookup maps
   // Takes `port` out of the bookkeeping (registry_mutex_ held): the port,

@@ -112,6 +112,7 @@ void OutPort::create_segment(std::uint32_t message_size, const std::string& hash
     std::lock_guard<std::mutex> lock(write_mutex_);
     writer_ = std::move(writer);
     generation_ = next_segment_generation();
+    first_sequence_ = 1;
   } catch (const ShmError& error) {
     throw Failure(failure_code_of(error), "creating the shared-memory segment of topic '" + topic_ + "': " + error.what());
   }
@@ -142,6 +143,7 @@ bool OutPort::ensure_history(std::uint32_t history) {
   }
   writer_ = std::move(bigger);
   generation_ = next_segment_generation();
+  first_sequence_ = config.first_sequence;
   return true;
 }
 
@@ -158,6 +160,11 @@ std::int64_t OutPort::generation() const {
 
 std::uint64_t OutPort::packets_written() const noexcept { return writer_ ? writer_->published_sequence() : 0; }
 
+std::uint64_t OutPort::newest_sequence() const {
+  std::lock_guard<std::mutex> lock(write_mutex_);
+  return writer_ ? writer_->last_sequence() : 0;
+}
+
 OutPort::SegmentOffer OutPort::offer_segment() const {
   std::lock_guard<std::mutex> lock(write_mutex_);
   SegmentOffer offer;
@@ -168,6 +175,7 @@ OutPort::SegmentOffer OutPort::offer_segment() const {
   offer.slots = writer_->history();
   offer.generation = generation_;
   offer.last_sequence = writer_->last_sequence();
+  offer.first_sequence = first_sequence_;
   return offer;
 }
 
@@ -247,7 +255,7 @@ bool InPort::knows_segment(const SegmentIdentity& identity) const {
 }
 
 void InPort::offer_segment(UniqueFd fd, SegmentIdentity identity, std::uint32_t slots,
-                           std::uint64_t written_before) {
+                           std::optional<std::uint64_t> written_before) {
   std::lock_guard<std::mutex> lock(state_mutex_);
   const bool other_publisher = reader_ && identity.publisher_socket != current_.publisher_socket;
   pending_ = PendingSegment{std::move(fd), std::move(identity), slots, written_before};
@@ -295,7 +303,7 @@ void InPort::adopt_pending_segment() {
   options.buffers = std::min(buffers_, std::max<std::uint32_t>(segment.slots, 1));
   options.max_borrows = 1;
   const bool continues = !resume_socket_.empty() && resume_socket_ == segment.identity.publisher_socket;
-  options.resume_after = continues ? resume_after_ : segment.written_before;
+  options.resume_after = continues ? std::optional<std::uint64_t>(resume_after_) : segment.written_before;
   resume_after_ = 0;
   resume_socket_.clear();
   std::unique_ptr<transport::ShmReader> attached;

@@ -107,6 +107,10 @@ class OutPort : public PortBase {
   /// thread replaces the segment.
   std::uint64_t packets_written() const noexcept;
   void set_subscribers(int count) noexcept { subscribers_.store(count, std::memory_order_relaxed); }
+  /// The newest packet's sequence number (0 before any). Taken under the
+  /// write lock, so that whatever the program writes once it sees a
+  /// set_subscribers() made after this call gets a higher number.
+  std::uint64_t newest_sequence() const;
   /// Remembers the largest `buffers` a local subscriber asked for.
   void want_history(std::uint32_t history) noexcept;
   std::uint32_t wanted_history() const noexcept { return wanted_history_.load(); }
@@ -118,6 +122,7 @@ class OutPort : public PortBase {
     std::uint32_t slots = 0;
     std::int64_t generation = 0;
     std::uint64_t last_sequence = 0;
+    std::uint64_t first_sequence = 1;  // of the segment's first packet: earlier ones are not in it
   };
   SegmentOffer offer_segment() const;
 
@@ -133,6 +138,7 @@ class OutPort : public PortBase {
   mutable std::mutex write_mutex_;  // the writer, its loan and the generation
   std::unique_ptr<transport::ShmWriter> writer_;
   std::int64_t generation_ = 0;
+  std::uint64_t first_sequence_ = 1;  // of writer_'s first packet
   void* loan_ = nullptr;  // buffer handed out by next_buffer, not yet written
   // A writer replaced while a loan into it was open: kept until that loan's write.
   std::unique_ptr<transport::ShmWriter> retired_;
@@ -168,10 +174,11 @@ class InPort : public PortBase {
   /// True if `identity` is the segment being read or about to be.
   bool knows_segment(const SegmentIdentity& identity) const;
   /// A publisher's segment to read from now on (replacing a pending one).
-  /// `written_before`: the publisher's newest packet when it handed the
-  /// segment over; later ones are this subscriber's even if they come
-  /// before its next read adopts the segment (0: only those after adopting).
-  void offer_segment(UniqueFd fd, SegmentIdentity identity, std::uint32_t slots, std::uint64_t written_before = 0);
+  /// `written_before`: the last packet that is not this subscriber's (0:
+  /// none); later ones are, even if they come before its next read adopts
+  /// the segment. Unset: only those written after adopting.
+  void offer_segment(UniqueFd fd, SegmentIdentity identity, std::uint32_t slots,
+                     std::optional<std::uint64_t> written_before = std::nullopt);
   /// The publisher left: forget a segment that was not adopted yet.
   void forget_pending_segment();
 
@@ -180,7 +187,7 @@ class InPort : public PortBase {
     UniqueFd fd;
     SegmentIdentity identity;
     std::uint32_t slots = 0;
-    std::uint64_t written_before = 0;
+    std::optional<std::uint64_t> written_before;
   };
 
   template <typename Attempt>

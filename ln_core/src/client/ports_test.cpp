@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <cstring>
+#include <optional>
 
 #include "client/error_slot.hpp"
 
@@ -25,7 +26,7 @@ class HandOver : public ::testing::Test {
     packet.seq = seq;
     ASSERT_EQ(writer_.write(&packet, sizeof packet), transport::WriteStatus::ok);
   }
-  void offer(std::uint64_t written_before) {
+  void offer(std::optional<std::uint64_t> written_before) {
     port_.offer_segment(UniqueFd(::fcntl(writer_.fd(), F_DUPFD_CLOEXEC, 0)), {"peer", 1}, 4, written_before);
   }
   // The sequence numbers a polling reader gets now.
@@ -55,8 +56,17 @@ TEST_F(HandOver, PacketsWrittenAfterTheHandOverReachTheFirstRead) {
   EXPECT_EQ(read_all(), (std::vector<std::uint32_t>{4}));
 }
 
-TEST_F(HandOver, WithoutAStartingPointOnlyPacketsAfterTheFirstReadCount) {
+// A publisher that had written nothing when its subscriber joined: 0 is a
+// starting point too (everything), not "from the first read on".
+TEST_F(HandOver, StartingPointZeroDeliversEveryPacket) {
   offer(0);
+  write(1);
+  write(2);
+  EXPECT_EQ(read_all(), (std::vector<std::uint32_t>{1, 2}));
+}
+
+TEST_F(HandOver, WithoutAStartingPointOnlyPacketsAfterTheFirstReadCount) {
+  offer(std::nullopt);
   write(1);
   EXPECT_TRUE(read_all().empty());
   write(2);

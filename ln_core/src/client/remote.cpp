@@ -116,7 +116,7 @@ RemoteSender::~RemoteSender() {
   if (thread_.joinable()) thread_.join();
 }
 
-bool RemoteSender::attach(std::uint64_t resume_after) {
+bool RemoteSender::attach(std::optional<std::uint64_t> resume_after) {
   OutPort::SegmentOffer offer = port_.offer_segment();
   if (!offer.fd.valid()) return false;
   transport::ReaderOptions options;
@@ -199,7 +199,7 @@ bool RemoteSender::send_packet(const void* data, std::uint32_t size, std::uint64
 }
 
 void RemoteSender::run() {
-  std::uint64_t resume_after = 0;
+  std::optional<std::uint64_t> resume_after;
   while (!stopping_.load()) {
     if (!reader_ && !attach(resume_after)) {
       std::this_thread::sleep_for(50ms);
@@ -226,7 +226,9 @@ void RemoteSender::run() {
       case transport::ReadStatus::segment_replaced:
       case transport::ReadStatus::publisher_gone:
       case transport::ReadStatus::corrupt_segment: {
-        resume_after = status == transport::ReadStatus::segment_replaced ? reader_->last_sequence() : 0;
+        resume_after = status == transport::ReadStatus::segment_replaced
+                           ? std::optional<std::uint64_t>(reader_->last_sequence())
+                           : std::nullopt;
         std::lock_guard<std::mutex> lock(reader_mutex_);
         reader_.reset();
         break;

@@ -24,6 +24,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -58,7 +59,7 @@ class RemoteSender {
 
  private:
   void run();
-  bool attach(std::uint64_t resume_after);
+  bool attach(std::optional<std::uint64_t> resume_after);
   bool connect_target();
   bool send_packet(const void* data, std::uint32_t size, std::uint64_t sequence, double timestamp);
 

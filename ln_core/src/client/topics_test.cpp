@@ -399,6 +399,109 @@ TEST_F(TopicTest, SegmentGrowsForASubscriberWithMoreBuffers) {
   EXPECT_EQ(received.seq, 8u);
 }
 
+// A publisher that waits for ln_has_subscriber() and then writes at once
+// must not lose the first packets at a local subscriber whose buffers hold
+// them all: has_subscriber may turn true before the subscriber has the
+// segment, so the publisher has to hand it over from that point on.
+class WaitingPublisherTest : public TopicTest {
+ protected:
+  static constexpr uint32_t kCount = 200;
+  static constexpr unsigned kBuffers = 256;
+
+  // Waits (bounded) for has_subscriber, writes kCount packets first.. back to
+  // back, and expects the subscriber to read exactly these, in order.
+  void write_after_has_subscriber_and_read_all(ln_outport out, ln_inport in, uint32_t first) {
+    ASSERT_TRUE(wait_until([&] { return ln_has_subscriber(out) > 0; }));
+    for (uint32_t seq = first; seq < first + kCount; ++seq) {
+      P64 p = packet(seq);
+      ASSERT_EQ(ln_write(out, &p, sizeof p, nullptr), 0);
+    }
+    std::vector<uint32_t> received;
+    for (uint32_t i = 0; i < kCount; ++i) {
+      P64 p{};
+      if (ln_read_timeout(in, &p, sizeof p, nullptr, 2.0) != 1) break;
+      received.push_back(p.seq);
+    }
+    std::vector<uint32_t> expected(kCount);
+    for (uint32_t i = 0; i < kCount; ++i) expected[i] = first + i;
+    ASSERT_FALSE(received.empty()) << "nothing received";
+    EXPECT_EQ(received.front(), first) << "the first " << received.front() - first << " packets were lost";
+    EXPECT_EQ(received, expected);
+    P64 extra{};
+    EXPECT_EQ(ln_read(in, &extra, sizeof extra, nullptr, 0), 0) << "unexpected packet " << extra.seq;
+  }
+};
+
+TEST_F(WaitingPublisherTest, LosesNothingToASubscriberThatCameFirst) {
+  ln_inport in = subscribe("t.join.first", kBuffers);
+  ln_outport out = publish("t.join.first", 1);
+  ASSERT_TRUE(in && out);
+  write_after_has_subscriber_and_read_all(out, in, 1);
+}
+
+TEST_F(WaitingPublisherTest, LosesNothingToASubscriberThatCameLater) {
+  ln_outport out = publish("t.join.later", 1);  // grows to the subscriber's buffers
+  ln_inport in = subscribe("t.join.later", kBuffers);
+  ASSERT_TRUE(in && out);
+  write_after_has_subscriber_and_read_all(out, in, 1);
+}
+
+// As in the benchmark that found the loss: the publisher has written before
+// (so its newest sequence is not 0). The subscriber gets nothing from before
+// has_subscriber turned true (no latched value), and everything after.
+TEST_F(WaitingPublisherTest, LosesNothingAfterEarlierWritesAndGetsNoneOfThem) {
+  ln_outport out = publish("t.join.written", kBuffers);
+  ASSERT_TRUE(out);
+  for (uint32_t seq = 1; seq <= 64; ++seq) {
+    P64 p = packet(seq);
+    ASSERT_EQ(ln_write(out, &p, sizeof p, nullptr), 0);
+  }
+  ln_inport in = subscribe("t.join.written", kBuffers);
+  ASSERT_TRUE(in);
+  write_after_has_subscriber_and_read_all(out, in, 1001);
+}
+
+// A second subscriber joins while the first one already reads: the
+// publisher's count going from 1 to 2 is what "has a subscriber" means for
+// the newcomer, and everything written after it must reach it.
+TEST_F(WaitingPublisherTest, ASecondSubscriberGetsEverythingAfterTheCountRose) {
+  ln_outport out = publish("t.join.second", 1);
+  ln_inport first = subscribe("t.join.second", 1);
+  ASSERT_TRUE(out && first);
+  handshake(out, first);
+  ln_client other = connect("second");
+  ln_inport in = nullptr;
+  ASSERT_EQ(ln_subscribe_with_buffers(other, "t.join.second", "test/p64", &in, RATE_AS_PUBLISHED, 0, kBuffers), 0);
+  ASSERT_TRUE(wait_until([&] { return ln_has_subscriber(out) == 2; }));
+  write_after_has_subscriber_and_read_all(out, in, 1);
+  ln_deinit(&other);
+}
+
+// The other side of the same hand-over: a subscriber gets its first packet
+// only once the publisher counts it, also when both are one client (whose
+// I/O thread may serve the subscriber's open_segment before the manager's
+// subscribers_changed).
+TEST_F(WaitingPublisherTest, NoPacketArrivesBeforeThePublisherCountsTheSubscriber) {
+  for (int round = 0; round < 10; ++round) {
+    for (ln_client subscribing : {publisher_, subscriber_}) {
+      const std::string topic = "t.join.counted." + std::to_string(round) + (subscribing == publisher_ ? "a" : "b");
+      ln_outport out = publish(topic.c_str(), 1);
+      ln_inport in = nullptr;
+      ASSERT_EQ(ln_subscribe_with_buffers(subscribing, topic.c_str(), "test/p64", &in, RATE_AS_PUBLISHED, 0, 4), 0);
+      bool got = false;
+      for (uint32_t seq = 1; !got && seq < 2000; ++seq) {
+        P64 p = packet(seq);
+        ASSERT_EQ(ln_write(out, &p, sizeof p, nullptr), 0);
+        got = ln_read_timeout(in, &p, sizeof p, nullptr, 0.005) == 1;
+      }
+      ASSERT_TRUE(got) << topic;
+      EXPECT_EQ(ln_has_subscriber(out), 1) << topic;
+      EXPECT_EQ(ln_unsubscribe(&in), 0);
+      EXPECT_EQ(ln_unpublish(&out), 0);
+    }
+  }
+}
+
 TEST_F(TopicTest, TopicNameMappingFromArguments) {
   const std::string address = manager_.address();
   std::vector<const char*> argv = {"prog", "--ln-manager", address.c_str(), "--ln-map-topic", "^sensor.", "robot2.sensor."};

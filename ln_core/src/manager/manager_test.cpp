@@ -299,6 +299,7 @@ TEST_F(ManagerTest, SubscribeBeforePublishThenPublisherAvailableOnReady) {
   EXPECT_EQ(changed.get_int("subscribers"), 1);
   EXPECT_EQ(changed.get_int("subscriber_buffers"), 3);
   EXPECT_TRUE(changed.get_list("remote").empty());
+  EXPECT_EQ(changed.get_list("local"), (StringList{std::to_string(s.get_int("subscription_id"))}));
   EXPECT_TRUE(sub->no_notification_within(50ms)) << "nobody is told before publisher_ready";
 
   ASSERT_FALSE(pub->call("publisher_ready", [&](Message& m) {
@@ -328,9 +329,13 @@ TEST_F(ManagerTest, RemoteSubscribersAreListedForThePublisher) {
   auto local = client("local");
   auto remote = client("remote", [](Message& m) { m.set("host_id", "host-b"); });
   const Message p = publish(*pub, "robot.point", "mt/point");
-  pub->wait_notification("subscribers_changed");
-  ASSERT_FALSE(subscribe(*local, "robot.point", "mt/point").is_error());
-  EXPECT_TRUE(pub->wait_notification("subscribers_changed").get_list("remote").empty());
+  EXPECT_TRUE(pub->wait_notification("subscribers_changed").get_list("local").empty());
+  const Message l = subscribe(*local, "robot.point", "mt/point");
+  ASSERT_FALSE(l.is_error()) << l.error_text();
+  const std::string local_id = std::to_string(l.get_int("subscription_id"));
+  const Message first = pub->wait_notification("subscribers_changed");
+  EXPECT_TRUE(first.get_list("remote").empty());
+  EXPECT_EQ(first.get_list("local"), StringList{local_id});
   const Message s = subscribe(*remote, "robot.point", "mt/point", [](Message& m) {
     m.set("rate", 10.0).set("reliable", true).set("receive_address", "10.0.0.2:4000").set("buffers", 8);
   });
@@ -340,6 +345,7 @@ TEST_F(ManagerTest, RemoteSubscribersAreListedForThePublisher) {
   EXPECT_EQ(changed.get_int("subscriber_buffers"), 8);
   EXPECT_EQ(changed.get_list("remote"),
             (StringList{std::to_string(s.get_int("subscription_id")) + " 10 1 10.0.0.2:4000"}));
+  EXPECT_EQ(changed.get_list("local"), StringList{local_id});  // the remote one reads no segment
 }
 
 TEST_F(ManagerTest, SubscribeChecksItsParameters) {

@@ -301,13 +301,17 @@ void Registry::set_publisher_fields(const Topic& topic, protocol::Message& messa
 
 protocol::Message Registry::subscribers_changed(const Topic& topic) const {
   const std::string& publisher_host = clients_.at(*topic.publisher).hello.host_id;
+  protocol::StringList local;
   protocol::StringList remote;
   for (Id id : topic.subscriptions) {
     const Subscription& subscription = subscriptions_.at(id);
     // Subscribers on the publisher's host read its segment; the others are
     // fed over the network, by the publisher, to the address they gave.
-    if (clients_.at(subscription.client).hello.host_id == publisher_host || subscription.receive_address.empty())
+    if (clients_.at(subscription.client).hello.host_id == publisher_host) {
+      local.push_back(std::to_string(subscription.id));
       continue;
+    }
+    if (subscription.receive_address.empty()) continue;
     remote.push_back(std::to_string(subscription.id) + " " + shortest_text(subscription.rate) + " " +
                      (subscription.reliable ? "1" : "0") + " " + subscription.receive_address);
   }
@@ -315,6 +319,7 @@ protocol::Message Registry::subscribers_changed(const Topic& topic) const {
   message.set("topic_id", topic.id)
       .set("subscribers", static_cast<std::int64_t>(topic.subscriptions.size()))
       .set("subscriber_buffers", subscriber_buffers(topic))
+      .set("local", std::move(local))
       .set("remote", std::move(remote));
   return message;
 }

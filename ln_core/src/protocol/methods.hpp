@@ -156,11 +156,17 @@
 //                      peer_address (str), segment_generation (int)
 // publisher_gone       subscription_id (int), topic_id (int)
 // subscribers_changed  topic_id (int), subscribers (int),
-//                      subscriber_buffers (int), remote (list of
+//                      subscriber_buffers (int), local (list of the
+//                      subscription ids, in decimal, of the subscribers on
+//                      the publisher's host, which read its segment),
+//                      remote (list of
 //                      "subscription_id rate reliable IP:PORT" for subscribers
 //                      on other hosts, which the publisher feeds itself;
 //                      rate in shortest form ("-1", "10", "0.5"), reliable
 //                      "1"/"0"; subscribers without an address are left out)
+//   The publisher remembers, per local subscription id, its newest packet
+//   when the id first appeared (before the new count is visible to the
+//   program); open_segment answers with it.
 // service_available    name (str), provider (str)   [for availability callbacks]
 // service_gone         name (str)
 //   Both go to every registered client (the provider too), for changes after
@@ -180,9 +186,18 @@
 //                  buffers (int, optional: the subscriber's buffers; the
 //                  publisher grows its segment to at least that many slots
 //                  before answering)
+//   A publisher that has not seen subscription_id in a subscribers_changed
+//   `local` list yet holds the answer until it does (at most 0.5 s), so that
+//   a subscriber gets no packet before the publisher counts it.
 //   -> message_size, slots, segment_generation (int), last_sequence (int:
-//      the newest packet written so far) and the segment's file
-//      descriptor passed with SCM_RIGHTS alongside the response frame.
+//      the subscriber reads the packets after this one: the publisher's
+//      newest packet when subscribers_changed first listed subscription_id
+//      in `local` (raised to just before the segment's first packet if the
+//      segment was replaced since), or, when it was not listed within the
+//      wait, the newest packet written so far; 0 = every packet in the
+//      segment) and
+//      the segment's file descriptor passed with SCM_RIGHTS alongside the
+//      response frame.
 //      Only answered for peers with the same uid (SO_PEERCRED).
 // call             service_id (int), request (str: the flattened request)
 //   -> response (str) or an error response; see the services code.

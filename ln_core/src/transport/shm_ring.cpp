@@ -910,8 +910,8 @@ ShmReader ShmReader::attach(int segment_fd, const ReaderOptions& options) {
   }
   core->spin_limit = options.spin.max_spin;
   core->next_sequence =
-      options.resume_after != 0
-          ? options.resume_after + 1
+      options.resume_after
+          ? *options.resume_after + 1
           : core->view.header->head_sequence.load(std::memory_order_acquire) + 1;
   return ShmReader(std::move(core));
 }

@@ -118,6 +118,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "transport/shm_segment.hpp"
@@ -216,7 +217,9 @@ struct ReaderOptions {
   /// a token is free: no copy is ever wasted, which pays off for very large
   /// packets that a fast publisher overwrites often.
   std::uint32_t optimistic_copies = 3;
-  std::uint64_t resume_after = 0;  ///< 0: only packets written after attach; else packets with sequence > this
+  /// Unset: only packets written after attach; else packets with sequence >
+  /// this (0: every packet still in the window).
+  std::optional<std::uint64_t> resume_after;
   SpinPolicy spin;
   std::chrono::milliseconds liveness_check_interval{100};
 };

@@ -1,9 +1,11 @@
 /* A publisher written as for LN 2.9, in C: publishes test/p64 packets with
    increasing sequence numbers.
 
-   usage: ln_test_publisher [LN options] TOPIC COUNT PERIOD_US [wait]
+   usage: ln_test_publisher [LN options] TOPIC COUNT PERIOD_US [wait] [linger]
      COUNT 0 publishes until killed; "wait" first waits (at most 10 s) until
-     the topic has a subscriber. */
+     the topic has a subscriber; "linger" stays published after the last
+     packet until the topic has no subscriber left (at most 10 s), so that
+     a subscriber still setting up gets the packets. */
 #include <ln/ln.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -21,13 +23,13 @@ int main(int argc, char** argv) {
   unsigned int n_args = 0;
   char* args = NULL;
   ln_get_remaining_args(clnt, &n_args, &args);
-  const char* arg[5] = {NULL, NULL, NULL, NULL, NULL};
-  for (unsigned int i = 0; i < n_args && i < 5; ++i) {
+  const char* arg[6] = {NULL, NULL, NULL, NULL, NULL, NULL};
+  for (unsigned int i = 0; i < n_args && i < 6; ++i) {
     arg[i] = args;
     args += strlen(args) + 1;
   }
   if (n_args < 4) {
-    fprintf(stderr, "usage: ln_test_publisher [LN options] TOPIC COUNT PERIOD_US [wait]\n");
+    fprintf(stderr, "usage: ln_test_publisher [LN options] TOPIC COUNT PERIOD_US [wait] [linger]\n");
     return 2;
   }
   const char* topic = arg[1];
@@ -42,7 +44,12 @@ int main(int argc, char** argv) {
   }
   printf("publishing %s\n", topic);
   fflush(stdout);
-  if (n_args >= 5 && strcmp(arg[4], "wait") == 0) {
+  int wait = 0, linger = 0;
+  for (unsigned int i = 4; i < n_args && i < 6; ++i) {
+    if (strcmp(arg[i], "wait") == 0) wait = 1;
+    else if (strcmp(arg[i], "linger") == 0) linger = 1;
+  }
+  if (wait) {
     const double deadline = ln_get_monotonic_time() + 10.0;
     while (ln_has_subscriber(port) <= 0 && ln_get_monotonic_time() < deadline) ln_sleep_seconds(0.001);
   }
@@ -61,6 +68,11 @@ int main(int argc, char** argv) {
     if (period > 0) ln_sleep_seconds(period);
   }
   printf("published %lu\n", seq - 1);
+  fflush(stdout);
+  if (linger) {
+    const double deadline = ln_get_monotonic_time() + 10.0;
+    while (ln_has_subscriber(port) > 0 && ln_get_monotonic_time() < deadline) ln_sleep_seconds(0.001);
+  }
   ln_unpublish(&port);
   ln_deinit(&clnt);
   return 0;

@@ -3,7 +3,8 @@
 // flows no packet is missing (256 buffers) or torn.
 //
 // usage: ln_test_subscriber [LN options] TOPIC COUNT TIMEOUT_S [reliable]
-// Prints "subscribed" when ready, "received N last L gaps G torn T" at the end;
+// Prints "subscribed" when ready, "received N last L gaps G torn T first F" at
+// the end (F: the first sequence number received, 0 for none);
 // exit status 0 when the last packet arrived without gaps or torn packets.
 #include <ln/ln.h>
 
@@ -29,7 +30,7 @@ int main(int argc, char** argv) {
     std::fflush(stdout);
 
     test_p64_t packet;
-    unsigned long received = 0, gaps = 0, torn = 0, last = 0;
+    unsigned long received = 0, gaps = 0, torn = 0, last = 0, first = 0;
     const double deadline = ln_get_monotonic_time() + timeout;
     while (last < count && ln_get_monotonic_time() < deadline) {
       if (!port->read(&packet, 0.1)) continue;
@@ -40,10 +41,11 @@ int main(int argc, char** argv) {
           break;
         }
       }
+      if (received == 0) first = packet.seq;
       ++received;
       last = packet.seq;
     }
-    std::printf("received %lu last %lu gaps %lu torn %lu\n", received, last, gaps, torn);
+    std::printf("received %lu last %lu gaps %lu torn %lu first %lu\n", received, last, gaps, torn, first);
     return last == count && gaps == 0 && torn == 0 ? 0 : 1;
   } catch (const ln::exception& e) {
     std::fprintf(stderr, "ln_test_subscriber: %s\n", e.what());

@@ -49,9 +49,11 @@ class ProcessTopicTest : public ::testing::Test {
     if (client_ != nullptr) ln_deinit(&client_);
   }
   std::unique_ptr<ChildProcess> publisher(const std::string& topic, const std::string& count,
-                                          const std::string& period_us, bool wait_for_subscriber = false) {
+                                          const std::string& period_us, bool wait_for_subscriber = false,
+                                          bool linger = false) {
     std::vector<std::string> args = {LN_TEST_PUBLISHER, topic, count, period_us};
     if (wait_for_subscriber) args.push_back("wait");
+    if (linger) args.push_back("linger");
     auto child = std::make_unique<ChildProcess>(args, manager_.address());
     EXPECT_NE(child->wait_for_line("publishing"), "");
     return child;
@@ -77,6 +79,32 @@ TEST_F(ProcessTopicTest, CPublisherToCppSubscriber) {
   EXPECT_NE(result.find("last 300 gaps 0 torn 0"), std::string::npos) << result;
   EXPECT_EQ(subscriber.wait(), 0) << result;
   EXPECT_NE(publisher_process->wait_for_line("published 300"), "");
+  EXPECT_EQ(publisher_process->wait(), 0);
+}
+
+// The publisher waits for has_subscriber and then writes 200 packets back to
+// back: a subscriber with 256 buffers gets every one of them, whether it
+// subscribed before the publisher started or after. (The publisher lingers
+// until the subscriber is done: this is about joining, not about a
+// publisher that leaves before its subscriber attached.)
+TEST_F(ProcessTopicTest, WaitingPublisherLosesNothingToAnEarlierSubscriber) {
+  ChildProcess subscriber({LN_TEST_SUBSCRIBER, "p.join_first", "200", "5"}, manager_.address());
+  ASSERT_NE(subscriber.wait_for_line("subscribed"), "");
+  auto publisher_process = publisher("p.join_first", "200", "0", true, true);
+  const std::string result = subscriber.wait_for_line("received", 20s);
+  EXPECT_NE(result.find("received 200 last 200 gaps 0 torn 0 first 1"), std::string::npos) << result;
+  EXPECT_EQ(subscriber.wait(), 0) << result;
+  EXPECT_NE(publisher_process->wait_for_line("published 200"), "");
+  EXPECT_EQ(publisher_process->wait(), 0);
+}
+
+TEST_F(ProcessTopicTest, WaitingPublisherLosesNothingToALaterSubscriber) {
+  auto publisher_process = publisher("p.join_later", "200", "0", true, true);
+  ChildProcess subscriber({LN_TEST_SUBSCRIBER, "p.join_later", "200", "5"}, manager_.address());
+  const std::string result = subscriber.wait_for_line("received", 20s);
+  EXPECT_NE(result.find("received 200 last 200 gaps 0 torn 0 first 1"), std::string::npos) << result;
+  EXPECT_EQ(subscriber.wait(), 0) << result;
+  EXPECT_NE(publisher_process->wait_for_line("published 200"), "");
   EXPECT_EQ(publisher_process->wait(), 0);
 }
 
