@@ -55,11 +55,21 @@ class MeasureError(Exception):
 
 # ---------------------------------------------------------------------------------------------
 # helpers
+def _measured_environ() -> dict:
+    """The environment the measured programs start from: ours without what would make one system
+    load the other's code or settings. `. launchless_scripts/env.sh` puts ln_core's Python package
+    and libln on PYTHONPATH / LD_LIBRARY_PATH, where LN 2.9's manager (a Python program) and
+    programs linked with a RUNPATH would pick them up; LN_* variables (manager address, name
+    mappings, definition dirs) would change what is measured. Each system adds what it needs."""
+    return {k: v for k, v in os.environ.items()
+            if k not in ("PYTHONPATH", "LD_LIBRARY_PATH", "LD_PRELOAD") and not k.startswith("LN_")}
+
+
 def _run(cmd, ctx, timeout, env=None, cwd=None) -> subprocess.CompletedProcess:
     ctx.log_text(f"$ {shlex.join(str(c) for c in cmd)}\n")
     try:
         proc = subprocess.run([str(c) for c in cmd], capture_output=True, text=True, timeout=timeout,
-                              env=None if env is None else {**os.environ, **env}, cwd=cwd)
+                              env=None if env is None else {**_measured_environ(), **env}, cwd=cwd)
     except subprocess.TimeoutExpired as e:
         raise MeasureError(f"{Path(str(cmd[0])).name}: no result within {timeout} s") from e
     ctx.log_text(proc.stdout + proc.stderr)
@@ -209,7 +219,7 @@ class System:
     def _spawn_manager(self, cmd, log: Path, env: dict) -> None:
         self.manager = subprocess.Popen([str(c) for c in cmd], stdin=subprocess.DEVNULL,
                                         stdout=log.open("w"), stderr=subprocess.STDOUT,
-                                        env={**os.environ, **env}, process_group=0)
+                                        env={**_measured_environ(), **env}, process_group=0)
 
     def _wait_log(self, log: Path, pattern: str, timeout: float) -> re.Match:
         """Waits (polling the manager's log file) until `pattern` appears."""
@@ -489,7 +499,7 @@ def run_pair(ctx, system: System, server: list, client: list, *, cpus: tuple[int
     """Starts `server` pinned to cpus[1], waits for its ready line, runs `client` pinned to
     cpus[0]; returns (the client's result, the server's result lines). Both bounded by `timeout`;
     a failure reported by either side raises."""
-    env = {**os.environ, **system.env()}
+    env = {**_measured_environ(), **system.env()}
     prefix: list[str] = []
     if python:
         interp, py_env = system.python()
@@ -569,7 +579,7 @@ def run_pair(ctx, system: System, server: list, client: list, *, cpus: tuple[int
 
 
 def run_single(ctx, system: System, cmd: list, *, cpu: int, timeout: float, what: str) -> dict:
-    env = {**os.environ, **system.env()}
+    env = {**_measured_environ(), **system.env()}
     full = ["taskset", "-c", str(cpu)] + [str(c) for c in cmd]
     ctx.log_text(f"$ [{system.label}] {shlex.join(full)}\n")
     proc = subprocess.Popen(full, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
