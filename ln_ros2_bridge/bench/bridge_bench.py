@@ -189,11 +189,9 @@ class Run:
 
         def found():
             proc = dict(self.processes)[name]
-            for line in path.read_text(errors="replace").splitlines() if path.exists() else []:
-                if line.startswith("{"):
-                    item = json.loads(line)
-                    if item.get("event") == event:
-                        return item
+            for item in self.support.json_events(path):
+                if item.get("event") == event:
+                    return item
             if proc.poll() is not None:
                 raise RuntimeError("%s exited before '%s':\n%s" % (name, event, self.support.tail(path)))
             return None

@@ -7,6 +7,7 @@ Every process started here is ended here, by PID; every wait has a deadline.
 """
 
 import hashlib
+import json
 import os
 import re
 import shutil
@@ -121,6 +122,16 @@ def wait_for_log(path, pattern, timeout, proc=None):
         except FileNotFoundError:
             return None
     return wait_for(found, timeout, "'%s' in %s" % (pattern, path))
+
+
+def json_events(path):
+    """The JSON objects a process printed to its log, one per line. Only whole lines: the
+    process may be in the middle of writing a long one."""
+    try:
+        text = Path(path).read_text(errors="replace")
+    except FileNotFoundError:
+        return []
+    return [json.loads(line) for line in text[:text.rfind("\n") + 1].splitlines() if line.startswith("{")]
 
 
 def tail(path, lines=25):

@@ -12,7 +12,6 @@ when one is not available), `start_bridge`, `ln_peer`, `ros` (an in-process
 rclpy node with a spinning executor).
 """
 
-import json
 import os
 import subprocess
 import sys
@@ -75,8 +74,7 @@ class Process:
         return self.log_path.read_text(errors="replace") if self.log_path.exists() else ""
 
     def events(self):
-        lines = self.text().splitlines()
-        return [json.loads(line) for line in lines if line.startswith("{")]
+        return support.json_events(self.log_path)
 
     def wait_event(self, name, timeout=20.0, count=1):
         def found():
