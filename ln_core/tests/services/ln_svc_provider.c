@@ -11,18 +11,7 @@
 #include <unistd.h>
 
 #include "ln_messages.h"
-
-enum {
-  ECHO = 0,
-  SLOW = 1,
-  USER_ERROR = 2,
-  NO_RESPONSE = 3,
-  LATER = 4,
-  ERROR_TEXT = 5,
-  CONCURRENCY = 6,
-  RESPONDV = 7,
-  RESPONDV_INVALID = 8
-};
+#include "svc_provider_modes.h"
 
 static pthread_mutex_t lock = PTHREAD_MUTEX_INITIALIZER;
 static int running, most_running;

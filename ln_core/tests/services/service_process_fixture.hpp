@@ -15,23 +15,11 @@
 
 #include "client/client_test_support.hpp"
 #include "ln_messages.h"
+#include "svc_provider_modes.h"
 
 namespace ln::servicetest {
 
 using namespace ln::clienttest;
-
-/// What ln_svc_provider does with a request (its req.mode).
-enum Mode {
-  ECHO = 0,
-  SLOW = 1,
-  USER_ERROR = 2,
-  NO_RESPONSE = 3,
-  LATER = 4,
-  ERROR_TEXT = 5,
-  CONCURRENCY = 6,
-  RESPONDV = 7,          // echoes the text through ln_service_request_respondv
-  RESPONDV_INVALID = 8,  // ln_service_request_respondv with a truncated response
-};
 
 class ServiceProcessTest : public ::testing::Test {
  protected:
