@@ -15,7 +15,7 @@
 //   PLACEMENT: same (both on CPU 1) or split (CPU 0 and CPU 1)
 //   Options (before the test name):
 //     --repeat N        run every case N times
-//     --max-spin-us N   SpinPolicy::max_spin of all readers (default 20; 0 = futex only)
+//     --max-spin-us N   SpinPolicy::max_spin of all readers (default 50; 0 = futex only)
 //     --lag-policy newest|window   LagPolicy of the rate subscriber (default newest, like LN)
 //     --wait-quiet S    wait at most S seconds for quiet CPUs before every case (default 60)
 //   Before every case the driver waits (at most 60 s) until both CPUs are at
@@ -48,7 +48,7 @@ using namespace std::chrono_literals;
 using Clock = std::chrono::steady_clock;
 
 // Global knobs set from the command line.
-long g_max_spin_us = 20;
+long g_max_spin_us = 50;
 long g_wait_quiet_s = 60;
 bool g_quiet = true;
 LagPolicy g_lag_policy = LagPolicy::skip_to_newest;
