@@ -188,7 +188,18 @@ def test_thread_pool_setschedparam_results(lnbt):
         prefix = [setpriv, "--bounding-set=-sys_nice", "--inh-caps=-sys_nice"]
 
     def scenario(system):
-        program = support.run([*prefix, system.programs["lnbt_services"], "sched"], lnbt.client_env(system))
+        # LN 2.9's 2-thread pool sometimes stalls for good (bench/ln/README.md);
+        # its program then ends only by our timeout (-9). That attempt says
+        # nothing about setschedparam: run it again, at most four times more
+        # (it stalls in about a third of the runs here; a run takes ~1 s).
+        attempts = 5 if system.label == "ln29" else 1
+        for attempt in range(attempts):
+            program = support.run([*prefix, system.programs["lnbt_services"], "sched"], lnbt.client_env(system),
+                                  timeout=10)
+            if program.returncode != -9:
+                break
+            if attempt + 1 < attempts:
+                support.DIFFERENCES.append("LN 2.9's thread pool stalled in the sched scenario; run again")
         return program.lines or [f"<no output> {program.describe()}"]
 
     transcripts = transcripts_for(lnbt, scenario)
