@@ -1,13 +1,14 @@
 """Physical limit: round trip through shared memory between two processes (bench/probes/shm_rtt.c).
 
-Three ways to wait for the peer: busy-poll (spin), plain futex wait/wake, and adaptive
-spin-then-futex (the sender skips FUTEX_WAKE while the peer still spins). The futex round trip
+Ways to wait for the peer: busy-poll (spin), plain futex wait/wake, adaptive spin-then-futex
+(the sender skips FUTEX_WAKE while the peer still spins) and, on one core, sched_yield until the
+peer's word changes (the cheapest hand-over between two processes there). The futex round trip
 is the reference within each placement: it is what a blocking read costs without tricks.
 All modes and placements are interleaved run by run, so load changes hit them alike.
 """
 from benchlib import Row, median, spread_note
 
-TITLE = "shared-memory round trip: spin, futex, adaptive spin-then-futex"
+TITLE = "shared-memory round trip: spin, futex, adaptive spin-then-futex, yield"
 ORDER = 20
 
 PAYLOAD = 64       # bytes copied in and out on every hop, like a 64 B pub/sub message
@@ -19,7 +20,7 @@ def run(ctx):
     iters, warmup = ctx.n(20000, 2000), ctx.n(2000, 200)
     modes_for = {"split": ["spin", "futex", "adaptive"],
                  # two spinners on one CPU only progress when preempted: not measured
-                 "same": ["futex", "adaptive"]}
+                 "same": ["futex", "adaptive", "yield"]}
     runs = {}  # (placement, mode) -> list of probe results
     for rep in range(ctx.reps):
         for placement, cpus in ctx.placements.items():

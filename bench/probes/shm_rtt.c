@@ -1,6 +1,6 @@
 /* Round trip between two processes (fork) through a shared anonymous mapping.
  *
- *   shm_rtt --mode spin|futex|adaptive [--cpus 0,1] [--iters 20000] [--warmup 2000]
+ *   shm_rtt --mode spin|futex|adaptive|yield [--cpus 0,1] [--iters 20000] [--warmup 2000]
  *           [--payload 64] [--spin-iters 200] [--deadline-s 20]
  *
  * A round trip: A copies the payload in and bumps its sequence word, B sees it, copies the
@@ -11,11 +11,15 @@
  *   adaptive spin up to --spin-iters pause iterations, then announce "sleeping" and FUTEX_WAIT;
  *            the sender calls FUTEX_WAKE only if the peer announced it sleeps, so a fast peer
  *            costs no system call on either side
+ *   yield    call sched_yield() until the word changes: with both processes on one CPU, the
+ *            cheapest hand-over the kernel offers (one system call and one context switch per
+ *            hop, no futex); the floor for any blocking read between two processes on one core
  * Prints one JSON line with the RTT statistics (µs) and, for the futex modes, how often the
  * waits slept, how many wake calls were made and how many 1 s futex timeouts happened
  * (a timeout in adaptive mode would be a lost wake-up, i.e. a protocol bug). */
 #include "probe.h"
 #include <errno.h>
+#include <sched.h>
 #include <linux/futex.h>
 #include <signal.h>
 #include <stdatomic.h>
@@ -23,9 +27,9 @@
 #include <sys/syscall.h>
 #include <sys/wait.h>
 
-#define MAX_PAYLOAD 65536
+#define MAX_PAYLOAD (1 << 20)
 
-enum mode { M_SPIN, M_FUTEX, M_ADAPTIVE };
+enum mode { M_SPIN, M_FUTEX, M_ADAPTIVE, M_YIELD };
 
 /* One direction of the ping-pong. seq and sleeping share a line on purpose: the sender
  * writes seq then reads sleeping, so one cache-line transfer serves both. */
@@ -64,7 +68,7 @@ static int expired(struct side *s) {
 }
 
 static void signal_peer(struct side *s, struct channel *ch, uint32_t value) {
-    if (s->mode == M_SPIN) {
+    if (s->mode == M_SPIN || s->mode == M_YIELD) {
         atomic_store_explicit(&ch->seq, value, memory_order_release);
     } else if (s->mode == M_FUTEX) {
         atomic_store_explicit(&ch->seq, value, memory_order_release);
@@ -84,6 +88,13 @@ static void signal_peer(struct side *s, struct channel *ch, uint32_t value) {
 /* Wait until ch->seq == want. Returns 0, or -1 when the deadline passed or the peer gave up. */
 static int wait_peer(struct side *s, struct channel *ch, uint32_t want) {
     s->c.waits++;
+    if (s->mode == M_YIELD) {
+        for (long n = 1; atomic_load_explicit(&ch->seq, memory_order_acquire) != want; n++) {
+            sched_yield();
+            if ((n & 0xff) == 0 && expired(s)) return -1;
+        }
+        return 0;
+    }
     if (s->mode != M_FUTEX) {
         long limit = s->mode == M_SPIN ? -1 : s->spin_iters;
         for (long n = 1; atomic_load_explicit(&ch->seq, memory_order_acquire) != want; n++) {
@@ -152,7 +163,8 @@ int main(int argc, char **argv) {
     if (!strcmp(mode_name, "spin")) mode = M_SPIN;
     else if (!strcmp(mode_name, "futex")) mode = M_FUTEX;
     else if (!strcmp(mode_name, "adaptive")) mode = M_ADAPTIVE;
-    else die("unknown --mode '%s' (spin, futex, adaptive)", mode_name);
+    else if (!strcmp(mode_name, "yield")) mode = M_YIELD;
+    else die("unknown --mode '%s' (spin, futex, adaptive, yield)", mode_name);
     if (iters < 1 || iters > 10000000 || warmup < 0 || warmup > 1000000) die("bad --iters/--warmup");
     if (payload < 0 || payload > MAX_PAYLOAD) die("--payload must be 0..%d", MAX_PAYLOAD);
     if (spin_iters < 1) die("--spin-iters must be >= 1");

@@ -17,7 +17,7 @@
 namespace ln::transport::layout {
 
 inline constexpr char kMagic[8] = {'L', 'N', 'S', 'H', 'R', 'I', 'N', 'G'};
-inline constexpr std::uint32_t kVersion = 1;
+inline constexpr std::uint32_t kVersion = 2;
 inline constexpr std::size_t kCacheLine = 64;
 
 /// Limits that keep every size computation far away from overflow.
@@ -71,6 +71,14 @@ struct SegmentHeader {
   // a woken reader learns when its packet came, not when it got a CPU back.
   std::atomic<std::int64_t> last_wake_ns;
 
+  // The large packet write() is copying right now, so that readers on other
+  // CPUs can copy it out behind the writer instead of after it (see
+  // "Streamed copies" in shm_ring.hpp). stream_target is 0 or
+  // kStreamActive | (sequence & kStreamSequenceMask) << kStreamSlotBits | slot;
+  // stream_bytes counts the payload bytes of that packet already in its slot.
+  alignas(kCacheLine) std::atomic<std::uint64_t> stream_target;
+  std::atomic<std::uint32_t> stream_bytes;
+
   // Written by readers when they go to sleep, read by the publisher on every packet.
   alignas(kCacheLine) std::atomic<std::uint32_t> sleeping_readers;
   std::atomic<std::uint64_t> next_reader_ticket;  // unique, never reused reader identities
@@ -78,6 +86,22 @@ struct SegmentHeader {
   // Borrow token t is free (0) or owned by the reader with that ticket.
   alignas(kCacheLine) std::atomic<std::uint64_t> token_owner[kMaxBorrowSlots];
 };
+
+inline constexpr std::uint64_t kStreamActive = std::uint64_t{1} << 63;
+inline constexpr unsigned kStreamSlotBits = 21;  // slot_count <= kMaxHistory + kMaxBorrowSlots + 1 < 2^21
+inline constexpr std::uint64_t kStreamSlotMask = (std::uint64_t{1} << kStreamSlotBits) - 1;
+inline constexpr std::uint64_t kStreamSequenceMask = (std::uint64_t{1} << (63 - kStreamSlotBits)) - 1;
+static_assert(std::uint64_t{kMaxHistory} + kMaxBorrowSlots + 1 <= kStreamSlotMask,
+              "every slot index must fit into a stream target");
+
+inline constexpr std::uint64_t stream_target(std::uint64_t sequence, std::uint32_t slot) noexcept {
+  return kStreamActive | (sequence & kStreamSequenceMask) << kStreamSlotBits | slot;
+}
+
+/// Futex wake masks on SegmentHeader::wake_word: every reader waits for
+/// commits; only readers that may copy behind the writer wait for stream starts.
+inline constexpr std::uint32_t kWakeOnCommit = 1u << 0;
+inline constexpr std::uint32_t kWakeOnStreamStart = 1u << 1;
 
 struct SlotHeader {
   std::atomic<std::uint64_t> sequence;  // packet in this slot; 0 while it is being (re)written

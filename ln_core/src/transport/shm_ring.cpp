@@ -127,6 +127,10 @@ constexpr std::uint32_t kOpen = static_cast<std::uint32_t>(SegmentState::open);
 // A non-blocking read attempt gives up after this many times finding its
 // packet overwritten; the blocking loop then yields and tries again.
 constexpr int kMaxAttempts = 64;
+// write() copies packets of at least kStreamMinSize bytes in chunks of
+// kStreamChunk, announcing its progress (see "Streamed copies").
+constexpr std::size_t kStreamMinSize = 64 * 1024;
+constexpr std::size_t kStreamChunk = 16 * 1024;
 // How long a reader sleeps instead of yielding after the publisher hogged its
 // CPU: doubling from min to max while it keeps happening.
 constexpr nanoseconds kMinYieldBackoff = std::chrono::milliseconds(1);
@@ -176,6 +180,7 @@ struct WriterCore {
   std::size_t next_spare = 0;
   std::size_t loan_spare = 0;
   bool loan_open = false;
+  bool streaming = false;  // the loan is being filled by stream_into_loan
   bool closed = false;
   std::uint64_t last_sequence = 0;
 
@@ -229,7 +234,35 @@ struct WriterCore {
     SegmentHeader& header = *view.header;
     header.publisher_cpu.store(sched_getcpu(), std::memory_order_relaxed);
     header.head_sequence.store(sequence, std::memory_order_release);
-    wake_sleepers(false);
+    if (streaming) {
+      // After the head: a follower that sees the stream end sees the commit.
+      header.stream_target.store(0, std::memory_order_release);
+      streaming = false;
+    }
+    wake_sleepers(false, kFutexAnyEvent);
+  }
+
+  // write() of a large packet into the claimed spare: announce it, wake the
+  // readers that copy behind the writer, and copy in chunks, publishing how
+  // far the copy got after each one.
+  void stream_into_loan(const void* data, std::uint32_t size) noexcept {
+    const std::uint32_t index = spares[loan_spare];
+    SegmentHeader& header = *view.header;
+    view.slot(index).size.store(size, std::memory_order_relaxed);
+    // Release: a follower that reads this reset knows the previous stream ended.
+    header.stream_bytes.store(0, std::memory_order_release);
+    header.publisher_cpu.store(sched_getcpu(), std::memory_order_relaxed);
+    header.stream_target.store(layout::stream_target(last_sequence + 1, index), std::memory_order_release);
+    streaming = true;
+    wake_sleepers(false, layout::kWakeOnStreamStart);
+    const auto* source = static_cast<const std::byte*>(data);
+    std::byte* target = view.payload(index);
+    for (std::uint32_t done = 0; done < size;) {
+      const std::uint32_t chunk = static_cast<std::uint32_t>(std::min<std::size_t>(kStreamChunk, size - done));
+      std::memcpy(target + done, source + done, chunk);
+      done += chunk;
+      header.stream_bytes.store(done, std::memory_order_release);
+    }
   }
 
   void discard_loan() noexcept {
@@ -244,12 +277,12 @@ struct WriterCore {
   // The seq_cst increment orders the head store before the sleeper check;
   // readers increment sleeping_readers before loading wake_word, so either we
   // see their count or they see the new head / a changed futex word.
-  void wake_sleepers(bool always) noexcept {
+  void wake_sleepers(bool always, std::uint32_t wake_mask) noexcept {
     SegmentHeader& header = *view.header;
     header.wake_word.fetch_add(1, std::memory_order_seq_cst);
     if (always || header.sleeping_readers.load(std::memory_order_seq_cst) != 0) {
       header.last_wake_ns.store(Clock::now().time_since_epoch().count(), std::memory_order_relaxed);
-      futex_wake_all(&header.wake_word);
+      futex_wake_all(&header.wake_word, wake_mask);
     }
   }
 
@@ -258,7 +291,7 @@ struct WriterCore {
     discard_loan();
     closed = true;
     view.header->state.store(static_cast<std::uint32_t>(state), std::memory_order_release);
-    wake_sleepers(true);
+    wake_sleepers(true, kFutexAnyEvent);
   }
 
   ~WriterCore() {
@@ -339,7 +372,11 @@ WriteStatus ShmWriter::write(const void* data, std::size_t size, double timestam
   if (core.loan_open) return WriteStatus::loan_outstanding;
   if (size > core.view.geometry.message_size) return WriteStatus::packet_too_large;
   if (!core.claim_spare()) return WriteStatus::no_free_slot;
-  if (size != 0) std::memcpy(core.view.payload(core.spares[core.loan_spare]), data, size);
+  if (size >= kStreamMinSize) {
+    core.stream_into_loan(data, static_cast<std::uint32_t>(size));
+  } else if (size != 0) {
+    std::memcpy(core.view.payload(core.spares[core.loan_spare]), data, size);
+  }
   core.commit(static_cast<std::uint32_t>(size), timestamp);
   return WriteStatus::ok;
 }
@@ -413,6 +450,10 @@ struct ReaderCore {
   nanoseconds yield_backoff{kMinYieldBackoff};
   std::atomic<bool> unblock_requested{false};
   ReaderStats stats;
+  // Streamed copies: set for blocking copying reads, the only ones that copy
+  // behind the writer; a stream whose writer stalled is not followed again.
+  bool follow_streams = false;
+  std::uint64_t abandoned_stream = 0;
 
   // Borrowing; BorrowedSample::release may run on any thread.
   std::uint64_t ticket = 0;  // 0: no identity (no own description), so no borrowing
@@ -527,6 +568,75 @@ struct ReaderCore {
     view.slot(slot).borrow_state.fetch_and(~(std::uint64_t{1} << token), std::memory_order_release);
   }
 
+  // ---- streamed copies
+
+  // The stream target of our next packet if we may copy it behind the
+  // writer now (0 if not): only blocking copying reads, only from another CPU
+  // (on the writer's CPU we would just keep it from writing).
+  std::uint64_t followable_stream() const noexcept {
+    if (!follow_streams) return 0;
+    const std::uint64_t target = header().stream_target.load(std::memory_order_acquire);
+    if (target == 0 || target == abandoned_stream ||
+        (target >> layout::kStreamSlotBits & layout::kStreamSequenceMask) !=
+            (next_sequence & layout::kStreamSequenceMask) ||
+        (target & layout::kStreamSlotMask) >= view.geometry.slot_count || publisher_on_this_cpu()) {
+      return 0;
+    }
+    return target;
+  }
+
+  // Copies our next packet while the writer is still copying it in, chunk by
+  // chunk as it announces them, then checks after the commit that the slot
+  // still holds that packet (the seqlock check of try_copy). kBusy: it did not
+  // (retry); kNothingNew: no stream to follow, or the writer stalled for
+  // max_spin (then this stream is left to the ordinary wait, and the buffer
+  // may hold part of the packet).
+  Attempt follow_stream(void* buffer, std::size_t capacity, SampleInfo& info) noexcept {
+    const std::uint64_t target = followable_stream();
+    if (target == 0) return kNothingNew;
+    const Location where{next_sequence, static_cast<std::uint32_t>(target & layout::kStreamSlotMask)};
+    SlotHeader& slot = view.slot(where.slot);
+    const std::uint32_t size = slot.size.load(std::memory_order_relaxed);
+    if (size > view.geometry.message_size || size > capacity) {
+      abandoned_stream = target;  // the ordinary read reports it once committed
+      return kNothingNew;
+    }
+    auto* destination = static_cast<std::byte*>(buffer);
+    const std::byte* source = view.payload(where.slot);
+    SegmentHeader& shared = header();
+    std::uint32_t copied = 0;
+    TimePoint last_progress = Clock::now();
+    for (;;) {
+      // Progress before target: if the target is still ours, so was the progress.
+      std::uint32_t ready = shared.stream_bytes.load(std::memory_order_acquire);
+      const bool committed = shared.stream_target.load(std::memory_order_acquire) != target;
+      if (committed || ready > size) ready = size;
+      if (ready > copied) {
+        std::memcpy(destination + copied, source + copied, ready - copied);
+        copied = ready;
+        if (committed) break;
+        last_progress = Clock::now();
+        continue;
+      }
+      if (committed) break;
+      if (Clock::now() - last_progress > options.spin.max_spin) {
+        abandoned_stream = target;
+        ++stats.abandoned_streams;
+        return kNothingNew;
+      }
+      cpu_relax();
+    }
+    const double timestamp = slot.timestamp.load(std::memory_order_relaxed);
+    std::atomic_thread_fence(std::memory_order_acquire);
+    if (slot.sequence.load(std::memory_order_relaxed) != where.sequence) {
+      ++stats.torn_copies;
+      return kBusy;
+    }
+    ++stats.streamed_copies;
+    deliver(where, size, timestamp, info);
+    return finished(ReadStatus::ok);
+  }
+
   // ---- attempts
 
   Attempt try_copy(void* buffer, std::size_t capacity, SampleInfo& info, ReadMode mode) noexcept {
@@ -545,7 +655,11 @@ struct ReaderCore {
     for (int attempt = 0; attempt < kMaxAttempts; ++attempt) {
       Location where{};
       switch (locate(mode, known_head, where)) {
-        case Locate::none: return kNothingNew;
+        case Locate::none: {
+          const Attempt streamed = follow_stream(buffer, capacity, info);
+          if (streamed.kind != Attempt::busy) return streamed;
+          continue;
+        }
         case Locate::corrupt: return finished(ReadStatus::corrupt_segment);
         case Locate::moved: cpu_relax(); continue;
         case Locate::found: break;
@@ -625,7 +739,7 @@ struct ReaderCore {
   bool wake_condition() const noexcept {
     return header().head_sequence.load(std::memory_order_acquire) >= next_sequence ||
            header().state.load(std::memory_order_acquire) != kOpen ||
-           unblock_requested.load(std::memory_order_acquire);
+           unblock_requested.load(std::memory_order_acquire) || followable_stream() != 0;
   }
 
   bool publisher_on_this_cpu() const noexcept {
@@ -736,7 +850,9 @@ struct ReaderCore {
       nanoseconds sleep = check_interval - (now - last_check);
       if (deadline != TimePoint::max()) sleep = std::min(sleep, nanoseconds(deadline - now));
       ++stats.futex_sleeps;
-      futex_wait(&shared.wake_word, word, sleep);
+      const bool may_follow = follow_streams && !publisher_on_this_cpu();
+      futex_wait(&shared.wake_word, word, sleep,
+                 layout::kWakeOnCommit | (may_follow ? layout::kWakeOnStreamStart : 0));
     }
     shared.sleeping_readers.fetch_sub(1, std::memory_order_seq_cst);
     if (result == ReadStatus::ok) learn_arrival(arrival_since(start, shared));
@@ -930,7 +1046,10 @@ ReadStatus ShmReader::read(void* buffer, std::size_t capacity, SampleInfo& info,
 ReadStatus ShmReader::read(void* buffer, std::size_t capacity, SampleInfo& info, WaitDeadline& deadline,
                            ReadMode mode) {
   detail::ReaderCore& core = *core_;
-  return core.run([&] { return core.try_copy(buffer, capacity, info, mode); }, deadline);
+  core.follow_streams = !deadline.polls();
+  const ReadStatus status = core.run([&] { return core.try_copy(buffer, capacity, info, mode); }, deadline);
+  core.follow_streams = false;
+  return status;
 }
 
 ReadStatus ShmReader::borrow(BorrowedSample& sample, nanoseconds timeout, ReadMode mode) {

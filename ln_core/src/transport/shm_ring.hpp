@@ -62,6 +62,19 @@
 // ReaderOptions::optimistic_copies torn copies in a row the reader pins the
 // slot (see borrowing) for the next attempt, which then cannot fail.
 //
+// Streamed copies: write() of a packet of 64 KiB or more announces it in the
+// header before copying (stream_target = its sequence and slot,
+// stream_bytes = 0), wakes the readers that wait for stream starts, and
+// copies in 16 KiB chunks, storing stream_bytes after each. A blocking
+// copying read on another CPU whose next packet that is copies each chunk as
+// it is announced, so the two copies of a packet run side by side instead of
+// one after the other; after the commit (which clears stream_target) the
+// same seqlock check as above decides whether the copy is valid. Readers on
+// the writer's CPU do not follow (they would only keep the writer from
+// running) and are not woken by stream starts (FUTEX_WAIT_BITSET masks).
+// A writer that makes no progress for SpinPolicy::max_spin is left to the
+// ordinary wait; that stream is not followed again.
+//
 // Borrowing (zero-copy read): a reader pins a slot by setting one bit in the
 // slot's borrow_state (only while the writer is not writing it, checked by
 // compare-and-swap; the writer in turn claims a spare by CAS 0 → writing).
@@ -241,6 +254,8 @@ struct ReaderStats {
   std::uint64_t spin_wakeups = 0;      ///< waits satisfied while spinning
   std::uint64_t futex_sleeps = 0;      ///< FUTEX_WAIT calls
   std::uint64_t yield_backoffs = 0;    ///< times the publisher hogged this CPU during a yield
+  std::uint64_t streamed_copies = 0;   ///< packets copied out behind the writer (see "Streamed copies")
+  std::uint64_t abandoned_streams = 0; ///< streamed writes given up on because the writer stalled
 };
 
 namespace detail {
@@ -341,11 +356,13 @@ class ShmReader {
   ~ShmReader();
 
   /// Copies the next packet into `buffer`. timeout: kNoWait, kWaitForever or
-  /// a duration. On any status but ok the buffer is untouched — except in the
-  /// pathological case that the writer overwrote the packet during several
-  /// consecutive copy attempts and no borrow token was free to pin it; then
+  /// a duration. On any status but ok the buffer is untouched — except in two
+  /// pathological cases: the writer overwrote the packet during several
+  /// consecutive copy attempts and no borrow token was free to pin it (then
   /// a blocking read keeps trying until its timeout and a non-blocking read
-  /// returns no_data with the buffer possibly overwritten.
+  /// returns no_data with the buffer possibly overwritten), or a blocking read
+  /// followed a streamed write whose publisher then stopped mid-packet and
+  /// never committed it (died, or stayed descheduled until the read timed out).
   ReadStatus read(void* buffer, std::size_t capacity, SampleInfo& info,
                   std::chrono::nanoseconds timeout = kNoWait, ReadMode mode = ReadMode::next);
   ReadStatus read(void* buffer, std::size_t capacity, SampleInfo& info, WaitDeadline& deadline,

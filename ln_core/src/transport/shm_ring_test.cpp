@@ -899,6 +899,193 @@ TEST(ShmRingBlocking, SameCpuStreamingPublisherMakesTheReaderBackOff) {
   EXPECT_EQ(publisher.wait(), 0);
 }
 
+// ------------------------------------------------------------------ streamed copies
+
+// A blocking reader on another CPU copies each large packet while the writer
+// is still copying it in; every byte arrives intact and in order.
+TEST(ShmRingStream, ReaderOnAnotherCpuCopiesBehindTheWriter) {
+  const auto [writer_cpu, reader_cpu] = two_allowed_cpus();
+  if (writer_cpu < 0) GTEST_SKIP() << "needs two CPUs";
+  constexpr std::uint32_t kSize = 4 << 20;
+  constexpr std::uint64_t kPackets = 40;
+  SocketPair sockets;
+  Child publisher([&, writer_cpu = writer_cpu] {
+    PinnedThread pinned(writer_cpu);
+    ShmWriter writer = ShmWriter::create(config(kSize, 1, 0));
+    send_fd(sockets.child.get(), writer.fd());
+    std::vector<std::byte> staging(kSize);
+    for (std::uint64_t s = 1; s <= kPackets; ++s) {
+      fill_pattern(staging.data(), kSize, s);
+      if (receive_byte(sockets.child.get(), 10s) != 'r') return 2;  // the reader waits for it
+      if (writer.write(staging.data(), kSize) != WriteStatus::ok) return 3;
+    }
+    return 0;
+  });
+  PinnedThread pinned(reader_cpu);
+  ShmReader reader = ShmReader::attach(receive_fd(sockets.parent.get()));
+  std::vector<std::byte> buffer(kSize);
+  for (std::uint64_t s = 1; s <= kPackets; ++s) {
+    send_byte(sockets.parent.get(), 'r');
+    SampleInfo info;
+    ASSERT_EQ(reader.read(buffer.data(), kSize, info, 10s), ReadStatus::ok);
+    ASSERT_EQ(info.sequence, s);
+    ASSERT_EQ(info.lost, 0u);
+    ASSERT_EQ(info.size, kSize);
+    ASSERT_TRUE(pattern_intact(buffer.data(), kSize, s)) << "packet " << s;
+  }
+  EXPECT_EQ(publisher.wait(), 0);
+  // Each write starts while the reader waits for it; only scheduling noise can make it miss one.
+  EXPECT_GT(reader.stats().streamed_copies, 0u);
+  std::printf("    %llu of %llu packets copied behind the writer\n",
+              static_cast<unsigned long long>(reader.stats().streamed_copies),
+              static_cast<unsigned long long>(kPackets));
+}
+
+// A writer stalled in the middle of a packet, deterministically: its source
+// buffer has an inaccessible page half-way, and the SIGSEGV handler reports
+// the stall ('S') and holds the writer until the parent says go on ('c').
+namespace stall {
+int socket = -1;
+std::byte* page = nullptr;
+long page_size = 0;
+
+void on_fault(int, siginfo_t* info, void*) {
+  auto* address = static_cast<std::byte*>(info->si_addr);
+  if (address < page || address >= page + page_size) {
+    ::signal(SIGSEGV, SIG_DFL);  // a real crash: fault again and die of it
+    return;
+  }
+  char byte = 'S';
+  if (::write(socket, &byte, 1) != 1) ::_exit(7);
+  while (byte != 'c') {
+    if (::read(socket, &byte, 1) != 1) ::_exit(8);
+  }
+  ::mprotect(page, static_cast<std::size_t>(page_size), PROT_READ | PROT_WRITE);
+}
+
+// Body of a child that writes one patterned packet of `size` bytes (sequence 1)
+// when the parent sends 'r', stalling half-way as described above.
+std::function<int()> writer_body(int socket_fd, int cpu, std::uint32_t size) {
+  return [=] {
+    PinnedThread pinned(cpu);
+    ShmWriter writer = ShmWriter::create(config(size, 1, 0));
+    page_size = ::sysconf(_SC_PAGESIZE);
+    void* staging = ::mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    if (staging == MAP_FAILED) return 2;
+    fill_pattern(staging, size, 1);
+    socket = socket_fd;
+    page = static_cast<std::byte*>(staging) + size / 2;
+    struct sigaction action {};
+    action.sa_sigaction = on_fault;
+    action.sa_flags = SA_SIGINFO;
+    if (::sigaction(SIGSEGV, &action, nullptr) != 0) return 3;
+    if (::mprotect(page, static_cast<std::size_t>(page_size), PROT_NONE) != 0) return 4;
+    send_fd(socket_fd, writer.fd());
+    if (receive_byte(socket_fd, 10s) != 'r') return 5;
+    return writer.write(staging, size) == WriteStatus::ok ? 0 : 6;
+  };
+}
+}  // namespace stall
+
+// A reader that follows a stream whose writer stalls gives up after max_spin
+// and waits as usual: its read times out (the writer lives), and the packet
+// is delivered whole once the writer finishes it.
+TEST(ShmRingStream, StalledWriterIsLeftToTheOrdinaryWait) {
+  const auto [writer_cpu, reader_cpu] = two_allowed_cpus();
+  if (writer_cpu < 0) GTEST_SKIP() << "needs two CPUs";
+  constexpr std::uint32_t kSize = 4 << 20;
+  SocketPair sockets;
+  Child publisher(stall::writer_body(sockets.child.get(), writer_cpu, kSize));
+  PinnedThread pinned(reader_cpu);
+  ShmReader reader = ShmReader::attach(receive_fd(sockets.parent.get()));
+  std::vector<std::byte> buffer(kSize);
+  SampleInfo info;
+  send_byte(sockets.parent.get(), 'r');
+  EXPECT_EQ(reader.read(buffer.data(), kSize, info, 300ms), ReadStatus::timeout);
+  ASSERT_EQ(receive_byte(sockets.parent.get(), 10s), 'S');  // it did stall mid-packet
+  EXPECT_EQ(reader.stats().abandoned_streams, 1u);
+  EXPECT_EQ(reader.stats().streamed_copies, 0u);
+  send_byte(sockets.parent.get(), 'c');
+  ASSERT_EQ(reader.read(buffer.data(), kSize, info, 10s), ReadStatus::ok);
+  EXPECT_EQ(info.sequence, 1u);
+  EXPECT_EQ(info.lost, 0u);
+  EXPECT_TRUE(pattern_intact(buffer.data(), kSize, 1));
+  EXPECT_EQ(publisher.wait(), 0);
+}
+
+// A writer that dies in the middle of a streamed packet: the follower gives
+// up on the stream and its read ends with publisher_gone, not a hang.
+TEST(ShmRingStream, WriterDyingMidPacketEndsTheRead) {
+  const auto [writer_cpu, reader_cpu] = two_allowed_cpus();
+  if (writer_cpu < 0) GTEST_SKIP() << "needs two CPUs";
+  constexpr std::uint32_t kSize = 4 << 20;
+  SocketPair sockets;
+  Child publisher(stall::writer_body(sockets.child.get(), writer_cpu, kSize));
+  PinnedThread pinned(reader_cpu);
+  ShmReader reader = ShmReader::attach(receive_fd(sockets.parent.get()));
+  std::vector<std::byte> buffer(kSize);
+  SampleInfo info;
+  send_byte(sockets.parent.get(), 'r');
+  ASSERT_EQ(receive_byte(sockets.parent.get(), 10s), 'S');
+  ASSERT_EQ(::kill(publisher.pid(), SIGKILL), 0);
+  EXPECT_EQ(reader.read(buffer.data(), kSize, info, 10s), ReadStatus::publisher_gone);
+  EXPECT_EQ(publisher.wait(), -2);
+}
+
+// The reader is waiting when a writer thread on another CPU streams a packet.
+void write_when_reader_sleeps(ShmWriter& writer, int cpu, const std::vector<std::byte>& packet_bytes,
+                              std::uint32_t readers = 1) {
+  PinnedThread pinned(cpu);
+  if (!wait_until([&] { return writer.sleeping_readers() == readers; }, 10s)) return;
+  writer.write(packet_bytes.data(), packet_bytes.size());
+}
+
+// A streamed packet larger than the reader's buffer is not followed: the
+// read reports buffer_too_small after the commit and leaves the buffer alone.
+TEST(ShmRingStream, PacketLargerThanTheBufferIsReportedNotFollowed) {
+  const auto [writer_cpu, reader_cpu] = two_allowed_cpus();
+  if (writer_cpu < 0) GTEST_SKIP() << "needs two CPUs";
+  constexpr std::uint32_t kSize = 1 << 20;
+  ShmWriter writer = ShmWriter::create(config(kSize, 1, 0));
+  PinnedThread pinned(reader_cpu);
+  ShmReader reader = ShmReader::attach(writer.fd());
+  const std::vector<std::byte> big = packet(kSize, 1);
+  std::thread publisher([&, cpu = writer_cpu] { write_when_reader_sleeps(writer, cpu, big); });
+  std::vector<std::byte> buffer(kSize / 2, std::byte{0x5a});
+  SampleInfo info;
+  EXPECT_EQ(reader.read(buffer.data(), buffer.size(), info, 10s), ReadStatus::buffer_too_small);
+  publisher.join();
+  EXPECT_EQ(info.size, kSize);
+  EXPECT_TRUE(std::all_of(buffer.begin(), buffer.end(), [](std::byte b) { return b == std::byte{0x5a}; }));
+  EXPECT_EQ(reader.stats().streamed_copies, 0u);
+  // Still unread: a big enough buffer gets it.
+  std::vector<std::byte> whole(kSize);
+  ASSERT_EQ(reader.read(whole.data(), whole.size(), info), ReadStatus::ok);
+  EXPECT_EQ(whole, big);
+}
+
+// On the writer's CPU a reader would only keep the writer from running: it
+// waits for the commit instead of following.
+TEST(ShmRingStream, ReaderOnTheWritersCpuDoesNotFollow) {
+  const int cpu = first_allowed_cpu();
+  ASSERT_GE(cpu, 0);
+  constexpr std::uint32_t kSize = 1 << 20;
+  ShmWriter writer = ShmWriter::create(config(kSize, 1, 0));
+  PinnedThread pinned(cpu);
+  ShmReader reader = ShmReader::attach(writer.fd());
+  std::vector<std::byte> buffer(kSize);
+  for (std::uint64_t s = 1; s <= 5; ++s) {
+    const std::vector<std::byte> bytes = packet(kSize, s);
+    std::thread publisher([&] { write_when_reader_sleeps(writer, cpu, bytes); });
+    SampleInfo info;
+    EXPECT_EQ(reader.read(buffer.data(), buffer.size(), info, 10s), ReadStatus::ok);
+    publisher.join();
+    EXPECT_EQ(info.sequence, s);
+    EXPECT_EQ(buffer, bytes);
+  }
+  EXPECT_EQ(reader.stats().streamed_copies, 0u);
+}
+
 // ------------------------------------------------------------------ cross-process
 
 TEST(ShmRingCrossProcess, DescriptorPassingOverSocketpair) {
@@ -1052,10 +1239,11 @@ void expect_clean(const HammerResult& result) {
   EXPECT_EQ(result.torn, 0u);
   EXPECT_EQ(result.out_of_order, 0u);
   EXPECT_EQ(result.bad_loss_count, 0u);
-  std::printf("    received %llu, torn copies retried %llu, pinned copies %llu\n",
+  std::printf("    received %llu, torn copies retried %llu, pinned copies %llu, streamed copies %llu\n",
               static_cast<unsigned long long>(result.received),
               static_cast<unsigned long long>(result.stats.torn_copies),
-              static_cast<unsigned long long>(result.stats.pinned_copies));
+              static_cast<unsigned long long>(result.stats.pinned_copies),
+              static_cast<unsigned long long>(result.stats.streamed_copies));
 }
 
 TEST(ShmRingCrossProcess, NoTornCopiesSingleBufferLargePackets) { expect_clean(hammer(65536, 1, 0, false, false)); }
@@ -1066,6 +1254,9 @@ TEST(ShmRingCrossProcess, NoTornPinnedCopies) {
   EXPECT_EQ(result.stats.torn_copies, 0u);  // pinned before copying: nothing to retry
   EXPECT_EQ(result.stats.pinned_copies, result.received);
 }
+// Streamed writes (>= 64 KiB) that lap their followers: the follower's final check must catch it.
+TEST(ShmRingCrossProcess, NoTornStreamedCopiesSingleBuffer) { expect_clean(hammer(1 << 20, 1, 0, false, false)); }
+TEST(ShmRingCrossProcess, NoTornStreamedCopiesManyBuffers) { expect_clean(hammer(256 << 10, 4, 0, false, false)); }
 TEST(ShmRingCrossProcess, NoTornCopiesSmallPacketsManyBuffers) {
   expect_clean(hammer(64, 64, 2, false, false, 3, 200000));
 }

@@ -220,21 +220,24 @@ bool byte_locked_by_other(int fd, std::uint64_t offset) noexcept {
 }
 
 void futex_wait(const std::atomic<std::uint32_t>* word, std::uint32_t expected,
-                std::chrono::nanoseconds timeout) noexcept {
+                std::chrono::nanoseconds timeout, std::uint32_t wait_mask) noexcept {
   static_assert(sizeof(std::atomic<std::uint32_t>) == sizeof(std::uint32_t),
                 "the futex word must be a plain 32-bit integer in memory");
-  timespec relative{};
-  timespec* relative_ptr = nullptr;
+  // FUTEX_WAIT_BITSET takes an absolute CLOCK_MONOTONIC deadline.
+  timespec deadline{};
+  timespec* deadline_ptr = nullptr;
   if (timeout.count() >= 0) {
-    relative.tv_sec = static_cast<time_t>(timeout.count() / 1'000'000'000);
-    relative.tv_nsec = static_cast<long>(timeout.count() % 1'000'000'000);
-    relative_ptr = &relative;
+    ::clock_gettime(CLOCK_MONOTONIC, &deadline);
+    const long long total_ns = deadline.tv_nsec + timeout.count() % 1'000'000'000;
+    deadline.tv_sec += static_cast<time_t>(timeout.count() / 1'000'000'000 + total_ns / 1'000'000'000);
+    deadline.tv_nsec = static_cast<long>(total_ns % 1'000'000'000);
+    deadline_ptr = &deadline;
   }
-  ::syscall(SYS_futex, word, FUTEX_WAIT, expected, relative_ptr, nullptr, 0);
+  ::syscall(SYS_futex, word, FUTEX_WAIT_BITSET, expected, deadline_ptr, nullptr, wait_mask);
 }
 
-void futex_wake_all(const std::atomic<std::uint32_t>* word) noexcept {
-  ::syscall(SYS_futex, word, FUTEX_WAKE, INT_MAX, nullptr, nullptr, 0);
+void futex_wake_all(const std::atomic<std::uint32_t>* word, std::uint32_t wake_mask) noexcept {
+  ::syscall(SYS_futex, word, FUTEX_WAKE_BITSET, INT_MAX, nullptr, nullptr, wake_mask);
 }
 
 }  // namespace ln::transport

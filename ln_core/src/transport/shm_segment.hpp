@@ -126,8 +126,13 @@ bool byte_locked_by_other(int fd, std::uint64_t offset) noexcept;
 /// Futex on a word in shared memory (non-private, so it works across processes).
 /// Returns once woken, when `*word != expected`, on a signal, or after `timeout`
 /// (negative = no timeout). Spurious returns are possible: callers re-check.
+/// A waiter is only woken by wakes whose `wake_mask` shares a bit with its
+/// `wait_mask` (FUTEX_WAIT_BITSET), so one word can serve waiters that care
+/// about different events.
+inline constexpr std::uint32_t kFutexAnyEvent = 0xffffffffu;
 void futex_wait(const std::atomic<std::uint32_t>* word, std::uint32_t expected,
-                std::chrono::nanoseconds timeout) noexcept;
-void futex_wake_all(const std::atomic<std::uint32_t>* word) noexcept;
+                std::chrono::nanoseconds timeout, std::uint32_t wait_mask = kFutexAnyEvent) noexcept;
+void futex_wake_all(const std::atomic<std::uint32_t>* word,
+                    std::uint32_t wake_mask = kFutexAnyEvent) noexcept;
 
 }  // namespace ln::transport
