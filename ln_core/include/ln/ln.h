@@ -965,8 +965,10 @@ typedef struct ln_sample_info {
   uint64_t sequence;
   /** Packets published since the previous packet this port delivered that
       this port skipped: overwritten in the ring before being read, dropped
-      in transport, or left out by a rate limit. 0 for the first packet after
-      subscribing or after a publisher change. */
+      in transport (also on the network, from a publisher on another host),
+      or left out by a rate limit. For the first packet after subscribing or
+      after a publisher change: those skipped since that publisher counted
+      the subscription (has_subscriber), usually 0. */
   uint64_t lost;
   /** The publisher's timestamp of the packet (as ln_read() reports it). */
   double timestamp;

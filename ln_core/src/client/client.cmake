@@ -46,6 +46,11 @@ set_target_properties(ln_client_objects PROPERTIES
 target_include_directories(ln_client_objects PUBLIC ${LN_CLIENT_SRC_DIR} ${LN_CLIENT_ROOT_DIR}/include)
 target_link_libraries(ln_client_objects PUBLIC ln_md ln_protocol ln_transport ln_services Threads::Threads)
 ln_target_warnings(ln_client_objects)
+if(BUILD_TESTING)
+  # Fault injection for the multi-host tests (remote.cpp, inert unless
+  # LN_CORE_TEST_UDP_FAULTS is set).
+  target_compile_definitions(ln_client_objects PRIVATE LN_TEST_HOOKS)
+endif()
 
 add_library(ln SHARED $<TARGET_OBJECTS:ln_client_objects>)
 set_target_properties(ln PROPERTIES
@@ -72,6 +77,7 @@ if(BUILD_TESTING)
     ${LN_CLIENT_DIR}/net_test.cpp
     ${LN_CLIENT_DIR}/peer_test.cpp
     ${LN_CLIENT_DIR}/ports_test.cpp
+    ${LN_CLIENT_DIR}/remote_test.cpp
     ${LN_CLIENT_DIR}/topic_stats_test.cpp)
   target_link_libraries(ln_client_unit_tests PRIVATE ln_client_objects GTest::gtest GTest::gtest_main)
   ln_target_warnings(ln_client_unit_tests)

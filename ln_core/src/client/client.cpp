@@ -205,8 +205,8 @@ Client::~Client() {
   std::lock_guard<std::mutex> lock(registry_mutex_);
   waiters_.clear();   // before the ports they look at
   outports_.clear();  // closes the segments: local subscribers see the publisher leave at once
+  receiver_.reset();  // before the ports it hands rings to
   inports_.clear();
-  receiver_.reset();
 }
 
 void Client::require_registered() const {
@@ -463,6 +463,7 @@ InPort* Client::subscribe(const std::string& topic_name, const std::string& md_n
     for (auto it = inports_by_subscription_.begin(); it != inports_by_subscription_.end();)
       it = it->second == port ? inports_by_subscription_.erase(it) : std::next(it);
     registrations_.erase(port);
+    if (receiver_) receiver_->close_inbox(port);
     throw;
   }
   bool registered_now;
@@ -586,32 +587,33 @@ bool Client::update_subscribers_locked(OutPort* port, const Message& message) {
     debug("topic '%s': %s", port->topic().c_str(), failure.what());
   }
 
-  std::map<std::int64_t, std::uint64_t>& joined = registrations_.at(port).local_joined_after;
+  std::map<std::int64_t, std::uint64_t>& joined = registrations_.at(port).joined_after;
   std::map<std::int64_t, std::uint64_t> listed;
   std::optional<std::uint64_t> newest;
+  auto count = [&](std::int64_t id) {
+    if (auto known = joined.find(id); known != joined.end()) return listed.emplace(id, known->second).first->second;
+    if (!newest) newest = port->newest_sequence();
+    return listed.emplace(id, *newest).first->second;
+  };
   if (message.has("local")) {
     for (const std::string& entry : message.get_list("local")) {
       char* end = nullptr;
       const long long id = std::strtoll(entry.c_str(), &end, 10);
       if (end == entry.c_str() || *end != '\0') continue;
-      if (auto known = joined.find(id); known != joined.end()) {
-        listed.emplace(id, known->second);
-        continue;
-      }
-      if (!newest) newest = port->newest_sequence();
-      listed.emplace(id, *newest);
+      count(id);
     }
   }
-  joined.swap(listed);  // subscriptions no longer listed are forgotten
-  port->set_subscribers(static_cast<int>(message.get_int("subscribers")));
-
   std::vector<RemoteTarget> targets;
   if (message.has("remote")) {
     for (const std::string& entry : message.get_list("remote")) {
       RemoteTarget target;
-      if (RemoteTarget::parse(entry, target)) targets.push_back(target);
+      if (!RemoteTarget::parse(entry, target)) continue;
+      target.joined_after = count(target.subscription_id);
+      targets.push_back(target);
     }
   }
+  joined.swap(listed);  // subscriptions no longer listed are forgotten
+  port->set_subscribers(static_cast<int>(message.get_int("subscribers")));
   port->set_remote_targets(targets);
   return grew;
 }
@@ -665,16 +667,19 @@ void Client::attach_remote_inbox_locked(InPort* port, std::int64_t subscription_
           port->topic().c_str());
     return;
   }
-  // One inbox per subscription, whoever publishes remotely: its identity
-  // never changes, so the port adopts it once.
-  const SegmentIdentity inbox{"inbox:" + receiver_->address(), static_cast<std::int64_t>(serial)};
-  try {
-    if (!port->knows_segment(inbox))
-      port->offer_segment(receiver_->open_inbox(port, port->message_size(), port->buffers()), inbox, port->buffers());
-    receiver_->route(port, subscription_id);
-  } catch (const Failure& failure) {
-    debug("topic '%s': %s", port->topic().c_str(), failure.what());
-  }
+  // One inbox per subscription, whoever publishes remotely. The receiver
+  // creates a ring in it for each publisher stream when its data arrives
+  // and hands it to the port; each has an identity of its own, so that the
+  // port switches to the new one at once.
+  RemoteReceiver::InboxHandlers handlers;
+  const std::string inbox = "inbox:" + receiver_->address() + "/" + std::to_string(serial) + "#";
+  handlers.adopt = [port, inbox](UniqueFd ring, std::int64_t generation, std::uint64_t written_before) {
+    port->offer_segment(std::move(ring), SegmentIdentity{inbox + std::to_string(generation), generation},
+                        port->buffers(), written_before);
+  };
+  handlers.fail = [port](int code, const std::string& text) { port->fail_stream(code, text); };
+  receiver_->open_inbox(port, port->message_size(), port->buffers(), std::move(handlers));
+  receiver_->route(port, subscription_id);
 }
 
 void Client::serve_listed_opens() {
@@ -684,7 +689,7 @@ void Client::serve_listed_opens() {
     for (auto it = held_opens_.begin(); it != held_opens_.end();) {
       const OutPort* port = find_outport_locked(it->request.message.get_int_or("topic_id", -1),
                                                 it->request.message.get_string_or("topic", ""));
-      const bool counted = port == nullptr || registrations_.at(port).local_joined_after.count(
+      const bool counted = port == nullptr || registrations_.at(port).joined_after.count(
                                                   it->request.message.get_int_or("subscription_id", -1)) != 0;
       if (!counted) {
         ++it;
@@ -717,7 +722,7 @@ void Client::serve_open_segment(PeerRequest& request, bool may_wait) {
     if (port == nullptr) return request.fail(LNE_PORT_NOT_FOUND, "this client does not publish topic '" + topic + "'");
     const Registration& registration = registrations_.at(port);
     if (may_wait && subscription_id >= 0 && registration.manager_id >= 0 &&
-        registration.session == link_.session() && registration.local_joined_after.count(subscription_id) == 0) {
+        registration.session == link_.session() && registration.joined_after.count(subscription_id) == 0) {
       // The manager answered the subscriber before telling us: wait for its
       // subscribers_changed, so that the subscriber gets no packet before
       // has_subscriber() counts it and every one after. A subscriber it
@@ -746,7 +751,7 @@ void Client::serve_open_segment(PeerRequest& request, bool may_wait) {
     // Not listed (held for too long, or no manager): the program cannot
     // have seen this subscriber counted, so the newest packet is the right
     // starting point.
-    const auto& joined = registration.local_joined_after;
+    const auto& joined = registration.joined_after;
     if (auto it = joined.find(subscription_id); it != joined.end()) joined_after = it->second;
   }
   if (grown != nullptr) send_publisher_ready(grown);
@@ -818,7 +823,7 @@ void Client::on_disconnect(const std::string& reason) {
       registration.manager_id = -1;
       registration.topic_id = -1;
       registration.in_flight = false;
-      registration.local_joined_after.clear();  // the next manager hands out its own ids
+      registration.joined_after.clear();  // the next manager hands out its own ids
     }
     outports_by_topic_id_.clear();
     inports_by_subscription_.clear();

@@ -180,11 +180,12 @@ class Client {
     std::uint64_t serial = 0;      // tells a port apart from a later one at the same address
     std::string md_requested;      // the message definition as the program gave it
     PacketCountReports packet_reports;  // outports: what the manager knows of the count
-    // Outports: each local subscription the manager listed (this session's
-    // ids) -> the newest sequence when this port first counted it. The
-    // subscriber's segment starts after it: has_subscriber() may turn true
-    // before that subscriber asks for the segment (open_segment).
-    std::map<std::int64_t, std::uint64_t> local_joined_after;
+    // Outports: each subscription the manager listed (this session's ids;
+    // local ones and remote ones) -> the newest sequence when this port
+    // first counted it. The subscriber's packets are the later ones:
+    // has_subscriber() may turn true before a local subscriber asks for the
+    // segment (open_segment), or before a remote one can route our packets.
+    std::map<std::int64_t, std::uint64_t> joined_after;
   };
 
   Settings settings_;

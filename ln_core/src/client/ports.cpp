@@ -9,6 +9,7 @@
 #include <cstdarg>
 #include <cstdio>
 #include <cstring>
+#include <random>
 
 #include "client/error_slot.hpp"
 #include "client/failure.hpp"
@@ -44,6 +45,17 @@ int failure_code_of(const ShmError& error) {
     case transport::ShmErrc::invalid_config: return LNE_SHM_IS_TOO_BIG;
     default: return LNE_INVALID_PARAMETER;
   }
+}
+
+}  // namespace
+
+namespace {
+
+std::uint64_t new_stream_id() {
+  static std::atomic<std::uint64_t> counter{0};
+  std::random_device random;
+  const std::uint64_t id = (std::uint64_t{random()} << 32 ^ random()) + ++counter;
+  return id != 0 ? id : 1;
 }
 
 }  // namespace
@@ -113,6 +125,7 @@ void OutPort::create_segment(std::uint32_t message_size, const std::string& hash
     writer_ = std::move(writer);
     generation_ = next_segment_generation();
     first_sequence_ = 1;
+    stream_ = new_stream_id();
   } catch (const ShmError& error) {
     throw Failure(failure_code_of(error), "creating the shared-memory segment of topic '" + topic_ + "': " + error.what());
   }
@@ -176,6 +189,7 @@ OutPort::SegmentOffer OutPort::offer_segment() const {
   offer.generation = generation_;
   offer.last_sequence = writer_->last_sequence();
   offer.first_sequence = first_sequence_;
+  offer.stream = stream_;
   return offer;
 }
 
@@ -267,6 +281,13 @@ void InPort::offer_segment(UniqueFd fd, SegmentIdentity identity, std::uint32_t 
   state_changed_.notify_all();
 }
 
+void InPort::fail_stream(int code, const std::string& text) {
+  std::lock_guard<std::mutex> lock(state_mutex_);
+  stream_failure_text_ = text;
+  stream_failure_.store(code, std::memory_order_release);
+  state_changed_.notify_all();
+}
+
 void InPort::forget_pending_segment() {
   std::lock_guard<std::mutex> lock(state_mutex_);
   pending_.reset();
@@ -331,14 +352,14 @@ void InPort::adopt_pending_segment() {
 
 int InPort::wait_for_segment(transport::WaitDeadline& deadline) {
   std::unique_lock<std::mutex> lock(state_mutex_);
-  auto changed = [&] { return pending_.has_value() || user_unblock_; };
+  auto changed = [&] { return pending_.has_value() || user_unblock_ || stream_failure_.load() != 0; };
   if (deadline.polls()) return pending_ ? 1 : 0;
   if (deadline.forever()) {
     state_changed_.wait(lock, changed);
   } else if (!state_changed_.wait_until(lock, deadline.at(Clock::now()), changed)) {
     return 0;
   }
-  if (pending_) return 1;
+  if (pending_ || stream_failure_.load() != 0) return 1;
   user_unblock_ = false;
   return -LNE_PORT_UNBLOCKED;
 }
@@ -346,6 +367,10 @@ int InPort::wait_for_segment(transport::WaitDeadline& deadline) {
 template <typename Attempt>
 int InPort::next_packet(transport::WaitDeadline& deadline, Attempt&& attempt, SampleInfo& info) {
   for (;;) {
+    if (const int code = stream_failure_.load(std::memory_order_acquire); code != 0) {
+      std::lock_guard<std::mutex> lock(state_mutex_);
+      return fail(code, "%s", stream_failure_text_.c_str());
+    }
     adopt_pending_segment();
     if (!reader_) {
       const int changed = wait_for_segment(deadline);

@@ -123,6 +123,7 @@ class OutPort : public PortBase {
     std::int64_t generation = 0;
     std::uint64_t last_sequence = 0;
     std::uint64_t first_sequence = 1;  // of the segment's first packet: earlier ones are not in it
+    std::uint64_t stream = 0;  // names the numbering of its packets (remote.hpp)
   };
   SegmentOffer offer_segment() const;
 
@@ -139,6 +140,7 @@ class OutPort : public PortBase {
   std::unique_ptr<transport::ShmWriter> writer_;
   std::int64_t generation_ = 0;
   std::uint64_t first_sequence_ = 1;  // of writer_'s first packet
+  std::uint64_t stream_ = 0;  // random, new whenever the numbering starts again at 1
   void* loan_ = nullptr;  // buffer handed out by next_buffer, not yet written
   // A writer replaced while a loan into it was open: kept until that loan's write.
   std::unique_ptr<transport::ShmWriter> retired_;
@@ -181,6 +183,9 @@ class InPort : public PortBase {
                      std::optional<std::uint64_t> written_before = std::nullopt);
   /// The publisher left: forget a segment that was not adopted yet.
   void forget_pending_segment();
+  /// The publisher's data cannot be delivered (remote: other byte order):
+  /// reads fail with `code` from now on. Any thread.
+  void fail_stream(int code, const std::string& text);
 
  private:
   struct PendingSegment {
@@ -222,6 +227,8 @@ class InPort : public PortBase {
   std::condition_variable state_changed_;
   std::optional<PendingSegment> pending_;
   std::atomic<bool> has_pending_{false};  // pending_ is set; read without the lock on every read
+  std::atomic<int> stream_failure_{0};     // fail_stream()'s code
+  std::string stream_failure_text_;
   bool user_unblock_ = false;
 
   std::mutex loan_mutex_;

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
 #include <sstream>
 #include <tuple>
@@ -23,13 +24,14 @@ namespace {
 
 using namespace std::chrono_literals;
 
-constexpr std::uint32_t kMagic = 0x3154'4e4c;  // "LNT1" in little endian
-constexpr std::size_t kHeaderSize = 4 + 8 + 8 + 8 + 4 + 4;
-// Fragments stay below the 64 KiB UDP limit (and well below it for IPv4
-// reassembly buffers on the way).
-constexpr std::size_t kMaxDatagramPayload = 60000;
+constexpr std::uint32_t kMagic = 0x3254'4e4c;  // "LNT2" in little endian
+constexpr std::size_t kHeaderSize = 4 + 4 + 8 + 8 + 8 + 8 + 8 + 4 + 4;
 constexpr std::uint32_t kMaxPacketSize = 1u << 30;
 constexpr int kSocketBuffer = 4 * 1024 * 1024;
+constexpr std::uint32_t kBigEndianPayload = 1u << 0;  // header flag
+constexpr bool kHostIsBigEndian = __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__;
+constexpr std::size_t kRetiredStreams = 4;  // per inbox
+constexpr std::size_t kEndedIds = 64;       // per receiver
 
 void put_le(unsigned char* out, std::uint64_t value, int bytes) {
   for (int i = 0; i < bytes; ++i) out[i] = static_cast<unsigned char>(value >> (8 * i));
@@ -42,33 +44,43 @@ std::uint64_t get_le(const unsigned char* in, int bytes) {
 }
 
 struct Header {
-  std::int64_t subscription_id;
-  std::uint64_t sequence;
-  double timestamp;
-  std::uint32_t packet_size;
-  std::uint32_t offset;
+  bool big_endian_payload = kHostIsBigEndian;
+  std::int64_t subscription_id = 0;
+  std::uint64_t stream = 0;
+  std::uint64_t joined_after = 0;
+  std::uint64_t sequence = 0;
+  double timestamp = 0;
+  std::uint32_t packet_size = 0;
+  std::uint32_t offset = 0;
 };
 
 void encode_header(unsigned char* out, const Header& header) {
   std::uint64_t timestamp_bits;
   std::memcpy(&timestamp_bits, &header.timestamp, sizeof timestamp_bits);
   put_le(out, kMagic, 4);
-  put_le(out + 4, static_cast<std::uint64_t>(header.subscription_id), 8);
-  put_le(out + 12, header.sequence, 8);
-  put_le(out + 20, timestamp_bits, 8);
-  put_le(out + 28, header.packet_size, 4);
-  put_le(out + 32, header.offset, 4);
+  put_le(out + 4, header.big_endian_payload ? kBigEndianPayload : 0, 4);
+  put_le(out + 8, static_cast<std::uint64_t>(header.subscription_id), 8);
+  put_le(out + 16, header.stream, 8);
+  put_le(out + 24, header.joined_after, 8);
+  put_le(out + 32, header.sequence, 8);
+  put_le(out + 40, timestamp_bits, 8);
+  put_le(out + 48, header.packet_size, 4);
+  put_le(out + 52, header.offset, 4);
 }
 
 bool decode_header(const unsigned char* in, std::size_t size, Header& header) {
   if (size < kHeaderSize || get_le(in, 4) != kMagic) return false;
-  header.subscription_id = static_cast<std::int64_t>(get_le(in + 4, 8));
-  header.sequence = get_le(in + 12, 8);
-  const std::uint64_t timestamp_bits = get_le(in + 20, 8);
+  header.big_endian_payload = (get_le(in + 4, 4) & kBigEndianPayload) != 0;
+  header.subscription_id = static_cast<std::int64_t>(get_le(in + 8, 8));
+  header.stream = get_le(in + 16, 8);
+  header.joined_after = get_le(in + 24, 8);
+  header.sequence = get_le(in + 32, 8);
+  const std::uint64_t timestamp_bits = get_le(in + 40, 8);
   std::memcpy(&header.timestamp, &timestamp_bits, sizeof header.timestamp);
-  header.packet_size = static_cast<std::uint32_t>(get_le(in + 28, 4));
-  header.offset = static_cast<std::uint32_t>(get_le(in + 32, 4));
-  return header.packet_size <= kMaxPacketSize && header.offset <= header.packet_size;
+  header.packet_size = static_cast<std::uint32_t>(get_le(in + 48, 4));
+  header.offset = static_cast<std::uint32_t>(get_le(in + 52, 4));
+  return header.packet_size <= kMaxPacketSize && header.offset <= header.packet_size &&
+         size - kHeaderSize <= header.packet_size - header.offset;
 }
 
 bool parse_ipv4(const std::string& address, sockaddr_in& out) {
@@ -101,9 +113,76 @@ bool RemoteTarget::parse(const std::string& text, RemoteTarget& target) {
   return parse_ipv4(target.address, ignored);
 }
 
+// ----------------------------------------------------------- PacketAssembler
+
+const unsigned char* PacketAssembler::add(std::uint64_t sequence, std::uint32_t packet_size, std::uint32_t offset,
+                                          const unsigned char* fragment, std::size_t fragment_size) {
+  if (sequence <= newest_ || sequence < assembling_ || fragment_size_ == 0) return nullptr;  // stale
+  if (offset == 0 && fragment_size == packet_size) {  // a whole packet
+    static const unsigned char kEmpty = 0;
+    newest_ = sequence;
+    assembling_ = 0;
+    return packet_size != 0 ? fragment : &kEmpty;
+  }
+  if (offset % fragment_size_ != 0 || offset >= packet_size ||
+      fragment_size != std::min<std::size_t>(fragment_size_, packet_size - offset))
+    return nullptr;
+  if (sequence != assembling_ || packet_.size() != packet_size) {
+    // A newer packet; an unfinished older one is lost.
+    assembling_ = sequence;
+    packet_.resize(packet_size);
+    missing_ = static_cast<std::uint32_t>((std::uint64_t{packet_size} + fragment_size_ - 1) / fragment_size_);
+    have_.assign(missing_, false);
+  }
+  const std::size_t index = offset / fragment_size_;
+  if (have_[index]) return nullptr;  // a duplicate
+  have_[index] = true;
+  std::memcpy(packet_.data() + offset, fragment, fragment_size);
+  if (--missing_ != 0) return nullptr;
+  newest_ = sequence;
+  assembling_ = 0;
+  return packet_.data();
+}
+
 // -------------------------------------------------------------- RemoteSender
 
-RemoteSender::RemoteSender(OutPort& port, RemoteTarget target) : port_(port), target_(std::move(target)) {
+#ifdef LN_TEST_HOOKS
+// Test builds only: LN_CORE_TEST_UDP_FAULTS="drop=K,duplicate=M,reorder=N"
+// makes every K-th UDP datagram vanish, every M-th go out twice, and every
+// N-th go out after the one following it -- the network faults the veth test
+// needs where the kernel has no netem.
+struct RemoteSender::Faults {
+  std::uint64_t drop = 0, duplicate = 0, reorder = 0;
+  std::uint64_t count = 0;
+  std::vector<unsigned char> delayed;
+
+  static std::shared_ptr<Faults> from_environment() {
+    const char* text = std::getenv("LN_CORE_TEST_UDP_FAULTS");
+    if (text == nullptr || *text == '\0') return nullptr;
+    auto faults = std::make_shared<Faults>();
+    std::istringstream in(text);
+    std::string item;
+    while (std::getline(in, item, ',')) {
+      const auto equals = item.find('=');
+      if (equals == std::string::npos) continue;
+      const std::uint64_t every = std::strtoull(item.c_str() + equals + 1, nullptr, 10);
+      const std::string name = item.substr(0, equals);
+      if (name == "drop") faults->drop = every;
+      else if (name == "duplicate") faults->duplicate = every;
+      else if (name == "reorder") faults->reorder = every;
+    }
+    return faults;
+  }
+};
+#else
+struct RemoteSender::Faults {
+  static std::shared_ptr<Faults> from_environment() { return nullptr; }
+};
+#endif
+
+
+RemoteSender::RemoteSender(OutPort& port, RemoteTarget target)
+    : port_(port), target_(std::move(target)), faults_(Faults::from_environment()) {
   thread_ = std::thread([this] { run(); });
 }
 
@@ -122,12 +201,16 @@ bool RemoteSender::attach(std::optional<std::uint64_t> resume_after) {
   transport::ReaderOptions options;
   options.buffers = std::max<std::uint32_t>(offer.slots, 1);  // a burst is sent, not skipped
   options.max_borrows = 0;
+  // Packets from before a segment switch are not in this one: the reader
+  // must not wait for them.
+  if (resume_after) resume_after = std::max(*resume_after, offer.first_sequence - 1);
   options.resume_after = resume_after;
   try {
     auto reader = std::make_unique<transport::ShmReader>(transport::ShmReader::attach(std::move(offer.fd), options));
     buffer_.resize(reader->message_size());
     std::lock_guard<std::mutex> lock(reader_mutex_);
     reader_ = std::move(reader);
+    stream_ = offer.stream;
     return true;
   } catch (const std::exception&) {
     return false;
@@ -152,9 +235,47 @@ bool RemoteSender::connect_target() {
   return true;
 }
 
+bool RemoteSender::send_datagram(const unsigned char* header, const unsigned char* payload, std::size_t length) {
+  auto send = [this](const unsigned char* head, const unsigned char* body, std::size_t body_length) {
+    iovec parts[2] = {{const_cast<unsigned char*>(head), kHeaderSize},
+                      {const_cast<unsigned char*>(body), body_length}};
+    msghdr message{};
+    message.msg_iov = parts;
+    message.msg_iovlen = 2;
+    // A full socket buffer drops the datagram (the subscriber counts it lost).
+    return ::sendmsg(socket_.get(), &message, MSG_NOSIGNAL | MSG_DONTWAIT) >= 0 || errno == ECONNREFUSED;
+  };
+#ifdef LN_TEST_HOOKS
+  if (faults_) {
+    Faults& faults = *faults_;
+    const std::uint64_t n = ++faults.count;
+    if (faults.drop != 0 && n % faults.drop == 0) return true;
+    if (faults.reorder != 0 && n % faults.reorder == 0 && faults.delayed.empty()) {
+      faults.delayed.assign(header, header + kHeaderSize);
+      faults.delayed.insert(faults.delayed.end(), payload, payload + length);
+      return true;
+    }
+    const bool sent = send(header, payload, length);
+    if (faults.duplicate != 0 && n % faults.duplicate == 0) send(header, payload, length);
+    if (!faults.delayed.empty()) {
+      send(faults.delayed.data(), faults.delayed.data() + kHeaderSize, faults.delayed.size() - kHeaderSize);
+      faults.delayed.clear();
+    }
+    return sent;
+  }
+#endif
+  return send(header, payload, length);
+}
+
 bool RemoteSender::send_packet(const void* data, std::uint32_t size, std::uint64_t sequence, double timestamp) {
   unsigned char header[4 + kHeaderSize];
-  Header fields{target_.subscription_id, sequence, timestamp, size, 0};
+  Header fields;
+  fields.subscription_id = target_.subscription_id;
+  fields.stream = stream_;
+  fields.joined_after = target_.joined_after;
+  fields.sequence = sequence;
+  fields.timestamp = timestamp;
+  fields.packet_size = size;
   if (target_.reliable) {
     put_le(header, kHeaderSize + size, 4);
     encode_header(header + 4, fields);
@@ -182,24 +303,22 @@ bool RemoteSender::send_packet(const void* data, std::uint32_t size, std::uint64
     }
     return true;
   }
-  // UDP: fragments of one packet; a full socket buffer drops the packet.
+  // UDP: fragments of one packet; one that cannot be sent loses the packet.
+  const auto* bytes = static_cast<const unsigned char*>(data);
   std::uint32_t offset = 0;
   do {
-    const std::uint32_t length = static_cast<std::uint32_t>(std::min<std::size_t>(size - offset, kMaxDatagramPayload));
+    const std::uint32_t length = std::min(size - offset, kMaxDatagramPayload);
     fields.offset = offset;
     encode_header(header, fields);
-    iovec parts[2] = {{header, kHeaderSize}, {static_cast<char*>(const_cast<void*>(data)) + offset, length}};
-    msghdr message{};
-    message.msg_iov = parts;
-    message.msg_iovlen = 2;
-    if (::sendmsg(socket_.get(), &message, MSG_NOSIGNAL | MSG_DONTWAIT) < 0 && errno != ECONNREFUSED) break;
+    if (!send_datagram(header, bytes + offset, length)) break;
     offset += length;
   } while (offset < size);
   return true;
 }
 
 void RemoteSender::run() {
-  std::optional<std::uint64_t> resume_after;
+  // The subscription's packets are those after the publisher counted it.
+  std::optional<std::uint64_t> resume_after = target_.joined_after;
   while (!stopping_.load()) {
     if (!reader_ && !attach(resume_after)) {
       std::this_thread::sleep_for(50ms);
@@ -280,75 +399,135 @@ RemoteReceiver::~RemoteReceiver() {
   if (thread_.joinable()) thread_.join();
 }
 
-UniqueFd RemoteReceiver::open_inbox(const void* owner, std::uint32_t message_size, std::uint32_t history) {
+void RemoteReceiver::open_inbox(const void* owner, std::uint32_t message_size, std::uint32_t history,
+                                InboxHandlers handlers) {
   std::lock_guard<std::mutex> lock(mutex_);
+  if (inboxes_.count(owner) != 0) return;
   Inbox& inbox = inboxes_[owner];
-  if (!inbox.ring) {
-    transport::RingConfig config;
-    config.message_size = std::max<std::uint32_t>(message_size, 1);
-    config.history = std::max<std::uint32_t>(history, 1);
-    config.debug_name = "ln:remote_inbox";
-    try {
-      inbox.ring = std::make_unique<transport::ShmWriter>(transport::ShmWriter::create(config));
-    } catch (const transport::ShmError& error) {
-      inboxes_.erase(owner);
-      throw Failure(LNE_SHM_IS_TOO_BIG, std::string("creating the inbox for remote topic data: ") + error.what());
-    }
-  }
-  UniqueFd duplicate(::fcntl(inbox.ring->fd(), F_DUPFD_CLOEXEC, 0));
-  if (!duplicate.valid()) throw errno_failure(errno, "duplicating the inbox descriptor");
-  return duplicate;
+  inbox.message_size = std::max<std::uint32_t>(message_size, 1);
+  inbox.history = std::max<std::uint32_t>(history, 1);
+  inbox.handlers = std::move(handlers);
 }
 
 void RemoteReceiver::route(const void* owner, std::int64_t subscription_id) {
   std::lock_guard<std::mutex> lock(mutex_);
   auto it = inboxes_.find(owner);
   if (it == inboxes_.end()) return;
-  if (it->second.subscription_id >= 0) routes_.erase(it->second.subscription_id);
+  if (it->second.subscription_id == subscription_id) return;
+  if (it->second.subscription_id >= 0) forget_id_locked(it->second.subscription_id);
   it->second.subscription_id = subscription_id;
   routes_[subscription_id] = owner;
+  ended_ids_.erase(std::remove(ended_ids_.begin(), ended_ids_.end(), subscription_id), ended_ids_.end());
+  // What came before the route, in the order it came.
+  std::deque<Held> others;
+  std::deque<Held> held;
+  held.swap(held_);
+  for (Held& packet : held) {
+    if (packet.subscription_id != subscription_id) {
+      others.push_back(std::move(packet));
+      continue;
+    }
+    held_bytes_ -= packet.bytes.size();
+    deliver_locked(packet.bytes.data(), packet.bytes.size(), false);
+  }
+  held_.swap(others);
 }
 
 void RemoteReceiver::close_inbox(const void* owner) {
   std::lock_guard<std::mutex> lock(mutex_);
   auto it = inboxes_.find(owner);
   if (it == inboxes_.end()) return;
-  if (it->second.subscription_id >= 0) routes_.erase(it->second.subscription_id);
+  if (it->second.subscription_id >= 0) forget_id_locked(it->second.subscription_id);
   inboxes_.erase(it);
 }
 
-void RemoteReceiver::deliver(std::int64_t subscription_id, std::uint64_t sequence, double timestamp,
-                             std::uint32_t packet_size, std::uint32_t offset, const unsigned char* fragment,
-                             std::size_t fragment_size) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  auto route = routes_.find(subscription_id);
-  if (route == routes_.end()) return;  // not (or no longer) ours
-  Inbox& inbox = inboxes_.at(route->second);
-  if (packet_size > inbox.ring->message_size() || offset + fragment_size > packet_size) return;
-  if (offset == 0 && fragment_size == packet_size) {
-    inbox.ring->write(fragment, packet_size, timestamp);
-    return;
-  }
-  if (inbox.sequence != sequence || inbox.assembly.size() != packet_size) {
-    // A new packet; an unfinished older one is lost.
-    inbox.sequence = sequence;
-    inbox.received = 0;
-    inbox.assembly.resize(packet_size);
-  }
-  std::memcpy(inbox.assembly.data() + offset, fragment, fragment_size);
-  inbox.received += static_cast<std::uint32_t>(fragment_size);
-  if (inbox.received >= packet_size) {
-    inbox.ring->write(inbox.assembly.data(), packet_size, timestamp);
-    inbox.sequence = 0;
-    inbox.received = 0;
+void RemoteReceiver::forget_id_locked(std::int64_t subscription_id) {
+  routes_.erase(subscription_id);
+  // Publishers may still send to it for a while: neither deliver nor hold that.
+  ended_ids_.push_back(subscription_id);
+  if (ended_ids_.size() > kEndedIds) ended_ids_.pop_front();
+  for (auto it = held_.begin(); it != held_.end();) {
+    if (it->subscription_id != subscription_id) {
+      ++it;
+      continue;
+    }
+    held_bytes_ -= it->bytes.size();
+    it = held_.erase(it);
   }
 }
 
-void RemoteReceiver::on_datagram(const unsigned char* data, std::size_t size) {
-  Header header{};
+void RemoteReceiver::deliver_locked(const unsigned char* data, std::size_t size, bool may_hold) {
+  Header header;
   if (!decode_header(data, size, header)) return;
-  deliver(header.subscription_id, header.sequence, header.timestamp, header.packet_size, header.offset,
-          data + kHeaderSize, size - kHeaderSize);
+  auto route = routes_.find(header.subscription_id);
+  if (route == routes_.end()) {
+    // Maybe a subscription whose subscribe answer this client has not
+    // processed yet (the publisher heard of it from the manager first).
+    const bool ended =
+        std::find(ended_ids_.begin(), ended_ids_.end(), header.subscription_id) != ended_ids_.end();
+    if (may_hold && !ended && held_bytes_ + size <= kHoldBytes) {
+      held_.push_back({std::chrono::steady_clock::now(), header.subscription_id,
+                       std::vector<unsigned char>(data, data + size)});
+      held_bytes_ += size;
+    }
+    return;
+  }
+  Inbox& inbox = inboxes_.at(route->second);
+  if (inbox.failed || header.packet_size > inbox.message_size) return;
+  if (header.big_endian_payload != kHostIsBigEndian) {
+    inbox.failed = true;
+    if (inbox.handlers.fail)
+      inbox.handlers.fail(LNE_WRONG_BYTE_ORDER, std::string("the publisher's host is ") +
+                                                    (header.big_endian_payload ? "big" : "little") +
+                                                    " endian, this one is not: its data cannot be read here");
+    return;
+  }
+  if (!inbox.ring || header.stream != inbox.stream) {
+    // The first packet of a publisher's stream: a ring that starts after
+    // the point where the publisher counted the subscription.
+    const auto& retired = inbox.retired_streams;
+    if (std::find(retired.begin(), retired.end(), header.stream) != retired.end()) return;  // a straggler
+    if (header.sequence <= header.joined_after) return;
+    transport::RingConfig config;
+    config.message_size = inbox.message_size;
+    config.history = inbox.history;
+    config.first_sequence = header.joined_after + 1;
+    config.debug_name = "ln:remote_inbox";
+    std::unique_ptr<transport::ShmWriter> ring;
+    UniqueFd duplicate;
+    try {
+      ring = std::make_unique<transport::ShmWriter>(transport::ShmWriter::create(config));
+      duplicate = UniqueFd(::fcntl(ring->fd(), F_DUPFD_CLOEXEC, 0));
+    } catch (const transport::ShmError& error) {
+      inbox.failed = true;
+      if (inbox.handlers.fail)
+        inbox.handlers.fail(LNE_SHM_IS_TOO_BIG, std::string("creating the inbox for remote topic data: ") + error.what());
+      return;
+    }
+    if (!duplicate.valid()) return;
+    if (inbox.ring) {
+      inbox.ring->close();
+      inbox.retired_streams.push_back(inbox.stream);
+      if (inbox.retired_streams.size() > kRetiredStreams) inbox.retired_streams.erase(inbox.retired_streams.begin());
+    }
+    inbox.ring = std::move(ring);
+    inbox.stream = header.stream;
+    inbox.assembler = PacketAssembler(header.joined_after);
+    if (inbox.handlers.adopt) inbox.handlers.adopt(std::move(duplicate), ++inbox.generation, header.joined_after);
+  }
+  const unsigned char* packet = inbox.assembler.add(header.sequence, header.packet_size, header.offset,
+                                                    data + kHeaderSize, size - kHeaderSize);
+  if (packet != nullptr) inbox.ring->write_as(header.sequence, packet, header.packet_size, header.timestamp);
+}
+
+void RemoteReceiver::on_packet(const unsigned char* data, std::size_t size) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto now = std::chrono::steady_clock::now();
+  while (!held_.empty() && now - held_.front().arrived > kHoldTime) {
+    held_bytes_ -= held_.front().bytes.size();
+    held_.pop_front();
+  }
+  deliver_locked(data, size, true);
 }
 
 void RemoteReceiver::on_stream(Connection& connection) {
@@ -361,10 +540,9 @@ void RemoteReceiver::on_stream(Connection& connection) {
       return;
     }
     if (connection.buffered.size() < 4u + frame) return;
-    Header header{};
+    Header header;
     if (decode_header(bytes + 4, frame, header) && header.offset == 0 && header.packet_size == frame - kHeaderSize)
-      deliver(header.subscription_id, header.sequence, header.timestamp, header.packet_size, 0,
-              bytes + 4 + kHeaderSize, header.packet_size);
+      on_packet(bytes + 4, frame);
     connection.buffered.erase(0, 4u + frame);
   }
 }
@@ -379,7 +557,7 @@ void RemoteReceiver::run() {
       for (int i = 0; i < 256; ++i) {
         const ssize_t n = ::recv(udp_.get(), datagram.data(), datagram.size(), 0);
         if (n <= 0) break;
-        on_datagram(datagram.data(), static_cast<std::size_t>(n));
+        on_packet(datagram.data(), static_cast<std::size_t>(n));
       }
     }
     if (fds[2].revents != 0) {

@@ -146,6 +146,7 @@ const char* to_string(WriteStatus status) {
     case WriteStatus::no_loan: return "no loan to commit";
     case WriteStatus::no_free_slot: return "no free slot (corrupted segment)";
     case WriteStatus::closed: return "segment closed";
+    case WriteStatus::bad_sequence: return "sequence number not above the last one";
   }
   return "unknown";
 }
@@ -385,6 +386,20 @@ WriteStatus ShmWriter::write(const void* data, std::size_t size) noexcept {
   return write(data, size, wall_clock_seconds());
 }
 
+WriteStatus ShmWriter::write_as(std::uint64_t sequence, const void* data, std::size_t size,
+                                double timestamp) noexcept {
+  detail::WriterCore& core = *core_;
+  if (sequence <= core.last_sequence || sequence > (std::uint64_t{1} << 62)) return WriteStatus::bad_sequence;
+  // commit() numbers the packet last_sequence + 1. The ring positions of the
+  // numbers jumped over keep older packets, which readers recognise as
+  // skipped (ReaderCore::locate).
+  const std::uint64_t last = core.last_sequence;
+  core.last_sequence = sequence - 1;
+  const WriteStatus status = write(data, size, timestamp);
+  if (status != WriteStatus::ok) core.last_sequence = last;
+  return status;
+}
+
 void* ShmWriter::loan() noexcept {
   detail::WriterCore& core = *core_;
   if (core.closed || core.loan_open || !core.claim_spare()) return nullptr;
@@ -445,6 +460,10 @@ struct ReaderCore {
   ReaderOptions options;
   std::uint32_t max_borrows = 0;
   std::uint64_t next_sequence = 1;  // the oldest sequence this reader may still deliver
+  // Sequences below it were found missing from the ring (jumped over by
+  // write_as, or overwritten already): not looked for again. Lost counts
+  // still start at next_sequence.
+  std::uint64_t skip_below = 0;
   nanoseconds spin_limit{0};
   TimePoint no_yield_until{};
   nanoseconds yield_backoff{kMinYieldBackoff};
@@ -471,10 +490,15 @@ struct ReaderCore {
     return options.on_lag == LagPolicy::skip_to_newest ? head : head - options.buffers + 1;
   }
 
-  Locate locate(ReadMode mode, std::uint64_t& known_head, Location& where) const noexcept {
-    known_head = std::max(known_head, header().head_sequence.load(std::memory_order_acquire));
-    const std::uint64_t target = choose_target(known_head, mode);
+  Locate locate(ReadMode mode, std::uint64_t& known_head, Location& where) noexcept {
+    const std::uint64_t published = header().head_sequence.load(std::memory_order_acquire);
+    known_head = std::max(known_head, published);
+    std::uint64_t target = choose_target(known_head, mode);
     if (target == 0) return Locate::none;
+    if (target < skip_below) {
+      if (skip_below > known_head) return Locate::none;
+      target = skip_below;
+    }
     const std::uint32_t index = view.ring[target % view.geometry.history].load(std::memory_order_acquire);
     if (index >= view.geometry.slot_count) return Locate::corrupt;
     const std::uint64_t found = view.slot(index).sequence.load(std::memory_order_acquire);
@@ -483,6 +507,12 @@ struct ReaderCore {
       // slot proves that everything up to it is committed: skip ahead without
       // waiting for the writer's head store.
       if (found > target) known_head = std::max(known_head, found);
+      // An older packet (or none) where one published by the head should
+      // be: the writer jumped over `target` (write_as), or it was
+      // overwritten and its slot is being rewritten (sequence 0). Either way
+      // it is gone. (Above the published head, the ring position may just
+      // not be updated yet.)
+      else if (target <= published) skip_below = target + 1;
       return Locate::moved;
     }
     where = {target, index};
@@ -570,6 +600,9 @@ struct ReaderCore {
 
   // ---- streamed copies
 
+  // The packet this reader waits for once it has read everything published.
+  std::uint64_t wanted_next() const noexcept { return std::max(next_sequence, skip_below); }
+
   // The stream target of our next packet if we may copy it behind the
   // writer now (0 if not): only blocking copying reads, only from another CPU
   // (on the writer's CPU we would just keep it from writing).
@@ -578,7 +611,7 @@ struct ReaderCore {
     const std::uint64_t target = header().stream_target.load(std::memory_order_acquire);
     if (target == 0 || target == abandoned_stream ||
         (target >> layout::kStreamSlotBits & layout::kStreamSequenceMask) !=
-            (next_sequence & layout::kStreamSequenceMask) ||
+            (wanted_next() & layout::kStreamSequenceMask) ||
         (target & layout::kStreamSlotMask) >= view.geometry.slot_count || publisher_on_this_cpu()) {
       return 0;
     }
@@ -594,7 +627,7 @@ struct ReaderCore {
   Attempt follow_stream(void* buffer, std::size_t capacity, SampleInfo& info) noexcept {
     const std::uint64_t target = followable_stream();
     if (target == 0) return kNothingNew;
-    const Location where{next_sequence, static_cast<std::uint32_t>(target & layout::kStreamSlotMask)};
+    const Location where{wanted_next(), static_cast<std::uint32_t>(target & layout::kStreamSlotMask)};
     SlotHeader& slot = view.slot(where.slot);
     const std::uint32_t size = slot.size.load(std::memory_order_relaxed);
     if (size > view.geometry.message_size || size > capacity) {
@@ -1046,7 +1079,8 @@ ReadStatus ShmReader::read(void* buffer, std::size_t capacity, SampleInfo& info,
 ReadStatus ShmReader::read(void* buffer, std::size_t capacity, SampleInfo& info, WaitDeadline& deadline,
                            ReadMode mode) {
   detail::ReaderCore& core = *core_;
-  core.follow_streams = !deadline.polls();
+  // A follower cannot pin the slot being written: with optimistic_copies == 0 it waits for the commit.
+  core.follow_streams = !deadline.polls() && core.options.optimistic_copies != 0;
   const ReadStatus status = core.run([&] { return core.try_copy(buffer, capacity, info, mode); }, deadline);
   core.follow_streams = false;
   return status;

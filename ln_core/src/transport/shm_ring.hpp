@@ -22,7 +22,8 @@
 //                   packet of its window (LagPolicy::keep_latest_window, i.e.
 //                   DDS KEEP_LAST(N)).
 //   SampleInfo::lost reports how many packets were skipped since this
-//   reader's previous delivery. A reader only sees packets written after it
+//   reader's previous delivery (including numbers that a write_as() jumped
+//   over: a relayed stream's gaps count as lost too). A reader only sees packets written after it
 //   attached (no latched value) unless ReaderOptions::resume_after asks for
 //   an earlier starting point.
 // * So LN's "the segment has as many slots as the largest `buffers` of any
@@ -182,6 +183,7 @@ enum class WriteStatus {
   no_loan,            ///< commit()/discard without loan()
   no_free_slot,       ///< only with a corrupted segment: every spare looked borrowed
   closed,             ///< after close()
+  bad_sequence,       ///< write_as(): not above last_sequence() (or beyond 2^62); nothing written
 };
 
 enum class ReadStatus {
@@ -232,7 +234,8 @@ struct ReaderOptions {
   /// Torn copies a read() tolerates before it pins the packet with a borrow
   /// token for the copy (so the next attempt cannot fail). 0 = always pin when
   /// a token is free: no copy is ever wasted, which pays off for very large
-  /// packets that a fast publisher overwrites often.
+  /// packets that a fast publisher overwrites often (such a reader does not
+  /// follow streamed writes either: a slot being written cannot be pinned).
   std::uint32_t optimistic_copies = 3;
   /// Unset: only packets written after attach; else packets with sequence >
   /// this (0: every packet still in the window).
@@ -283,6 +286,11 @@ class ShmWriter {
   /// Copies `size` bytes into the next slot and publishes them. Never blocks.
   WriteStatus write(const void* data, std::size_t size, double timestamp) noexcept;
   WriteStatus write(const void* data, std::size_t size) noexcept;  ///< timestamp = wall clock now
+  /// write() with an explicit sequence number above last_sequence(), for
+  /// relaying another writer's packets under their own numbers (the inbox
+  /// of remote topic data). Numbers skipped by a jump were never written:
+  /// readers count them in SampleInfo::lost like overwritten packets.
+  WriteStatus write_as(std::uint64_t sequence, const void* data, std::size_t size, double timestamp) noexcept;
 
   /// Zero-copy write: returns message_size() writable bytes (32-byte aligned)
   /// in the next slot, or nullptr (loan already open, closed). Readers cannot

@@ -477,6 +477,116 @@ TEST(ShmRingSemantics, SwitchingToABiggerSegmentLosesNothing) {
   }
 }
 
+// write_as(): a relayed stream keeps its writer's numbers; numbers it jumps
+// over count as lost, for every buffers/lag policy and for borrows.
+TEST(ShmRingSemantics, WriteAsJumpsCountAsLost) {
+  ShmWriter writer = ShmWriter::create(config(64, 8));
+  auto reader = [&](std::uint32_t buffers, LagPolicy on_lag) {
+    ReaderOptions options;
+    options.buffers = buffers;
+    options.on_lag = on_lag;
+    return ShmReader::attach(writer.fd(), options);
+  };
+  ShmReader single = reader(1, LagPolicy::skip_to_newest);
+  ShmReader newest = reader(8, LagPolicy::skip_to_newest);
+  ShmReader window = reader(8, LagPolicy::keep_latest_window);
+  ShmReader borrower = reader(8, LagPolicy::skip_to_newest);
+
+  std::vector<std::byte> buffer(64);
+  SampleInfo info;
+  auto write_as = [&](std::uint64_t s) { return writer.write_as(s, packet(64, s).data(), 64, double(s)); };
+  auto expect_read = [&](ShmReader& from, std::uint64_t sequence, std::uint64_t lost) {
+    ASSERT_EQ(from.read(buffer.data(), buffer.size(), info), ReadStatus::ok) << sequence;
+    EXPECT_EQ(info.sequence, sequence);
+    EXPECT_EQ(info.lost, lost) << sequence;
+    EXPECT_EQ(buffer, packet(64, sequence));
+    EXPECT_EQ(info.timestamp, double(sequence));
+  };
+  auto expect_borrow = [&](std::uint64_t sequence, std::uint64_t lost) {
+    BorrowedSample sample;
+    ASSERT_EQ(borrower.borrow(sample), ReadStatus::ok) << sequence;
+    EXPECT_EQ(sample.info().sequence, sequence);
+    EXPECT_EQ(sample.info().lost, lost) << sequence;
+    EXPECT_EQ(std::memcmp(sample.data(), packet(64, sequence).data(), 64), 0);
+  };
+
+  ASSERT_EQ(write_as(3), WriteStatus::ok);  // a fresh ring may start anywhere
+  EXPECT_EQ(writer.last_sequence(), 3u);
+  expect_read(single, 3, 2);
+  ASSERT_EQ(write_as(4), WriteStatus::ok);
+  ASSERT_EQ(write_as(7), WriteStatus::ok);  // 5, 6 never existed
+  ASSERT_EQ(write_as(8), WriteStatus::ok);
+  expect_read(single, 8, 4);
+  for (ShmReader* buffered : {&newest, &window}) {
+    expect_read(*buffered, 3, 2);
+    expect_read(*buffered, 4, 0);
+    expect_read(*buffered, 7, 2);
+    expect_read(*buffered, 8, 0);
+    EXPECT_EQ(buffered->read(buffer.data(), buffer.size(), info), ReadStatus::no_data);
+  }
+  expect_borrow(3, 2);
+  expect_borrow(4, 0);
+  expect_borrow(7, 2);
+
+  EXPECT_EQ(write_as(8), WriteStatus::bad_sequence);  // never backwards or twice
+  EXPECT_EQ(write_as(2), WriteStatus::bad_sequence);
+  EXPECT_EQ(writer.write_as(std::uint64_t{1} << 63, buffer.data(), 64, 0), WriteStatus::bad_sequence);
+  std::vector<std::byte> big(65);
+  EXPECT_EQ(writer.write_as(9, big.data(), big.size(), 0), WriteStatus::packet_too_large);
+  EXPECT_EQ(writer.last_sequence(), 8u);  // a failed write_as changes nothing
+
+  // Jumps within the window (3 of 8 slots skipped) ...
+  ASSERT_EQ(write_as(9), WriteStatus::ok);
+  ASSERT_EQ(write_as(13), WriteStatus::ok);
+  ASSERT_EQ(writer.write(packet(64, 14).data(), 64, 14.0), WriteStatus::ok);  // write() continues after it
+  for (ShmReader* buffered : {&newest, &window}) {
+    expect_read(*buffered, 9, 0);
+    expect_read(*buffered, 13, 3);
+    expect_read(*buffered, 14, 0);
+  }
+  expect_borrow(8, 0);
+  expect_borrow(9, 0);
+  expect_borrow(13, 3);
+  expect_borrow(14, 0);
+  expect_read(single, 14, 5);
+
+  // ... and beyond it: the lag policies apply, the window's oldest slots
+  // may be numbers that never existed.
+  ASSERT_EQ(write_as(15), WriteStatus::ok);
+  ASSERT_EQ(write_as(30), WriteStatus::ok);
+  ASSERT_EQ(write_as(31), WriteStatus::ok);
+  expect_read(newest, 31, 16);   // skip to the newest
+  expect_read(window, 30, 15);   // the window 24..31 holds only 30 and 31
+  expect_read(window, 31, 0);
+  expect_read(single, 31, 16);
+  expect_borrow(31, 16);         // borrowers with buffers 8 skip like readers
+}
+
+// A reader that resumes after a point the ring never reached still starts
+// right there, and one that resumes inside a gap counts only its part.
+TEST(ShmRingSemantics, WriteAsFromAStartingPoint) {
+  RingConfig start = config(64, 4);
+  start.first_sequence = 101;  // the stream's packets up to 100 are not this ring's
+  ShmWriter writer = ShmWriter::create(start);
+  ReaderOptions options;
+  options.buffers = 4;
+  options.resume_after = 100;
+  ShmReader reader = ShmReader::attach(writer.fd(), options);
+  ReaderOptions late = options;
+  late.resume_after = 103;
+  ShmReader late_reader = ShmReader::attach(writer.fd(), late);
+  std::vector<std::byte> buffer(64);
+  SampleInfo info;
+  ASSERT_EQ(writer.write_as(105, packet(64, 105).data(), 64, 0), WriteStatus::ok);
+  ASSERT_EQ(reader.read(buffer.data(), buffer.size(), info), ReadStatus::ok);
+  EXPECT_EQ(info.sequence, 105u);
+  EXPECT_EQ(info.lost, 4u);  // 101..104 lost
+  ASSERT_EQ(late_reader.read(buffer.data(), buffer.size(), info), ReadStatus::ok);
+  EXPECT_EQ(info.sequence, 105u);
+  EXPECT_EQ(info.lost, 1u);  // only 104 was its
+  EXPECT_EQ(reader.read(buffer.data(), buffer.size(), info, 20ms), ReadStatus::timeout);
+}
+
 TEST(ShmRingSemantics, CorruptSharedStateGivesErrorsNotCrashes) {
   ShmWriter writer = ShmWriter::create(config(64, 2));
   ReaderOptions options;

@@ -5,7 +5,9 @@
 //                         [--wait-subscriber S] [--settle S] [--linger S]
 // Packet seq = 1..COUNT carries epoch, seq and remote_pattern() padding.
 // Prints "publishing", "subscriber seen" / "no subscriber", "wrote N" every
-// 10 packets and "published COUNT".
+// 10 packets, "subscriber counted after N" when has_subscriber() first turns
+// true while writing (after packet N; packet N+1 is written after that) and
+// "published COUNT".
 #include <ln/ln.h>
 
 #include <cstdio>
@@ -34,7 +36,13 @@ int publish(ln::client& clnt, const std::string& topic, const char* md, uint32_t
   if (settle > 0) ln_sleep_seconds(settle);
   std::unique_ptr<Packet> packet(new Packet());
   const double start = ln_get_monotonic_time();
+  bool counted = port->has_subscriber();
   for (unsigned long seq = 1; seq <= count; ++seq) {
+    if (!counted && port->has_subscriber()) {
+      counted = true;
+      std::printf("subscriber counted after %lu\n", seq - 1);
+      std::fflush(stdout);
+    }
     packet->epoch = epoch;
     packet->seq = static_cast<uint32_t>(seq);
     for (size_t i = 0; i < sizeof packet->pad; ++i) packet->pad[i] = remote_pattern(epoch, packet->seq, i);

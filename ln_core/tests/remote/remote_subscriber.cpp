@@ -8,6 +8,11 @@
 // epoch: "epoch E first F last L received R missing M disorder D bad B"
 // (missing: holes between F and L; disorder: a packet not newer than the one
 // before; bad: wrong payload), then "done" or "timeout".
+// ln_core's sample info: "first_info E seq S sequence Q lost L" for an
+// epoch's first packet (its seq field, and the publisher sequence and lost
+// count the port reported), and at the end per epoch "info E mismatch M lost
+// L received R last_sequence Q" (mismatch: packets whose reported sequence
+// is not their seq field; lost: summed over the epoch's packets).
 #include <ln/ln.h>
 
 #include <cstdio>
@@ -25,6 +30,7 @@ namespace {
 struct EpochStats {
   uint32_t first = 0, last = 0;
   unsigned long received = 0, missing = 0, disorder = 0, bad = 0;
+  unsigned long long mismatch = 0, lost = 0, last_sequence = 0;
 };
 
 template <typename Packet>
@@ -41,7 +47,8 @@ int receive(ln::client& clnt, const std::string& topic, const char* md, uint32_t
   bool done = false;
   while (!done && ln_get_monotonic_time() < deadline) {
     if (last_epoch_seen_at > 0 && ln_get_monotonic_time() - last_epoch_seen_at > 2.0) break;
-    if (!port->read(packet.get(), 0.1)) continue;
+    ln::sample_info info{};
+    if (!port->read(packet.get(), 0.1, &info)) continue;
     bool ok = true;
     for (size_t i = 0; i < sizeof packet->pad && ok; ++i) ok = packet->pad[i] == remote_pattern(packet->epoch, packet->seq, i);
     EpochStats& stats = epochs[packet->epoch];
@@ -51,6 +58,8 @@ int receive(ln::client& clnt, const std::string& topic, const char* md, uint32_t
       stats.first = stats.last = packet->seq;
       current_epoch = packet->epoch;
       std::printf("epoch %u first %u\n", packet->epoch, packet->seq);
+      std::printf("first_info %u seq %u sequence %llu lost %llu\n", packet->epoch, packet->seq,
+                  static_cast<unsigned long long>(info.sequence), static_cast<unsigned long long>(info.lost));
       std::fflush(stdout);
     } else if (packet->seq <= stats.last) {
       ++stats.disorder;
@@ -60,6 +69,9 @@ int receive(ln::client& clnt, const std::string& topic, const char* md, uint32_t
     }
     ++stats.received;
     if (!ok) ++stats.bad;
+    if (info.sequence != packet->seq) ++stats.mismatch;
+    stats.lost += info.lost;
+    stats.last_sequence = info.sequence;
     if (packet->epoch == last_epoch) {
       last_epoch_seen_at = ln_get_monotonic_time();
       if (packet->seq == count) done = true;
@@ -68,6 +80,9 @@ int receive(ln::client& clnt, const std::string& topic, const char* md, uint32_t
   for (const auto& [epoch, stats] : epochs)
     std::printf("epoch %u first %u last %u received %lu missing %lu disorder %lu bad %lu\n", epoch, stats.first,
                 stats.last, stats.received, stats.missing, stats.disorder, stats.bad);
+  for (const auto& [epoch, stats] : epochs)
+    std::printf("info %u mismatch %llu lost %llu received %lu last_sequence %llu\n", epoch, stats.mismatch,
+                stats.lost, stats.received, stats.last_sequence);
   std::printf(done ? "done\n" : "timeout\n");
   std::fflush(stdout);
   clnt.unsubscribe(port);

@@ -12,7 +12,19 @@ id includes the network namespace), so the data goes over the network:
   * in order, with correct payloads (every byte checked), no holes over TCP;
   * publisher restart: the first publisher exits (or is SIGKILLed mid-stream)
     and a second one takes over the topic; the same subscription gets its
-    data without re-subscribing.
+    data without re-subscribing;
+  * joining a running stream (UDP and TCP): the subscriber's first packet is
+    the first one the publisher wrote after it counted the subscriber
+    (has_subscriber() turned true after packet N: the first packet is at
+    most N + 1, and its sequence minus its `lost` says where the
+    subscription started, at most N), and every later one arrives or is
+    counted in `lost`: received + lost == last sequence - start;
+  * network loss, duplicates and reordering (UDP): this kernel has no netem,
+    so the publisher's client drops every 5th datagram, duplicates every 7th
+    and swaps every 11th with the next one (LN_CORE_TEST_UDP_FAULTS, a test
+    hook compiled into test builds only); the subscriber sees the
+    publisher's sequence numbers, increasing, each packet once, and its
+    summed `lost` plus received equals the publisher's count.
 
 Needs root (ip netns, veth). Without it: exit 77 (ctest skip), or exit 1 when
 CI is set. Everything it creates (namespaces with the veth pair, processes,
@@ -37,7 +49,7 @@ import threading
 import time
 
 SKIP = 77
-TOTAL_LIMIT_S = 100  # ctest's TIMEOUT is 150: we stop (and clean up) first
+TOTAL_LIMIT_S = 140  # ctest's TIMEOUT is 190: we stop (and clean up) first
 NS_PREFIX = "ln_remote_"
 
 
@@ -306,6 +318,114 @@ def run_case(net: Network, tools, env, manager_address: str, transport: str, kin
     return summary
 
 
+INFO = re.compile(r"info (\d+) mismatch (\d+) lost (\d+) received (\d+) last_sequence (\d+)")
+FIRST_INFO = re.compile(r"first_info (\d+) seq (\d+) sequence (\d+) lost (\d+)")
+
+
+def sample_info(subscriber: Program) -> tuple[dict[int, dict[str, int]], dict[int, dict[str, int]]]:
+    """The subscriber's info lines: per epoch totals, and its first packet."""
+    totals, first = {}, {}
+    for line in subscriber.lines:
+        if m := INFO.fullmatch(line):
+            e, mismatch, lost, received, last = map(int, m.groups())
+            totals[e] = dict(mismatch=mismatch, lost=lost, received=received, last=last)
+        elif m := FIRST_INFO.fullmatch(line):
+            e, seq, sequence, lost = map(int, m.groups())
+            first[e] = dict(seq=seq, sequence=sequence, lost=lost)
+    return totals, first
+
+
+def run_late_join(net: Network, tools, env, manager_address: str, transport: str) -> str:
+    """The publisher streams; a subscriber joins in the middle."""
+    reliable = transport == "tcp"
+    topic = f"remote.latejoin.{transport}"
+    env = dict(env, LN_MANAGER=manager_address)
+    count, period, joined_after_at_least = 4000, 0.0005, 200
+    publisher = Program(net.ns_a, [tools.publisher, topic, "packet", "1", str(count), str(period)], env,
+                        f"publisher[late join,{transport}]")
+    publisher.wait_for_line(rf"wrote {joined_after_at_least}$", 10)
+    subscriber = Program(net.ns_b, [tools.subscriber, topic, "packet", "1", str(count), "30"]
+                         + (["reliable"] if reliable else []), env, f"subscriber[late join,{transport}]")
+    counted = int(publisher.wait_for_line(r"subscriber counted after \d+$", 10).split()[-1])
+    publisher.wait_for_line(rf"published {count}$", 30)
+    subscriber.wait(30)
+    publisher.wait(10)
+    totals, first = sample_info(subscriber)
+    stats = epoch_stats(subscriber)
+    problems = []
+    if 1 not in totals or 1 not in first or 1 not in stats:
+        raise TestFailure(f"late join {transport}: subscriber got nothing\n{subscriber.describe()}\n"
+                          f"{publisher.describe()}")
+    t, f, s = totals[1], first[1], stats[1]
+    start = f["sequence"] - f["lost"] - 1  # the last packet that was not the subscription's
+    if f["sequence"] != f["seq"] or t["mismatch"]:
+        problems.append(f"sequence numbers are not the publisher's: first packet {f['seq']} reported as "
+                        f"{f['sequence']}, {t['mismatch']} mismatches")
+    if f["seq"] > counted + 1 or start > counted:
+        problems.append(f"the publisher counted the subscriber after packet {counted}, but its first packet is "
+                        f"{f['seq']} (lost {f['lost']}: subscription started after {start})")
+    if start < joined_after_at_least:
+        problems.append(f"subscription started after packet {start}, before the subscriber existed")
+    if reliable and (f["lost"] or t["lost"] or s["missing"]):
+        problems.append(f"TCP lost packets: first lost {f['lost']}, total lost {t['lost']}, holes {s['missing']}")
+    if t["received"] + t["lost"] != t["last"] - start:
+        problems.append(f"received {t['received']} + lost {t['lost']} != {t['last'] - start} packets "
+                        f"{start + 1}..{t['last']}")
+    if s["disorder"] or s["bad"]:
+        problems.append(f"{s['disorder']} out of order, {s['bad']} wrong payloads")
+    if t["last"] < count - 5:
+        problems.append(f"ended at {t['last']} of {count}")
+    summary = (f"late join {transport}: publisher counted the subscriber after {counted}, first packet {f['seq']} "
+               f"(sequence {f['sequence']}, lost {f['lost']}), received {t['received']} + lost {t['lost']} of "
+               f"{start + 1}..{t['last']}")
+    if problems:
+        raise TestFailure(summary + "\n  " + "\n  ".join(problems) + "\n" + subscriber.describe() + "\n"
+                          + publisher.describe())
+    return summary
+
+
+def run_faults(net: Network, tools, env, manager_address: str, kind: str, count: int, period: float) -> str:
+    """UDP datagrams lost, duplicated and reordered on the way."""
+    topic = f"remote.faults.{kind}"
+    env = dict(env, LN_MANAGER=manager_address)
+    subscriber = Program(net.ns_b, [tools.subscriber, topic, kind, "1", str(count), "30"], env,
+                         f"subscriber[faults,{kind}]")
+    subscriber.wait_for_line(r"subscribed$", 10)
+    faulty = dict(env, LN_CORE_TEST_UDP_FAULTS="drop=5,duplicate=7,reorder=11")
+    publisher = Program(net.ns_a, [tools.publisher, topic, kind, "1", str(count), str(period), "--wait-subscriber",
+                                   "5"], faulty, f"publisher[faults,{kind}]")
+    publisher.wait_for_line(r"subscriber seen$", 10)
+    publisher.wait_for_line(rf"published {count}$", 30)
+    subscriber.wait(30)
+    publisher.wait(10)
+    totals, first = sample_info(subscriber)
+    stats = epoch_stats(subscriber)
+    if 1 not in totals or 1 not in stats:
+        raise TestFailure(f"faults {kind}: subscriber got nothing\n{subscriber.describe()}\n{publisher.describe()}")
+    t, f, s = totals[1], first[1], stats[1]
+    problems = []
+    if t["mismatch"]:
+        problems.append(f"{t['mismatch']} packets reported with another sequence than the publisher's")
+    if s["disorder"] or s["bad"]:
+        problems.append(f"{s['disorder']} duplicated or out of order, {s['bad']} wrong payloads")
+    # The subscriber was counted before packet 1: every packet is its own.
+    if f["sequence"] - f["lost"] != 1:
+        problems.append(f"first packet {f['sequence']} with lost {f['lost']}: not counted from packet 1")
+    if t["received"] + t["lost"] != t["last"]:
+        problems.append(f"received {t['received']} + lost {t['lost']} != {t['last']} packets written")
+    if t["last"] < count - 5:
+        problems.append(f"ended at {t['last']} of {count}")
+    if t["lost"] < count // 10:
+        problems.append(f"only {t['lost']} of {count} packets lost: the fault injection "
+                        f"(LN_CORE_TEST_UDP_FAULTS, test builds) did not work")
+    summary = (f"faults udp {kind}: received {t['received']} + lost {t['lost']} = {t['last']} written, "
+               f"holes {s['missing']}")
+    if problems:
+        raise TestFailure(summary + "\n  " + "\n  ".join(problems) + "\n" + subscriber.describe() + "\n"
+                          + publisher.describe())
+    return summary
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--manager", required=True)
@@ -362,17 +482,22 @@ def main() -> int:
                  ("tcp", "packet", 300, 0.002, "kill"),
                  ("udp", "big", 60, 0.01, "kill"),
                  ("tcp", "big", 60, 0.01, "exit")]
+        runs = [lambda case=case: run_case(net, tools, env, address, *case) for case in cases]
+        runs += [lambda transport=transport: run_late_join(net, tools, env, address, transport)
+                 for transport in ("udp", "tcp")]
+        runs += [lambda: run_faults(net, tools, env, address, "packet", 600, 0.001),
+                 lambda: run_faults(net, tools, env, address, "big", 80, 0.01)]
         failures = []
-        for case in cases:
+        for run in runs:
             try:
-                log("ok: " + run_case(net, tools, env, address, *case))
+                log("ok: " + run())
             except TestFailure as e:
                 failures.append(str(e))
                 log(f"FAILED: {e}")
         if manager.proc.poll() is not None:
             failures.append(f"ln_manager died\n{manager.describe()}")
         status = 1 if failures else 0
-        log("PASS" if status == 0 else f"FAIL: {len(failures)} of {len(cases)} cases failed")
+        log("PASS" if status == 0 else f"FAIL: {len(failures)} of {len(runs)} cases failed")
         return status
     except (TestFailure, Abort) as e:
         log(f"FAIL: {e}")
