@@ -1,6 +1,6 @@
 // Test support for the client tests: an in-process ln_manager on a free
-// loopback port (restartable on the same port), bounded waiting, and scoped
-// environment variables.
+// loopback port (restartable on the same port), bounded waiting (from
+// test_waiting.hpp), and scoped environment variables.
 #pragma once
 
 #include <fcntl.h>
@@ -21,6 +21,7 @@
 #include <thread>
 #include <vector>
 
+#include "client/test_waiting.hpp"
 #include "manager/manager.hpp"
 
 extern char** environ;
@@ -99,16 +100,6 @@ class InProcessManager {
   std::unique_ptr<manager::Manager> manager_;
   std::uint16_t port_ = 0;
 };
-
-/// Polls `condition` until it holds or `timeout` passes.
-inline bool wait_until(const std::function<bool()>& condition, std::chrono::milliseconds timeout = 5000ms) {
-  const auto deadline = Clock::now() + timeout;
-  while (!condition()) {
-    if (Clock::now() >= deadline) return false;
-    std::this_thread::sleep_for(2ms);
-  }
-  return true;
-}
 
 /// Sets (or, with nullopt, removes) an environment variable for a scope.
 class ScopedEnv {

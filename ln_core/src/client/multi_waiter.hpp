@@ -1,13 +1,29 @@
 // ln_multi_waiter: waits until any of several input ports has a packet.
 //
-// The shared-memory rings wake their own readers only, so the waiter checks
-// its ports itself: spinning briefly (packets that follow quickly are caught
-// without a system call), then sleeping in growing steps up to 1 ms. A port
-// being read by another thread at that moment counts as not readable.
+// Event-driven: the waiter sleeps in one futex_waitv (Linux >= 5.16) on
+//   * its own wake word: add_port, remove_port and shutdown change it;
+//   * InPort::segment_change_word(): a port is offered a (new) segment;
+//   * the wake word of every port's current segment, each watched with the
+//     protocol of a blocking shared-memory read (transport::ShmWakeWatch):
+//     counted as a sleeping reader, word loaded, port checked, then sleep
+//     only while the word is unchanged.
+// Each word is loaded before the state it guards is checked, and whoever
+// changes that state changes the word afterwards and wakes it, so a change
+// after the check makes the sleep return (or not begin), and one before it
+// is seen by the check: no packet is missed, and an idle waiter never wakes.
+// A port being read by another thread at that moment counts as not readable
+// and cannot be checked, so while there is one (or more ports than
+// futex_waitv takes) the sleep is cut into steps of 20 µs growing to 1 ms.
+//
+// Where futex_waitv is missing (old kernel, seccomp: ENOSYS or EPERM) the
+// waiter polls its ports instead: spinning briefly, then sleeping in growing
+// steps up to 1 ms.
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
+#include <cstdint>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -43,13 +59,26 @@ class MultiWaiter {
 
   Client* owner() const { return owner_; }
 
+  /// Tests only: while true, futex_waitv fails with ENOSYS, so waiters poll.
+  /// Setting it back to false lets them try futex_waitv again.
+  static void simulate_missing_futex_waitv(bool missing) noexcept;
+  /// False once futex_waitv failed with ENOSYS/EPERM: waits poll.
+  static bool event_driven() noexcept;
+
  private:
+  class Sleep;
+
   int count_readable();
+  /// The polling wait (without futex_waitv).
+  int poll(std::chrono::steady_clock::time_point deadline);
+  /// Changes wake_word_ and wakes a waiting wait().
+  void wake() noexcept;
   void notifier_main();
 
   Client* const owner_;
   std::mutex mutex_;  // the port set; held while ports are checked, so removal waits for a check
   std::vector<InPort*> ports_;
+  std::atomic<std::uint32_t> wake_word_{0};  // futex word (non-private futex operations)
 
   std::thread notifier_;
   std::atomic<bool> stopping_{false};

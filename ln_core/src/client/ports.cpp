@@ -268,17 +268,31 @@ bool InPort::knows_segment(const SegmentIdentity& identity) const {
   return (reader_ && current_ == identity) || (pending_ && pending_->identity == identity);
 }
 
+namespace {
+std::atomic<std::uint32_t> segment_changes{0};
+}  // namespace
+
+const std::atomic<std::uint32_t>* InPort::segment_change_word() noexcept { return &segment_changes; }
+
 void InPort::offer_segment(UniqueFd fd, SegmentIdentity identity, std::uint32_t slots,
                            std::optional<std::uint64_t> written_before) {
-  std::lock_guard<std::mutex> lock(state_mutex_);
-  const bool other_publisher = reader_ && identity.publisher_socket != current_.publisher_socket;
-  pending_ = PendingSegment{std::move(fd), std::move(identity), slots, written_before};
-  has_pending_.store(true, std::memory_order_release);
-  // A reader blocked on a segment of another publisher would wait there in
-  // vain: wake it so that it switches. (A segment of the same publisher
-  // replaces its predecessor, which wakes its readers itself when closed.)
-  if (other_publisher) reader_->unblock();
-  state_changed_.notify_all();
+  {
+    std::lock_guard<std::mutex> lock(state_mutex_);
+    const bool other_publisher = reader_ && identity.publisher_socket != current_.publisher_socket;
+    pending_ = PendingSegment{std::move(fd), std::move(identity), slots, written_before};
+    has_pending_.store(true, std::memory_order_release);
+    // A reader blocked on a segment of another publisher would wait there in
+    // vain: wake it so that it switches. (A segment of the same publisher
+    // replaces its predecessor, which wakes its readers itself when closed.)
+    if (other_publisher) reader_->unblock();
+    state_changed_.notify_all();
+  }
+  // Multi-waiters: a waiter that loaded the word before checking this port
+  // either saw pending_ (stored before this increment) or sleeps on a stale
+  // value and gets woken. Only an offer can make a port without a readable
+  // segment readable: a closed or replaced segment changes its own wake word.
+  segment_changes.fetch_add(1, std::memory_order_seq_cst);
+  transport::futex_wake_all(&segment_changes);
 }
 
 void InPort::fail_stream(int code, const std::string& text) {
@@ -364,6 +378,44 @@ int InPort::wait_for_segment(transport::WaitDeadline& deadline) {
   return -LNE_PORT_UNBLOCKED;
 }
 
+void InPort::leave_segment(ReadStatus status) {
+  if (status == ReadStatus::segment_replaced) {
+    resume_after_ = reader_->last_sequence();
+    resume_socket_ = current_.publisher_socket;
+    drop_reader();
+    return;
+  }
+  drop_reader();
+  std::lock_guard<std::mutex> lock(state_mutex_);
+  if (!pending_) has_publisher_.store(false, std::memory_order_relaxed);
+}
+
+void InPort::settle_segment(transport::ShmWakeWatch* watch) {
+  adopt_pending_segment();
+  // Watched before anything about the segment is looked at: whatever
+  // changes after this (a close, a packet) changes the watched word.
+  if (reader_ && watch != nullptr) *watch = reader_->watch_wake_word();
+  // The state before the data: once the segment is seen closed, no packet can follow.
+  if (!reader_ || !has_pending_.load(std::memory_order_acquire) || reader_->publisher_alive() ||
+      reader_->has_new_data()) {
+    return;
+  }
+  // Drained and closed: a non-blocking read only reports why (nothing is
+  // consumed, the buffer is untouched).
+  unsigned char unused = 0;
+  SampleInfo info;
+  const ReadStatus status = reader_->read(&unused, sizeof unused, info, transport::kNoWait);
+  if (status != ReadStatus::segment_replaced && status != ReadStatus::publisher_gone) return;
+  leave_segment(status);
+  adopt_pending_segment();
+  if (watch == nullptr) return;
+  if (reader_) {
+    *watch = reader_->watch_wake_word();
+  } else {
+    watch->withdraw();
+  }
+}
+
 template <typename Attempt>
 int InPort::next_packet(transport::WaitDeadline& deadline, Attempt&& attempt, SampleInfo& info) {
   for (;;) {
@@ -391,16 +443,9 @@ int InPort::next_packet(transport::WaitDeadline& deadline, Attempt&& attempt, Sa
         continue;  // woken to switch to another publisher's segment
       }
       case ReadStatus::segment_replaced:
-        resume_after_ = reader_->last_sequence();
-        resume_socket_ = current_.publisher_socket;
-        drop_reader();
+      case ReadStatus::publisher_gone:
+        leave_segment(status);
         continue;
-      case ReadStatus::publisher_gone: {
-        drop_reader();
-        std::lock_guard<std::mutex> lock(state_mutex_);
-        if (!pending_) has_publisher_.store(false, std::memory_order_relaxed);
-        continue;
-      }
       case ReadStatus::borrow_limit:
         return fail(LNE_INVALID_PARAMETER, "no borrow slot free in the publisher's segment");
       case ReadStatus::buffer_too_small:
@@ -561,15 +606,19 @@ int InPort::release_borrow() noexcept {
   return 0;
 }
 
-bool InPort::readable_now() noexcept {
+InPort::WaitCheck InPort::check(transport::ShmWakeWatch* watch) noexcept {
   std::unique_lock<std::mutex> reading(read_mutex_, std::try_to_lock);
-  if (!reading.owns_lock()) return false;
+  if (!reading.owns_lock()) return WaitCheck::busy;
   try {
-    adopt_pending_segment();
+    settle_segment(watch);
   } catch (...) {
-    return false;
+    return WaitCheck::busy;  // out of memory: check again later
   }
-  return reader_ && reader_->has_new_data();
+  return reader_ && reader_->has_new_data() ? WaitCheck::readable : WaitCheck::not_readable;
 }
+
+bool InPort::readable_now() noexcept { return check(nullptr) == WaitCheck::readable; }
+
+InPort::WaitCheck InPort::check_before_sleep(transport::ShmWakeWatch& watch) noexcept { return check(&watch); }
 
 }  // namespace ln::clientlib

@@ -167,6 +167,22 @@ class InPort : public PortBase {
   /// True if a read would return a packet now. Never blocks: a port being
   /// read by another thread counts as not readable.
   bool readable_now() noexcept;
+  /// readable_now() for a thread about to sleep until that changes (the
+  /// multi-waiter): if the port reads a segment, `watch` is set to watch its
+  /// wake word *before* the check (see transport::ShmWakeWatch), so any packet
+  /// that comes after the check changes the watched word. A port without a
+  /// segment can only become readable through a new one, which changes
+  /// segment_change_word(): load that before calling this.
+  enum class WaitCheck {
+    readable,
+    not_readable,
+    busy,  ///< another thread is reading the port: not checked, and nothing watched
+  };
+  WaitCheck check_before_sleep(transport::ShmWakeWatch& watch) noexcept;
+  /// A process-wide futex word (shared-memory style: no FUTEX_PRIVATE_FLAG)
+  /// that changes, with a FUTEX_WAKE, whenever a publisher's segment is
+  /// offered to any input port.
+  static const std::atomic<std::uint32_t>* segment_change_word() noexcept;
 
   // ---- set-up and I/O thread
   double rate() const { return rate_; }
@@ -198,6 +214,16 @@ class InPort : public PortBase {
   template <typename Attempt>
   int next_packet(transport::WaitDeadline& deadline, Attempt&& attempt, transport::SampleInfo& info);
   void adopt_pending_segment();
+  /// adopt_pending_segment(), and also the same publisher's next segment once
+  /// the current one is drained and closed (what a read does when it gets
+  /// segment_replaced), so that a port that is only watched moves on too.
+  /// With a watch: the segment read afterwards is watched, from before its
+  /// state was looked at.
+  void settle_segment(transport::ShmWakeWatch* watch);
+  /// After a read reported segment_replaced or publisher_gone: forgets the segment.
+  void leave_segment(transport::ReadStatus status);
+  /// readable_now() and check_before_sleep() (which passes a watch).
+  WaitCheck check(transport::ShmWakeWatch* watch) noexcept;
   int wait_for_segment(transport::WaitDeadline& deadline);
   void drop_reader();
   bool passes_rate_limit(const transport::SampleInfo& info);

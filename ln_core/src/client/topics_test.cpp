@@ -6,7 +6,9 @@
 #include <poll.h>
 
 #include <atomic>
+#include <chrono>
 #include <cstring>
+#include <future>
 #include <string>
 #include <thread>
 #include <vector>
@@ -343,6 +345,124 @@ TEST_F(TopicTest, MultiWaiterAndPipeNotifier) {
   EXPECT_EQ(ln_multi_waiter_deinit(&waiter), 0);
 }
 
+// ---- multi-waiter: it sleeps until a port's segment (or the set of
+// segments) changes; multi_waiter_test.cpp checks its protocol white-box.
+
+// Starts ln_multi_waiter_wait(waiter, timeout) in another thread; returns once it runs.
+std::future<int> wait_async(ln_multi_waiter waiter, double timeout) {
+  std::promise<void> started;
+  std::future<void> running = started.get_future();
+  std::future<int> result = std::async(std::launch::async, [waiter, timeout, &started] {
+    started.set_value();
+    return ln_multi_waiter_wait(waiter, timeout);
+  });
+  running.wait();
+  return result;
+}
+
+// Writes a packet every 2 ms (a subscriber sees only what comes after it
+// attached) until `wait` returns; false if it did not within 10 s.
+bool write_until_ready(ln_outport out, std::future<int>& wait) {
+  const auto deadline = Clock::now() + 10s;
+  for (uint32_t seq = 1; Clock::now() < deadline; ++seq) {
+    P64 p = packet(seq);
+    ln_write(out, &p, sizeof p, nullptr);
+    if (wait.wait_for(2ms) == std::future_status::ready) return true;
+  }
+  return false;
+}
+
+TEST_F(TopicTest, MultiWaiterWakesForAPublisherThatComesLater) {
+  ln_outport out_a = publish("t.mw.late.a");
+  ln_inport in_a = subscribe("t.mw.late.a");
+  ln_inport in_b = subscribe("t.mw.late.b");
+  handshake(out_a, in_a);
+  ln_multi_waiter waiter = nullptr;
+  ASSERT_EQ(ln_multi_waiter_init(subscriber_, &waiter), 0);
+  ASSERT_EQ(ln_multi_waiter_add_port(waiter, in_a), 0);
+  ASSERT_EQ(ln_multi_waiter_add_port(waiter, in_b), 0);
+  std::future<int> wait = wait_async(waiter, 30);
+  EXPECT_NE(wait.wait_for(20ms), std::future_status::ready);
+  ln_client late = connect("late_publisher");
+  ln_outport out_b = publish("t.mw.late.b", 1, late);
+  ASSERT_TRUE(write_until_ready(out_b, wait));
+  EXPECT_EQ(wait.get(), 1);
+  EXPECT_EQ(ln_multi_waiter_can_read(waiter, in_a), 0);
+  EXPECT_EQ(ln_multi_waiter_can_read(waiter, in_b), 1);
+  EXPECT_EQ(ln_multi_waiter_deinit(&waiter), 0);
+  ln_deinit(&late);
+}
+
+TEST_F(TopicTest, MultiWaiterWakesAfterAPublisherRestart) {
+  ln_client first = connect("restarting_publisher");
+  ln_outport out = publish("t.mw.restart", 1, first);
+  ln_inport in = subscribe("t.mw.restart");
+  handshake(out, in);
+  ln_multi_waiter waiter = nullptr;
+  ASSERT_EQ(ln_multi_waiter_init(subscriber_, &waiter), 0);
+  ASSERT_EQ(ln_multi_waiter_add_port(waiter, in), 0);
+  std::future<int> wait = wait_async(waiter, 30);
+  ln_deinit(&first);
+  EXPECT_TRUE(wait_until([&] { return ln_has_publisher(in) == 0; }));
+  EXPECT_NE(wait.wait_for(0s), std::future_status::ready);
+  ln_client second = connect("restarting_publisher");
+  ln_outport again = publish("t.mw.restart", 1, second);
+  ASSERT_TRUE(write_until_ready(again, wait));
+  EXPECT_EQ(wait.get(), 1);
+  P64 received{};
+  EXPECT_EQ(ln_read(in, &received, sizeof received, nullptr, 0), 1);
+  EXPECT_EQ(ln_multi_waiter_deinit(&waiter), 0);
+  ln_deinit(&second);
+}
+
+// A subscriber with more buffers makes the publisher switch to a bigger
+// segment: a port that is only watched follows it.
+TEST_F(TopicTest, MultiWaiterFollowsASegmentSwitch) {
+  ln_outport out = publish("t.mw.grow", 1);
+  ln_inport small = subscribe("t.mw.grow", 1);
+  handshake(out, small);
+  ln_multi_waiter waiter = nullptr;
+  ASSERT_EQ(ln_multi_waiter_init(subscriber_, &waiter), 0);
+  ASSERT_EQ(ln_multi_waiter_add_port(waiter, small), 0);
+  std::future<int> wait = wait_async(waiter, 30);
+  ln_inport big = subscribe("t.mw.grow", 8);
+  ASSERT_TRUE(big != nullptr);
+  EXPECT_TRUE(wait_until([&] { return ln_has_subscriber(out) == 2; }));
+  ASSERT_TRUE(write_until_ready(out, wait));
+  EXPECT_EQ(wait.get(), 1);
+  // Until what was left in the old segment is read, the waiter sees that;
+  // then the new segment's packets.
+  P64 p = packet(77);
+  ln_write(out, &p, sizeof p, nullptr);
+  P64 received{};
+  while (ln_multi_waiter_wait(waiter, 5.0) == 1 && ln_read(small, &received, sizeof received, nullptr, 0) == 1 &&
+         received.seq != 77) {
+  }
+  EXPECT_EQ(received.seq, 77u);
+  EXPECT_EQ(ln_multi_waiter_deinit(&waiter), 0);
+}
+
+// The old waiter polled: it woke up every millisecond (about 300 times here).
+TEST_F(TopicTest, MultiWaiterIdleWaitDoesNotPoll) {
+  ln_outport out_a = publish("t.mw.idle.a");
+  ln_inport in_a = subscribe("t.mw.idle.a");
+  ln_inport in_b = subscribe("t.mw.idle.b");  // no publisher
+  handshake(out_a, in_a);
+  ln_multi_waiter waiter = nullptr;
+  ASSERT_EQ(ln_multi_waiter_init(subscriber_, &waiter), 0);
+  ASSERT_EQ(ln_multi_waiter_add_port(waiter, in_a), 0);
+  ASSERT_EQ(ln_multi_waiter_add_port(waiter, in_b), 0);
+  const ThreadUsage before = ThreadUsage::now();
+  const auto start = Clock::now();
+  EXPECT_EQ(ln_multi_waiter_wait(waiter, 0.3), 0);
+  const auto elapsed = Clock::now() - start;
+  const ThreadUsage used = ThreadUsage::now() - before;
+  EXPECT_GE(elapsed, 295ms);
+  EXPECT_LE(used.wakeups, 10) << "the wait woke up " << used.wakeups << " times";
+  EXPECT_LT(used.cpu, 2ms) << "the wait used " << used.cpu.count() << " ns of CPU";
+  EXPECT_EQ(ln_multi_waiter_deinit(&waiter), 0);
+}
+
 TEST_F(TopicTest, NewPublisherTakesOverAfterUnpublish) {
   ln_outport out = publish("t.takeover");
   ln_inport in = subscribe("t.takeover");
@@ -579,6 +699,23 @@ TEST_F(RemoteTopicTest, UdpAndTcpDeliverInOrder) {
   expect_in_order(out, over_udp, 200);
   EXPECT_EQ(ln_unpublish(&out), 0);
   EXPECT_TRUE(wait_until([&] { return ln_has_publisher(over_tcp) == 0; }));
+  ln_deinit(&remote);
+}
+
+// A remote publisher's packets come through the subscription's inbox ring.
+TEST_F(RemoteTopicTest, MultiWaiterWakesForRemotePackets) {
+  ln_client remote = remote_client();
+  ln_outport out = publish("r.mw", 1);
+  ln_inport in = nullptr;
+  ASSERT_EQ(ln_subscribe_with_buffers(remote, "r.mw", "test/p64", &in, -1, 1, 4), 0);
+  ln_multi_waiter waiter = nullptr;
+  ASSERT_EQ(ln_multi_waiter_init(remote, &waiter), 0);
+  ASSERT_EQ(ln_multi_waiter_add_port(waiter, in), 0);
+  std::future<int> wait = wait_async(waiter, 30);
+  ASSERT_TRUE(write_until_ready(out, wait));
+  EXPECT_EQ(wait.get(), 1);
+  EXPECT_EQ(ln_multi_waiter_can_read(waiter, in), 1);
+  EXPECT_EQ(ln_multi_waiter_deinit(&waiter), 0);
   ln_deinit(&remote);
 }
 

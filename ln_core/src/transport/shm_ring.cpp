@@ -1116,4 +1116,35 @@ std::uint32_t ShmReader::message_size() const noexcept { return core_->view.geom
 std::uint32_t ShmReader::history() const noexcept { return core_->view.geometry.history; }
 ReaderStats ShmReader::stats() const noexcept { return core_->stats; }
 
+// ---- ShmWakeWatch: sleeping on several segments at once
+
+ShmWakeWatch ShmReader::watch_wake_word() const noexcept { return ShmWakeWatch(core_); }
+
+ShmWakeWatch::ShmWakeWatch(std::shared_ptr<detail::ReaderCore> core) noexcept : core_(std::move(core)) {
+  SegmentHeader& shared = core_->header();
+  // The order of wait_for_packet: counted first, so that a writer that bumps
+  // the word after our load also sees the count and wakes us.
+  shared.sleeping_readers.fetch_add(1, std::memory_order_seq_cst);
+  expected_ = shared.wake_word.load(std::memory_order_seq_cst);
+}
+
+ShmWakeWatch& ShmWakeWatch::operator=(ShmWakeWatch&& other) noexcept {
+  if (this != &other) {
+    withdraw();
+    core_ = std::move(other.core_);
+    expected_ = other.expected_;
+  }
+  return *this;
+}
+
+const std::atomic<std::uint32_t>* ShmWakeWatch::word() const noexcept {
+  return core_ ? &core_->header().wake_word : nullptr;
+}
+
+void ShmWakeWatch::withdraw() noexcept {
+  if (!core_) return;
+  core_->header().sleeping_readers.fetch_sub(1, std::memory_order_seq_cst);
+  core_.reset();
+}
+
 }  // namespace ln::transport

@@ -128,6 +128,7 @@
 // called from any thread. Objects must not be used in a fork()ed child; the
 // child attaches on its own.
 
+#include <atomic>
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
@@ -320,6 +321,7 @@ class ShmWriter {
 };
 
 class ShmReader;
+class ShmWakeWatch;
 
 /// A packet read in place. Move-only; releases its pin on destruction or
 /// release(). Keeps the mapping alive, so it may outlive its ShmReader.
@@ -397,9 +399,52 @@ class ShmReader {
   std::uint32_t history() const noexcept;
   ReaderStats stats() const noexcept;
 
+  /// For a thread that sleeps on several segments at once (see ShmWakeWatch):
+  /// counts it in the segment's sleeping readers and notes the wake word.
+  /// Any thread, also during a read (like unblock()); the watch may outlive
+  /// the reader.
+  ShmWakeWatch watch_wake_word() const noexcept;
+
  private:
   explicit ShmReader(std::shared_ptr<detail::ReaderCore> core) noexcept;
   std::shared_ptr<detail::ReaderCore> core_;
+};
+
+/// Sleeping on the wake words of several segments at once (ln's multi-waiter
+/// uses futex_waitv), with the protocol of a blocking read split in two:
+///   1. watch = reader.watch_wake_word(): counts the caller in the segment's
+///      `sleeping_readers` (seq_cst), then loads `wake_word` (seq_cst) into
+///      expected();
+///   2. check the wake condition (e.g. reader.has_new_data()) and sleep only
+///      if it is false, on word() while it still holds expected();
+///   3. destroy the watch (or withdraw()): uncounts the caller.
+/// A write (or close, unblock) after step 1 changes the word and, as the
+/// writer then sees sleeping_readers != 0, calls FUTEX_WAKE; one before it is
+/// seen by step 2. So no packet is missed. Futex operations on word() must not
+/// use FUTEX_PRIVATE_FLAG (the word is in shared memory). The watch keeps the
+/// mapping alive, so it may outlive its ShmReader. Move-only.
+class ShmWakeWatch {
+ public:
+  ShmWakeWatch() = default;
+  ShmWakeWatch(ShmWakeWatch&& other) noexcept = default;
+  ShmWakeWatch& operator=(ShmWakeWatch&& other) noexcept;
+  ShmWakeWatch(const ShmWakeWatch&) = delete;
+  ShmWakeWatch& operator=(const ShmWakeWatch&) = delete;
+  ~ShmWakeWatch() { withdraw(); }
+
+  bool active() const noexcept { return core_ != nullptr; }
+  /// The segment's futex word (nullptr if not active).
+  const std::atomic<std::uint32_t>* word() const noexcept;
+  /// The word's value right after the caller was counted.
+  std::uint32_t expected() const noexcept { return expected_; }
+  /// Uncounts the caller; idempotent.
+  void withdraw() noexcept;
+
+ private:
+  friend class ShmReader;
+  explicit ShmWakeWatch(std::shared_ptr<detail::ReaderCore> core) noexcept;
+  std::shared_ptr<detail::ReaderCore> core_;
+  std::uint32_t expected_ = 0;
 };
 
 }  // namespace ln::transport

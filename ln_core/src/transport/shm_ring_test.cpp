@@ -20,6 +20,7 @@
 #include <chrono>
 #include <cstring>
 #include <functional>
+#include <optional>
 #include <set>
 #include <string>
 #include <thread>
@@ -1405,6 +1406,61 @@ TEST(ShmRingCrossProcess, DeadBorrowerTokenIsReclaimed) {
   sample.release();
   // The stale pin was cleared: the writer has all its spares again.
   for (std::uint64_t s = 21; s <= 40; ++s) ASSERT_EQ(writer.write(packet(64, s).data(), 64), WriteStatus::ok);
+}
+
+// ------------------------------------------------------------ ShmWakeWatch
+
+TEST(ShmWakeWatch, CountsTheWatcherAndSeesEveryLaterWrite) {
+  ShmWriter writer = ShmWriter::create({64, 4, 1, 1, "wake_watch"});
+  std::optional<ShmReader> reader(ShmReader::attach(writer.fd()));
+  ShmWakeWatch watch = reader->watch_wake_word();
+  ASSERT_TRUE(watch.active());
+  EXPECT_EQ(writer.sleeping_readers(), 1u);
+  EXPECT_EQ(watch.word()->load(), watch.expected());
+  ASSERT_EQ(writer.write(packet(64, 1).data(), 64), WriteStatus::ok);
+  EXPECT_NE(watch.word()->load(), watch.expected());
+  EXPECT_TRUE(reader->has_new_data());
+
+  // Moving transfers the count; the watch keeps the mapping alive.
+  ShmWakeWatch moved = std::move(watch);
+  EXPECT_FALSE(watch.active());  // NOLINT(bugprone-use-after-move): documented state
+  reader.reset();
+  EXPECT_EQ(writer.sleeping_readers(), 1u);
+  const std::uint32_t before_close = moved.word()->load();
+  writer.close();
+  EXPECT_NE(moved.word()->load(), before_close);
+  moved.withdraw();
+  moved.withdraw();
+  EXPECT_EQ(writer.sleeping_readers(), 0u);
+}
+
+// The protocol of the class comment, with a futex sleep: a write from
+// another thread always ends it, however the two interleave.
+TEST(ShmWakeWatch, WritesWakeASleeperPromptly) {
+  ShmWriter writer = ShmWriter::create({64, 4, 1, 1, "wake_watch"});
+  ShmReader reader = ShmReader::attach(writer.fd());
+  for (std::uint64_t round = 1; round <= 200; ++round) {
+    std::atomic<bool> woke{false};
+    std::thread sleeper([&] {
+      const auto deadline = Clock::now() + 10s;
+      while (Clock::now() < deadline) {
+        ShmWakeWatch watch = reader.watch_wake_word();
+        if (reader.has_new_data()) break;
+        futex_wait(watch.word(), watch.expected(), deadline - Clock::now());
+      }
+      woke = true;
+    });
+    if (round % 2 == 0) std::this_thread::yield();
+    ASSERT_EQ(writer.write(packet(64, round).data(), 64), WriteStatus::ok);
+    const auto start = Clock::now();
+    sleeper.join();
+    EXPECT_TRUE(woke);
+    EXPECT_LT(Clock::now() - start, 2s) << "round " << round;
+    SampleInfo info;
+    std::vector<std::byte> buffer(64);
+    ASSERT_EQ(reader.read(buffer.data(), buffer.size(), info), ReadStatus::ok);
+  }
+  EXPECT_EQ(writer.sleeping_readers(), 0u);
 }
 
 }  // namespace
