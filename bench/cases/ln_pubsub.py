@@ -11,9 +11,12 @@ own manager, interleaved run by run, same CPU placement and sizes.
   copying read. With plain write() + read() both systems copy 1 MiB four times per round trip,
   unless the copies overlap: ln_core's reader on another core copies a large packet out while the
   writer is still copying it in (streamed copies, ln_core/src/transport/shm_ring.hpp).
-* Same core, the physical floor in the same group: two processes that hand the core to each other
-  with sched_yield and copy the payload like the programs do (bench/probes/shm_rtt --mode yield),
-  with LN 2.9's figure as reference: a ratio no blocking read between two processes can beat.
+* Same core, the bare mechanism in the same group: two tiny processes that hand the core to each
+  other with sched_yield (one system call and one context switch per hop, as ln_core's readers on
+  the writer's CPU do) and copy the payload like the programs do (bench/probes/shm_rtt --mode
+  yield), with LN 2.9's figure as reference: how much of a round trip is the kernel's hand-over.
+  It is noisy (bimodal between runs on this VM) and a library with a real working set pays more
+  per switch than the 3-page probe.
 * One-way 64 B rate, buffers 1 and 256, publisher flooding: writes/s, distinct packets delivered
   per second and delivered fraction (sequence numbers and payload bytes checked by the
   subscriber); plus, split cores, the publisher paced at 2 M msg/s with buffers 256 and with
@@ -44,21 +47,21 @@ SUFFICIENT_BUFFERS = 65536
 RATE_CONFIGS = {"split": [(1, 0), (256, 0), (256, 2_000_000), (SUFFICIENT_BUFFERS, 2_000_000)],
                 "same": [(1, 0), (256, 0)]}
 RTT_TARGET = {(64, "copy"): 0.5, (1048576, "copy"): 0.8, (1048576, "zc"): 0.05}
-FLOOR_SIZES = (64, 1048576)
-FLOOR_NAME = "physical floor: 2 processes, sched_yield hand-over, same copies (probes/shm_rtt)"
+BARE_SIZES = (64, 1048576)
+BARE_NAME = "bare mechanism: 2 processes, sched_yield hand-over, same copies (probes/shm_rtt)"
 
 
 def rate_text(paced):
     return f"paced at {paced / 1e6:g} M msg/s" if paced else "flood"
 
 
-def floor_rows(group, probe_runs, ln29_runs):
-    """The same-core floor with LN 2.9's copying round trip as reference."""
+def bare_mechanism_rows(group, probe_runs, ln29_runs):
+    """The same-core bare mechanism with LN 2.9's copying round trip as reference."""
     from benchlib import Row, median, spread_note
     for key, metric in (("median_us", "RTT median"), ("p99_us", "RTT p99")):
         values = [r[key] for r in probe_runs]
         ref = median([r[key] for r in ln29_runs]) if ln29_runs else None
-        yield Row(group=group, name=FLOOR_NAME, metric=metric, unit="us", value=median(values),
+        yield Row(group=group, name=BARE_NAME, metric=metric, unit="us", value=median(values),
                   reference_name="LN 2.9 pub/sub, copying read" if ref else "", reference_value=ref,
                   note="; ".join(x for x in (spread_note(values), f"{len(values)} runs") if x))
 
@@ -67,16 +70,16 @@ def run(ctx):
     rtt = {}    # (placement, size, system key, mode) -> [results]
     rate = {}   # (placement, buffers, system key) -> [(pub, sub)]
     setup = {}  # system key -> [results]
-    floor = {}  # size -> [shm_rtt probe results], same core
+    bare = {}  # size -> [shm_rtt --mode yield results], same core
     with H.Comparison(ctx) as cmp:
         for rep in range(ctx.reps):
             for placement, cpus in ctx.placements.items():
                 for size, size_text in SIZES:
                     big = size > 4096
                     n, warmup = (ctx.n(2000, 200), ctx.n(50, 20)) if big else (ctx.n(20000, 2000), ctx.n(500, 100))
-                    if placement == "same" and size in FLOOR_SIZES:
-                        ctx.log(f"ln pub/sub RTT {size_text} same core: physical floor run {rep + 1}/{ctx.reps}")
-                        floor.setdefault(size, []).extend(ctx.run_json(
+                    if placement == "same" and size in BARE_SIZES:
+                        ctx.log(f"ln pub/sub RTT {size_text} same core: bare mechanism run {rep + 1}/{ctx.reps}")
+                        bare.setdefault(size, []).extend(ctx.run_json(
                             [ctx.probe("shm_rtt"), "--mode", "yield", "--cpus", ctx.cpus_arg(cpus),
                              "--iters", n, "--warmup", warmup, "--payload", size], timeout=60))
                     for system in cmp.systems:
@@ -134,8 +137,8 @@ def run(ctx):
                                         "us", RTT_TARGET.get((size, mode)),
                                         extra=lambda runs: f"n={runs[0]['n']}; stale echoes {sum(r['stale_echoes'] for r in runs)}",
                                         ref_only=bool(mode_ref) or mode == "copy")
-            if placement == "same" and floor.get(size):
-                yield from floor_rows(group, floor[size], ref_runs)
+            if placement == "same" and bare.get(size):
+                yield from bare_mechanism_rows(group, bare[size], ref_runs)
 
     # ---- rate rows
     for placement in ctx.placements:
