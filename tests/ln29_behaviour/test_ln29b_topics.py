@@ -204,6 +204,19 @@ def test_rate_decimation(lnbt):
         assert min(steps) >= 15, f"{system}: packets closer than 1/rate: {seen}"
 
 
+def run_alongside(first_argv, ready_line, second_argv, env):
+    """Starts the first program, runs the second to its end once the first printed ready_line,
+    then lets the first finish; returns both (support.Program, support.run result)."""
+    first = support.Program(first_argv, env)
+    try:
+        assert first.wait_for_line(ready_line, 10) is not None, first.describe()
+        second = support.run(second_argv, env)
+        first.finish()
+    finally:
+        first.kill()
+    return first, second
+
+
 @pytest.mark.parametrize("order,pub_buffers", [("subscriber_first", 1), ("publisher_first", 256),
                                                ("publisher_first", 1)])
 def test_waiting_publisher_loses_nothing(lnbt, order, pub_buffers):
@@ -222,21 +235,9 @@ def test_waiting_publisher_loses_nothing(lnbt, order, pub_buffers):
         pub_argv = [system.programs["lnbt_publisher"], name, "200", "0", "--wait-subscriber", "5",
                     "--buffers", str(pub_buffers), "--linger", "1"]
         if order == "subscriber_first":
-            subscriber = support.Program(sub_argv, env)
-            try:
-                assert subscriber.wait_for_line("subscribed", 10) is not None, subscriber.describe()
-                publisher = support.run(pub_argv, env)
-                subscriber.finish()
-            finally:
-                subscriber.kill()
+            subscriber, publisher = run_alongside(sub_argv, "subscribed", pub_argv, env)
         else:
-            publisher = support.Program(pub_argv, env)
-            try:
-                assert publisher.wait_for_line("publishing", 10) is not None, publisher.describe()
-                subscriber = support.run(sub_argv, env)
-                publisher.finish()
-            finally:
-                publisher.kill()
+            publisher, subscriber = run_alongside(pub_argv, "publishing", sub_argv, env)
         assert "subscriber seen" in publisher.lines, f"{system}\n{publisher.describe()}"
         results[system.label] = (counters(subscriber), subscriber)
     everything = list(range(1, 201))

@@ -1098,30 +1098,44 @@ std::function<int()> writer_body(int socket_fd, int cpu, std::uint32_t size) {
 }
 }  // namespace stall
 
+// A stall::writer_body child on one CPU and a reader of its segment pinned to another.
+struct StallingWriterAndReader {
+  static constexpr std::uint32_t kSize = 4 << 20;
+  SocketPair sockets;
+  Child publisher;
+  PinnedThread pinned;
+  ShmReader reader;
+  std::vector<std::byte> buffer = std::vector<std::byte>(kSize);
+  SampleInfo info;
+
+  StallingWriterAndReader(int writer_cpu, int reader_cpu)
+      : publisher(stall::writer_body(sockets.child.get(), writer_cpu, kSize)),
+        pinned(reader_cpu),
+        reader(ShmReader::attach(receive_fd(sockets.parent.get()))) {}
+  int parent_socket() const { return sockets.parent.get(); }
+};
+
 // A reader that follows a stream whose writer stalls gives up after max_spin
 // and waits as usual: its read times out (the writer lives), and the packet
 // is delivered whole once the writer finishes it.
 TEST(ShmRingStream, StalledWriterIsLeftToTheOrdinaryWait) {
   const auto [writer_cpu, reader_cpu] = two_allowed_cpus();
   if (writer_cpu < 0) GTEST_SKIP() << "needs two CPUs";
-  constexpr std::uint32_t kSize = 4 << 20;
-  SocketPair sockets;
-  Child publisher(stall::writer_body(sockets.child.get(), writer_cpu, kSize));
-  PinnedThread pinned(reader_cpu);
-  ShmReader reader = ShmReader::attach(receive_fd(sockets.parent.get()));
-  std::vector<std::byte> buffer(kSize);
-  SampleInfo info;
-  send_byte(sockets.parent.get(), 'r');
-  EXPECT_EQ(reader.read(buffer.data(), kSize, info, 300ms), ReadStatus::timeout);
-  ASSERT_EQ(receive_byte(sockets.parent.get(), 10s), 'S');  // it did stall mid-packet
-  EXPECT_EQ(reader.stats().abandoned_streams, 1u);
-  EXPECT_EQ(reader.stats().streamed_copies, 0u);
-  send_byte(sockets.parent.get(), 'c');
-  ASSERT_EQ(reader.read(buffer.data(), kSize, info, 10s), ReadStatus::ok);
+  StallingWriterAndReader setup(writer_cpu, reader_cpu);
+  std::vector<std::byte>& buffer = setup.buffer;
+  SampleInfo& info = setup.info;
+  const std::uint32_t size = setup.kSize;
+  send_byte(setup.parent_socket(), 'r');
+  EXPECT_EQ(setup.reader.read(buffer.data(), size, info, 300ms), ReadStatus::timeout);
+  ASSERT_EQ(receive_byte(setup.parent_socket(), 10s), 'S');  // it did stall mid-packet
+  EXPECT_EQ(setup.reader.stats().abandoned_streams, 1u);
+  EXPECT_EQ(setup.reader.stats().streamed_copies, 0u);
+  send_byte(setup.parent_socket(), 'c');
+  ASSERT_EQ(setup.reader.read(buffer.data(), size, info, 10s), ReadStatus::ok);
   EXPECT_EQ(info.sequence, 1u);
   EXPECT_EQ(info.lost, 0u);
-  EXPECT_TRUE(pattern_intact(buffer.data(), kSize, 1));
-  EXPECT_EQ(publisher.wait(), 0);
+  EXPECT_TRUE(pattern_intact(buffer.data(), size, 1));
+  EXPECT_EQ(setup.publisher.wait(), 0);
 }
 
 // A writer that dies in the middle of a streamed packet: the follower gives
@@ -1129,18 +1143,12 @@ TEST(ShmRingStream, StalledWriterIsLeftToTheOrdinaryWait) {
 TEST(ShmRingStream, WriterDyingMidPacketEndsTheRead) {
   const auto [writer_cpu, reader_cpu] = two_allowed_cpus();
   if (writer_cpu < 0) GTEST_SKIP() << "needs two CPUs";
-  constexpr std::uint32_t kSize = 4 << 20;
-  SocketPair sockets;
-  Child publisher(stall::writer_body(sockets.child.get(), writer_cpu, kSize));
-  PinnedThread pinned(reader_cpu);
-  ShmReader reader = ShmReader::attach(receive_fd(sockets.parent.get()));
-  std::vector<std::byte> buffer(kSize);
-  SampleInfo info;
-  send_byte(sockets.parent.get(), 'r');
-  ASSERT_EQ(receive_byte(sockets.parent.get(), 10s), 'S');
-  ASSERT_EQ(::kill(publisher.pid(), SIGKILL), 0);
-  EXPECT_EQ(reader.read(buffer.data(), kSize, info, 10s), ReadStatus::publisher_gone);
-  EXPECT_EQ(publisher.wait(), -2);
+  StallingWriterAndReader setup(writer_cpu, reader_cpu);
+  send_byte(setup.parent_socket(), 'r');
+  ASSERT_EQ(receive_byte(setup.parent_socket(), 10s), 'S');
+  ASSERT_EQ(::kill(setup.publisher.pid(), SIGKILL), 0);
+  EXPECT_EQ(setup.reader.read(setup.buffer.data(), setup.kSize, setup.info, 10s), ReadStatus::publisher_gone);
+  EXPECT_EQ(setup.publisher.wait(), -2);
 }
 
 // The reader is waiting when a writer thread on another CPU streams a packet.
