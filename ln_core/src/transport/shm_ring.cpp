@@ -1083,8 +1083,11 @@ ReadStatus ShmReader::read(void* buffer, std::size_t capacity, SampleInfo& info,
 ReadStatus ShmReader::read(void* buffer, std::size_t capacity, SampleInfo& info, WaitDeadline& deadline,
                            ReadMode mode) {
   detail::ReaderCore& core = *core_;
-  // A follower cannot pin the slot being written: with optimistic_copies == 0 it waits for the commit.
-  core.follow_streams = !deadline.polls() && core.options.optimistic_copies != 0;
+  // Only reads without a deadline follow streams: a read that times out must
+  // leave the buffer untouched, and a stalled writer would leave part of a
+  // packet in it. A follower cannot pin the slot being written either, so
+  // with optimistic_copies == 0 it waits for the commit.
+  core.follow_streams = deadline.forever() && core.options.optimistic_copies != 0;
   const ReadStatus status = core.run([&] { return core.try_copy(buffer, capacity, info, mode); }, deadline);
   core.follow_streams = false;
   return status;

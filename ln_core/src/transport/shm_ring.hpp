@@ -66,15 +66,16 @@
 // Streamed copies: write() of a packet of 64 KiB or more announces it in the
 // header before copying (stream_target = its sequence and slot,
 // stream_bytes = 0), wakes the readers that wait for stream starts, and
-// copies in 16 KiB chunks, storing stream_bytes after each. A blocking
-// copying read on another CPU whose next packet that is copies each chunk as
-// it is announced, so the two copies of a packet run side by side instead of
+// copies in 16 KiB chunks, storing stream_bytes after each. A copying read
+// without a deadline (kWaitForever) on another CPU whose next packet that is
+// copies each chunk as it is announced, so the two copies of a packet run side by side instead of
 // one after the other; after the commit (which clears stream_target) the
 // same seqlock check as above decides whether the copy is valid. Readers on
 // the writer's CPU do not follow (they would only keep the writer from
 // running) and are not woken by stream starts (FUTEX_WAIT_BITSET masks).
 // A writer that makes no progress for SpinPolicy::max_spin is left to the
-// ordinary wait; that stream is not followed again.
+// ordinary wait; that stream is not followed again. Reads with a deadline
+// never follow: one that times out must leave the buffer untouched.
 //
 // Borrowing (zero-copy read): a reader pins a slot by setting one bit in the
 // slot's borrow_state (only while the writer is not writing it, checked by
@@ -370,9 +371,9 @@ class ShmReader {
   /// pathological cases: the writer overwrote the packet during several
   /// consecutive copy attempts and no borrow token was free to pin it (then
   /// a blocking read keeps trying until its timeout and a non-blocking read
-  /// returns no_data with the buffer possibly overwritten), or a blocking read
-  /// followed a streamed write whose publisher then stopped mid-packet and
-  /// never committed it (died, or stayed descheduled until the read timed out).
+  /// returns no_data with the buffer possibly overwritten), or a read without
+  /// deadline followed a streamed write whose publisher then died mid-packet
+  /// (publisher_gone) or was unblocked meanwhile (unblocked).
   ReadStatus read(void* buffer, std::size_t capacity, SampleInfo& info,
                   std::chrono::nanoseconds timeout = kNoWait, ReadMode mode = ReadMode::next);
   ReadStatus read(void* buffer, std::size_t capacity, SampleInfo& info, WaitDeadline& deadline,

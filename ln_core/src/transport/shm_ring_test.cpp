@@ -19,7 +19,10 @@
 #include <atomic>
 #include <chrono>
 #include <cstring>
+#include <condition_variable>
 #include <functional>
+#include <future>
+#include <mutex>
 #include <optional>
 #include <set>
 #include <string>
@@ -1012,8 +1015,34 @@ TEST(ShmRingBlocking, SameCpuStreamingPublisherMakesTheReaderBackOff) {
 
 // ------------------------------------------------------------------ streamed copies
 
-// A blocking reader on another CPU copies each large packet while the writer
-// is still copying it in; every byte arrives intact and in order.
+// Bounds a read without deadline: unblocks `reader` unless destroyed within `limit`.
+class UnblockAfter {
+ public:
+  UnblockAfter(ShmReader& reader, std::chrono::seconds limit)
+      : thread_([this, &reader, limit] {
+          std::unique_lock<std::mutex> lock(mutex_);
+          if (!done_changed_.wait_for(lock, limit, [this] { return done_; })) reader.unblock();
+        }) {}
+  ~UnblockAfter() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      done_ = true;
+    }
+    done_changed_.notify_all();
+    thread_.join();
+  }
+  UnblockAfter(const UnblockAfter&) = delete;
+  UnblockAfter& operator=(const UnblockAfter&) = delete;
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable done_changed_;
+  bool done_ = false;
+  std::thread thread_;
+};
+
+// A reader without deadline on another CPU copies each large packet while
+// the writer is still copying it in; every byte arrives intact and in order.
 TEST(ShmRingStream, ReaderOnAnotherCpuCopiesBehindTheWriter) {
   const auto [writer_cpu, reader_cpu] = two_allowed_cpus();
   if (writer_cpu < 0) GTEST_SKIP() << "needs two CPUs";
@@ -1034,11 +1063,12 @@ TEST(ShmRingStream, ReaderOnAnotherCpuCopiesBehindTheWriter) {
   });
   PinnedThread pinned(reader_cpu);
   ShmReader reader = ShmReader::attach(receive_fd(sockets.parent.get()));
+  UnblockAfter bound(reader, 30s);
   std::vector<std::byte> buffer(kSize);
   for (std::uint64_t s = 1; s <= kPackets; ++s) {
     send_byte(sockets.parent.get(), 'r');
     SampleInfo info;
-    ASSERT_EQ(reader.read(buffer.data(), kSize, info, 10s), ReadStatus::ok);
+    ASSERT_EQ(reader.read(buffer.data(), kSize, info, kWaitForever), ReadStatus::ok);
     ASSERT_EQ(info.sequence, s);
     ASSERT_EQ(info.lost, 0u);
     ASSERT_EQ(info.size, kSize);
@@ -1054,11 +1084,13 @@ TEST(ShmRingStream, ReaderOnAnotherCpuCopiesBehindTheWriter) {
 
 // A writer stalled in the middle of a packet, deterministically: its source
 // buffer has an inaccessible page half-way, and the SIGSEGV handler reports
-// the stall ('S') and holds the writer until the parent says go on ('c').
+// the stall ('S') and holds the writer until the parent says go on ('c');
+// meanwhile 'q' asks it how many readers sleep on the segment (a digit).
 namespace stall {
 int socket = -1;
 std::byte* page = nullptr;
 long page_size = 0;
+const ShmWriter* writer = nullptr;
 
 void on_fault(int, siginfo_t* info, void*) {
   auto* address = static_cast<std::byte*>(info->si_addr);
@@ -1068,8 +1100,13 @@ void on_fault(int, siginfo_t* info, void*) {
   }
   char byte = 'S';
   if (::write(socket, &byte, 1) != 1) ::_exit(7);
-  while (byte != 'c') {
+  for (;;) {
     if (::read(socket, &byte, 1) != 1) ::_exit(8);
+    if (byte == 'c') break;
+    if (byte == 'q') {
+      const char sleeping = static_cast<char>('0' + std::min<std::uint32_t>(writer->sleeping_readers(), 9));
+      if (::write(socket, &sleeping, 1) != 1) ::_exit(9);
+    }
   }
   ::mprotect(page, static_cast<std::size_t>(page_size), PROT_READ | PROT_WRITE);
 }
@@ -1079,7 +1116,8 @@ void on_fault(int, siginfo_t* info, void*) {
 std::function<int()> writer_body(int socket_fd, int cpu, std::uint32_t size) {
   return [=] {
     PinnedThread pinned(cpu);
-    ShmWriter writer = ShmWriter::create(config(size, 1, 0));
+    ShmWriter segment = ShmWriter::create(config(size, 1, 0));
+    writer = &segment;
     page_size = ::sysconf(_SC_PAGESIZE);
     void* staging = ::mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
     if (staging == MAP_FAILED) return 2;
@@ -1091,50 +1129,92 @@ std::function<int()> writer_body(int socket_fd, int cpu, std::uint32_t size) {
     action.sa_flags = SA_SIGINFO;
     if (::sigaction(SIGSEGV, &action, nullptr) != 0) return 3;
     if (::mprotect(page, static_cast<std::size_t>(page_size), PROT_NONE) != 0) return 4;
-    send_fd(socket_fd, writer.fd());
+    send_fd(socket_fd, segment.fd());
     if (receive_byte(socket_fd, 10s) != 'r') return 5;
-    return writer.write(staging, size) == WriteStatus::ok ? 0 : 6;
+    return segment.write(staging, size) == WriteStatus::ok ? 0 : 6;
   };
 }
 }  // namespace stall
 
-// A stall::writer_body child on one CPU and a reader of its segment pinned to another.
+// A stall::writer_body child on one CPU and a reader of its segment whose
+// reads run in a thread pinned to another.
 struct StallingWriterAndReader {
   static constexpr std::uint32_t kSize = 4 << 20;
+  const int reader_cpu;
   SocketPair sockets;
   Child publisher;
-  PinnedThread pinned;
   ShmReader reader;
-  std::vector<std::byte> buffer = std::vector<std::byte>(kSize);
+  std::vector<std::byte> buffer = std::vector<std::byte>(kSize, std::byte{0x5a});
   SampleInfo info;
 
-  StallingWriterAndReader(int writer_cpu, int reader_cpu)
-      : publisher(stall::writer_body(sockets.child.get(), writer_cpu, kSize)),
-        pinned(reader_cpu),
+  StallingWriterAndReader(int writer_cpu, int reader_cpu_)
+      : reader_cpu(reader_cpu_),
+        publisher(stall::writer_body(sockets.child.get(), writer_cpu, kSize)),
         reader(ShmReader::attach(receive_fd(sockets.parent.get()))) {}
   int parent_socket() const { return sockets.parent.get(); }
+
+  // Starts a read into `buffer` on the reader's CPU, then lets the writer write.
+  std::future<ReadStatus> read_while_writing(std::chrono::nanoseconds timeout) {
+    std::promise<void> reading;
+    std::future<void> started = reading.get_future();
+    std::future<ReadStatus> result = std::async(std::launch::async, [this, timeout, &reading] {
+      PinnedThread pinned(reader_cpu);
+      reading.set_value();
+      return reader.read(buffer.data(), kSize, info, timeout);
+    });
+    started.wait();
+    send_byte(parent_socket(), 'r');
+    return result;
+  }
+  bool untouched() const {
+    return std::all_of(buffer.begin(), buffer.end(), [](std::byte b) { return b == std::byte{0x5a}; });
+  }
 };
 
-// A reader that follows a stream whose writer stalls gives up after max_spin
-// and waits as usual: its read times out (the writer lives), and the packet
-// is delivered whole once the writer finishes it.
+// A read with a deadline does not follow a streamed write: when it times out
+// while the writer is stalled mid-packet, the buffer is untouched (LN: a read
+// that returns false leaves the buffer alone).
+TEST(ShmRingStream, TimedReadLeavesTheBufferUntouchedWhileAWriteIsStalled) {
+  const auto [writer_cpu, reader_cpu] = two_allowed_cpus();
+  if (writer_cpu < 0) GTEST_SKIP() << "needs two CPUs";
+  StallingWriterAndReader setup(writer_cpu, reader_cpu);
+  std::future<ReadStatus> reading = setup.read_while_writing(300ms);
+  ASSERT_EQ(receive_byte(setup.parent_socket(), 10s), 'S');  // it did stall mid-packet
+  EXPECT_EQ(reading.get(), ReadStatus::timeout);
+  EXPECT_TRUE(setup.untouched());
+  EXPECT_EQ(setup.reader.stats().streamed_copies, 0u);
+  send_byte(setup.parent_socket(), 'c');
+  ASSERT_EQ(setup.reader.read(setup.buffer.data(), setup.kSize, setup.info, 10s), ReadStatus::ok);
+  EXPECT_EQ(setup.info.sequence, 1u);
+  EXPECT_TRUE(pattern_intact(setup.buffer.data(), setup.kSize, 1));
+  EXPECT_EQ(setup.publisher.wait(), 0);
+}
+
+// A read without deadline that follows a stream whose writer stalls gives up
+// after max_spin and sleeps until the commit; the packet then arrives whole.
 TEST(ShmRingStream, StalledWriterIsLeftToTheOrdinaryWait) {
   const auto [writer_cpu, reader_cpu] = two_allowed_cpus();
   if (writer_cpu < 0) GTEST_SKIP() << "needs two CPUs";
   StallingWriterAndReader setup(writer_cpu, reader_cpu);
-  std::vector<std::byte>& buffer = setup.buffer;
-  SampleInfo& info = setup.info;
-  const std::uint32_t size = setup.kSize;
-  send_byte(setup.parent_socket(), 'r');
-  EXPECT_EQ(setup.reader.read(buffer.data(), size, info, 300ms), ReadStatus::timeout);
-  ASSERT_EQ(receive_byte(setup.parent_socket(), 10s), 'S');  // it did stall mid-packet
-  EXPECT_EQ(setup.reader.stats().abandoned_streams, 1u);
-  EXPECT_EQ(setup.reader.stats().streamed_copies, 0u);
+  UnblockAfter bound(setup.reader, 30s);
+  std::future<ReadStatus> reading = setup.read_while_writing(kWaitForever);
+  ASSERT_EQ(receive_byte(setup.parent_socket(), 10s), 'S');
+  // Until the reader sleeps again (it gave up following), the writer stays stalled.
+  EXPECT_TRUE(wait_until([&] {
+    send_byte(setup.parent_socket(), 'q');
+    return receive_byte(setup.parent_socket(), 10s) == '1';
+  }, 10s));
+  EXPECT_NE(reading.wait_for(0ms), std::future_status::ready);
   send_byte(setup.parent_socket(), 'c');
-  ASSERT_EQ(setup.reader.read(buffer.data(), size, info, 10s), ReadStatus::ok);
-  EXPECT_EQ(info.sequence, 1u);
-  EXPECT_EQ(info.lost, 0u);
-  EXPECT_TRUE(pattern_intact(buffer.data(), size, 1));
+  ASSERT_EQ(reading.get(), ReadStatus::ok);
+  EXPECT_EQ(setup.info.sequence, 1u);
+  EXPECT_EQ(setup.info.lost, 0u);
+  EXPECT_TRUE(pattern_intact(setup.buffer.data(), setup.kSize, 1));
+  const ReaderStats stats = setup.reader.stats();
+  // It followed and gave up, unless it was still asleep from before the write when asked.
+  EXPECT_EQ(stats.abandoned_streams + stats.streamed_copies, 1u);
+  std::printf("    abandoned %llu, streamed %llu\n", static_cast<unsigned long long>(stats.abandoned_streams),
+              static_cast<unsigned long long>(stats.streamed_copies));
   EXPECT_EQ(setup.publisher.wait(), 0);
 }
 
@@ -1144,10 +1224,11 @@ TEST(ShmRingStream, WriterDyingMidPacketEndsTheRead) {
   const auto [writer_cpu, reader_cpu] = two_allowed_cpus();
   if (writer_cpu < 0) GTEST_SKIP() << "needs two CPUs";
   StallingWriterAndReader setup(writer_cpu, reader_cpu);
-  send_byte(setup.parent_socket(), 'r');
+  UnblockAfter bound(setup.reader, 10s);
+  std::future<ReadStatus> reading = setup.read_while_writing(kWaitForever);
   ASSERT_EQ(receive_byte(setup.parent_socket(), 10s), 'S');
   ASSERT_EQ(::kill(setup.publisher.pid(), SIGKILL), 0);
-  EXPECT_EQ(setup.reader.read(setup.buffer.data(), setup.kSize, setup.info, 10s), ReadStatus::publisher_gone);
+  EXPECT_EQ(reading.get(), ReadStatus::publisher_gone);
   EXPECT_EQ(setup.publisher.wait(), -2);
 }
 
@@ -1168,11 +1249,12 @@ TEST(ShmRingStream, PacketLargerThanTheBufferIsReportedNotFollowed) {
   ShmWriter writer = ShmWriter::create(config(kSize, 1, 0));
   PinnedThread pinned(reader_cpu);
   ShmReader reader = ShmReader::attach(writer.fd());
+  UnblockAfter bound(reader, 30s);
   const std::vector<std::byte> big = packet(kSize, 1);
   std::thread publisher([&, cpu = writer_cpu] { write_when_reader_sleeps(writer, cpu, big); });
   std::vector<std::byte> buffer(kSize / 2, std::byte{0x5a});
   SampleInfo info;
-  EXPECT_EQ(reader.read(buffer.data(), buffer.size(), info, 10s), ReadStatus::buffer_too_small);
+  EXPECT_EQ(reader.read(buffer.data(), buffer.size(), info, kWaitForever), ReadStatus::buffer_too_small);
   publisher.join();
   EXPECT_EQ(info.size, kSize);
   EXPECT_TRUE(std::all_of(buffer.begin(), buffer.end(), [](std::byte b) { return b == std::byte{0x5a}; }));
@@ -1192,12 +1274,13 @@ TEST(ShmRingStream, ReaderOnTheWritersCpuDoesNotFollow) {
   ShmWriter writer = ShmWriter::create(config(kSize, 1, 0));
   PinnedThread pinned(cpu);
   ShmReader reader = ShmReader::attach(writer.fd());
+  UnblockAfter bound(reader, 30s);
   std::vector<std::byte> buffer(kSize);
   for (std::uint64_t s = 1; s <= 5; ++s) {
     const std::vector<std::byte> bytes = packet(kSize, s);
     std::thread publisher([&] { write_when_reader_sleeps(writer, cpu, bytes); });
     SampleInfo info;
-    EXPECT_EQ(reader.read(buffer.data(), buffer.size(), info, 10s), ReadStatus::ok);
+    EXPECT_EQ(reader.read(buffer.data(), buffer.size(), info, kWaitForever), ReadStatus::ok);
     publisher.join();
     EXPECT_EQ(info.sequence, s);
     EXPECT_EQ(buffer, bytes);
@@ -1322,6 +1405,7 @@ HammerResult hammer(std::uint32_t message_size, std::uint32_t history, std::uint
   options.on_lag = LagPolicy::keep_latest_window;
   options.optimistic_copies = optimistic_copies;
   ShmReader reader = ShmReader::attach(receive_fd(sockets.parent.get()), options);
+  UnblockAfter bound(reader, 30s);
   send_byte(sockets.parent.get(), 'a');
   HammerResult result;
   std::vector<unsigned char> buffer(message_size);
@@ -1339,7 +1423,7 @@ HammerResult hammer(std::uint32_t message_size, std::uint32_t history, std::uint
       intact = intact && pattern_intact(sample.data(), message_size, info.sequence);
       if (!intact) ++result.torn;
     } else {
-      status = reader.read(buffer.data(), buffer.size(), info, 5s);
+      status = reader.read(buffer.data(), buffer.size(), info, kWaitForever);  // ends when the publisher closes
       if (status != ReadStatus::ok) break;
       if (!pattern_intact(buffer.data(), message_size, info.sequence)) ++result.torn;
     }
