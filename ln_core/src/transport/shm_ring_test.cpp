@@ -1169,6 +1169,13 @@ struct StallingWriterAndReader {
   bool untouched() const {
     return std::all_of(buffer.begin(), buffer.end(), [](std::byte b) { return b == std::byte{0x5a}; });
   }
+  // After the release: the buffer holds the whole packet 1, and the writer finished.
+  void expect_whole_packet() {
+    EXPECT_EQ(info.sequence, 1u);
+    EXPECT_EQ(info.lost, 0u);
+    EXPECT_TRUE(pattern_intact(buffer.data(), kSize, 1));
+    EXPECT_EQ(publisher.wait(), 0);
+  }
 };
 
 // A read with a deadline does not follow a streamed write: when it times out
@@ -1185,9 +1192,7 @@ TEST(ShmRingStream, TimedReadLeavesTheBufferUntouchedWhileAWriteIsStalled) {
   EXPECT_EQ(setup.reader.stats().streamed_copies, 0u);
   send_byte(setup.parent_socket(), 'c');
   ASSERT_EQ(setup.reader.read(setup.buffer.data(), setup.kSize, setup.info, 10s), ReadStatus::ok);
-  EXPECT_EQ(setup.info.sequence, 1u);
-  EXPECT_TRUE(pattern_intact(setup.buffer.data(), setup.kSize, 1));
-  EXPECT_EQ(setup.publisher.wait(), 0);
+  setup.expect_whole_packet();
 }
 
 // A read without deadline that follows a stream whose writer stalls gives up
@@ -1207,15 +1212,12 @@ TEST(ShmRingStream, StalledWriterIsLeftToTheOrdinaryWait) {
   EXPECT_NE(reading.wait_for(0ms), std::future_status::ready);
   send_byte(setup.parent_socket(), 'c');
   ASSERT_EQ(reading.get(), ReadStatus::ok);
-  EXPECT_EQ(setup.info.sequence, 1u);
-  EXPECT_EQ(setup.info.lost, 0u);
-  EXPECT_TRUE(pattern_intact(setup.buffer.data(), setup.kSize, 1));
   const ReaderStats stats = setup.reader.stats();
   // It followed and gave up, unless it was still asleep from before the write when asked.
   EXPECT_EQ(stats.abandoned_streams + stats.streamed_copies, 1u);
   std::printf("    abandoned %llu, streamed %llu\n", static_cast<unsigned long long>(stats.abandoned_streams),
               static_cast<unsigned long long>(stats.streamed_copies));
-  EXPECT_EQ(setup.publisher.wait(), 0);
+  setup.expect_whole_packet();
 }
 
 // A writer that dies in the middle of a streamed packet: the follower gives
