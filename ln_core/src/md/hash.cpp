@@ -71,13 +71,16 @@ std::string fields_repr(const std::vector<Field>& fields) {
 }
 
 // LN collects the field lists of every imported type, keyed by the *local*
-// define name, depth first; a nested define of the same local name replaces
-// an outer one. Definitions already on the stack are not entered again
-// (LN 2.9 handles only direct self-recursion; longer cycles are our own).
+// define name, depth first, in the order the defines are written (repeats
+// included); a later define of the same local name, nested or repeated,
+// replaces an earlier one. Definitions already on the stack are not entered
+// again (LN 2.9 handles only direct self-recursion; longer cycles are our
+// own).
 void collect_defines(const Definition& definition,
                      std::map<std::string, const std::vector<Field>*>& into,
                      std::vector<const Definition*>& stack) {
-  for (const Define& define : definition.defines) {
+  for (const std::size_t index : definition.define_order) {
+    const Define& define = definition.defines[index];
     const Definition* sub = define.definition;
     into[define.local_name] = &sub->fields;
     if (std::find(stack.begin(), stack.end(), sub) != stack.end()) continue;

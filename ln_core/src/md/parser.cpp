@@ -86,8 +86,6 @@ class DefinitionParser {
       fail("'" + local + "' is a built-in type and cannot be redefined");
     if (!text::is_identifier(local) || text::is_reserved_word(local))
       fail("'" + local + "' is not a usable type name (a C identifier that is not a keyword)");
-    if (const Define* earlier = def_.find_define(local))
-      fail("type '" + local + "' is already defined in line " + std::to_string(earlier->line));
     if (!is_valid_definition_name(target))
       fail("'" + target + "' is not a valid message-definition name (relative, '/'-separated, no '..')");
 
@@ -97,6 +95,18 @@ class DefinitionParser {
     define.definition = &resolver_.resolve_define(def_, target, line_, define.absolute_name);
     if (define.definition->kind != Kind::Plain)
       fail("'" + target + "' is a service or event definition; only plain definitions can be used as types");
+    // All sections share one set of local type names. Repeating a define
+    // (a service often repeats it in its response section) changes nothing;
+    // LN 2.9 would apply a *different* target to every field of that type,
+    // also to those declared before, and mislabel the generated struct.
+    if (const Define* earlier = def_.find_define(local)) {
+      if (earlier->definition != define.definition)
+        fail("type '" + local + "' is already defined in line " + std::to_string(earlier->line) + " as '" +
+             earlier->absolute_name + "'; a second define must name the same definition");
+      def_.define_order.push_back(static_cast<std::size_t>(earlier - def_.defines.data()));
+      return;
+    }
+    def_.define_order.push_back(def_.defines.size());
     def_.defines.push_back(std::move(define));
   }
 

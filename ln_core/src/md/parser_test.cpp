@@ -140,6 +140,23 @@ TEST(Parser, ResolvesDefinesNextToTheFileFirstThenOnTheSearchPath) {
   EXPECT_EQ(signature(holder), "[double 8 1] 8 1,[float 4 1,float 4 1] 8 4,uint32_t 4 1,[float 4 1,float 4 1]* 8 1");
 }
 
+TEST(Parser, AcceptsADefineRepeatedForTheSameDefinition) {
+  DefinitionTree tree;
+  tree.write("s/item", "double x\n");
+  tree.write("s/svc", "service\nrequest\ndefine item_t as \"item\"\nitem_t a\n"
+                      "response\ndefine item_t as \"s/item\"\nitem_t b\n");
+  tree.write("s/other", "float y\n");
+  tree.write("s/clash", "define t as \"item\"\nt a\ndefine t as \"other\"\nt b\n");
+  Library library(SearchPath::exactly({tree.root()}));
+  const Definition& svc = library.load("s/svc");
+  ASSERT_EQ(svc.defines.size(), 1u);
+  EXPECT_EQ(svc.fields[0].sub, svc.response_fields[0].sub);
+  EXPECT_EQ(signature(svc), "[double 8 1] 8 1|[double 8 1] 8 1");
+  // Another target under the same name: LN 2.9 would give both fields the last one.
+  const std::string clash = load_error(tree, "s/clash");
+  EXPECT_NE(clash.find(":3: type 't' is already defined in line 1 as 's/item'"), std::string::npos) << clash;
+}
+
 TEST(Parser, AllowsRecursionOnlyThroughPointers) {
   DefinitionTree tree;
   tree.write("r/node", "define node_t as \"node\"\nint32_t value\nnode_t* children\n");

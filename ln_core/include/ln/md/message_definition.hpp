@@ -104,6 +104,10 @@ class Definition {
   std::string path;   ///< the file it was read from ("<text>" for put text)
   Kind kind = Kind::Plain;
   std::vector<Define> defines;
+  /// Indices into `defines` in the order the text lists them, a repeated
+  /// define (same local name, same definition) again where it repeats:
+  /// LN 2.9's hash depends on that order.
+  std::vector<std::size_t> define_order;
   /// Plain fields, a service's request, or an event's connect data.
   std::vector<Field> fields;
   /// A service's response, or an event's call data; empty for plain.
