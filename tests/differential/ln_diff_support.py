@@ -558,3 +558,218 @@ def parse_json_lines(text: str) -> dict[str, dict]:
             rec = json.loads(line)
             out[rec["name"]] = rec
     return out
+
+
+# ------------------------------------------------- comparing definition sets
+
+
+@dataclass(frozen=True)
+class DefinitionSet:
+    label: str
+    origin: str  # "ln29", "corpus", "elevator" or "random"
+    md_dirs: tuple[Path, ...]
+    names: tuple[str, ...]
+
+
+@dataclass
+class SetResult:
+    dset: DefinitionSet
+    ln: BatchResult
+    ours: BatchResult
+    info: BatchResult
+    ln_sections: dict[str, str]
+    our_sections: dict[str, str]
+    infos: dict[str, dict]
+    # per definition: list of (ProbeItem, value) or an error text
+    ln_probe: dict[str, object] = field(default_factory=dict)
+    our_probe: dict[str, object] = field(default_factory=dict)
+
+
+def _slug(label: str) -> str:
+    return re.sub(r"[^A-Za-z0-9]+", "_", label)
+
+
+def probe_layouts(cc, workdir, header, infos, names, include_dirs, env, label):
+    """Layout numbers per definition; on a compile failure of the whole
+    batch each definition is probed alone to attribute the error."""
+    out = {}
+    items = {n: probe_items(infos[n]) for n in names}
+    flat = [i for n in names for i in items[n]]
+    values, error = compile_and_run_probe(cc, workdir, header, flat, include_dirs, env, label)
+    if error is None:
+        it = iter(values)
+        for n in names:
+            out[n] = [(item, next(it)) for item in items[n]]
+        return out
+
+    def one(i_n):
+        i, n = i_n
+        return n, compile_and_run_probe(cc, workdir / f"{label}_{i}", header, items[n], include_dirs, env, label)
+
+    with concurrent.futures.ThreadPoolExecutor(max_workers=8) as pool:
+        for n, (vals, err) in pool.map(one, enumerate(names)):
+            out[n] = err if err else list(zip(items[n], vals))
+    return out
+
+
+class Differential:
+    """Runs both generators (and ln_md_info, and the layout probes) over
+    definition sets, once per set."""
+
+    def __init__(self, ref, tools, env, root, cc, sets=()):
+        self.ref, self.tools, self.env, self.root, self.cc = ref, tools, env, root, cc
+        self.stub = write_stub_includes(root / "stub_include")
+        self.sets = {s.label: s for s in sets}
+        self._results: dict[str, SetResult] = {}
+
+    def result(self, label: str) -> SetResult:
+        if label not in self._results:
+            self._results[label] = self.compute(self.sets[label])
+        return self._results[label]
+
+    def compute(self, dset: DefinitionSet) -> SetResult:
+        d = self.root / _slug(dset.label)
+        d.mkdir(parents=True, exist_ok=True)
+        dirs = md_dir_args(dset.md_dirs)
+        names = list(dset.names)
+
+        # Both write "ln_messages.h" (the guard macro derives from it), in
+        # their own directories.
+        def out(prefix, tag):
+            (d / prefix / tag).mkdir(parents=True, exist_ok=True)
+            return d / prefix / tag / "ln_messages.h"
+
+        def generator(exe, prefix):
+            return lambda ns, tag: [exe, *dirs, "-f", "-o", out(prefix, tag), *ns]
+
+        def header_reader(prefix):
+            return lambda run, tag: out(prefix, tag).read_text(encoding="utf-8")
+
+        ln = run_batch(generator(self.ref.ln_generate, "ln"), names, self.env, d, header_reader("ln"))
+        ours = run_batch(generator(self.tools.ln_generate, "ours"), names, self.env, d, header_reader("ours"))
+        info = run_batch(lambda ns, tag: [self.tools.ln_md_info, *dirs, *ns], names, self.env, d,
+                         lambda run, tag: run.stdout)
+        r = SetResult(dset, ln, ours, info, split_sections(ln.output) if ln.ok_names else {},
+                      split_sections(ours.output) if ours.ok_names else {}, parse_json_lines(info.output))
+        info_ok = set(info.ok_names)
+        ln_names = [n for n in ln.ok_names if n in info_ok]
+        our_names = [n for n in ours.ok_names if n in info_ok]
+        if ln_names:
+            # LN copies a no-break space before '[' into the C declaration
+            # ("uint16_t d\xa0[3];", corpus syntax/unicode_whitespace), which
+            # no C compiler reads; as a blank it means what LN meant.
+            ln_c_text = ln.output.replace("\u00a0", " ")
+            r.ln_probe = probe_layouts(self.cc, d / "probe_ln", ln_c_text, r.infos, ln_names,
+                                       [self.ref.include_dir], self.env, "ln")
+        if our_names:
+            r.our_probe = probe_layouts(self.cc, d / "probe_ours", ours.output, r.infos, our_names, [self.stub],
+                                        self.env, "ours")
+        return r
+
+
+def parts_or_problems(r: SetResult, name: str) -> tuple[str | None, str | None, list[str]]:
+    """(LN's header part, our header part, problems): the problems say which
+    side could not process the definition."""
+    problems = []
+    if name in r.ln.failures:
+        origin = r.dset.origin
+        why = {"ln29": "LN 2.9 fails on its own definition",
+               "random": "the generator made a definition LN 2.9 refuses -- fix md_generator.py"}.get(
+            origin, "every corpus/example definition must be accepted by LN 2.9 -- fix the definition")
+        problems.append(f"LN 2.9's ln_generate rejected {name!r} ({why}):\n{r.ln.failures[name].describe()}")
+    if name in r.ours.failures:
+        problems.append(f"our ln_generate rejected {name!r}, which LN 2.9 accepts:\n"
+                        f"{r.ours.failures[name].describe()}")
+    if problems:
+        return None, None, problems
+    ln_part, our_part = r.ln_sections.get(name), r.our_sections.get(name)
+    if ln_part is None or our_part is None:
+        problems.append(f"{name!r}: no '/* {name} */' part in {'LN 2.9' if ln_part is None else 'our'} header "
+                        f"(LN has parts {sorted(r.ln_sections)[:8]}..., ours {sorted(r.our_sections)[:8]}...)")
+    return ln_part, our_part, problems
+
+
+def split_top_level(signature: str) -> list[str]:
+    """Splits "req|resp" at '|' outside [...] (sub-type signatures)."""
+    parts, depth, current = [], 0, ""
+    for ch in signature:
+        if ch == "[":
+            depth += 1
+        elif ch == "]":
+            depth -= 1
+        if ch == "|" and depth == 0:
+            parts.append(current)
+            current = ""
+        else:
+            current += ch
+    return parts + [current]
+
+
+def md_name_problems(r: SetResult, name: str, ln_part: str, our_part: str) -> list[str]:
+    """<ID>_MD_NAME ("name|hash") equal, and ln_md_info's name|hash too."""
+    macro = identifier(name).upper() + "_MD_NAME"
+    ln_value, our_value = string_macro(ln_part, macro), string_macro(our_part, macro)
+    if ln_value is None:
+        return [f"{name}: LN's header has no {macro}"]
+    if our_value != ln_value:
+        return [f"{name}: {macro} differs\n  LN 2.9: {ln_value}\n  ours:   {our_value}"]
+    info = r.infos.get(name)
+    if info is None:
+        failure = r.info.failures.get(name)
+        return [f"{name}: ln_md_info failed: {failure and failure.describe()}"]
+    if f"{info['name']}|{info['hash']}" != ln_value:
+        return [f"{name}: ln_md_info's name|hash differs from LN's {macro}\n  LN 2.9:      {ln_value}\n"
+                f"  ln_md_info: {info['name']}|{info['hash']}"]
+    return []
+
+
+def signature_problems(r: SetResult, name: str, ln_part: str, our_part: str) -> list[str]:
+    """The signature macros equal, and ln_md_info's signature agrees."""
+
+    def signature_macros(text):
+        return {k: v for k, v in macros(text).items() if k.lower().endswith("signature")}
+
+    ln_sigs, our_sigs = signature_macros(ln_part), signature_macros(our_part)
+    diffs = [f"  {k}:\n    LN 2.9: {ln_sigs.get(k)}\n    ours:   {our_sigs.get(k)}"
+             for k in sorted(set(ln_sigs) | set(our_sigs)) if ln_sigs.get(k) != our_sigs.get(k)]
+    if diffs:
+        return [f"{name}: signature macros differ\n" + "\n".join(diffs)]
+    info = r.infos.get(name)
+    if info is None:
+        return [f"{name}: ln_md_info failed"]
+    upper = identifier(name).upper()
+    if info["kind"] == "service":
+        expect = string_macro(ln_part, upper + "_SIGNATURE")
+        if info["signature"] != expect:
+            return [f"{name}: ln_md_info signature differs from LN's {upper}_SIGNATURE\n"
+                    f"  LN 2.9:     {expect}\n  ln_md_info: {info['signature']}"]
+    elif info["kind"] == "event":
+        parts = split_top_level(info["signature"])
+        if len(parts) != 2:
+            return [f"{name}: ln_md_info's event signature is not 'connect|call': {info['signature']}"]
+        for part, macro in zip(parts, ("_CONNECT_SIGNATURE", "_CALL_SIGNATURE")):
+            expect = string_macro(ln_part, upper + macro)
+            if f"{name}: {part}" != expect:
+                return [f"{name}: ln_md_info signature differs from LN's {upper}{macro}\n"
+                        f"  LN 2.9:     {expect}\n  ln_md_info: {name}: {part}"]
+    elif ln_sigs:
+        return [f"{name}: LN emits signature macros for a plain definition: {ln_sigs}"]
+    return []
+
+
+def layout_problems(r: SetResult, name: str) -> list[str]:
+    """sizeof/offsetof from both compiled headers equal ln_md_info's layout."""
+    if name not in r.infos:
+        return [f"{name}: ln_md_info failed:\n{r.info.failures[name].describe()}"]
+    problems = []
+    for who, probe in (("LN 2.9's header (compiled as C11)", r.ln_probe),
+                       ("our header (compiled as C11)", r.our_probe)):
+        got = probe.get(name)
+        if got is None:
+            problems.append(f"{who}: not probed")
+        elif isinstance(got, str):
+            problems.append(f"{who}: {got}")
+        else:
+            problems += [f"{who}: {item.what} = {value}, ln_md_info says {item.expected}"
+                         for item, value in got if value != item.expected]
+    return [f"{name}: layout differs from ln_md_info's JSON\n  " + "\n  ".join(problems)] if problems else []

@@ -23,8 +23,6 @@ Runs are batched: one generator run and one probe compile per header set.
 
 from __future__ import annotations
 
-import re
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import pytest
@@ -35,15 +33,7 @@ from ln_diff_support import REPORT
 # ------------------------------------------------------------------ sets
 
 
-@dataclass(frozen=True)
-class DefinitionSet:
-    label: str
-    origin: str  # "ln29", "corpus" or "elevator"
-    md_dirs: tuple[Path, ...]
-    names: tuple[str, ...]
-
-
-def definition_sets(ref: support.Reference | None) -> list[DefinitionSet]:
+def definition_sets(ref: support.Reference | None) -> list[support.DefinitionSet]:
     sets = []
     if ref is not None:
         ln_dirs = ref.md_dirs()
@@ -52,13 +42,13 @@ def definition_sets(ref: support.Reference | None) -> list[DefinitionSet]:
             # (lnrecorder/* imports ln/string), so all of them are given, the
             # one under test first.
             dirs = (d,) + tuple(x for x in ln_dirs if x != d)
-            sets.append(DefinitionSet(f"ln29:{sub}", "ln29", dirs, tuple(support.definitions_below(d))))
+            sets.append(support.DefinitionSet(f"ln29:{sub}", "ln29", dirs, tuple(support.definitions_below(d))))
     corpus_names = support.definitions_below(support.CORPUS_MD_DIR) + support.definitions_below(
         support.CORPUS_EXTRA_DIR)
-    sets.append(DefinitionSet("corpus", "corpus", (support.CORPUS_MD_DIR,), tuple(corpus_names)))
+    sets.append(support.DefinitionSet("corpus", "corpus", (support.CORPUS_MD_DIR,), tuple(corpus_names)))
     if support.ELEVATOR_MD_DIR.is_dir():
-        sets.append(DefinitionSet("elevator", "elevator", (support.ELEVATOR_MD_DIR,),
-                                  tuple(support.definitions_below(support.ELEVATOR_MD_DIR))))
+        sets.append(support.DefinitionSet("elevator", "elevator", (support.ELEVATOR_MD_DIR,),
+                                          tuple(support.definitions_below(support.ELEVATOR_MD_DIR))))
     return sets
 
 
@@ -70,145 +60,19 @@ CASES = [pytest.param(s.label, n, id=f"{s.label}:{n}") for s in SETS for n in s.
 # ------------------------------------------------------------- results
 
 
-@dataclass
-class SetResult:
-    dset: DefinitionSet
-    ln: support.BatchResult
-    ours: support.BatchResult
-    info: support.BatchResult
-    ln_sections: dict[str, str]
-    our_sections: dict[str, str]
-    infos: dict[str, dict]
-    # per definition: list of (ProbeItem, value) or an error text
-    ln_probe: dict[str, object] = field(default_factory=dict)
-    our_probe: dict[str, object] = field(default_factory=dict)
-
-
-def _slug(label: str) -> str:
-    return re.sub(r"[^A-Za-z0-9]+", "_", label)
-
-
-def _probe(cc, workdir, header, infos, names, include_dirs, env, label):
-    """Layout numbers per definition; on a compile failure of the whole
-    batch each definition is probed alone to attribute the error."""
-    out = {}
-    items = {n: support.probe_items(infos[n]) for n in names}
-    flat = [i for n in names for i in items[n]]
-    values, error = support.compile_and_run_probe(cc, workdir, header, flat, include_dirs, env, label)
-    if error is None:
-        it = iter(values)
-        for n in names:
-            out[n] = [(item, next(it)) for item in items[n]]
-        return out
-    import concurrent.futures
-
-    def one(i_n):
-        i, n = i_n
-        return n, support.compile_and_run_probe(cc, workdir / f"{label}_{i}", header, items[n],
-                                                include_dirs, env, label)
-
-    with concurrent.futures.ThreadPoolExecutor(max_workers=8) as pool:
-        for n, (vals, err) in pool.map(one, enumerate(names)):
-            out[n] = err if err else list(zip(items[n], vals))
-    return out
-
-
-class Differential:
-    def __init__(self, ref, tools, env, root, cc):
-        self.ref, self.tools, self.env, self.root, self.cc = ref, tools, env, root, cc
-        self.stub = support.write_stub_includes(root / "stub_include")
-        self._results: dict[str, SetResult] = {}
-
-    def result(self, label: str) -> SetResult:
-        if label not in self._results:
-            self._results[label] = self._compute(SETS_BY_LABEL[label])
-        return self._results[label]
-
-    def _compute(self, dset: DefinitionSet) -> SetResult:
-        d = self.root / _slug(dset.label)
-        d.mkdir(parents=True, exist_ok=True)
-        dirs = support.md_dir_args(dset.md_dirs)
-        names = list(dset.names)
-
-        # Both write "ln_messages.h" (the guard macro derives from it), in
-        # their own directories.
-        def out(prefix, tag):
-            (d / prefix / tag).mkdir(parents=True, exist_ok=True)
-            return d / prefix / tag / "ln_messages.h"
-
-        def generator(exe, prefix):
-            return lambda ns, tag: [exe, *dirs, "-f", "-o", out(prefix, tag), *ns]
-
-        def header_reader(prefix):
-            return lambda run, tag: out(prefix, tag).read_text(encoding="utf-8")
-
-        ln = support.run_batch(generator(self.ref.ln_generate, "ln"), names, self.env, d, header_reader("ln"))
-        ours = support.run_batch(generator(self.tools.ln_generate, "ours"), names, self.env, d,
-                                 header_reader("ours"))
-        info = support.run_batch(lambda ns, tag: [self.tools.ln_md_info, *dirs, *ns], names, self.env, d,
-                                 lambda run, tag: run.stdout)
-        r = SetResult(dset, ln, ours, info, support.split_sections(ln.output) if ln.ok_names else {},
-                      support.split_sections(ours.output) if ours.ok_names else {},
-                      support.parse_json_lines(info.output))
-        info_ok = set(info.ok_names)
-        ln_names = [n for n in ln.ok_names if n in info_ok]
-        our_names = [n for n in ours.ok_names if n in info_ok]
-        if ln_names:
-            # LN copies a no-break space before '[' into the C declaration
-            # ("uint16_t d\xa0[3];", corpus syntax/unicode_whitespace), which
-            # no C compiler reads; as a blank it means what LN meant.
-            ln_c_text = ln.output.replace("\u00a0", " ")
-            r.ln_probe = _probe(self.cc, d / "probe_ln", ln_c_text, r.infos, ln_names,
-                                [self.ref.include_dir], self.env, "ln")
-        if our_names:
-            r.our_probe = _probe(self.cc, d / "probe_ours", ours.output, r.infos, our_names,
-                                 [self.stub], self.env, "ours")
-        return r
-
-
 @pytest.fixture(scope="session")
-def differential(reference, our_tools, tool_env, session_dir, c_compiler) -> Differential:
-    return Differential(reference, our_tools, tool_env, session_dir / "differential", c_compiler)
+def differential(reference, our_tools, tool_env, session_dir, c_compiler) -> support.Differential:
+    return support.Differential(reference, our_tools, tool_env, session_dir / "differential", c_compiler, SETS)
 
 
 def _outputs(differential, label, name):
     """(result, LN's header part, our header part) or a test failure that
     says which side could not process the definition."""
     r = differential.result(label)
-    problems = []
-    if name in r.ln.failures:
-        origin = r.dset.origin
-        why = ("every corpus/example definition must be accepted by LN 2.9 -- fix the definition"
-               if origin != "ln29" else "LN 2.9 fails on its own definition")
-        problems.append(f"LN 2.9's ln_generate rejected {name!r} ({why}):\n{r.ln.failures[name].describe()}")
-    if name in r.ours.failures:
-        problems.append(f"our ln_generate rejected {name!r}, which LN 2.9 accepts:\n"
-                        f"{r.ours.failures[name].describe()}")
+    ln_part, our_part, problems = support.parts_or_problems(r, name)
     if problems:
         pytest.fail("\n\n".join(problems), pytrace=False)
-    ln_part, our_part = r.ln_sections.get(name), r.our_sections.get(name)
-    if ln_part is None or our_part is None:
-        pytest.fail(f"{name!r}: no '/* {name} */' part in "
-                    f"{'LN 2.9' if ln_part is None else 'our'} header "
-                    f"(LN has parts {sorted(r.ln_sections)[:8]}..., ours {sorted(r.our_sections)[:8]}...)",
-                    pytrace=False)
     return r, ln_part, our_part
-
-
-def _split_top_level(signature: str) -> list[str]:
-    """Splits "req|resp" at '|' outside [...] (sub-type signatures)."""
-    parts, depth, current = [], 0, ""
-    for ch in signature:
-        if ch == "[":
-            depth += 1
-        elif ch == "]":
-            depth -= 1
-        if ch == "|" and depth == 0:
-            parts.append(current)
-            current = ""
-        else:
-            current += ch
-    return parts + [current]
 
 
 # ----------------------------------------------------------------- tests
@@ -258,52 +122,15 @@ def test_header_preamble_and_order(differential, label):
 @pytest.mark.parametrize("label,name", CASES)
 def test_md_name(differential, label, name):
     r, ln_part, our_part = _outputs(differential, label, name)
-    macro = support.identifier(name).upper() + "_MD_NAME"
-    ln_value = support.string_macro(ln_part, macro)
-    our_value = support.string_macro(our_part, macro)
-    assert ln_value is not None, f"{name}: LN's header has no {macro}"
-    assert our_value == ln_value, f"{name}: {macro} differs\n  LN 2.9: {ln_value}\n  ours:   {our_value}"
-    info = r.infos.get(name)
-    assert info is not None, f"{name}: ln_md_info failed: {r.info.failures.get(name) and r.info.failures[name].describe()}"
-    assert f"{info['name']}|{info['hash']}" == ln_value, (
-        f"{name}: ln_md_info's name|hash differs from LN's {macro}\n  LN 2.9:      {ln_value}\n"
-        f"  ln_md_info: {info['name']}|{info['hash']}")
+    problems = support.md_name_problems(r, name, ln_part, our_part)
+    assert not problems, "\n".join(problems)
 
 
 @pytest.mark.parametrize("label,name", CASES)
 def test_signatures(differential, label, name):
     r, ln_part, our_part = _outputs(differential, label, name)
-
-    def signature_macros(text):
-        return {k: v for k, v in support.macros(text).items() if k.lower().endswith("signature")}
-
-    ln_sigs, our_sigs = signature_macros(ln_part), signature_macros(our_part)
-    diffs = []
-    for k in sorted(set(ln_sigs) | set(our_sigs)):
-        a, b = ln_sigs.get(k), our_sigs.get(k)
-        if a != b:
-            diffs.append(f"  {k}:\n    LN 2.9: {a}\n    ours:   {b}")
-    assert not diffs, f"{name}: signature macros differ\n" + "\n".join(diffs)
-
-    info = r.infos.get(name)
-    if info is None:
-        pytest.fail(f"{name}: ln_md_info failed", pytrace=False)
-    upper = support.identifier(name).upper()
-    if info["kind"] == "service":
-        expect = support.string_macro(ln_part, upper + "_SIGNATURE")
-        assert info["signature"] == expect, (
-            f"{name}: ln_md_info signature differs from LN's {upper}_SIGNATURE\n"
-            f"  LN 2.9:     {expect}\n  ln_md_info: {info['signature']}")
-    elif info["kind"] == "event":
-        parts = _split_top_level(info["signature"])
-        assert len(parts) == 2, f"{name}: ln_md_info's event signature is not 'connect|call': {info['signature']}"
-        for part, macro in zip(parts, ("_CONNECT_SIGNATURE", "_CALL_SIGNATURE")):
-            expect = support.string_macro(ln_part, upper + macro)
-            assert f"{name}: {part}" == expect, (
-                f"{name}: ln_md_info signature differs from LN's {upper}{macro}\n"
-                f"  LN 2.9:     {expect}\n  ln_md_info: {name}: {part}")
-    else:
-        assert not ln_sigs, f"{name}: LN emits signature macros for a plain definition: {ln_sigs}"
+    problems = support.signature_problems(r, name, ln_part, our_part)
+    assert not problems, "\n".join(problems)
 
 
 @pytest.mark.parametrize("label,name", CASES)
@@ -316,20 +143,8 @@ def test_generated_names(differential, label, name):
 @pytest.mark.parametrize("label,name", CASES)
 def test_layout(differential, label, name):
     r, _, _ = _outputs(differential, label, name)
-    if name not in r.infos:
-        pytest.fail(f"{name}: ln_md_info failed:\n{r.info.failures[name].describe()}", pytrace=False)
-    problems = []
-    for who, probe in (("LN 2.9's header (compiled as C11)", r.ln_probe), ("our header (compiled as C11)", r.our_probe)):
-        got = probe.get(name)
-        if got is None:
-            problems.append(f"{who}: not probed")
-        elif isinstance(got, str):
-            problems.append(f"{who}: {got}")
-        else:
-            for item, value in got:
-                if value != item.expected:
-                    problems.append(f"{who}: {item.what} = {value}, ln_md_info says {item.expected}")
-    assert not problems, f"{name}: layout differs from ln_md_info's JSON\n  " + "\n  ".join(problems)
+    problems = support.layout_problems(r, name)
+    assert not problems, "\n".join(problems)
 
 
 # ------------------------------------------- what LN 2.9 itself cannot do
@@ -378,6 +193,11 @@ DELIBERATE_DIVERGENCES = {
     "zero_count": dict(
         files={"c/z": "double x[0]\n"}, name="c/z",
         reason="LN emits a scalar member but signature 'double 8 0'"),
+    "define_redefined_to_another_definition": dict(
+        files={"c/r": 'define t as "a"\nt x\ndefine t as "b"\nt y\n', "c/a": "double v\nint32_t n\n", "c/b": "float w\n"},
+        name="c/r",
+        reason="LN gives every field of type t the last target and emits a struct named after c/b "
+               "holding c/a's fields"),
 }
 
 
