@@ -81,8 +81,9 @@ extern "C" {
     return 0 while there is no publisher. Meant for sporadic reads, not for
     waiting on data. */
 #define RATE_ON_REQUEST_LAST (-2)
-/** Subscription rate reserved by LN for "fetch the next packet on request".
-    Not implemented: subscribing with it fails with -LNE_NOT_YET_IMPLEMENTED. */
+/** Subscription rate named "the next packet on request". As in LN 2.9 it
+    behaves exactly like RATE_ON_REQUEST_LAST: a read returns the most recently
+    published packet. */
 #define RATE_ON_REQUEST_NEXT (-3)
 
 /** Returns the API level of the linked library (LN_LIBRARY_VERSION it was

@@ -418,8 +418,9 @@ void Client::unpublish(OutPort* port) {
 InPort* Client::subscribe(const std::string& topic_name, const std::string& md_name, double rate, unsigned buffers,
                           bool reliable) {
   require_registered();
-  if (rate == RATE_ON_REQUEST_NEXT)
-    throw Failure(LNE_NOT_YET_IMPLEMENTED, "RATE_ON_REQUEST_NEXT is not implemented (neither in LN 2.9)");
+  // LN 2.9 reserves "the next packet on request" but serves it exactly as
+  // the last one: a non-blocking read fetches the newest packet.
+  if (rate == RATE_ON_REQUEST_NEXT) rate = RATE_ON_REQUEST_LAST;
   if (std::isnan(rate) || (rate < 0 && rate != RATE_AS_PUBLISHED && rate != RATE_ON_REQUEST_LAST))
     throw Failure(LNE_INVALID_PARAMETER, "invalid subscription rate " + std::to_string(rate));
   buffers = std::max(buffers, 1u);

@@ -231,24 +231,29 @@ TEST_F(TopicTest, RateLimitDropsPacketsByPublisherTimestamp) {
 }
 
 TEST_F(TopicTest, OnRequestReadsReturnTheNewestPacket) {
-  ln_outport out = publish("t.onrequest");
-  ln_inport in = subscribe("t.onrequest", 1, RATE_ON_REQUEST_LAST);
-  EXPECT_TRUE(wait_until([&] { return ln_has_publisher(in) == 1; }));
-  P64 received{};
-  EXPECT_TRUE(wait_until([&] {
-    P64 p = packet(1);
-    ln_write(out, &p, sizeof p, nullptr);
-    return ln_read(in, &received, sizeof received, nullptr, 0) == 1;
-  }));
-  for (uint32_t seq = 2; seq <= 9; ++seq) {
-    P64 p = packet(seq);
-    ln_write(out, &p, sizeof p, nullptr);
+  // RATE_ON_REQUEST_NEXT is served as RATE_ON_REQUEST_LAST, as by LN 2.9.
+  for (const double rate : {RATE_ON_REQUEST_LAST, RATE_ON_REQUEST_NEXT}) {
+    SCOPED_TRACE(rate);
+    const std::string topic = "t.onrequest" + std::to_string(static_cast<int>(-rate));
+    ln_outport out = publish(topic.c_str());
+    ln_inport in = subscribe(topic.c_str(), 1, rate);
+    EXPECT_TRUE(wait_until([&] { return ln_has_publisher(in) == 1; }));
+    P64 received{};
+    EXPECT_TRUE(wait_until([&] {
+      P64 p = packet(1);
+      ln_write(out, &p, sizeof p, nullptr);
+      return ln_read(in, &received, sizeof received, nullptr, 0) == 1;
+    }));
+    for (uint32_t seq = 2; seq <= 9; ++seq) {
+      P64 p = packet(seq);
+      ln_write(out, &p, sizeof p, nullptr);
+    }
+    ASSERT_EQ(ln_read(in, &received, sizeof received, nullptr, 1), 1);
+    EXPECT_EQ(received.seq, 9u);
+    received.seq = 0;
+    ASSERT_EQ(ln_read(in, &received, sizeof received, nullptr, 0), 1);  // again the newest
+    EXPECT_EQ(received.seq, 9u);
   }
-  ASSERT_EQ(ln_read(in, &received, sizeof received, nullptr, 1), 1);
-  EXPECT_EQ(received.seq, 9u);
-  received.seq = 0;
-  ASSERT_EQ(ln_read(in, &received, sizeof received, nullptr, 0), 1);  // again the newest
-  EXPECT_EQ(received.seq, 9u);
 }
 
 TEST_F(TopicTest, UnblockEndsABlockedRead) {

@@ -352,12 +352,13 @@ TEST_F(ManagerTest, SubscribeChecksItsParameters) {
   auto c = client("subscriber");
   EXPECT_ERROR(subscribe(*c, "unknown.topic", ""), LNE_PORT_NOT_FOUND, "not known yet");
   EXPECT_ERROR(subscribe(*c, "t", "mt/point", [](Message& m) { m.set("rate", 0.0); }), LNE_INVALID_PARAMETER, "rate");
-  EXPECT_ERROR(subscribe(*c, "t", "mt/point", [](Message& m) { m.set("rate", -3.0); }), LNE_NOT_YET_IMPLEMENTED, "rate");
+  EXPECT_ERROR(subscribe(*c, "t", "mt/point", [](Message& m) { m.set("rate", -4.0); }), LNE_INVALID_PARAMETER, "rate");
   EXPECT_ERROR(subscribe(*c, "t", "mt/point", [](Message& m) { m.set("buffers", 0); }), LNE_INVALID_PARAMETER, "buffers");
   EXPECT_ERROR(subscribe(*c, "t", "mt/dyn"), LNE_INVALID_PARAMETER, "dynamic");
   EXPECT_ERROR(subscribe(*c, "t", "mt/point", [](Message& m) { m.set("reliable", "yes"); }), LNE_INVALID_PARAMETER,
                "'reliable' is a string");
   EXPECT_FALSE(subscribe(*c, "t", "mt/point", [](Message& m) { m.set("rate", -2.0); }).is_error());
+  EXPECT_FALSE(subscribe(*c, "t", "mt/point", [](Message& m) { m.set("rate", -3.0); }).is_error());
 }
 
 TEST_F(ManagerTest, UnsubscribeAndUnpublishNotifyAndForgetTheTopic) {

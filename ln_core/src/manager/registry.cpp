@@ -32,9 +32,8 @@ void check_buffers(std::int64_t buffers) {
 }
 
 void check_rate(double rate) {
-  require(rate != -3, LNE_NOT_YET_IMPLEMENTED, "rate -3 (the next packet on request) is not implemented");
-  require(rate == -1 || rate == -2 || (std::isfinite(rate) && rate > 0), LNE_INVALID_PARAMETER,
-          "rate must be -1 (every packet), -2 (on request) or a positive number of packets per second, not " +
+  require(rate == -1 || rate == -2 || rate == -3 || (std::isfinite(rate) && rate > 0), LNE_INVALID_PARAMETER,
+          "rate must be -1 (every packet), -2 or -3 (on request) or a positive number of packets per second, not " +
               shortest_text(rate));
 }
 

@@ -79,15 +79,15 @@
 //
 // subscribe        topic (str), message_definition (str, may carry |hash;
 //                  "" = whatever the topic uses), buffers (int >= 1),
-//                  rate (double: -1 all, > 0 per second, -2 on request),
+//                  rate (double: -1 all, > 0 per second, -2 or -3 on request),
 //                  reliable (bool), receive_address (str: "IP:PORT" where the
 //                  client accepts remote data for this subscription)
 //   -> subscription_id (int), topic_id (int), message_size (int), hash (str),
 //      message_definition (str), and when the topic has a publisher the
 //      publisher fields of the publisher_available notification (only once
 //      that publisher sent publisher_ready).
-//   "" for an unknown topic -> LNE_PORT_NOT_FOUND; rate -3 ->
-//   LNE_NOT_YET_IMPLEMENTED; definition checks as for publish.
+//   "" for an unknown topic -> LNE_PORT_NOT_FOUND; definition checks as
+//   for publish.
 // unsubscribe      subscription_id (int) -> ok
 //
 // register_service     name, interface, signature (str), group (str)
