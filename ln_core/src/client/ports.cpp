@@ -338,7 +338,11 @@ void InPort::adopt_pending_segment() {
   options.buffers = std::min(buffers_, std::max<std::uint32_t>(segment.slots, 1));
   options.max_borrows = 1;
   const bool continues = !resume_socket_.empty() && resume_socket_ == segment.identity.publisher_socket;
-  options.resume_after = continues ? std::optional<std::uint64_t>(resume_after_) : segment.written_before;
+  // An on-request read returns the newest packet, also one written before
+  // this subscription (as LN 2.9 fetches it from the publisher).
+  options.resume_after = continues     ? std::optional<std::uint64_t>(resume_after_)
+                         : on_request_ ? std::optional<std::uint64_t>(0)
+                                       : segment.written_before;
   resume_after_ = 0;
   resume_socket_.clear();
   std::unique_ptr<transport::ShmReader> attached;

@@ -73,5 +73,27 @@ TEST_F(HandOver, WithoutAStartingPointOnlyPacketsAfterTheFirstReadCount) {
   EXPECT_EQ(read_all(), (std::vector<std::uint32_t>{2}));
 }
 
+// RATE_ON_REQUEST_LAST: LN 2.9 fetches the publisher's newest packet on each
+// read, so a packet written before the hand-over is the answer.
+TEST_F(HandOver, OnRequestReadsFindThePacketWrittenBeforeTheHandOver) {
+  // The message size is what the manager's subscribe answer sets.
+  struct SizedInPort : InPort {
+    using InPort::InPort;
+    void set_message_size(std::uint32_t size) { message_size_ = size; }
+  } on_request{errors_, "t.handover.onrequest", "test/p64", RATE_ON_REQUEST_LAST, 1, false};
+  on_request.set_message_size(sizeof(Packet));
+  write(1);
+  write(2);
+  on_request.offer_segment(UniqueFd(::fcntl(writer_.fd(), F_DUPFD_CLOEXEC, 0)), {"peer", 1}, 4,
+                           writer_.last_sequence());
+  Packet packet{};
+  ln_sample_info info{};
+  ASSERT_EQ(on_request.read(&packet, sizeof packet, &info, 0), 1);
+  EXPECT_EQ(packet.seq, 2u);
+  packet.seq = 0;
+  ASSERT_EQ(on_request.read(&packet, sizeof packet, &info, 0), 1);  // again, until a newer one comes
+  EXPECT_EQ(packet.seq, 2u);
+}
+
 }  // namespace
 }  // namespace ln::clientlib
