@@ -13,14 +13,16 @@ by a bytes buffer laid out like LN's packed struct without dynamic fields.
   numpy array, ``char* s`` as str, ``sub_t* l`` as a list of parts; the
   companion ``x_len`` always reports the length and is never set by hand.
 
-Every assignment is checked at once, so a bad value raises (TypeError,
-ValueError or AttributeError naming the field) before anything is sent.
+Every assignment is checked at once, so a bad value raises (a FieldError,
+or AttributeError for an unknown field, naming the field) before anything
+is sent.
 
 The flat form (``encode``/``decode``) is LN's service wire format: fields in
 order, little endian, a dynamic field as a u32 count followed by its
 elements, ``x_len`` not travelling on its own.
 """
 
+import math
 import re
 import struct
 import sys
@@ -47,16 +49,18 @@ PRIMITIVES = {
 _U32 = struct.Struct("<I")
 
 
-class FieldError(Exception):
-    """Base of the errors about field values; also a TypeError/ValueError."""
+class FieldError(TypeError, ValueError, OverflowError):
+    """A value a field cannot hold. LN 2.9 raises TypeError, ValueError or
+    OverflowError for such values, depending on where its conversion fails;
+    a FieldError is all three, so an `except` written for LN 2.9 catches it."""
 
 
-class FieldTypeError(FieldError, TypeError):
-    pass
+class FieldTypeError(FieldError):
+    """The value's kind does not fit the field (a str for a number, ...)."""
 
 
-class FieldValueError(FieldError, ValueError):
-    pass
+class FieldValueError(FieldError):
+    """The value does not fit: out of range, too long, wrong count."""
 
 
 def _where(obj, name):
@@ -71,31 +75,63 @@ def _check_integral_array(obj, name, src, dtype):
         if not np.all(np.isfinite(src)) or not np.all(src == np.floor(src)):
             raise FieldTypeError("%s: %s expects integers, got non-integral floats" % (_where(obj, name), dtype))
     info = np.iinfo(dtype)
-    lo, hi = src.min(), src.max()
+    lo, hi = int(src.min()), int(src.max())  # exact: float64 rounds int64's maximum up to 2**63
     if lo < info.min or hi > info.max:
         raise FieldValueError("%s: values must lie in [%d, %d] for %s, got %s..%s"
                               % (_where(obj, name), info.min, info.max, dtype, lo, hi))
 
 
 def _as_numeric_array(obj, name, value, dtype, count=None):
-    """`value` converted to a flat array of `dtype`, or a FieldError."""
-    if isinstance(value, (str, bytes)) and dtype != PRIMITIVES["uint8_t"][1]:
-        raise FieldTypeError("%s: expects a sequence of numbers, got %s" % (_where(obj, name), type(value).__name__))
-    if isinstance(value, (bytes, bytearray, memoryview)):
-        src = np.frombuffer(value, dtype=np.uint8)
+    """`value` as a flat array of `dtype`, or a FieldError.
+
+    Takes what LN 2.9 converts with numpy (sequences, nested ones flattened,
+    arrays of any numeric dtype, numeric strings, None as NaN for floating
+    point) and raw bytes (reinterpreted, as LN 2.9's services do); refuses
+    what numpy would silently truncate or wrap into an integer type."""
+    if isinstance(value, np.ndarray):
+        src = value
+    elif isinstance(value, (bytes, bytearray, memoryview)):
+        data = memoryview(value).cast("B")
+        if data.nbytes % dtype.itemsize:
+            raise FieldValueError("%s: %d bytes are not a whole number of %s values"
+                                  % (_where(obj, name), data.nbytes, dtype))
+        src = np.frombuffer(data, dtype=dtype)
+    elif isinstance(value, str):
+        raise FieldTypeError("%s: expects a sequence of numbers, got a str" % _where(obj, name))
     else:
         try:
             src = np.asarray(value)
         except Exception as error:
             raise FieldTypeError("%s: cannot use %r as an array: %s" % (_where(obj, name), value, error)) from None
     if src.dtype.kind not in "biuf":
-        raise FieldTypeError("%s: expects numbers (%s), got %r" % (_where(obj, name), dtype, value))
+        if src.dtype.kind == "c":
+            raise FieldTypeError("%s: expects real numbers (%s), got complex ones" % (_where(obj, name), dtype))
+        try:  # numpy's own conversion: numeric strings, None
+            src = np.array(src, dtype=dtype)
+        except (TypeError, ValueError, OverflowError) as error:
+            raise FieldTypeError("%s: expects numbers (%s), got %r: %s"
+                                 % (_where(obj, name), dtype, value, error)) from None
     src = src.reshape(-1)
     if count is not None and src.size != count:
         raise FieldValueError("%s: expects %d values, got %d" % (_where(obj, name), count, src.size))
     if dtype.kind in "iu" and not np.can_cast(src.dtype, dtype, casting="safe"):
         _check_integral_array(obj, name, src, dtype)
     return src
+
+
+def _char_codes(obj, name, value, count):
+    """The bytes of `count` character codes (ints -128..255) given as a
+    sequence or an integer array, as LN 2.9 takes them for `char x[N]`."""
+    src = np.asarray(value)
+    if src.dtype.kind not in "biu":
+        raise FieldTypeError("%s: expects a str, bytes or %d integer character codes, got %r"
+                             % (_where(obj, name), count, value))
+    src = src.reshape(-1)
+    if src.size != count:
+        raise FieldValueError("%s: expects %d character codes, got %d" % (_where(obj, name), count, src.size))
+    if src.size and (src.min() < -128 or src.max() > 255):
+        raise FieldValueError("%s: character codes must lie in [-128, 255]" % _where(obj, name))
+    return (src.astype(np.int64) & 0xFF).astype(np.uint8).tobytes()
 
 
 # --------------------------------------------------------------- descriptors
@@ -117,6 +153,13 @@ class _Scalar:
         try:
             self.set(obj._buf, obj._off + self.offset, value)
         except (struct.error, TypeError, OverflowError) as error:
+            if self.ctype == "float" and isinstance(error, OverflowError):
+                # beyond float32's range: infinity, as numpy and LN 2.9 convert it
+                self.set(obj._buf, obj._off + self.offset, math.copysign(math.inf, float(value)))
+                return
+            if self.ctype == "int8_t" and isinstance(value, str) and len(value) == 1 and ord(value) < 128:
+                self.set(obj._buf, obj._off + self.offset, ord(value))  # LN 2.9 writes the character's byte
+                return
             raise self.error(obj, value, error) from None
 
     def __delete__(self, obj):
@@ -135,22 +178,48 @@ class _Scalar:
                                % (_where(obj, self.name), value, info.min, info.max, self.ctype))
 
 
+class _LenientFloat(_Scalar):
+    """A floating-point scalar of a service: like LN 2.9's services it also
+    takes None (0.0) and numeric text."""
+
+    def __set__(self, obj, value):
+        if value is None:
+            value = 0.0
+        elif isinstance(value, (str, bytes)):
+            try:
+                value = float(value)
+            except ValueError:
+                raise FieldTypeError("%s: expects a number, got %r" % (_where(obj, self.name), value)) from None
+        _Scalar.__set__(self, obj, value)
+
+
 class _Char(_Scalar):
-    """`char c`: an int 0..255 (LN 2.9 reads it unsigned); accepts -128..255 or a 1-char str."""
+    """`char c`: an int 0..255 (LN 2.9 reads it unsigned); accepts -128..255,
+    a one-byte str or bytes, "" for 0."""
 
     def __set__(self, obj, value):
         if isinstance(value, str):
             value = value.encode("utf-8")
         if isinstance(value, (bytes, bytearray)):
-            if len(value) != 1:
+            if len(value) > 1:
                 raise FieldValueError("%s: expects one byte, got %r" % (_where(obj, self.name), value))
-            value = value[0]
-        if isinstance(value, bool) or not hasattr(value, "__index__"):
+            value = value[0] if value else 0
+        if not hasattr(value, "__index__"):
             raise FieldTypeError("%s: expects a character or an int, got %r" % (_where(obj, self.name), value))
         value = value.__index__()
         if not -128 <= value <= 255:
             raise FieldValueError("%s: %d is out of range [-128, 255] for char" % (_where(obj, self.name), value))
         self.set(obj._buf, obj._off + self.offset, value & 0xFF)
+
+
+class _TextChar(_Char):
+    """`char c` of a service: LN 2.9 reads it as a one-character str ("" for 0)."""
+
+    def __get__(self, obj, cls=None):
+        if obj is None:
+            return self
+        byte = self.get(obj._buf, obj._off + self.offset)[0]
+        return bytes((byte,)).rstrip(b"\0").decode("utf-8", "surrogateescape")
 
 
 class _Array:
@@ -180,14 +249,17 @@ class _Array:
             # e.g. the same field of a received packet: nothing to convert or check
             view[...] = value
             return
-        view[...] = _as_numeric_array(obj, self.name, value, self.dtype, self.count)
+        src = _as_numeric_array(obj, self.name, value, self.dtype, self.count)
+        with np.errstate(over="ignore"):  # float32 overflow: infinity, as LN 2.9 sends it
+            view[...] = src
 
     def __delete__(self, obj):
         self.__get__(obj)[...] = 0
 
 
 class _CharArray:
-    """`char s[N]`: a str, UTF-8 encoded, NUL padded."""
+    """`char s[N]`: a str, UTF-8 encoded, NUL padded; also takes bytes and N
+    character codes (a list, tuple or integer array)."""
     __slots__ = ("name", "offset", "count")
 
     def __init__(self, name, offset, count):
@@ -201,7 +273,10 @@ class _CharArray:
         return raw.decode("utf-8", "surrogateescape")
 
     def __set__(self, obj, value):
-        data = _encode_text(obj, self.name, value)
+        if isinstance(value, (list, tuple, np.ndarray)):
+            data = _char_codes(obj, self.name, value, self.count)
+        else:
+            data = _encode_text(obj, self.name, value)
         if len(data) > self.count:
             raise FieldValueError("%s: holds at most %d bytes, got %d" % (_where(obj, self.name), self.count, len(data)))
         start = obj._off + self.offset
@@ -219,7 +294,7 @@ def _encode_text(obj, name, value):
             raise FieldValueError("%s: cannot encode %r as UTF-8: %s" % (_where(obj, name), value, error)) from None
     if isinstance(value, (bytes, bytearray, memoryview)):
         return bytes(value)
-    raise FieldTypeError("%s: expects a str, got %r" % (_where(obj, name), value))
+    raise FieldTypeError("%s: expects a str or bytes, got %r" % (_where(obj, name), value))
 
 
 class _Sub:
@@ -300,7 +375,8 @@ class _DynNumeric:
             obj._dyn[self.name] = value
             return
         src = _as_numeric_array(obj, self.name, value, self.dtype)
-        obj._dyn[self.name] = np.ascontiguousarray(src, dtype=self.dtype)
+        with np.errstate(over="ignore"):
+            obj._dyn[self.name] = np.array(src, dtype=self.dtype)
 
     def __delete__(self, obj):
         obj._dyn.pop(self.name, None)
@@ -324,7 +400,8 @@ class _DynNumeric:
 
 
 class _DynText:
-    """`char* s`: a str (kept UTF-8 encoded, so bad text fails on assignment)."""
+    """`char* s`: a str (kept UTF-8 encoded, so bad text fails on assignment).
+    As in LN 2.9, None is "" and any other object its str()."""
     __slots__ = ("name",)
 
     def __init__(self, name):
@@ -336,6 +413,10 @@ class _DynText:
         return obj._dyn.get(self.name, b"").decode("utf-8", "surrogateescape")
 
     def __set__(self, obj, value):
+        if value is None:
+            value = ""
+        elif not isinstance(value, (str, bytes, bytearray, memoryview)):
+            value = str(value)
         obj._dyn[self.name] = _encode_text(obj, self.name, value)
 
     def __delete__(self, obj):
@@ -374,7 +455,7 @@ class _DynSub:
         return value
 
     def __set__(self, obj, value):
-        if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+        if isinstance(value, (str, bytes, dict)) or not hasattr(value, "__iter__"):
             raise FieldTypeError("%s: expects a list of %s items or dicts" % (_where(obj, self.name), self.cls._type_name))
         items = []
         for i, item in enumerate(value):
@@ -520,7 +601,16 @@ class Part:
                                          % (self._type_name, field_name, key, ", ".join(self._fields)))
                 setattr(self, key, item)
             return
-        raise FieldTypeError("field '%s': expects a %s part or a dict, got %r" % (field_name, self._type_name, value))
+        # Like LN 2.9: any object with these fields (a part of another packet,
+        # a plain object); the length companions follow their data.
+        cls = type(self)
+        wanted = [k for k in self._fields if not isinstance(getattr(cls, k), _Length)]
+        if value is None or isinstance(value, (str, bytes, int, float, list, tuple)) or not all(
+                hasattr(value, k) for k in wanted):
+            raise FieldTypeError("field '%s': expects a %s part, a dict or an object with the fields %s, got %r"
+                                 % (field_name, self._type_name, ", ".join(wanted), value))
+        for key in wanted:
+            setattr(self, key, getattr(value, key))
 
     def _clear(self):
         memoryview(self._buf)[self._off:self._off + self._size] = bytes(self._size)
@@ -608,30 +698,34 @@ def _identifier(name):
 
 
 class Compiler:
-    """Builds (and caches) part classes from model dicts."""
+    """Builds (and caches) part classes from model dicts.
+
+    Parts of services (service=True) differ from those of topics where LN
+    2.9's service code does: a `char c` reads as a one-character str, and a
+    floating-point scalar also takes None and numeric text."""
 
     def __init__(self):
         self._classes = {}
 
-    def part_class(self, model, section="fields", suffix=""):
+    def part_class(self, model, section="fields", suffix="", service=False):
         """The class for `model`'s `section` ("fields" or "response_fields")."""
-        key = (model["name"], model["hash"], section)
+        key = (model["name"], model["hash"], section, service)
         cls = self._classes.get(key)
         if cls is None:
-            cls = self._build(model, model[section], model["name"] + suffix, model.get("defs", {}))
+            cls = self._build(model, model[section], model["name"] + suffix, model.get("defs", {}), service)
             self._classes[key] = cls
         return cls
 
-    def _sub_class(self, name, defs):
+    def _sub_class(self, name, defs, service):
         sub = defs[name]
-        key = (sub["name"], sub["hash"], "fields")
+        key = (sub["name"], sub["hash"], "fields", service)
         cls = self._classes.get(key)
         if cls is None:
-            cls = self._build(sub, sub["fields"], sub["name"], defs)
+            cls = self._build(sub, sub["fields"], sub["name"], defs, service)
             self._classes[key] = cls
         return cls
 
-    def _build(self, model, fields, type_name, defs):
+    def _build(self, model, fields, type_name, defs, service):
         namespace = {"__slots__": (), "_type_name": type_name, "_ident": _identifier(type_name)}
         names, types = [], {}
         length_names = {f[0] + "_len" for f in fields if f[4]}
@@ -653,7 +747,7 @@ class Compiler:
                 if prim:
                     desc = _DynText(name) if prim == "char" else _DynNumeric(name, PRIMITIVES[prim][1])
                 else:
-                    cls = self._sub_class(sub, defs)
+                    cls = self._sub_class(sub, defs, service)
                     desc = _DynSub(name, cls)
                     namespace[ctor_name(spelling)] = _make_ctor(cls, name)
                 namespace[name] = desc
@@ -674,7 +768,9 @@ class Compiler:
                 elif count > 1:
                     desc = _Array(name, offset, count, PRIMITIVES[prim][1])
                 elif prim == "char":
-                    desc = _Char(name, offset, prim)
+                    desc = (_TextChar if service else _Char)(name, offset, prim)
+                elif service and prim in ("float", "double"):
+                    desc = _LenientFloat(name, offset, prim)
                 else:
                     desc = _Scalar(name, offset, prim)
                 if is_length:
@@ -685,7 +781,7 @@ class Compiler:
                 if is_length and name in pending_lengths:
                     namespace[name] = _Length(name, pending_lengths.pop(name))
             else:
-                cls = self._sub_class(sub, defs)
+                cls = self._sub_class(sub, defs, service)
                 desc = _Sub(name, offset, cls) if count == 1 else _SubArray(name, offset, count, cls)
                 namespace[name] = desc
                 if cls._fixed:

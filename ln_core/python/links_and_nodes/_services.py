@@ -58,8 +58,8 @@ class service_wrapper:
         self.defines = self.definition["defines"]
         self._req_fields = self.definition["fields"]
         self._resp_fields = self.definition["resp_fields"]
-        self._req_class = clnt._compiler.part_class(model, "fields", "::request")
-        self._resp_class = clnt._compiler.part_class(model, "response_fields", "::response")
+        self._req_class = clnt._compiler.part_class(model, "fields", "::request", service=True)
+        self._resp_class = clnt._compiler.part_class(model, "response_fields", "::response", service=True)
         self.req = self._req_class(name=name + ".req")
         self.resp = self._resp_class(name=name + ".resp")
         self._native = _ln.Service(clnt._native, name, interface, signature)

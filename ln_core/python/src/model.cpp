@@ -63,15 +63,16 @@ nb::dict one_to_python(const Definition& d, std::vector<const Definition*>& subs
   return out;
 }
 
-// Records the names a definition imports instead of resolving them.
+// Records the names a definition imports instead of resolving them. Every
+// import resolves to the same placeholder, so a define repeated under
+// another spelling passes here; the real parse checks what it names.
 struct ImportRecorder final : DefineResolver {
   std::vector<std::string> quoted;
-  std::vector<std::unique_ptr<Definition>> dummies;
+  Definition placeholder;
   const Definition& resolve_define(const Definition&, const std::string& name, int, std::string& absolute) override {
     quoted.push_back(name);
     absolute = name;
-    dummies.push_back(std::make_unique<Definition>());
-    return *dummies.back();
+    return placeholder;
   }
 };
 

@@ -12,9 +12,9 @@ from links_and_nodes._packets import Compiler
 from conftest import MSGDEFS
 
 
-def part(name, section="fields"):
+def part(name, section="fields", service=False):
     model = _ln.model_from_dirs(name, [MSGDEFS])
-    return Compiler().part_class(model, section)(name=name)
+    return Compiler().part_class(model, section, service=service)(name=name)
 
 
 def test_model_comes_from_the_md_library():
@@ -142,3 +142,99 @@ def test_copy_is_independent():
     q = copy.deepcopy(p)
     q.vec[0] = 9
     assert p.vec[0] == 1 and q.vec[0] == 9
+
+
+# LN 2.9's forms (tests/ln29_behaviour/test_ln29b_python_fields.py compares
+# all of them with LN 2.9 itself)
+
+def test_char_arrays_also_take_character_codes_and_bytes():
+    p = part("pytest/all_types")
+    p.name = list(b"pkt-1".ljust(8, b"\0"))  # a program written for LN 2.9 does this
+    assert p.name == "pkt-1"
+    p.name = tuple(b"ab".ljust(8, b"\0"))
+    assert p.name == "ab"
+    p.name = np.frombuffer(b"xyz".ljust(8, b"\0"), dtype=np.int8)
+    assert p.name == "xyz"
+    p.name = bytearray(b"raw")
+    assert p.name == "raw"
+    with pytest.raises(ln.FieldValueError, match="8 character codes"):
+        p.name = list(b"short")  # LN 2.9 too wants one code per character
+    with pytest.raises(ln.FieldTypeError, match="'name'"):
+        p.name = [1.0] * 8
+
+
+def test_scalars_take_what_ln29_takes():
+    p = part("pytest/all_types")
+    p.c = True
+    assert p.c == 1
+    p.c = ""
+    assert p.c == 0
+    p.i8 = "7"  # LN 2.9 writes the character's byte
+    assert p.i8 == 55
+    p.f = 1e39  # beyond float32: infinity
+    assert p.f == float("inf")
+    p.u64 = np.uint64(2**64 - 1)
+    assert p.u64 == 2**64 - 1
+
+
+def test_numeric_arrays_convert_like_numpy_but_refuse_truncation_and_wrapping():
+    p = part("pytest/all_types")
+    p.vec = ["1", "2.5", "3"]
+    assert list(p.vec) == [1.0, 2.5, 3.0]
+    p.vec = [None, 1, 2]
+    assert np.isnan(p.vec[0])
+    p.vec = np.arange(3, dtype=np.float64).tobytes()  # raw bytes, as LN 2.9's services take them
+    assert list(p.vec) == [0.0, 1.0, 2.0]
+    p.small = [[1, 2], [3, 4]]
+    assert list(p.small) == [1, 2, 3, 4]
+    with pytest.raises(ln.FieldTypeError, match="'small'"):
+        p.small = np.array([1.5, 2, 3, 4])  # LN 2.9 truncates silently
+    with pytest.raises(ln.FieldValueError, match="'small'"):
+        p.small = np.array([70000, 2, 3, 4])  # LN 2.9 wraps silently
+
+
+def test_field_errors_are_caught_by_what_ln29_raises():
+    p = part("pytest/all_types")
+    for exception in (TypeError, ValueError, OverflowError):
+        with pytest.raises(exception):
+            p.u8 = 300
+        with pytest.raises(exception):
+            p.name = None
+
+
+def test_subtypes_take_any_object_with_their_fields():
+    p = part("pytest/all_types")
+    other = part("pytest/all_types", service=True)  # another class of the same type
+    other.origin.x, other.origin.y = 1.5, 2.5
+    p.origin = other.origin
+    assert (p.origin.x, p.origin.y) == (1.5, 2.5)
+    p.origin = type("Plain", (), {"x": 3.0, "y": 4.0})()
+    assert (p.origin.x, p.origin.y) == (3.0, 4.0)
+    with pytest.raises(ln.FieldTypeError, match="'origin'"):
+        p.origin = type("Partial", (), {"x": 3.0})()
+
+
+def test_service_parts_read_char_as_text_and_take_none_and_text_for_floats():
+    req = part("pytest/echo", service=True)
+    req.text = 12345  # LN 2.9: str() of anything else
+    assert req.text == "12345"
+    req.text = None
+    assert req.text == "" and req.text_len == 0
+    req.values = 5
+    assert list(req.values) == [5.0]
+    resp = part("pytest/small_srv", "response_fields", service=True)
+    resp.y = "2.5"
+    assert resp.y == 2.5
+    resp.y = None
+    assert resp.y == 0.0
+    topic = part("pytest/all_types")
+    with pytest.raises(ln.FieldTypeError):
+        topic.d = None  # only services take None (as LN 2.9's services do)
+
+
+def test_a_define_repeated_in_the_response_section():
+    sources = {"s/svc": 'service\nrequest\ndefine item_t as "item"\nitem_t a\n'
+                        'response\ndefine item_t as "item"\nitem_t b\n',
+               "s/item": "double x\n"}
+    model = _ln.model_from_sources("s/svc", sources)
+    assert model["fields"][0][3] == model["response_fields"][0][3] == "s/item"
