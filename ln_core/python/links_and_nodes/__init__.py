@@ -23,12 +23,14 @@ from ._packets import FieldError, FieldTypeError, FieldValueError, Part as ln_pa
 from ._client import client, port_wrapper, multi_waiter, borrowed_packet  # noqa: F401
 from ._services import service_wrapper, request_wrapper, ServiceFuture, SVC_RESP_LATER  # noqa: F401
 from ._introspection import topic_info, client_info, service_info, manager_status  # noqa: F401
+from ._mainloop import GLibMainloop, MainloopInterface, MainloopMultiWaiter, SelectMainloop  # noqa: F401
 from ._wrapped import (  # noqa: F401
     ServiceErrorResponse, service_provider, services_wrapper, wrapped_service, wrapped_service_provider)
 
 ln_packet = ln_packet_part
 LN_MANAGER_CLIENT_ID = 0xFFFFFFFF
-#: RATE_ON_REQUEST_NEXT exists in LN's C API but is not implemented there either.
+#: LN's C API names it "the next packet on request"; as in LN 2.9 it is
+#: served like RATE_ON_REQUEST_LAST (a read returns the newest packet).
 RATE_ON_REQUEST_NEXT = -3
 
 get_time = _ln.get_time

@@ -50,7 +50,7 @@ class client:
     def close(self):
         """Unregisters from the manager; ports and services become unusable."""
         for svc in list(self._services):
-            svc._native.release()
+            svc._release()
         self._services.clear()
         self._native.close()
 
@@ -153,29 +153,30 @@ class client:
 
     # -- services ---------------------------------------------------------
     def get_service(self, service_name, interface_name="", mainloop=None):
-        """A service to call. Without interface_name the running provider's is used."""
+        """A service to call. Without interface_name the running provider's is
+        used. With a `mainloop` (a MainloopInterface), call() runs that loop
+        while it waits."""
         from ._services import service_wrapper
-        if mainloop is not None:
-            raise LNError("mainloop integration is not supported by ln_core", LNE_NOT_YET_IMPLEMENTED, 0)
         if interface_name:
             definition, signature = self._native.get_service_signature(interface_name)
         else:
             interface_name, definition, signature = self._native.get_service_signature_for_service(service_name)
-        return service_wrapper(self, service_name, interface_name, definition, signature, is_provider=False)
+        return service_wrapper(self, service_name, interface_name, definition, signature, is_provider=False,
+                               mainloop=mainloop)
 
     def get_service_provider(self, service_name, interface_name, mainloop=None):
-        """A service to provide: set_handler(), then do_register()."""
+        """A service to provide: set_handler(), then do_register(). With a
+        `mainloop`, do_register() makes that loop handle the requests."""
         from ._services import service_wrapper
-        if mainloop is not None:
-            raise LNError("mainloop integration is not supported by ln_core", LNE_NOT_YET_IMPLEMENTED, 0)
         definition, signature = self._native.get_service_signature(interface_name)
-        svc = service_wrapper(self, service_name, interface_name, definition, signature, is_provider=True)
+        svc = service_wrapper(self, service_name, interface_name, definition, signature, is_provider=True,
+                              mainloop=mainloop)
         self._services.add(svc)
         return svc
 
     def release_service(self, svc):
         self._services.discard(svc)
-        svc._native.release()
+        svc._release()
 
     def wait_and_handle_service_group_requests(self, group_name=None, timeout=-1):
         """Runs handlers of the group's providers in this thread; waits at most
@@ -375,3 +376,11 @@ class multi_waiter:
 
     def can_read(self, port):
         return self._native.can_read(port.port)
+
+    def start_pipe_notifier_thread(self):
+        """A descriptor that becomes readable whenever a port can be read (for
+        select()/main loops); acknowledge each with ack_pipe_notification()."""
+        return self._native.start_pipe_notifier_thread()
+
+    def ack_pipe_notification(self):
+        self._native.ack_pipe_notification()

@@ -3,9 +3,12 @@
 import logging
 import threading
 import traceback
+import warnings
 
 from . import _ln
-from ._errors import LNError, LNE_SVC_HANDLER_EXC, LNE_SVC_REQ_NOT_RUNNING, LNE_SVC_REQ_RUNNING, LNE_SVC_RESP_LATER
+from ._errors import (LNError, LNE_SVC_HANDLER_EXC, LNE_SVC_REQ_NOT_RUNNING, LNE_SVC_REQ_RUNNING, LNE_SVC_RESP_LATER,
+                      LNE_SVC_TIMEOUT)
+from ._mainloop import MainloopInterface, default_glib_mainloop, wait_until
 from ._packets import ln29_definition
 
 log = logging.getLogger("links_and_nodes")
@@ -44,7 +47,10 @@ class service_wrapper:
     attributes. Callers fill `req` (or pass fields as keyword arguments) and
     call(); providers set a handler and register."""
 
-    def __init__(self, clnt, name, interface, definition, signature, is_provider=False):
+    def __init__(self, clnt, name, interface, definition, signature, is_provider=False, mainloop=None):
+        if mainloop is not None and not isinstance(mainloop, MainloopInterface):
+            raise TypeError("mainloop must be a links_and_nodes.MainloopInterface (e.g. ln.SelectMainloop() or "
+                            "ln.GLibMainloop()), not %r" % (mainloop,))
         self.name = name
         self.interface = interface
         self.signature = signature
@@ -66,6 +72,8 @@ class service_wrapper:
         self.cb = None
         self.async_req = None
         self._async_done = None
+        self._mainloop = mainloop
+        self._loop_sources = []  # (loop, source id) of do_register_with_mainloop
 
     def __repr__(self):
         return "<links_and_nodes.service %r (%s)%s>" % (self.name, self.interface,
@@ -107,7 +115,10 @@ class service_wrapper:
 
     def call(self, *args, **kwargs):
         """Blocking call: fields as keyword arguments (or set on `req`); returns
-        self with `resp` filled. Raises LNError on failure."""
+        self with `resp` filled. Raises LNError on failure. A service got with
+        mainloop= runs its loop meanwhile (call_via_mainloop())."""
+        if self._mainloop is not None:
+            return self.call_via_mainloop(*args, **kwargs)
         if not (args or kwargs):
             with self.lock:
                 return self._call(0.0)
@@ -116,6 +127,8 @@ class service_wrapper:
     def call_with_timeout(self, *args, **kwargs):
         """call() giving up after `timeout` seconds (keyword; 0: no limit)."""
         timeout = kwargs.pop("timeout", 0)
+        if self._mainloop is not None:
+            return self.call_via_mainloop(*args, _timeout=timeout, **kwargs)
         return self(*args, _timeout=timeout, **kwargs)
 
     def abort(self):
@@ -161,6 +174,79 @@ class service_wrapper:
         self._native.abort_async()
         self.async_req = None
 
+    def get_finished_notification_fd(self):
+        """A descriptor that becomes readable when the running asynchronous
+        call finished (LN 2.9 has it on `async_req`, which is this object)."""
+        return self._native.async_notification_fd()
+
+    # -- main loops (LN 2.9's mainloop= integration) ------------------------
+    def call_via_mainloop(self, *args, **kwargs):
+        """call(), running the main loop (`_mainloop`, default the service's)
+        until the response is there; `_timeout` (or `timeout`) in seconds,
+        0 or None: no limit. A call of the same service from a callback of
+        the loop waits for the running one."""
+        loop = kwargs.pop("_mainloop", None) or self._mainloop
+        if loop is None:
+            raise TypeError("call_via_mainloop(): service %r has no main loop; pass _mainloop= or get the "
+                            "service with mainloop=" % self.name)
+        timeout = kwargs.pop("_timeout", None) if "_timeout" in kwargs else kwargs.pop("timeout", None)
+        while not self.lock.acquire(blocking=False):
+            loop.iterate(True)
+        try:
+            wait_until(loop, lambda: self.async_req is None or self._async_done is not None)
+            self.call_async(*args, **kwargs)
+            finished = []
+            self.mainloop_on_async_finish(loop, finished.append, True)
+            if not wait_until(loop, lambda: finished, timeout or None):
+                self._remove_finish_watch()
+                self.abort_async()
+                raise LNError("service call %s timed out (timeout: %.1fs)" % (self.name, timeout), LNE_SVC_TIMEOUT, 0)
+            if isinstance(self._async_done, BaseException):
+                raise self._async_done
+            return self
+        finally:
+            self.lock.release()
+
+    def mainloop_on_async_finish(self, loop, handler, *args, **kwargs):
+        """Calls handler(*args, **kwargs) from `loop` once the running
+        asynchronous call finished (`resp` filled, or finished() raises)."""
+        if self.async_req is None:
+            raise LNError("error, there is no async request pending!", LNE_SVC_REQ_NOT_RUNNING, 0)
+        fd = self.get_finished_notification_fd()
+
+        def on_finished():
+            try:
+                if not self.finished():
+                    return True  # not yet: keep watching
+            except LNError:
+                pass  # finished() raises it again for the caller
+            self._finish_watch = None
+            try:
+                handler(*args, **kwargs)
+            except Exception:
+                log.error("error in the async-finish handler %r of service %s:\n%s", handler, self.name,
+                          traceback.format_exc())
+            return False
+
+        self._finish_watch = (loop, loop.fd_add(fd, "in", on_finished))
+
+    def _remove_finish_watch(self):
+        watch = getattr(self, "_finish_watch", None)
+        if watch is not None:
+            watch[0].source_remove(watch[1])
+            self._finish_watch = None
+
+    def call_gobject(self, *args, **kwargs):
+        """Deprecated in LN 2.9 (PyGTK): call_via_mainloop() on GLib's default context."""
+        warnings.warn("call_gobject() is deprecated: use call_via_mainloop()", DeprecationWarning, stacklevel=2)
+        return self.call_via_mainloop(*args, _mainloop=default_glib_mainloop(), **kwargs)
+
+    def gobject_on_async_finish(self, handler, *args, **kwargs):
+        """Deprecated in LN 2.9 (PyGTK): mainloop_on_async_finish() on GLib's default context."""
+        warnings.warn("gobject_on_async_finish() is deprecated: use mainloop_on_async_finish()",
+                      DeprecationWarning, stacklevel=2)
+        return self.mainloop_on_async_finish(default_glib_mainloop(), handler, *args, **kwargs)
+
     def call_future(self, *args, **kwargs):
         """ln_core: starts an asynchronous call and returns a ServiceFuture."""
         self.call_async(*args, **kwargs)
@@ -174,10 +260,46 @@ class service_wrapper:
         self._native.set_handler(self._handler, self.req._buf if self.req._fixed else None)
 
     def do_register(self, group_name=None):
-        """Registers the provider (in a service group; None: the default group)."""
+        """Registers the provider (in a service group; None: the default
+        group). With a main loop (mainloop=), the loop handles the group."""
+        if self._mainloop is not None:
+            return self.do_register_with_mainloop(self._mainloop, group_name)
         if self.cb is None:
             raise LNError("service %r: set_handler() before do_register()" % self.name, 35, 0)
         self._native.register(group_name)
+
+    def do_register_with_mainloop(self, loop, group_name=None):
+        """Registers the provider and lets `loop` handle its group's requests
+        (as wait_and_handle_service_group_requests(group_name, 0) would)."""
+        if not isinstance(loop, MainloopInterface):
+            raise TypeError("do_register_with_mainloop: loop must be a links_and_nodes.MainloopInterface, not %r"
+                            % (loop,))
+        if self.cb is None:
+            raise LNError("service %r: set_handler() before do_register()" % self.name, 35, 0)
+        self._mainloop = loop
+        self._native.register(group_name)
+
+        def on_work():
+            self.clnt.wait_and_handle_service_group_requests(group_name, 0)
+            return True
+
+        self._loop_sources.append((loop, loop.fd_add(self.get_fd(), "in", on_work)))
+
+    def do_register_gobject(self, group_name=None):
+        """Deprecated in LN 2.9 (PyGTK): do_register_with_mainloop() on GLib's default context."""
+        warnings.warn("do_register_gobject() is deprecated: use do_register_with_mainloop()", DeprecationWarning,
+                      stacklevel=2)
+        return self.do_register_with_mainloop(default_glib_mainloop(), group_name)
+
+    do_register_gtk = do_register_gobject
+
+    def _release(self):
+        """Removes main-loop watches and releases the native service."""
+        for loop, source in self._loop_sources:
+            loop.source_remove(source)
+        self._loop_sources = []
+        self._remove_finish_watch()
+        self._native.release()
 
     def get_fd(self):
         return self._native.get_fd()

@@ -15,6 +15,7 @@ import pprint
 import threading
 import traceback
 
+from ._mainloop import MainloopInterface
 from ._packets import Part, _is_ln_string
 
 log = logging.getLogger("links_and_nodes")
@@ -77,14 +78,20 @@ class wrapped_service:
 
     def __init__(self, clnt, service_name, interface, default_arguments=None, preprocessors=None,
                  postprocessors=None, postprocessor=None, call_method="call", throw_on_these_error_indicators=None):
-        self.svc = clnt.get_service(service_name, interface)
+        if isinstance(call_method, MainloopInterface):
+            mainloop = call_method
+        elif isinstance(call_method, (tuple, list)) and call_method and call_method[0] == "call_via_mainloop":
+            mainloop = call_method[1]
+        else:
+            mainloop = None
+        self.svc = clnt.get_service(service_name, interface, mainloop=mainloop)
         self.req_fields = _public_fields(self.svc._req_class)
         self.resp_fields = _public_fields(self.svc._resp_class)
         self.default_arguments = default_arguments or {}
         self.preprocessors = preprocessors or {}
         self.postprocessors = postprocessors or {}
         self.postprocessor = postprocessor
-        self.call = getattr(self.svc, call_method if isinstance(call_method, str) else "call")
+        self.call = self.svc.call_via_mainloop if mainloop is not None else getattr(self.svc, call_method)
         self.throw_on_these_error_indicators = (["error_message"] if throw_on_these_error_indicators is None
                                                 else throw_on_these_error_indicators)
         self.lock = threading.RLock()
@@ -147,7 +154,7 @@ class services_wrapper:
         self.clnt = clnt
         self.service_prefix = service_prefix
         self.services = {}
-        self.default_call_method = "call"
+        self.default_call_method = "call" if mainloop is None else mainloop
 
     def wrap_service(self, postfix, interface, default_arguments=None, preprocessors=None, postprocessors=None,
                      postprocessor=None, method_name=None, call_method=None, throw_on_these_error_indicators=None):
@@ -181,7 +188,10 @@ class wrapped_service_provider:
         self.pass_request = pass_request
         self.has_error_message = "error_message" in self.resp_fields
         self.svc.set_handler(self.handler)
-        getattr(self.svc, register_method if isinstance(register_method, str) else "do_register")(group_name)
+        if isinstance(register_method, MainloopInterface):
+            self.svc.do_register_with_mainloop(register_method, group_name)
+        else:
+            getattr(self.svc, register_method)(group_name)
 
     def handler(self, request, req, resp):
         kwargs = {"request": request} if self.pass_request else {}
@@ -249,7 +259,7 @@ class service_provider:
         self.clnt = clnt
         self.service_prefix = service_prefix
         self.services = {}
-        self.default_register_method = default_register_method
+        self.default_register_method = default_register_method if mainloop is None else mainloop
         self.keep_running = True
 
     def wrap_service_provider(self, postfix, interface, preprocessors=None, postprocessor=None, cleanup=None,

@@ -832,6 +832,16 @@ class MultiWaiter {
     check(ret, "can_read");
     return ret > 0;
   }
+  int start_pipe_notifier_thread() {
+    Use use(*state_);
+    ln_pipe_fd_t fd = -1;
+    check(ln_multi_waiter_start_pipe_notifier_thread(get(), &fd), "start_pipe_notifier_thread");
+    return fd;
+  }
+  void ack_pipe_notification() {
+    Use use(*state_);
+    check(ln_multi_waiter_ack_pipe_notification(get()), "ack_pipe_notification");
+  }
 
  private:
   void check(int ret, const std::string& what) {
@@ -1060,6 +1070,16 @@ class Service {
     uint32_t response_len = 0;
     const int ret = ln_service_callv_async_get_response(get(), &response, &response_len);
     return finish_call(ret, response, response_len);
+  }
+
+  // Readable once the asynchronous call finished (for main loops).
+  int async_notification_fd() {
+    Use use(*state_);
+    if (async_ == nullptr) throw Failure{LNE_SVC_REQ_NOT_RUNNING, "no asynchronous call is running"};
+    int fd = -1;
+    const int ret = ln_service_request_get_finished_notification_fd(async_, &fd);
+    if (ret < 0) fail(ret, "get_finished_notification_fd", state_->handle);
+    return fd;
   }
 
   void abort_async() {
@@ -1312,7 +1332,9 @@ NB_MODULE(_ln, m) {
       .def("add_port", &MultiWaiter::add_port)
       .def("remove_port", &MultiWaiter::remove_port)
       .def("wait", &MultiWaiter::wait, "timeout"_a = -1.0)
-      .def("can_read", &MultiWaiter::can_read);
+      .def("can_read", &MultiWaiter::can_read)
+      .def("start_pipe_notifier_thread", &MultiWaiter::start_pipe_notifier_thread)
+      .def("ack_pipe_notification", &MultiWaiter::ack_pipe_notification);
 
   nb::class_<Request>(m, "Request")
       .def("data", &Request::data)
@@ -1328,6 +1350,7 @@ NB_MODULE(_ln, m) {
       .def("start_async", &Service::start_async)
       .def("poll_async", &Service::poll_async, "timeout"_a = 0.0)
       .def("abort_async", &Service::abort_async)
+      .def("async_notification_fd", &Service::async_notification_fd)
       .def("abort", &Service::abort)
       .def("set_handler", &Service::set_handler, "handler"_a, "request_buffer"_a.none() = nb::none())
       .def("register", &Service::register_in_group, "group_name"_a = nb::none())
