@@ -25,6 +25,8 @@ CORPUS_MD_DIR = CORPUS_DIR / "md"
 CORPUS_EXTRA_DIR = CORPUS_DIR / "md_extra"
 ELEVATOR_MD_DIR = REPO_ROOT / "ln_core" / "examples" / "elevator" / "msgdefs"
 OUR_INCLUDE_DIR = REPO_ROOT / "ln_core" / "include"
+#: the built-in definitions ln_core installs (LN's share/links_and_nodes/message_definitions)
+OUR_BUILTIN_MD_DIR = REPO_ROOT / "ln_core" / "share" / "message_definitions"
 
 #: Every subprocess is bounded; LN's Python ln_generate needs < 1 s per run.
 TOOL_TIMEOUT = 60

@@ -147,6 +147,28 @@ def test_layout(differential, label, name):
     assert not problems, "\n".join(problems)
 
 
+def test_our_builtin_definitions_are_ln29s(reference, our_tools, tool_env, work_dir):
+    """Every built-in definition ln_core installs is LN 2.9's built-in of that
+    name (same name|hash): programs import them by name (`define pyobject as
+    "ln2/pyobject"`)."""
+    ours = support.definitions_below(support.OUR_BUILTIN_MD_DIR)
+    ln_dir = reference.share_dir / "links_and_nodes" / "message_definitions"
+    theirs = support.definitions_below(ln_dir)
+    assert ours and set(ours) <= set(theirs), f"not LN 2.9 built-ins: {sorted(set(ours) - set(theirs))}"
+    REPORT["LN 2.9 built-ins ln_core does not install (yet)"] = sorted(set(theirs) - set(ours))
+    out = work_dir / "ln.h"
+    ln = support.run([reference.ln_generate, "--md-dir", ln_dir, "-o", out, *ours], tool_env, cwd=work_dir)
+    assert ln.returncode == 0, ln.describe()
+    info = support.run([our_tools.ln_md_info, "--md-dir", support.OUR_BUILTIN_MD_DIR, *ours], tool_env, cwd=work_dir)
+    assert info.returncode == 0, info.describe()
+    records = support.parse_json_lines(info.stdout)
+    ln_macros = support.macros(out.read_text())
+    wrong = [f"{n}: LN 2.9 {ln_macros.get(support.identifier(n).upper() + '_MD_NAME')}, ours "
+             f"\"{n}|{records[n]['hash']}\"" for n in ours
+             if ln_macros.get(support.identifier(n).upper() + "_MD_NAME") != f'"{n}|{records[n]["hash"]}"']
+    assert not wrong, "built-ins differ from LN 2.9's:\n" + "\n".join(wrong)
+
+
 # ------------------------------------------- what LN 2.9 itself cannot do
 
 #: Definitions LN 2.9's ln_generate crashes on (Python tracebacks). Ours must
