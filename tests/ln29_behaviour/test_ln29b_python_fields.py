@@ -47,8 +47,6 @@ DELIBERATE = [
      "a char array that is not UTF-8: LN 2.9's read fails, ln_core's returns the str with surrogate escapes"),
     (r"topic label str_after_longer_str", "LN 2.9 keeps the tail of a longer text when a shorter one is assigned"),
     (r"topic sa list_short", "a shorter list for a sub-type array: LN 2.9 sends the items it had before"),
-    (r"(request|response) label ndarray_int64_full",
-     "an int64 array for a service's char array: LN 2.9 sends the array's raw bytes"),
     (r"(request|response) text bytearray", "a bytearray for char*: LN 2.9 sends its repr, ln_core its bytes"),
     (r"response \* received", "LN 2.9 keeps the part assigned to a sub-type field (later changes to it show); "
                                "ln_core copies it"),

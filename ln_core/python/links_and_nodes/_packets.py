@@ -22,7 +22,10 @@ order, little endian, a dynamic field as a u32 count followed by its
 elements, ``x_len`` not travelling on its own.
 """
 
+import ast
 import math
+import os
+import pickle
 import re
 import struct
 import sys
@@ -496,6 +499,92 @@ class _DynSub:
         return len(self.__get__(obj))
 
 
+class _PyObject:
+    """`pyobject x` of a service (LN's local type name for ln2/pyobject): any
+    Python object, pickled into the ln2/pyobject part `x_packet` when sent.
+    A `pyobject x[N]` is a list of N objects, a `pyobject* x` a list."""
+    __slots__ = ("name", "inner", "count")
+
+    def __init__(self, name, inner, count):
+        self.name, self.inner, self.count = name, inner, count  # count None: dynamic
+
+    def __get__(self, obj, cls=None):
+        if obj is None:
+            return self
+        value = obj._dyn.get(self.name, _MISSING)
+        if value is _MISSING:
+            value = obj._dyn[self.name] = None if self.count == 1 else [None] * (self.count or 0)
+        return value
+
+    def __set__(self, obj, value):
+        if self.count != 1:
+            if isinstance(value, dict) or not hasattr(value, "__len__"):
+                raise FieldTypeError("%s: expects a list of Python objects" % _where(obj, self.name))
+            if self.count is not None and len(value) != self.count:
+                raise FieldValueError("%s: expects %d objects, got %d" % (_where(obj, self.name), self.count, len(value)))
+            value = list(value)
+        obj._dyn[self.name] = value
+
+    def __delete__(self, obj):
+        obj._dyn.pop(self.name, None)
+
+    def _parts(self, obj):
+        value = self.__get__(obj)
+        if self.count == 1:
+            return [self.inner.__get__(obj)], [value]
+        if self.count is None:
+            obj._dyn[self.inner.name] = [self.inner.cls(name="%s[%d]" % (self.name, i)) for i in range(len(value))]
+        return self.inner.__get__(obj), value
+
+    def encode(self, obj, out):
+        parts, values = self._parts(obj)
+        for part, value in zip(parts, values):
+            try:
+                part.data = pickle.dumps(value, _pickle_protocol())
+            except Exception as error:
+                raise FieldValueError("%s: cannot pickle %r: %s" % (_where(obj, self.name), value, error)) from None
+            part.is_pickle = 1
+        if self.count is None:
+            self.inner.encode(obj, out)
+        else:
+            for part in parts:
+                part._encode_into(out)
+
+    def decode(self, obj, data, pos):
+        if self.count is None:
+            pos = self.inner.decode(obj, data, pos)
+            parts = self.inner.__get__(obj)
+        else:
+            parts = [self.inner.__get__(obj)] if self.count == 1 else self.inner.__get__(obj)
+            for part in parts:
+                pos = part._decode_from(data, pos)
+        values = [_unpickle(part) for part in parts]
+        obj._dyn[self.name] = values[0] if self.count == 1 else values
+        return pos
+
+    def length(self, obj):
+        return len(self.__get__(obj))
+
+
+_MISSING = object()
+
+
+def _pickle_protocol():
+    """LN 2.9 reads the protocol from LN_PYOBJECT_PICKLE_PROTOCOL."""
+    protocol = os.environ.get("LN_PYOBJECT_PICKLE_PROTOCOL")
+    return int(protocol) if protocol else None
+
+
+def _unpickle(part):
+    """The object of a received ln2/pyobject part: its pickle, or a literal
+    given as text (LN 2.9 evaluates that text with eval(); ln_core accepts
+    literals only)."""
+    raw = part.data.tobytes()
+    if part.is_pickle:
+        return pickle.loads(raw)
+    return ast.literal_eval(raw.decode("ascii")) if raw else None
+
+
 class _Length:
     """`x_len` of a dynamic field: always the current length of `x`."""
     __slots__ = ("name", "target")
@@ -524,6 +613,7 @@ class Part:
     __slots__ = ("_buf", "_off", "_cache", "_dyn", "_name")
     _fields = ()
     _field_types = {}
+    _field_ctor_names = {}
     _type_name = ""
     _size = 0
     _fixed = True
@@ -551,6 +641,10 @@ class Part:
 
     def get_field_types(self):
         return dict(self._field_types)
+
+    def get_field_ctors(self):
+        """{dynamic sub-type field: its item constructor (new_<type>_packet)}."""
+        return {field: getattr(self, ctor) for field, ctor in self._field_ctor_names.items()}
 
     def dict(self, detect_ln_string=False):
         out = {}
@@ -731,6 +825,7 @@ class Compiler:
         length_names = {f[0] + "_len" for f in fields if f[4]}
         plan, run_start, offset, fixed, min_flat = [], None, 0, True, 0
         pending_lengths = {}
+        field_ctors = {}  # dynamic sub-type field -> name of its item constructor
 
         def close_run():
             nonlocal run_start
@@ -750,6 +845,10 @@ class Compiler:
                     cls = self._sub_class(sub, defs, service)
                     desc = _DynSub(name, cls)
                     namespace[ctor_name(spelling)] = _make_ctor(cls, name)
+                    field_ctors[name] = ctor_name(spelling)
+                    if service and spelling == "pyobject":
+                        desc = _PyObject(name, _DynSub(name + "_packet", cls), None)
+                        namespace[name + "_packet"] = desc.inner
                 namespace[name] = desc
                 plan.append(desc)
                 min_flat += 4
@@ -783,6 +882,10 @@ class Compiler:
             else:
                 cls = self._sub_class(sub, defs, service)
                 desc = _Sub(name, offset, cls) if count == 1 else _SubArray(name, offset, count, cls)
+                if service and spelling == "pyobject" and not cls._fixed:
+                    desc.name = name + "_packet"
+                    namespace[desc.name] = desc
+                    desc = _PyObject(name, desc, count)
                 namespace[name] = desc
                 if cls._fixed:
                     if run_start is None:
@@ -799,7 +902,8 @@ class Compiler:
         # dynamic fields without a companion field still answer x_len
         for length_name, desc in pending_lengths.items():
             namespace[length_name] = _Length(length_name, desc)
-        namespace.update(_fields=tuple(names), _field_types=types, _size=offset, _fixed=fixed,
+        namespace.update(_fields=tuple(names), _field_types=types, _field_ctor_names=field_ctors, _size=offset,
+                         _fixed=fixed,
                          _plan=tuple(plan), _min_flat=min_flat if not fixed else offset)
         return type(_identifier(type_name), (Part,), namespace)
 

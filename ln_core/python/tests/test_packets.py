@@ -238,3 +238,34 @@ def test_a_define_repeated_in_the_response_section():
                "s/item": "double x\n"}
     model = _ln.model_from_sources("s/svc", sources)
     assert model["fields"][0][3] == model["response_fields"][0][3] == "s/item"
+
+
+def test_pyobject_fields_pickle_any_python_object():
+    pyobject = "uint8_t* data\nint data_len\nint is_pickle\n"
+    sources = {"p/svc": 'service\nrequest\ndefine pyobject as "ln2/pyobject"\npyobject args\n'
+                        'pyobject pair[2]\npyobject* many\nresponse\n', "ln2/pyobject": pyobject}
+    model = _ln.model_from_sources("p/svc", sources)
+    cls = Compiler().part_class(model, "fields", service=True)
+    req = cls(name="req")
+    assert (req.args, req.pair, req.many, req.many_len) == (None, [None, None], [], 0)
+    req.args = {"k": [1, 2.5]}
+    req.pair = ("a", None)
+    req.many = [1, {2}, "three"]
+    assert req.many_len == 3 and req.args_packet._type_name == "ln2/pyobject"
+    received = cls(name="received")
+    received._decode(bytes(req._flat()))
+    assert (received.args, received.pair, received.many) == ({"k": [1, 2.5]}, ["a", None], [1, {2}, "three"])
+    assert received.args_packet.is_pickle == 1
+    with pytest.raises(ln.FieldValueError, match="'pair'"):
+        req.pair = [1]
+    # text instead of a pickle: a literal (LN 2.9 evaluates any expression)
+    received.args_packet.data, received.args_packet.is_pickle = b"[1, 'x']", 0
+    from links_and_nodes._packets import _unpickle
+    assert _unpickle(received.args_packet) == [1, "x"]
+
+
+def test_get_field_ctors_names_the_item_constructors():
+    req = part("pytest/echo", service=True)
+    ctors = req.get_field_ctors()
+    assert set(ctors) == {"points"}
+    assert ctors["points"](x=1.0).x == 1.0

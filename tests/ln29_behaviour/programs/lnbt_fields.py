@@ -305,6 +305,21 @@ def dynamic_forms(kind):
     raise ValueError(kind)
 
 
+def pyobject_forms(count):
+    """`pyobject x` (count 1), `pyobject x[count]` or `pyobject* x` (count None)."""
+    single = [("int", lambda: 5), ("str", lambda: "text"), ("dict", lambda: {"a": [1, 2.5], "b": None}),
+              ("None", lambda: None), ("tuple", lambda: (1, "x", 2.5)), ("set", lambda: {3}),
+              ("bytes", lambda: b"\x00raw"), ("nested_list", lambda: [[1], [2, [3]]])]
+    if count == 1:
+        return single
+    n = count or 3
+    forms = [("list", lambda: [{"k": i} for i in range(n)]), ("tuple", lambda: tuple(range(n))),
+             ("list_too_short", lambda: [1] * (n - 1)), ("str", lambda: "abc")]
+    if count is None:
+        forms += [("empty_list", lambda: [])]
+    return forms
+
+
 def sub_list_forms(new_part):
     return [("list_of_new_parts", lambda: [new_part(x=1.5, n=1, tag="a"), new_part(x=2.5, n=2, tag="b")]),
             ("list_of_dicts", lambda: [{"x": 1.5, "n": 1, "tag": "a"}]), ("empty_list", lambda: []),
@@ -320,6 +335,8 @@ def request_cases(new_part, sample_part):
     cases += [("dv", f) for f in dynamic_forms("double")] + [("bv", f) for f in dynamic_forms("uint8")]
     cases += [("iv", f) for f in dynamic_forms("int32")] + [("text", f) for f in dynamic_forms("text")]
     cases += [("sl", f) for f in sub_list_forms(new_part)]
+    cases += [("po", f) for f in pyobject_forms(1)] + [("poa", f) for f in pyobject_forms(2)]
+    cases += [("pol", f) for f in pyobject_forms(None)]
     return cases
 
 
@@ -330,15 +347,20 @@ def response_cases(new_part, sample_part):
     cases += [("s", f) for f in sub_forms(sample_part)[:4]] + [("sa", f) for f in sub_array_forms(sample_part)[:3]]
     cases += [("dv", f) for f in dynamic_forms("double")] + [("bv", f) for f in dynamic_forms("uint8")]
     cases += [("text", f) for f in dynamic_forms("text")] + [("sl", f) for f in sub_list_forms(new_part)]
+    cases += [("po", f) for f in pyobject_forms(1)]
     return cases
 
 
-#: Forms that abort LN 2.9's process (an assertion in its native module):
-#: no LN 2.9 program uses them, so neither system runs them here.
-ABORTS_LN29 = {("request", "sa", "tuple_of_parts"), ("request", "sl", "tuple_of_new_parts"),
-               ("response", "sa", "tuple_of_parts"), ("response", "sl", "tuple_of_new_parts")}
+#: Forms that crash LN 2.9's process (an assertion in its native module, or a
+#: char array sent as the raw bytes of a numpy array of another size, which
+#: breaks the request so that unpacking it segfaults): no LN 2.9 program uses
+#: them, so neither system runs them here.
+ABORTS_LN29 = {(where, field, form) for where in ("request", "response") for field, form in (
+    ("sa", "tuple_of_parts"), ("sl", "tuple_of_new_parts"), ("label", "ndarray_int64_full"),
+    ("label", "ndarray_uint8_short"))}
 
-REQUEST_SHOWN = ("d", "i32", "u8", "c", "label", "da", "i16a", "s", "sa", "dv", "dv_len", "bv", "iv", "text", "sl")
+REQUEST_SHOWN = ("d", "i32", "u8", "c", "label", "da", "i16a", "s", "sa", "dv", "dv_len", "bv", "iv", "text", "sl",
+                 "po", "poa", "pol")
 
 
 class Provider:
@@ -382,11 +404,12 @@ def reset_request(req, sample_part):
     req.d, req.i32, req.u8, req.c, req.label = 0.0, 0, 0, "\0", "\0" * 8
     req.da, req.i16a = np.zeros(3), np.zeros(2, np.int16)
     req.dv, req.bv, req.iv, req.text, req.sl = np.zeros(0), np.zeros(0, np.uint8), np.zeros(0, np.int32), "", []
+    req.po, req.poa, req.pol = None, [None, None], []
 
 
 def reset_response(resp):
     resp.d, resp.i32, resp.u8, resp.label, resp.da = 0.0, 0, 0, "\0" * 8, np.zeros(3)
-    resp.dv, resp.bv, resp.text, resp.sl = np.zeros(0), np.zeros(0, np.uint8), "", []
+    resp.dv, resp.bv, resp.text, resp.sl, resp.po = np.zeros(0), np.zeros(0, np.uint8), "", [], None
 
 
 def run_services(clnt):
