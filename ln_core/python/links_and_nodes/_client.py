@@ -107,7 +107,9 @@ class client:
         return self._native.get_service_signature_for_service(service_name)
 
     def find_services_with_interface(self, interface_name):
-        return self._native.find_services_with_interface(interface_name)
+        """The names of the services with this interface, one per line (a
+        str, as LN 2.9 returns them; "" for none)."""
+        return "\n".join(self._native.find_services_with_interface(interface_name))
 
     # -- topics -----------------------------------------------------------
     def _topic_model(self, md_name):

@@ -58,6 +58,15 @@ struct Failure {
   throw Failure{ret < 0 ? -ret : ret, message};
 }
 
+// LN 2.9's Python raises plain Exceptions whose text names the error
+// ("...: LNE_SVC_TIMEOUT - ..."), so programs match that text: every
+// LNError's text names its LNE_* code too.
+std::string naming_the_code(std::string message, int code) {
+  if (message.find("LNE_") != std::string::npos) return message;
+  const std::string formatted = ln_format_error(-code);
+  return message + " (" + formatted.substr(0, formatted.find(' ')) + ")";
+}
+
 [[noreturn]] void throw_closed() { throw Failure{LNE_CLIENT_NOT_INITIALIZED, "the client was closed"}; }
 
 double now() {
@@ -337,6 +346,13 @@ class Client {
   nb::dict model(const std::string& name, std::optional<std::string> text) {
     Use use(*state_);
     ln_client handle = state_->handle;
+    if (!text) {  // the manager's error (LN 2.9: LNE_REQUEST_FAILED) for an unknown definition
+      char* md = nullptr;
+      unsigned int size = 0;
+      const int ret = ln_get_message_definition(handle, name.c_str(), &md, &size);
+      if (ret < 0) fail(ret, "get_message_definition " + name, handle);
+      text = take_string(md);
+    }
     return build_model(name, text, [handle](const std::string& wanted) -> std::optional<std::string> {
       char* md = nullptr;
       unsigned int size = 0;
@@ -558,11 +574,12 @@ class OutPort {
     if (ret < 0) fail(ret, "write", state_->handle);
   }
 
-  bool has_subscriber() {
+  // The number of subscribers, as LN 2.9 returns it.
+  int has_subscriber() {
     Use use(*state_);
     const int ret = ln_has_subscriber(get());
     if (ret < 0) fail(ret, "has_subscriber", state_->handle);
-    return ret > 0;
+    return ret;
   }
 
   void unpublish() {
@@ -1229,11 +1246,12 @@ NB_MODULE(_ln, m) {
     try {
       std::rethrow_exception(p);
     } catch (const Failure& f) {
-      PyObject* args = Py_BuildValue("(sii)", f.message.c_str(), f.code, f.user_code);
+      PyObject* args = Py_BuildValue("(sii)", naming_the_code(f.message, f.code).c_str(), f.code, f.user_code);
       PyErr_SetObject(LNError, args);
       Py_XDECREF(args);
     } catch (const ln::md::Error& e) {
-      PyObject* args = Py_BuildValue("(sii)", e.what(), static_cast<int>(LNE_INVALID_PARAMETER), 0);
+      PyObject* args = Py_BuildValue("(sii)", naming_the_code(e.what(), LNE_INVALID_PARAMETER).c_str(),
+                                     static_cast<int>(LNE_INVALID_PARAMETER), 0);
       PyErr_SetObject(LNError, args);
       Py_XDECREF(args);
     }
