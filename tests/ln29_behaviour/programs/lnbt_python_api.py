@@ -8,6 +8,7 @@ compares the transcripts).
 usage: lnbt_python_api.py   (LN_MANAGER set; bounded in time)
 """
 
+import os
 import re
 import threading
 import time
@@ -50,6 +51,12 @@ def main():
     clnt = ln.client("lnbt_api", ["prog", "--some-option", "value", "plain"])
     probe("client name", lambda: clnt.name if isinstance(clnt.name, str) else kind(clnt.name))
     probe("remaining args", lambda: list(clnt.get_remaining_args()))
+    address = os.environ["LN_MANAGER"]
+    for option in ("--ln-manager", "-ln_manager"):
+        probe("arguments with " + option, lambda: (lambda c: (c.name, list(c.get_remaining_args())))(ln.client(
+            "lnbt_api_args", ["prog", option, address, "--keep", "-x"])))
+    probe("arguments with the program name", lambda: ln.client(
+        "lnbt_api_args", ["prog", "--ln-program-name", "renamed_by_argument", "rest"]).name)
     probe("library version", lambda: ln.LN_LIBRARY_VERSION)
     probe("rates", lambda: (ln.RATE_AS_PUBLISHED, ln.RATE_ON_REQUEST_LAST))
 
