@@ -267,8 +267,9 @@ LN_API int ln_get_remaining_args(ln_client clnt, unsigned int* n_args, char** ar
     explanation behind -LNE_REQUEST_FAILED). Every failing call sets it, to ""
     when it has no detail, so right after a failure it describes that
     failure (the C++ wrapper appends it to its exceptions). Belongs to the
-    client; NULL for a NULL client. Not synchronised with failures in other
-    threads. */
+    client. Not synchronised with failures in other threads. For a NULL
+    client: the detail of this thread's last failed call that has no client
+    (ln_logger_data_save/_load/...), NULL if there was none. */
 LN_API char* ln_get_error_message(ln_client clnt_);
 
 /**@}*/

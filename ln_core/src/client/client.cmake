@@ -24,6 +24,8 @@ add_library(ln_client_objects OBJECT
   ${LN_CLIENT_DIR}/event_loop.cpp
   ${LN_CLIENT_DIR}/failure.cpp
   ${LN_CLIENT_DIR}/launch_options.cpp
+  ${LN_CLIENT_DIR}/logger_data.cpp
+  ${LN_CLIENT_DIR}/loggers.cpp
   ${LN_CLIENT_DIR}/manager_link.cpp
   ${LN_CLIENT_DIR}/multi_waiter.cpp
   ${LN_CLIENT_DIR}/name_mapping.cpp
@@ -35,6 +37,7 @@ add_library(ln_client_objects OBJECT
   ${LN_CLIENT_SRC_DIR}/capi/capi_client.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_definitions.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_introspection.cpp
+  ${LN_CLIENT_SRC_DIR}/capi/capi_loggers.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_topics.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_services.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_not_yet_implemented.cpp

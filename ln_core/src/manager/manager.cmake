@@ -9,12 +9,19 @@ add_library(ln_manager_core STATIC
   ${LN_MANAGER_SOURCE_DIR}/config.cpp
   ${LN_MANAGER_SOURCE_DIR}/definitions.cpp
   ${LN_MANAGER_SOURCE_DIR}/dispatch.cpp
+  ${LN_MANAGER_SOURCE_DIR}/log_files.cpp
+  ${LN_MANAGER_SOURCE_DIR}/loggers.cpp
   ${LN_MANAGER_SOURCE_DIR}/manager.cpp
   ${LN_MANAGER_SOURCE_DIR}/names.cpp
+  ${LN_MANAGER_SOURCE_DIR}/recorder.cpp
   ${LN_MANAGER_SOURCE_DIR}/registry.cpp
+  ${LN_MANAGER_SOURCE_DIR}/sample_log.cpp
 )
 target_include_directories(ln_manager_core PUBLIC ${LN_MANAGER_SOURCE_DIR}/..)
-target_link_libraries(ln_manager_core PUBLIC ln_md ln_protocol Threads::Threads)
+# libmatio writes the MATLAB files of ln_logger_manager_save().
+find_package(PkgConfig REQUIRED)
+pkg_check_modules(MATIO REQUIRED IMPORTED_TARGET matio)
+target_link_libraries(ln_manager_core PUBLIC ln_md ln_protocol ln_transport Threads::Threads PRIVATE PkgConfig::MATIO)
 target_compile_definitions(ln_manager_core PRIVATE LN_MANAGER_VERSION="${PROJECT_VERSION}")
 ln_target_warnings(ln_manager_core)
 
