@@ -77,6 +77,7 @@ if(BUILD_TESTING)
   # White-box tests of the pieces that need no manager.
   add_executable(ln_client_unit_tests
     ${LN_CLIENT_DIR}/launch_options_test.cpp
+    ${LN_CLIENT_DIR}/logger_data_test.cpp
     ${LN_CLIENT_DIR}/multi_waiter_test.cpp
     ${LN_CLIENT_DIR}/net_test.cpp
     ${LN_CLIENT_DIR}/peer_test.cpp

@@ -40,8 +40,10 @@ if(BUILD_TESTING)
     ${LN_MANAGER_SOURCE_DIR}/introspection_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/robustness_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/binary_test.cpp
+    ${LN_MANAGER_SOURCE_DIR}/sample_log_test.cpp
+    ${LN_MANAGER_SOURCE_DIR}/log_files_test.cpp
   )
-  target_link_libraries(manager_tests PRIVATE ln_manager_core GTest::gtest GTest::gtest_main)
+  target_link_libraries(manager_tests PRIVATE ln_manager_core GTest::gtest GTest::gtest_main PkgConfig::MATIO)
   # The binary test starts the real daemon.
   target_compile_definitions(manager_tests PRIVATE LN_MANAGER_BINARY="$<TARGET_FILE:ln_manager>")
   add_dependencies(manager_tests ln_manager)
