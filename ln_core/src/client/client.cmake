@@ -92,6 +92,7 @@ if(BUILD_TESTING)
     # The public API of libln.so against an in-process manager.
     add_executable(ln_client_tests
       ${LN_CLIENT_DIR}/client_test.cpp
+      ${LN_CLIENT_DIR}/loggers_test.cpp
       ${LN_CLIENT_DIR}/topics_test.cpp)
     target_link_libraries(ln_client_tests PRIVATE ln ln_manager_core GTest::gtest GTest::gtest_main)
     target_include_directories(ln_client_tests PRIVATE ${LN_CLIENT_SRC_DIR})

@@ -37,6 +37,14 @@ Number parse_decimal(const std::string& text, const char* what, const std::strin
   return value;
 }
 
+/// The registry's topic of that name, or nullptr (a topic exists while it is
+/// published or subscribed).
+const Topic* known_topic(const Registry& registry, const std::string& name) {
+  for (const auto& entry : registry.topics())
+    if (entry.second.name == name) return &entry.second;
+  return nullptr;
+}
+
 std::string label(const std::string& logger, const std::string& topic) {
   return "logger '" + logger + "', topic '" + topic + "'";
 }
@@ -158,10 +166,13 @@ Message Loggers::enable(Id client, const Message& request, Outbox& out, bool& de
     topics.push_back(std::move(topic));
   }
   for (const LoggedTopic& topic : topics) {
-    const auto known = std::find_if(registry_.topics().begin(), registry_.topics().end(),
-                                    [&](const auto& entry) { return entry.second.name == topic.name; });
-    if (known == registry_.topics().end()) continue;
-    const std::uint64_t sample = kSampleHeaderSize + (only_ts ? 0 : known->second.message_size);
+    const Topic* known = known_topic(registry_, topic.name);
+    // A topic not known yet gets its log when it appears; it needs the sample headers at least.
+    if (known == nullptr) {
+      check_log_fits(topic.log_size, kSampleHeaderSize, label(name, topic.name));
+      continue;
+    }
+    const std::uint64_t sample = kSampleHeaderSize + (only_ts ? 0 : known->message_size);
     check_log_fits(topic.log_size, sample, label(name, topic.name));
     const std::uint64_t bytes = topic.log_size * sample;
     if (known_bytes > std::numeric_limits<std::uint64_t>::max() - bytes)
@@ -185,11 +196,10 @@ Message Loggers::enable(Id client, const Message& request, Outbox& out, bool& de
   try {
     for (LoggedTopic& topic : logger.topics) {
       topic.tap = registry_.add_tap(topic.name, kMinTapSlots, out);
-      const auto known = std::find_if(registry_.topics().begin(), registry_.topics().end(),
-                                      [&](const auto& entry) { return entry.second.name == topic.name; });
-      if (known == registry_.topics().end()) continue;
-      learn_definition(logger, topic, known->second, out);
-      if (attach(logger, topic, known->second, answer)) ++pending.waiting_for;
+      const Topic* known = known_topic(registry_, topic.name);
+      if (known == nullptr) continue;
+      learn_definition(logger, topic, *known, out);
+      if (attach(logger, topic, *known, answer)) ++pending.waiting_for;
     }
   } catch (...) {
     pending_.erase(answer);
@@ -221,6 +231,7 @@ void Loggers::learn_definition(Logger& logger, LoggedTopic& topic, const Topic& 
       recorder_.detach(topic.tap);
       topic.reading_socket.clear();
       topic.reading_generation = -1;
+      topic.attached_generation = -1;
       if (topic.log->count() > 0 && log_)
         log_(LogLevel::Warning, label(logger.name, topic.name) + ": the topic's message size changed; the samples "
                                                                  "recorded so far are dropped");
@@ -235,6 +246,7 @@ bool Loggers::attach(Logger& logger, LoggedTopic& topic, const Topic& known, std
   const Client& publisher = registry_.client(*known.publisher);
   if (topic.reading_socket == publisher.hello.peer_socket && topic.reading_generation == known.segment_generation)
     return false;
+  if (topic.reading_socket != publisher.hello.peer_socket) topic.attached_generation = -1;  // a new publisher
   topic.reading_socket = publisher.hello.peer_socket;
   topic.reading_generation = known.segment_generation;
   topic.seen.publisher = publisher.name;
@@ -249,8 +261,10 @@ bool Loggers::attach(Logger& logger, LoggedTopic& topic, const Topic& known, std
   attacher_->add([=, post = post_] {
     std::shared_ptr<transport::ShmReader> reader;
     std::string problem;
+    std::int64_t generation = -1;
     try {
       OpenedSegment opened = open_publisher_segment(peer_socket, topic_id, topic_name, tap, slots, kAttachTimeout);
+      generation = opened.generation;
       transport::ReaderOptions options;
       options.buffers = std::max<std::uint32_t>(1, std::min(slots, opened.slots));
       options.on_lag = transport::LagPolicy::keep_latest_window;  // a recorder that fell behind keeps what it can
@@ -259,12 +273,15 @@ bool Loggers::attach(Logger& logger, LoggedTopic& topic, const Topic& known, std
     } catch (const std::exception& error) {
       problem = error.what();
     }
-    post([=](Outbox& out) { finish_attach(logger_name, recording, tap, reader, problem, answer, out); });
+    post([=](Outbox& out) {
+      finish_attach(logger_name, recording, tap, peer_socket, generation, reader, problem, answer, out);
+    });
   });
   return true;
 }
 
 void Loggers::finish_attach(const std::string& logger_name, std::uint64_t recording, Id tap,
+                            const std::string& peer_socket, std::int64_t generation,
                             std::shared_ptr<transport::ShmReader> reader, const std::string& problem,
                             std::uint64_t answer, Outbox& out) {
   const auto it = loggers_.find(logger_name);
@@ -273,11 +290,16 @@ void Loggers::finish_attach(const std::string& logger_name, std::uint64_t record
     for (LoggedTopic& topic : logger.topics) {
       if (topic.tap != tap) continue;
       if (reader) {
+        // A segment is read once: the answers to two asks may name the same
+        // one (it grew before the first answer), or arrive out of order.
+        if (peer_socket == topic.reading_socket && generation <= topic.attached_generation) continue;
+        topic.attached_generation = generation;
         recorder_.attach(tap, std::make_unique<transport::ShmReader>(std::move(*reader)),
                          TapSettings{topic.log, topic.divisor, logger.only_ts, label(logger.name, topic.name)});
       } else {
         topic.reading_socket.clear();  // the next publisher_ready tries again
         topic.reading_generation = -1;
+        topic.attached_generation = -1;
         if (log_) log_(LogLevel::Warning, label(logger.name, topic.name) + ": " + problem);
       }
     }
@@ -326,6 +348,7 @@ void Loggers::stop(Logger& logger, Outbox& out) {
     topic.tap = 0;
     topic.reading_socket.clear();
     topic.reading_generation = -1;
+    topic.attached_generation = -1;
   }
   logger.enabled = false;
 }

@@ -69,8 +69,10 @@ class Loggers {
     Id tap = 0;                       ///< registry tap while enabled
     std::shared_ptr<SampleLog> log;   ///< null until the message size is known
     SavedTopic seen;                  ///< what is known of the topic (definition, publisher)
-    std::string reading_socket;       ///< the publisher segment being read ...
-    std::int64_t reading_generation = -1;  ///< ... and its generation
+    std::string reading_socket;       ///< the publisher whose segment is read or asked for ...
+    std::int64_t reading_generation = -1;  ///< ... the generation asked for ...
+    std::int64_t attached_generation = -1;  ///< ... and the newest one attached (answers may
+                                            ///< come late, or two asks get the same segment)
   };
   struct Logger {
     std::string name;
@@ -107,9 +109,9 @@ class Loggers {
   /// returns false if there is nothing to do. The result comes back to
   /// finish_attach; `answer` (if any) waits for it.
   bool attach(Logger& logger, LoggedTopic& topic, const Topic& known, std::uint64_t answer);
-  void finish_attach(const std::string& logger, std::uint64_t recording, Id tap,
-                     std::shared_ptr<transport::ShmReader> reader, const std::string& problem,
-                     std::uint64_t answer, Outbox& out);
+  void finish_attach(const std::string& logger, std::uint64_t recording, Id tap, const std::string& peer_socket,
+                     std::int64_t generation, std::shared_ptr<transport::ShmReader> reader,
+                     const std::string& problem, std::uint64_t answer, Outbox& out);
   void answered_part(std::uint64_t answer, const std::string& problem, Outbox& out);
 
   Registry& registry_;
