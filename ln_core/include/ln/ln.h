@@ -1179,6 +1179,11 @@ LN_API int ln_list_services(ln_client clnt, ln_service_info** services, unsigned
     @return as ln_list_topics(). */
 LN_API int ln_get_manager_status(ln_client clnt, ln_manager_status** status);
 
+/** A copy of logger data that belongs to the caller (free it with
+    ln_logger_data_deinit()): a download kept beyond the logger's next one.
+    @return 0, or -LNE_INVALID_PARAMETER for an invalid handle. */
+LN_API int ln_logger_data_copy(ln_logger_data logger_data, ln_logger_data* copy);
+
 /** Releases the result of ln_list_topics(), ln_list_clients(),
     ln_list_services() or ln_get_manager_status(); NULL does nothing. Every
     pointer into the block becomes invalid. */

@@ -161,6 +161,14 @@ int ln_logger_data_deinit(ln_logger_data* logger_data) {
   });
 }
 
+int ln_logger_data_copy(ln_logger_data logger_data, ln_logger_data* copy) {
+  return clientless([&] {
+    require(copy != nullptr, "copy");
+    *copy = live_data(logger_data).copy().release();
+    return 0;
+  });
+}
+
 int ln_logger_data_get_info(ln_logger_data logger_data, unsigned int* n_topics) {
   return clientless([&] {
     require(n_topics != nullptr, "n_topics");

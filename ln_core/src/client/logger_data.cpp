@@ -182,4 +182,10 @@ std::unique_ptr<LoggerData> LoggerData::load(const std::string& filename) {
   return data;
 }
 
+std::unique_ptr<LoggerData> LoggerData::copy() const {
+  auto data = std::make_unique<LoggerData>(topics_);
+  data->loaded_ = true;
+  return data;
+}
+
 }  // namespace ln::clientlib

@@ -46,8 +46,8 @@ class LoggerData {
 
   /// True while `handle` is a LoggerData that has not been destroyed.
   static bool alive(const void* handle);
-  /// True for data made by load() (the caller frees it), false for a
-  /// download (its logger does).
+  /// True for data made by load() or copy() (the caller frees it), false
+  /// for a download (its logger does).
   bool loaded() const { return loaded_; }
 
   std::size_t size() const { return topics_.size(); }
@@ -63,6 +63,8 @@ class LoggerData {
   /// LNE_LOG_FILE_TOO_NEW (a later version), LNE_INVALID_PARAMETER (not
   /// logger data, or damaged: the text says where).
   static std::unique_ptr<LoggerData> load(const std::string& filename);
+  /// The same contents, owned by the caller (loaded() is true).
+  std::unique_ptr<LoggerData> copy() const;
 
  private:
   std::vector<Topic> topics_;
