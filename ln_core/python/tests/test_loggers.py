@@ -112,7 +112,7 @@ def test_save_load_and_manager_save(clnt, unique, tmp_path):
     assert (tmp_path / "log.pcap").read_bytes()[:4] == struct.pack("=I", 0xa1b2c3d4)
     with pytest.raises(ln.LNError) as info:
         lg.manager_save(str(tmp_path / "log.pickle"))
-    assert info.value.code == ln.LNE_INVALID_PARAMETER and "pickle" in str(info.value)
+    assert info.value.code == ln.LNE_REQUEST_FAILED and "pickle" in str(info.value)
     assert not (tmp_path / "log.pickle").exists()
 
 

@@ -422,9 +422,9 @@ TEST_F(LoggerTest, ManagerSaveWritesTheFormatsOnTheManagersHost) {
   EXPECT_EQ(file_bytes(dir.path() + "/log.pcap").substr(0, 4), std::string("\xd4\xc3\xb2\xa1", 4));
   EXPECT_EQ(file_bytes(dir.path() + "/log.mat").substr(0, 6), "MATLAB");
 
-  EXPECT_EQ(ln_logger_manager_save(lg, (dir.path() + "/x.pickle").c_str(), "pickle"), -LNE_INVALID_PARAMETER);
+  EXPECT_EQ(ln_logger_manager_save(lg, (dir.path() + "/x.pickle").c_str(), "pickle"), -LNE_REQUEST_FAILED);
   EXPECT_NE(std::string(ln_get_error_message(client_)).find("cannot write Python pickles"), std::string::npos);
-  EXPECT_EQ(ln_logger_manager_save(lg, (dir.path() + "/x.h5").c_str(), "hdf5"), -LNE_INVALID_PARAMETER);
+  EXPECT_EQ(ln_logger_manager_save(lg, (dir.path() + "/x.h5").c_str(), "hdf5"), -LNE_REQUEST_FAILED);
   EXPECT_NE(std::string(ln_get_error_message(client_)).find("raw, pcap, mat, mat4"), std::string::npos);
   EXPECT_EQ(ln_logger_manager_save(lg, (dir.path() + "/no/dir/x.raw").c_str(), "raw"), -LNE_REQUEST_FAILED);
   EXPECT_NE(std::string(ln_get_error_message(client_)).find("No such file"), std::string::npos);

@@ -107,7 +107,7 @@ void for_each_sample(const SavedTopic& topic, const std::function<void(const uns
 
 void write_raw(AtomicFile& file, const std::vector<SavedTopic>& topics) {
   if (topics.size() != 1)
-    throw RequestError(LNE_INVALID_PARAMETER, "the raw format holds exactly one topic; this logger has " +
+    throw RequestError(LNE_REQUEST_FAILED, "the raw format holds exactly one topic; this logger has " +
                                                   std::to_string(topics.size()) + " (use pcap or mat)");
   for_each_sample(topics.front(), [&](const unsigned char* sample) {
     file.write(sample, topics.front().samples->sample_size());
@@ -171,7 +171,7 @@ void append_field(std::string& out, const std::string& text) {
 void write_pcap(AtomicFile& file, const std::vector<SavedTopic>& topics) {
   for (const SavedTopic& topic : topics)
     if (topic.only_ts && sample_count(topic) > 0)
-      throw RequestError(LNE_INVALID_PARAMETER, "the pcap format carries packets, but this logger recorded only "
+      throw RequestError(LNE_REQUEST_FAILED, "the pcap format carries packets, but this logger recorded only "
                                                 "timestamps (set_only_ts); use raw or mat");
   PcapWriter pcap(file);
   struct Cursor {
@@ -440,7 +440,7 @@ const Format& format_named(const std::string& name) {
     for (const char* alias : format.aliases)
       if (name == alias) return format;
   }
-  throw RequestError(LNE_INVALID_PARAMETER, "unknown format '" + name + "': ln_core's manager writes " +
+  throw RequestError(LNE_REQUEST_FAILED, "unknown format '" + name + "': ln_core's manager writes " +
                                                 format_list() + " (or 'auto': chosen by the file name)");
 }
 
@@ -468,7 +468,7 @@ std::vector<Column> flatten_columns(const md::Definition& definition) {
 
 std::string choose_format(const std::string& format, const std::string& filename) {
   if (lower(format) == "pickle")
-    throw RequestError(LNE_INVALID_PARAMETER, "ln_core's manager cannot write Python pickles (LN 2.9's manager is "
+    throw RequestError(LNE_REQUEST_FAILED, "ln_core's manager cannot write Python pickles (LN 2.9's manager is "
                                               "a Python program; this one is native); use one of " + format_list());
   if (format != "auto") return format_named(lower(format)).name;
   const std::string base = filename.substr(filename.find_last_of('/') + 1);
@@ -477,14 +477,14 @@ std::string choose_format(const std::string& format, const std::string& filename
   for (const Format& candidate : formats())
     for (const char* known : candidate.extensions)
       if (extension == known) return candidate.name;
-  throw RequestError(LNE_INVALID_PARAMETER,
+  throw RequestError(LNE_REQUEST_FAILED,
                      "format 'auto' cannot tell the format of '" + filename + "' from its name (LN 2.9 would write "
                      "a Python pickle, which ln_core's native manager cannot); name a file .raw, .pcap or .mat, or "
                      "pass one of " + format_list());
 }
 
 void save_log_file(const std::string& filename, const std::string& format, const std::vector<SavedTopic>& topics) {
-  if (filename.empty()) throw RequestError(LNE_INVALID_PARAMETER, "manager_save needs a file name");
+  if (filename.empty()) throw RequestError(LNE_REQUEST_FAILED, "manager_save needs a file name");
   const Format& chosen = format_named(format);
   AtomicFile file(filename);
   chosen.write(file, topics);

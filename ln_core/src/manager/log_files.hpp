@@ -57,7 +57,8 @@ struct SavedTopic {
 
 /// The format `format` names for `filename` ("auto": by its extension), in
 /// the canonical spelling of the table. Throws RequestError
-/// (LNE_INVALID_PARAMETER) naming the supported formats.
+/// (LNE_REQUEST_FAILED, as LN 2.9's manager refuses) naming the supported
+/// formats.
 std::string choose_format(const std::string& format, const std::string& filename);
 
 /// Writes `topics` to `filename` in `format` (as choose_format returns it).

@@ -119,7 +119,7 @@ TEST_F(LogFilesTest, FormatsAreChosenByNameAndUnknownOnesListTheKnown) {
     try {
       choose_format(format, filename);
     } catch (const RequestError& error) {
-      EXPECT_EQ(error.code(), LNE_INVALID_PARAMETER);
+      EXPECT_EQ(error.code(), LNE_REQUEST_FAILED);
       return std::string(error.what());
     }
     return std::string("(accepted)");
