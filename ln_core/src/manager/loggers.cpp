@@ -195,8 +195,9 @@ Message Loggers::enable(Id client, const Message& request, Outbox& out, bool& de
   pending.request = request;
   try {
     for (LoggedTopic& topic : logger.topics) {
-      topic.tap = registry_.add_tap(topic.name, kMinTapSlots, out);
       const Topic* known = known_topic(registry_, topic.name);
+      topic.tap = registry_.add_tap(
+          topic.name, known != nullptr ? tap_slots(static_cast<std::uint64_t>(known->message_size)) : kMinTapSlots, out);
       if (known == nullptr) continue;
       learn_definition(logger, topic, *known, out);
       if (attach(logger, topic, *known, answer)) ++pending.waiting_for;
