@@ -9,8 +9,7 @@ import pytest
 import links_and_nodes as ln
 
 
-def publish_all_types(clnt, topic, values):
-    port = clnt.publish(topic, "pytest/all_types")
+def write_all_types(port, values):
     for i in values:
         port.packet.i32 = i
         port.packet.u64 = 2 ** 40 + i
@@ -18,7 +17,6 @@ def publish_all_types(clnt, topic, values):
         port.packet.name = "n%d" % i
         port.packet.corners[1].x = i * 2.0
         port.write()
-    return port
 
 
 def test_a_logger_records_and_its_samples_are_packets(clnt, unique):
@@ -28,11 +26,7 @@ def test_a_logger_records_and_its_samples_are_packets(clnt, unique):
     assert lg.name == "py_" + unique
     lg.add_topic(topic, 3)  # divisor defaults to 1
     lg.enable()
-    for i in range(1, 6):
-        port.packet.i32 = i
-        port.packet.name = "n%d" % i
-        port.packet.corners[1].x = i * 2.0
-        port.write()
+    write_all_types(port, range(1, 6))
     assert not port.has_subscriber()
     lg.disable()
     data = lg.download()
@@ -65,13 +59,7 @@ def test_downloads_stay_valid_and_get_dict_gives_arrays(clnt, unique):
     lg.add_topic(topic, 10, 2)
     port = clnt.publish(topic, "pytest/all_types")
     lg.enable()
-    for i in range(1, 7):
-        port.packet.i32 = i
-        port.packet.u64 = 2 ** 40 + i
-        port.packet.vec = [i, i + 0.5, -i]
-        port.packet.name = "n%d" % i
-        port.packet.corners[1].x = i * 2.0
-        port.write()
+    write_all_types(port, range(1, 7))
     lg.disable()
     first = lg.download()
     second = lg.download()  # the first stays usable

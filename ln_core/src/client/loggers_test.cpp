@@ -61,6 +61,16 @@ class LoggerTest : public ::testing::Test {
     EXPECT_EQ(ln_client_get_logger(client != nullptr ? client : client_, &handle, name), 0);
     return handle;
   }
+  /// A logger of `topic` that recorded packets 1..count (enabled, written, disabled).
+  ln_logger recorded(const char* name, const char* topic, ln_outport out, unsigned log_size, uint32_t count,
+                     unsigned divisor = 1) {
+    ln_logger lg = logger(name);
+    EXPECT_EQ(ln_logger_add_topic(lg, topic, log_size, divisor), 0);
+    EXPECT_EQ(ln_logger_enable(lg), 0) << ln_get_error_message(client_);
+    write(out, 1, count);
+    EXPECT_EQ(ln_logger_disable(lg), 0);
+    return lg;
+  }
   static void write(ln_outport port, uint32_t first, uint32_t count, double period = 0.0005) {
     for (uint32_t seq = first; seq < first + count; ++seq) {
       P64 p{};
@@ -184,11 +194,7 @@ TEST_F(LoggerTest, ALoggerIsNoSubscriber) {
 
 TEST_F(LoggerTest, DivisorCountsFromEnableAndEnableStartsAfresh) {
   ln_outport out = publish("lg.divisor");
-  ln_logger lg = logger("divisor");
-  ASSERT_EQ(ln_logger_add_topic(lg, "lg.divisor", 100, 3), 0);
-  ASSERT_EQ(ln_logger_enable(lg), 0);
-  write(out, 1, 10);
-  ASSERT_EQ(ln_logger_disable(lg), 0);
+  ln_logger lg = recorded("divisor", "lg.divisor", out, 100, 10, 3);
   EXPECT_EQ(seqs(download(lg)), (std::vector<uint32_t>{3, 6, 9}));
   ASSERT_EQ(ln_logger_enable(lg), 0);  // drops the samples, counts anew
   write(out, 11, 7);
@@ -362,11 +368,7 @@ TEST_F(LoggerTest, BadInputIsRefusedWithTheReason) {
 }
 
 TEST_F(LoggerTest, DataHandlesFollowTheirOwners) {
-  ln_outport out = publish("lg.handles");
-  ln_logger lg = logger("handles");
-  ASSERT_EQ(ln_logger_add_topic(lg, "lg.handles", 10, 1), 0);
-  ASSERT_EQ(ln_logger_enable(lg), 0);
-  write(out, 1, 2);
+  ln_logger lg = recorded("handles", "lg.handles", publish("lg.handles"), 10, 2);
   ln_logger_data first = nullptr;
   ASSERT_EQ(ln_logger_download(lg, &first), 0);
   logger_topic* topic = nullptr;
@@ -400,12 +402,7 @@ TEST_F(LoggerTest, DataHandlesFollowTheirOwners) {
 }
 
 TEST_F(LoggerTest, ManagerSaveWritesTheFormatsOnTheManagersHost) {
-  ln_outport out = publish("lg.save");
-  ln_logger lg = logger("save");
-  ASSERT_EQ(ln_logger_add_topic(lg, "lg.save", 10, 1), 0);
-  ASSERT_EQ(ln_logger_enable(lg), 0);
-  write(out, 1, 4);
-  ASSERT_EQ(ln_logger_disable(lg), 0);
+  ln_logger lg = recorded("save", "lg.save", publish("lg.save"), 10, 4);
   TempDir dir;
   const std::string raw = dir.path() + "/log.raw";
   ASSERT_EQ(ln_logger_manager_save(lg, raw.c_str(), "auto"), 0) << ln_get_error_message(client_);

@@ -234,38 +234,26 @@ struct MatVariable {
   std::vector<unsigned char> data;  // column-major
 };
 
-matio_classes mat_class(md::Primitive type) {
-  switch (type) {
-    case md::Primitive::Double: return MAT_C_DOUBLE;
-    case md::Primitive::Float: return MAT_C_SINGLE;
-    case md::Primitive::Char:
-    case md::Primitive::Int8: return MAT_C_INT8;
-    case md::Primitive::UInt8: return MAT_C_UINT8;
-    case md::Primitive::Int16: return MAT_C_INT16;
-    case md::Primitive::UInt16: return MAT_C_UINT16;
-    case md::Primitive::Int32: return MAT_C_INT32;
-    case md::Primitive::UInt32: return MAT_C_UINT32;
-    case md::Primitive::Int64: return MAT_C_INT64;
-    case md::Primitive::UInt64: return MAT_C_UINT64;
-  }
-  return MAT_C_DOUBLE;
-}
+struct MatType {
+  matio_classes klass;
+  matio_types type;
+};
 
-matio_types mat_type(md::Primitive type) {
+MatType mat_type(md::Primitive type) {
   switch (type) {
-    case md::Primitive::Double: return MAT_T_DOUBLE;
-    case md::Primitive::Float: return MAT_T_SINGLE;
+    case md::Primitive::Double: return {MAT_C_DOUBLE, MAT_T_DOUBLE};
+    case md::Primitive::Float: return {MAT_C_SINGLE, MAT_T_SINGLE};
     case md::Primitive::Char:
-    case md::Primitive::Int8: return MAT_T_INT8;
-    case md::Primitive::UInt8: return MAT_T_UINT8;
-    case md::Primitive::Int16: return MAT_T_INT16;
-    case md::Primitive::UInt16: return MAT_T_UINT16;
-    case md::Primitive::Int32: return MAT_T_INT32;
-    case md::Primitive::UInt32: return MAT_T_UINT32;
-    case md::Primitive::Int64: return MAT_T_INT64;
-    case md::Primitive::UInt64: return MAT_T_UINT64;
+    case md::Primitive::Int8: return {MAT_C_INT8, MAT_T_INT8};
+    case md::Primitive::UInt8: return {MAT_C_UINT8, MAT_T_UINT8};
+    case md::Primitive::Int16: return {MAT_C_INT16, MAT_T_INT16};
+    case md::Primitive::UInt16: return {MAT_C_UINT16, MAT_T_UINT16};
+    case md::Primitive::Int32: return {MAT_C_INT32, MAT_T_INT32};
+    case md::Primitive::UInt32: return {MAT_C_UINT32, MAT_T_UINT32};
+    case md::Primitive::Int64: return {MAT_C_INT64, MAT_T_INT64};
+    case md::Primitive::UInt64: return {MAT_C_UINT64, MAT_T_UINT64};
   }
-  return MAT_T_DOUBLE;
+  return {MAT_C_DOUBLE, MAT_T_DOUBLE};
 }
 
 bool mat4_has(md::Primitive type) {
@@ -393,7 +381,8 @@ void write_matlab(AtomicFile& file, const std::vector<SavedTopic>& topics, bool 
   bool ok = true;
   for (const MatVariable& variable : variables) {
     std::size_t dims[2] = {variable.rows, variable.columns};
-    matvar_t* var = Mat_VarCreate(variable.name.c_str(), mat_class(variable.type), mat_type(variable.type), 2, dims,
+    const MatType stored = mat_type(variable.type);
+    matvar_t* var = Mat_VarCreate(variable.name.c_str(), stored.klass, stored.type, 2, dims,
                                   const_cast<unsigned char*>(variable.data.data()), MAT_F_DONT_COPY_DATA);
     ok = var != nullptr && Mat_VarWrite(mat, var, MAT_COMPRESSION_NONE) == 0;
     if (var != nullptr) Mat_VarFree(var);
