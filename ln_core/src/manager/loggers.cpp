@@ -263,11 +263,12 @@ bool Loggers::attach(Logger& logger, LoggedTopic& topic, const Topic& known, std
     std::shared_ptr<transport::ShmReader> reader;
     std::string problem;
     std::int64_t generation = -1;
+    std::uint32_t window = 1;
     try {
       OpenedSegment opened = open_publisher_segment(peer_socket, topic_id, topic_name, tap, slots, kAttachTimeout);
       generation = opened.generation;
       transport::ReaderOptions options;
-      options.buffers = std::max<std::uint32_t>(1, std::min(slots, opened.slots));
+      window = options.buffers = std::max<std::uint32_t>(1, std::min(slots, opened.slots));
       options.on_lag = transport::LagPolicy::keep_latest_window;  // a recorder that fell behind keeps what it can
       options.resume_after = opened.last_sequence;
       reader = std::make_shared<transport::ShmReader>(transport::ShmReader::attach(std::move(opened.fd), options));
@@ -275,7 +276,7 @@ bool Loggers::attach(Logger& logger, LoggedTopic& topic, const Topic& known, std
       problem = error.what();
     }
     post([=](Outbox& out) {
-      finish_attach(logger_name, recording, tap, peer_socket, generation, reader, problem, answer, out);
+      finish_attach(logger_name, recording, tap, peer_socket, generation, reader, window, problem, answer, out);
     });
   });
   return true;
@@ -283,8 +284,8 @@ bool Loggers::attach(Logger& logger, LoggedTopic& topic, const Topic& known, std
 
 void Loggers::finish_attach(const std::string& logger_name, std::uint64_t recording, Id tap,
                             const std::string& peer_socket, std::int64_t generation,
-                            std::shared_ptr<transport::ShmReader> reader, const std::string& problem,
-                            std::uint64_t answer, Outbox& out) {
+                            std::shared_ptr<transport::ShmReader> reader, std::uint32_t window,
+                            const std::string& problem, std::uint64_t answer, Outbox& out) {
   const auto it = loggers_.find(logger_name);
   if (it != loggers_.end() && it->second.enabled && it->second.recording == recording) {
     Logger& logger = it->second;
@@ -295,7 +296,7 @@ void Loggers::finish_attach(const std::string& logger_name, std::uint64_t record
         // one (it grew before the first answer), or arrive out of order.
         if (peer_socket == topic.reading_socket && generation <= topic.attached_generation) continue;
         topic.attached_generation = generation;
-        recorder_.attach(tap, std::make_unique<transport::ShmReader>(std::move(*reader)),
+        recorder_.attach(tap, std::make_unique<transport::ShmReader>(std::move(*reader)), window,
                          TapSettings{topic.log, topic.divisor, logger.only_ts, label(logger.name, topic.name)});
       } else {
         topic.reading_socket.clear();  // the next publisher_ready tries again

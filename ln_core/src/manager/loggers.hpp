@@ -110,7 +110,7 @@ class Loggers {
   /// finish_attach; `answer` (if any) waits for it.
   bool attach(Logger& logger, LoggedTopic& topic, const Topic& known, std::uint64_t answer);
   void finish_attach(const std::string& logger, std::uint64_t recording, Id tap, const std::string& peer_socket,
-                     std::int64_t generation, std::shared_ptr<transport::ShmReader> reader,
+                     std::int64_t generation, std::shared_ptr<transport::ShmReader> reader, std::uint32_t window,
                      const std::string& problem, std::uint64_t answer, Outbox& out);
   void answered_part(std::uint64_t answer, const std::string& problem, Outbox& out);
 

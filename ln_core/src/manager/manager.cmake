@@ -43,6 +43,7 @@ if(BUILD_TESTING)
     ${LN_MANAGER_SOURCE_DIR}/sample_log_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/log_files_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/loggers_test.cpp
+    ${LN_MANAGER_SOURCE_DIR}/recorder_test.cpp
   )
   target_link_libraries(manager_tests PRIVATE ln_manager_core GTest::gtest GTest::gtest_main PkgConfig::MATIO)
   # The binary test starts the real daemon.

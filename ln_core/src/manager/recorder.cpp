@@ -129,14 +129,15 @@ Recorder::~Recorder() {
   thread_.join();
 }
 
-void Recorder::attach(std::int64_t tap_id, std::unique_ptr<transport::ShmReader> reader, const TapSettings& settings) {
+void Recorder::attach(std::int64_t tap_id, std::unique_ptr<transport::ShmReader> reader, std::uint32_t window,
+                      const TapSettings& settings) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     auto [it, created] = taps_.try_emplace(tap_id);
     Tap& tap = it->second;
     if (created) tap.settings = settings;
     tap.buffer.resize(std::max<std::size_t>(tap.buffer.size(), reader->message_size()));
-    tap.segments.push_back({std::move(reader), Clock::now()});
+    tap.segments.push_back({std::move(reader), std::max<std::uint32_t>(window, 1), Clock::now()});
     period_ = kMinPeriod;  // a new stream: look soon, then settle
   }
   wake_.notify_all();
@@ -152,7 +153,17 @@ void Recorder::detach(std::int64_t tap_id) {
 
 void Recorder::catch_up(std::int64_t tap_id) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (const auto it = taps_.find(tap_id); it != taps_.end()) drain(it->second);
+  if (const auto it = taps_.find(tap_id); it != taps_.end()) adapt(drain(it->second), false);
+}
+
+// Keep a drain at about a quarter of the window: halve the period when one
+// found more than half, double it (only from the thread's own rounds) when
+// all found less than 1/8.
+void Recorder::adapt(double fullest, bool may_grow) {
+  if (fullest > 0.5)
+    period_ = std::max(kMinPeriod, period_ / 2);
+  else if (may_grow && fullest < 0.125)
+    period_ = std::min(kMaxPeriod, period_ * 2);
 }
 
 std::size_t Recorder::taps() const {
@@ -201,7 +212,7 @@ double Recorder::drain(Tap& tap) {
       finished = true;
       break;
     }
-    fullest = std::max(fullest, static_cast<double>(delivered) / std::max<std::uint32_t>(reader.history(), 1));
+    fullest = std::max(fullest, static_cast<double>(delivered) / segment->window);
     segment = finished ? tap.segments.erase(segment) : segment + 1;
   }
   if (tap.lost > tap.lost_reported) {
@@ -223,12 +234,7 @@ void Recorder::run() {
     }
     double fullest = 0;
     for (auto& entry : taps_) fullest = std::max(fullest, drain(entry.second));
-    // Keep a drain at about a quarter of the window: halve the period when
-    // one found more than half, double it when all found less than 1/8.
-    if (fullest > 0.5)
-      period_ = std::max(kMinPeriod, period_ / 2);
-    else if (fullest < 0.125)
-      period_ = std::min(kMaxPeriod, period_ * 2);
+    adapt(fullest, true);
     const auto period = period_;
     wake_.wait_for(lock, period, [this] { return stopping_; });
   }

@@ -85,11 +85,13 @@ class Recorder {
   Recorder(const Recorder&) = delete;
   Recorder& operator=(const Recorder&) = delete;
 
-  /// Records what `reader` delivers into the tap `tap` (created with
-  /// `settings` on first use; later calls keep the tap's settings). A tap reads
-  /// its segments in attach order: a publisher's replaced segment before the
-  /// new one, one publisher before the next.
-  void attach(std::int64_t tap, std::unique_ptr<transport::ShmReader> reader, const TapSettings& settings);
+  /// Records what `reader` (attached with ReaderOptions::buffers `window`)
+  /// delivers into the tap `tap` (created with `settings` on first use;
+  /// later calls keep the tap's settings). A tap reads its segments in
+  /// attach order: a publisher's replaced segment before the new one, one
+  /// publisher before the next.
+  void attach(std::int64_t tap, std::unique_ptr<transport::ShmReader> reader, std::uint32_t window,
+              const TapSettings& settings);
   /// Records what the tap's segments hold now (the packets written before
   /// this call), then forgets the tap.
   void detach(std::int64_t tap);
@@ -103,6 +105,7 @@ class Recorder {
  private:
   struct Segment {
     std::unique_ptr<transport::ShmReader> reader;
+    std::uint32_t window;  // packets the reader may fall behind
     std::chrono::steady_clock::time_point checked_alive;
   };
   struct Tap {
@@ -116,6 +119,8 @@ class Recorder {
   /// Reads every segment of `tap` empty; returns the largest fraction of a
   /// window one drain found (1 or more: packets were lost).
   double drain(Tap& tap);
+  /// Adjusts the polling period to what a drain found.
+  void adapt(double fullest, bool may_grow);
   void run();
 
   LogFunction log_;
