@@ -228,8 +228,12 @@ double Recorder::drain(Tap& tap) {
 void Recorder::run() {
   std::unique_lock<std::mutex> lock(mutex_);
   while (!stopping_) {
-    if (taps_.empty()) {
-      wake_.wait(lock, [this] { return stopping_ || !taps_.empty(); });
+    // Nothing to read (no tap, or only taps whose publishers left): sleep until attach().
+    const auto reading = [this] {
+      return std::any_of(taps_.begin(), taps_.end(), [](const auto& entry) { return !entry.second.segments.empty(); });
+    };
+    if (!reading()) {
+      wake_.wait(lock, [&] { return stopping_ || reading(); });
       continue;
     }
     double fullest = 0;
