@@ -1,8 +1,11 @@
 #include "manager/log_files.hpp"
 
 #include <fcntl.h>
-#include <matio.h>
 #include <unistd.h>
+
+#ifdef LN_WITH_MATIO
+#include <matio.h>
+#endif
 
 #include <algorithm>
 #include <cerrno>
@@ -226,6 +229,8 @@ void write_pcap(AtomicFile& file, const std::vector<SavedTopic>& topics) {
 
 // ------------------------------------------------------------------ MATLAB
 
+#ifdef LN_WITH_MATIO
+
 struct MatVariable {
   std::string name;
   md::Primitive type;
@@ -233,28 +238,6 @@ struct MatVariable {
   std::size_t columns;
   std::vector<unsigned char> data;  // column-major
 };
-
-struct MatType {
-  matio_classes klass;
-  matio_types type;
-};
-
-MatType mat_type(md::Primitive type) {
-  switch (type) {
-    case md::Primitive::Double: return {MAT_C_DOUBLE, MAT_T_DOUBLE};
-    case md::Primitive::Float: return {MAT_C_SINGLE, MAT_T_SINGLE};
-    case md::Primitive::Char:
-    case md::Primitive::Int8: return {MAT_C_INT8, MAT_T_INT8};
-    case md::Primitive::UInt8: return {MAT_C_UINT8, MAT_T_UINT8};
-    case md::Primitive::Int16: return {MAT_C_INT16, MAT_T_INT16};
-    case md::Primitive::UInt16: return {MAT_C_UINT16, MAT_T_UINT16};
-    case md::Primitive::Int32: return {MAT_C_INT32, MAT_T_INT32};
-    case md::Primitive::UInt32: return {MAT_C_UINT32, MAT_T_UINT32};
-    case md::Primitive::Int64: return {MAT_C_INT64, MAT_T_INT64};
-    case md::Primitive::UInt64: return {MAT_C_UINT64, MAT_T_UINT64};
-  }
-  return {MAT_C_DOUBLE, MAT_T_DOUBLE};
-}
 
 bool mat4_has(md::Primitive type) {
   switch (type) {
@@ -362,6 +345,28 @@ std::vector<MatVariable> matlab_variables(const std::vector<SavedTopic>& topics,
   return variables;
 }
 
+struct MatType {
+  matio_classes klass;
+  matio_types type;
+};
+
+MatType mat_type(md::Primitive type) {
+  switch (type) {
+    case md::Primitive::Double: return {MAT_C_DOUBLE, MAT_T_DOUBLE};
+    case md::Primitive::Float: return {MAT_C_SINGLE, MAT_T_SINGLE};
+    case md::Primitive::Char:
+    case md::Primitive::Int8: return {MAT_C_INT8, MAT_T_INT8};
+    case md::Primitive::UInt8: return {MAT_C_UINT8, MAT_T_UINT8};
+    case md::Primitive::Int16: return {MAT_C_INT16, MAT_T_INT16};
+    case md::Primitive::UInt16: return {MAT_C_UINT16, MAT_T_UINT16};
+    case md::Primitive::Int32: return {MAT_C_INT32, MAT_T_INT32};
+    case md::Primitive::UInt32: return {MAT_C_UINT32, MAT_T_UINT32};
+    case md::Primitive::Int64: return {MAT_C_INT64, MAT_T_INT64};
+    case md::Primitive::UInt64: return {MAT_C_UINT64, MAT_T_UINT64};
+  }
+  return {MAT_C_DOUBLE, MAT_T_DOUBLE};
+}
+
 // libmatio reports problems through a global log function; keep them for
 // the error message instead of letting it print.
 std::mutex matio_mutex;
@@ -394,6 +399,12 @@ void write_matlab(AtomicFile& file, const std::vector<SavedTopic>& topics, bool 
   if (Mat_Close(mat) != 0) cannot_write(file.filename(), "libmatio failed to finish it: " + matio_problem);
   file.commit_written();
 }
+#else
+void write_matlab(AtomicFile& file, const std::vector<SavedTopic>&, bool) {
+  cannot_write(file.filename(), "this ln_manager was built without libmatio (Debian: libmatio-dev), which writes "
+                                "MATLAB files");
+}
+#endif
 
 // ------------------------------------------------------------------ table
 
