@@ -46,4 +46,16 @@ if(BUILD_TESTING)
   target_link_libraries(ln_parameters_unit_tests PRIVATE ln_paramcore GTest::gtest GTest::gtest_main)
   ln_target_warnings(ln_parameters_unit_tests)
   gtest_discover_tests(ln_parameters_unit_tests PROPERTIES TIMEOUT 60)
+
+  if(TARGET ln_manager_core)
+    add_executable(ln_parameters_tests ${LN_PARAMETERS_DIR}/parameters_api_test.cpp)
+    target_link_libraries(ln_parameters_tests PRIVATE ln ln_manager_core GTest::gtest GTest::gtest_main)
+    target_include_directories(ln_parameters_tests PRIVATE ${LN_CLIENT_SRC_DIR}
+                               ${CMAKE_CURRENT_BINARY_DIR}/parameters_generated)
+    add_dependencies(ln_parameters_tests ln_client_objects)
+    target_compile_definitions(ln_parameters_tests PRIVATE
+      LN_TEST_MD_DIR="${LN_CLIENT_ROOT_DIR}/share/message_definitions")
+    ln_target_warnings(ln_parameters_tests)
+    gtest_discover_tests(ln_parameters_tests PROPERTIES TIMEOUT 120)
+  endif()
 endif()

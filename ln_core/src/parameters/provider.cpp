@@ -6,6 +6,7 @@
 #include <cstring>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <vector>
 
 #include "client/failure.hpp"
@@ -71,7 +72,10 @@ struct BlockState {
   std::vector<SignalState> signals;
   bool registered = false;
   bool closed = false;
-  std::uint64_t steps = 0;  // completed updates
+  // Updates started (inputs read, overrides applied) and completed. An
+  // override set while `started` is n takes effect in update n + 1.
+  std::uint64_t started = 0;
+  std::uint64_t steps = 0;
 };
 
 class Server : public std::enable_shared_from_this<Server> {
@@ -91,7 +95,7 @@ class Server : public std::enable_shared_from_this<Server> {
   struct Deferred {  // sync handling: an override waiting for its block's step
     ln_service_request request;
     std::shared_ptr<BlockState> block;
-    std::uint64_t after_step;
+    std::uint64_t target_step;  // answered once the block completed this update
     std::chrono::steady_clock::time_point deadline;
   };
 
@@ -102,6 +106,11 @@ class Server : public std::enable_shared_from_this<Server> {
   static int on_override(ln_client, ln_service_request req, void* self);
   static int on_request_topic(ln_client, ln_service_request req, void* self);
   int override(ln_service_request req, ln_parameters_override_dict_single_t& data);
+  /// Sets (`value`) or ends (nullopt) the override of `signal` and answers,
+  /// with wait_step after the block's next step.
+  int finish_override(ln_service_request req, ln_parameters_override_dict_single_t& data,
+                      const std::shared_ptr<BlockState>& block, SignalState& signal,
+                      std::optional<std::vector<std::uint8_t>> value, bool wait_step);
   /// Signals matching `patterns`, in registration order (mutex_ held).
   std::vector<std::pair<std::shared_ptr<BlockState>, SignalState*>> matching_locked(std::string_view patterns);
   static int respond_override(ln_service_request req, ln_parameters_override_dict_single_t& data,
@@ -311,12 +320,12 @@ void Server::update(BlockState& block, const void* const* inputs, void* const* o
     std::vector<std::uint8_t> own_copy;  // a copy in its layout
   };
   std::vector<Applied> applied;
-  std::vector<std::pair<ln_service_request, std::string>> answers;  // deferred overrides, with their error
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (closed_) throw Failure(LNE_CLIENT_NOT_INITIALIZED, "parameter block '" + block.name + "': the client is gone");
     if (!block.registered)
       throw Failure(LNE_INVALID_PARAMETER, "parameter block '" + block.name + "': update() before register_parameters()");
+    ++block.started;
     for (std::size_t i = 0; i < block.signals.size(); ++i) {
       SignalState& s = block.signals[i];
       const void* in = inputs != nullptr ? inputs[i] : s.input;
@@ -330,10 +339,20 @@ void Server::update(BlockState& block, const void* const* inputs, void* const* o
           applied.push_back(Applied{&s, out, out != nullptr ? std::vector<std::uint8_t>{} : s.program_layout(s.output_value)});
       }
     }
+  }
+  // Before the step counts as done, so that an override with wait_step
+  // returns only once the program has seen it. The signals never change
+  // after registration, and only this thread calls update().
+  for (Applied& a : applied)
+    a.signal->after_update(a.program_value != nullptr ? a.program_value : a.own_copy.data(), a.signal->user_data);
+
+  std::vector<std::pair<ln_service_request, std::string>> answers;  // deferred overrides, with their error
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
     ++block.steps;
     const auto now = std::chrono::steady_clock::now();
     for (auto it = deferred_.begin(); it != deferred_.end();) {
-      if (it->block.get() == &block && it->after_step < block.steps) {
+      if (it->block.get() == &block && block.steps >= it->target_step) {
         answers.emplace_back(it->request, "");
         it = deferred_.erase(it);
       } else if (now > it->deadline) {
@@ -349,10 +368,6 @@ void Server::update(BlockState& block, const void* const* inputs, void* const* o
     ln_parameters_override_dict_single_t data{};
     respond_override(request, data, error);
   }
-  // The block (and so the signals) stays registered while its owner is in
-  // update(); only this thread changes apply_pending, so no lock is needed.
-  for (Applied& a : applied)
-    a.signal->after_update(a.program_value != nullptr ? a.program_value : a.own_copy.data(), a.signal->user_data);
 }
 
 std::vector<std::pair<std::shared_ptr<BlockState>, SignalState*>> Server::matching_locked(std::string_view patterns) {
@@ -477,15 +492,10 @@ int Server::override(ln_service_request req, ln_parameters_override_dict_single_
     }
     block = found[0].first;
     signal = found[0].second;
-    if (text.empty()) {
-      signal->override_enabled = false;
-      signal->apply_pending = false;
-      debug_log(clnt_, "override of '%s' ended", signal->full_name.c_str());
-      return respond_override(req, data, "");
-    }
     type = signal->type;
     shape = signal->shape;
   }
+  if (text.empty()) return finish_override(req, data, block, *signal, std::nullopt, wait_step);
 
   Literal literal;
   std::string error;
@@ -508,26 +518,40 @@ int Server::override(ln_service_request req, ln_parameters_override_dict_single_
     to_row_major(program_value.data(), value.data(), type, shape, signal->row_major);
   }
 
+  debug_log(clnt_, "override of '%s' set to %s", signal->full_name.c_str(), text.c_str());
+  return finish_override(req, data, block, *signal, std::move(value), wait_step);
+}
+
+int Server::finish_override(ln_service_request req, ln_parameters_override_dict_single_t& data,
+                            const std::shared_ptr<BlockState>& block, SignalState& signal,
+                            std::optional<std::vector<std::uint8_t>> value, bool wait_step) {
   std::unique_lock<std::mutex> lock(mutex_);
   if (block->closed || closed_)
     return respond_override(req, data, "parameter block '" + block->name + "' was destroyed");
-  signal->override_value = value;
-  signal->output_value = std::move(value);
-  signal->override_enabled = true;
-  signal->apply_pending = true;
-  debug_log(clnt_, "override of '%s' set to %s", signal->full_name.c_str(), text.c_str());
+  if (value) {
+    signal.override_value = *value;
+    signal.output_value = std::move(*value);
+    signal.override_enabled = true;
+    signal.apply_pending = true;
+  } else {
+    // Ending an override: the output follows the input from the next step.
+    signal.override_enabled = false;
+    signal.apply_pending = false;
+    debug_log(clnt_, "override of '%s' ended", signal.full_name.c_str());
+  }
   if (!wait_step) {
     lock.unlock();
     return respond_override(req, data, "");
   }
-  const std::uint64_t step = block->steps;
+  const std::uint64_t target = block->started + 1;
   if (sync_) {
-    // We run inside some block's update(); that block's (or the target
-    // block's) next step answers.
-    deferred_.push_back(Deferred{req, block, step, std::chrono::steady_clock::now() + kWaitStepTimeout});
+    // This runs inside some block's update(); the target block's next
+    // completed update answers.
+    deferred_.push_back(Deferred{req, block, target, std::chrono::steady_clock::now() + kWaitStepTimeout});
     return -LNE_SVC_RESP_LATER;
   }
-  const bool stepped = stepped_.wait_for(lock, kWaitStepTimeout, [&] { return block->steps > step || block->closed || closed_; });
+  const bool stepped =
+      stepped_.wait_for(lock, kWaitStepTimeout, [&] { return block->steps >= target || block->closed || closed_; });
   const bool gone = block->closed || closed_;
   lock.unlock();
   if (gone) return respond_override(req, data, "parameter block '" + block->name + "' was destroyed before its next update");

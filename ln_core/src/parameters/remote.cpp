@@ -95,6 +95,14 @@ std::string call_error(ln_client clnt, int ret, const std::string& service) {
   return service + ": " + ln_format_error(ret) + (detail != nullptr && detail[0] != '\0' ? std::string(": ") + detail : "");
 }
 
+// A provider that does not answer in time is there but busy (or handles
+// requests only inside update()); asking others would not help.
+[[noreturn]] void throw_no_answer(const std::string& provider_key, double timeout) {
+  throw Failure(LNE_SVC_TIMEOUT, provider_label(provider_key) + " did not answer within " +
+                                     std::to_string(static_cast<int>(timeout)) +
+                                     " s (with LN_PARAMETER_SYNC_HANDLING=1 a provider answers only inside update())");
+}
+
 std::shared_ptr<Caller> caller(ln_client clnt, RemoteState& state, const std::string& provider_key,
                                std::shared_ptr<Caller> Provider::*which, const char* kind, const char* interface,
                                const char* signature) {
@@ -116,7 +124,7 @@ void drop_provider(RemoteState& state, const std::string& provider_key) {
 // The query_dict text of `provider_key` for `pattern`, or nullopt if the
 // provider could not be asked.
 std::optional<std::string> query_dict(ln_client clnt, RemoteState& state, const std::string& provider_key,
-                                      const std::string& pattern) {
+                                      const std::string& pattern, std::string& problem) {
   const std::shared_ptr<Caller> handle = caller(clnt, state, provider_key, &Provider::query_dict, kQueryDict,
                                                 "ln/parameters/query_dict", LN_PARAMETERS_QUERY_DICT_SIGNATURE);
   std::lock_guard<std::mutex> lock(handle->mutex);
@@ -125,7 +133,8 @@ std::optional<std::string> query_dict(ln_client clnt, RemoteState& state, const 
   data.req.pattern_len = static_cast<std::uint32_t>(pattern.size());
   const int ret = handle->call(&data, kQueryTimeout);
   if (ret != 0) {
-    debug_log(clnt, "asking %s failed: %s", provider_key.c_str(), call_error(clnt, ret, provider_key).c_str());
+    problem = ret == -LNE_SVC_TIMEOUT ? provider_label(provider_key) + " did not answer" : call_error(clnt, ret, provider_key);
+    debug_log(clnt, "asking %s failed: %s", provider_key.c_str(), problem.c_str());
     return std::nullopt;
   }
   return std::string(data.resp.data != nullptr ? data.resp.data : "", data.resp.data_len);
@@ -139,6 +148,7 @@ Known discover(ln_client clnt, RemoteState& state, const std::string& name) {
   const std::string services = listed != nullptr ? listed : "";
   std::free(listed);
   std::vector<std::pair<std::string, std::string>> found;  // provider, description
+  std::vector<std::string> unanswered;
   std::size_t asked = 0;
   for (std::size_t start = 0; start < services.size();) {
     std::size_t end = services.find('\n', start);
@@ -147,8 +157,10 @@ Known discover(ln_client clnt, RemoteState& state, const std::string& name) {
     start = end + 1;
     if (service.empty()) continue;
     ++asked;
-    const std::optional<std::string> text = query_dict(clnt, state, service, name);
+    std::string problem;
+    const std::optional<std::string> text = query_dict(clnt, state, service, name, problem);
     if (!text) {
+      unanswered.push_back(problem);
       drop_provider(state, service);
       continue;
     }
@@ -164,9 +176,12 @@ Known discover(ln_client clnt, RemoteState& state, const std::string& name) {
       found.emplace_back(service, description != nullptr && description->kind == Literal::Kind::String ? description->text : "");
     }
   }
-  if (found.empty())
-    throw Failure(LNE_UNKNOWN_PARAMETER, "no client provides parameter '" + name + "' (asked " + std::to_string(asked) +
-                                             " parameter provider" + (asked == 1 ? "" : "s") + ")");
+  if (found.empty()) {
+    std::string text = "no client provides parameter '" + name + "' (asked " + std::to_string(asked) +
+                       " parameter provider" + (asked == 1 ? "" : "s");
+    for (const std::string& problem : unanswered) text += "; " + problem;
+    throw Failure(unanswered.empty() ? LNE_UNKNOWN_PARAMETER : LNE_SVC_TIMEOUT, text + ")");
+  }
   if (found.size() > 1) {
     std::string who;
     for (const auto& f : found) who += (who.empty() ? "" : " and ") + provider_label(f.first);
@@ -199,6 +214,7 @@ std::optional<RemoteValue> query(ln_client clnt, RemoteState& state, const std::
   data.req.pattern = const_cast<char*>(name.c_str());
   data.req.pattern_len = static_cast<std::uint32_t>(name.size());
   const int ret = handle->call(&data, kQueryTimeout);
+  if (ret == -LNE_SVC_TIMEOUT) throw_no_answer(provider_key, kQueryTimeout);
   if (ret != 0) {
     problem = call_error(clnt, ret, sibling_service(provider_key, "query"));
     return std::nullopt;
@@ -244,6 +260,7 @@ std::optional<std::string> send_override(ln_client clnt, RemoteState& state, con
   data.req.override_data_len = static_cast<std::uint32_t>(text.size());
   data.req.wait_step = wait_step ? 1 : 0;
   const int ret = handle->call(&data, kOverrideTimeout);
+  if (ret == -LNE_SVC_TIMEOUT) throw_no_answer(provider_key, kOverrideTimeout);
   if (ret != 0) {
     problem = call_error(clnt, ret, sibling_service(provider_key, "override_dict_single"));
     return std::nullopt;
