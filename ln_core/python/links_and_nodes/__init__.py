@@ -23,6 +23,7 @@ from ._packets import FieldError, FieldTypeError, FieldValueError, Part as ln_pa
 from ._client import client, port_wrapper, multi_waiter, borrowed_packet  # noqa: F401
 from ._services import service_wrapper, request_wrapper, ServiceFuture, SVC_RESP_LATER  # noqa: F401
 from ._introspection import topic_info, client_info, service_info, manager_status  # noqa: F401
+from ._parameters import parameters_proxy, ParameterBlock, ParameterSignal, ParameterOutputs  # noqa: F401
 from ._wrapped import (  # noqa: F401
     ServiceErrorResponse, service_provider, services_wrapper, wrapped_service, wrapped_service_provider)
 
