@@ -36,6 +36,7 @@ __all__ = ["parameters_proxy", "ParameterBlock", "ParameterSignal", "ParameterOu
 
 QUERY_INTERFACE = "ln/parameters/query_dict"
 OVERRIDE_INTERFACE = "ln/parameters/override_dict_single"
+TOPIC_INTERFACE = "ln/parameters/request_parameter_topic"
 
 # ---------------------------------------------------------------- values
 
@@ -173,6 +174,9 @@ class parameters_proxy(_Hooks):
         self.parameters_name = name[:-1] if name.endswith(".") else name
         self._update_on_write = update_on_write
         self._queued_overrides = OrderedDict()
+        self.is_subscribed = False
+        self._subscribed = []  # (port, path in the packet, value dict)
+        self._topic_ports = {} if parent is None else parent._topic_ports
         self.lock = threading.RLock()
         self._in_on_update = False
         if do_parameter_scan:
@@ -319,6 +323,67 @@ class parameters_proxy(_Hooks):
         if value is None:
             value = self._parameters[pname]
         return value["input"]
+
+    def subscribe(self, rate=10):
+        """Subscribes to the topics the providers publish these parameters on
+        (ln/parameters/request_parameter_topic; they publish for 10 s, then
+        while subscribed); read() then takes the values from there. Returns
+        the ports."""
+        with self.lock:
+            wanted = OrderedDict()
+            for _, _, value in self._all_parameters():
+                wanted.setdefault(value["service"], []).append(value["full_name"])
+            topics = {}
+            for service_name, names in wanted.items():
+                svc = self._service(service_name.replace("query_dict", "request_topic"), TOPIC_INTERFACE)
+                svc.req.parameters = ", ".join(names)
+                svc()
+                if svc.resp.error:
+                    raise LNError("topics of %s: %s" % (service_name, svc.resp.error), LNE_REQUEST_FAILED, 0)
+                topics.update(parse_parameter_text(svc.resp.parameter_topics))
+            self._subscribed = []
+            for _, _, value in self._all_parameters():
+                topic, md = topics[value["full_name"]]
+                port = self._topic_ports.get(topic)
+                if port is None:
+                    port = self._topic_ports[topic] = self.clnt.subscribe(topic, md, rate=rate)
+                self._subscribed.append((port, value["full_name"].split("."), value))
+            self.is_subscribed = True
+            return set(port for port, _, _ in self._subscribed)
+
+    def read(self, blocking=True, mainloop=None):
+        """Waits for the next packet of every subscribed topic (blocking:
+        True, False, a timeout, or a parameter name: only its topic), then
+        updates the values from them."""
+        with self.lock:
+            if not self.is_subscribed:
+                raise LNError("read() needs subscribe() first", LNE_REQUEST_FAILED, 0)
+            if blocking is True or blocking is False or isinstance(blocking, (int, float)):
+                for port in set(port for port, _, _ in self._subscribed):
+                    port.read(blocking)
+            else:
+                full_name = blocking if "." in blocking else "%s.%s" % (self.parameters_name, blocking)
+                for port, path, _ in self._subscribed:
+                    if ".".join(path) in (blocking, full_name):
+                        port.read(True)
+                        break
+            for port, path, value in self._subscribed:
+                part = port.packet
+                for item in path:
+                    part = getattr(part, item)
+                fresh = part.dict()
+                for key in ("input", "output"):
+                    old = value[key]
+                    new = fresh[key]
+                    if isinstance(old, np.ndarray):
+                        new = np.asarray(new, dtype=old.dtype).reshape(old.shape)
+                    elif isinstance(old, bool):
+                        new = bool(new)
+                    elif isinstance(old, float):
+                        new = float(new)
+                    value[key] = new
+                value["override_enabled"] = bool(fresh["override_enabled"])
+            self._call_on_update()
 
     def get_dict(self, refresh=True, full=False):
         """{name: value in effect} (full: {name: {input, output,

@@ -214,6 +214,52 @@ def test_a_second_block_cannot_take_a_name(provider, unique):
         second.register()
 
 
+def test_values_on_topics(provider, caller, unique):
+    group = "t" + unique
+    block = make_block(provider, group)
+    block.update()
+    params = caller.get_parameters(group)
+    with Loop(block):
+        ports = params.subscribe()
+        assert len(ports) == 1
+        params.gain = 2.5
+        params.read()
+        params.read()  # a packet written after the override
+        assert params.get_output("gain", refresh=False) == 2.5
+        assert params["gain"]["override_enabled"] is True
+        assert params.get_input("mat", refresh=False).tolist() == [[0, 1, 2], [3, 4, 5]]
+        assert params.get_input("mat", refresh=False).dtype == np.int16
+        assert params.sub.get_input("deep", refresh=False) == 0.25
+    # A block that always publishes, on a topic of its choice.
+    always = provider.parameter_block("a" + unique, always_publish=True, topic_name="always." + unique)
+    always.add("x", 1.0)
+    always.add("v", [1, 2], dtype="int16")
+    always.register()
+    port = caller.subscribe("always." + unique)
+    with Loop(always):
+        packet = port.read(2.0)
+        assert packet is not None
+    part = getattr(packet, "a" + unique)
+    assert part.x.dict() == {"input": 1.0, "output": 1.0, "override_enabled": 0}
+    assert list(part.v.input) == [1, 2]
+
+
+def test_topics_of_names_that_are_no_tree(provider, caller, unique):
+    block = provider.parameter_block("n" + unique)
+    block.add("a", 1.0)
+    block.add("a.b", 2.0)
+    block.register()
+    block.update()
+    params = caller.get_parameters("n" + unique)
+    with pytest.raises(ln.LNError, match="also the name of a group"):
+        params.subscribe()
+    always = provider.parameter_block("m" + unique, always_publish=True)
+    always.add("c", 1.0)
+    always.add("c.d", 2.0)
+    with pytest.raises(ln.LNError, match="also the name of a group"):
+        always.register()
+
+
 # ------------------------------------------------------------------ with C++
 
 @pytest.fixture(scope="module")

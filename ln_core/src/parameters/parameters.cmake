@@ -13,6 +13,7 @@ set(LN_PARAMETERS_DIR ${CMAKE_CURRENT_LIST_DIR})
 add_library(ln_paramcore STATIC
   ${LN_PARAMETERS_DIR}/literal.cpp
   ${LN_PARAMETERS_DIR}/pattern.cpp
+  ${LN_PARAMETERS_DIR}/topic_layout.cpp
   ${LN_PARAMETERS_DIR}/values.cpp)
 set_target_properties(ln_paramcore PROPERTIES POSITION_INDEPENDENT_CODE ON CXX_VISIBILITY_PRESET hidden)
 target_include_directories(ln_paramcore PUBLIC ${LN_CLIENT_SRC_DIR})
@@ -42,6 +43,7 @@ if(BUILD_TESTING)
   add_executable(ln_parameters_unit_tests
     ${LN_PARAMETERS_DIR}/literal_test.cpp
     ${LN_PARAMETERS_DIR}/pattern_test.cpp
+    ${LN_PARAMETERS_DIR}/topic_layout_test.cpp
     ${LN_PARAMETERS_DIR}/values_test.cpp)
   target_link_libraries(ln_parameters_unit_tests PRIVATE ln_paramcore GTest::gtest GTest::gtest_main)
   ln_target_warnings(ln_parameters_unit_tests)

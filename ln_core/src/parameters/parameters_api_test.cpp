@@ -406,6 +406,58 @@ TEST_F(Parameters, TheClientGoingFirstLeavesBlocksHarmless) {
   EXPECT_THROW(block.update(), ln::exception);
 }
 
+TEST_F(Parameters, TopicsOnRequestAndAlways) {
+  auto provider = client("prov");
+  double a = 1, a_out;
+  int16_t v[2] = {3, 4}, v_out[2];
+  parameter_block block(provider.get(), "g");
+  ASSERT_TRUE(block.register_parameters(port_description<double>("a", "", &a, &a_out),
+                                        port_description<int16_t[2]>("v", "", &v, &v_out)));
+  auto caller = client("caller");
+  ln::service* svc = caller->get_service("ln.parameters.request_topic.prov", "ln/parameters/request_parameter_topic",
+                                         LN_PARAMETERS_REQUEST_PARAMETER_TOPIC_SIGNATURE);
+  auto request = [&](std::string names) {
+    ln_parameters_request_parameter_topic_t data{};
+    data.req.parameters = &names[0];
+    data.req.parameters_len = static_cast<uint32_t>(names.size());
+    svc->call(&data);
+    return std::make_pair(std::string(data.resp.parameter_topics, data.resp.parameter_topics_len),
+                          std::string(data.resp.error, data.resp.error_len));
+  };
+  const auto [topics, error] = request("g.a, g.v");
+  EXPECT_EQ(error, "");
+  const std::size_t md = topics.find("'gen/ln/parameters/s_");
+  ASSERT_NE(md, std::string::npos) << topics;
+  const std::string md_name = topics.substr(md + 1, topics.find('\'', md + 1) - md - 1);
+  EXPECT_EQ(topics, "{\n  'g.a': ('prov.g', '" + md_name + "'),\n  'g.v': ('prov.g', '" + md_name + "'),\n}\n");
+  EXPECT_NE(request("g.nothere").second.find("no parameter 'g.nothere'"), std::string::npos);
+  EXPECT_NE(request("").second.find("no parameter names"), std::string::npos);
+  EXPECT_NE(request("g.*").second.find("matches 2"), std::string::npos);
+  caller->release_service(svc);
+
+  // Requested: published at every update for a while.
+  ln::inport* port = caller->subscribe("prov.g", md_name);
+  std::vector<uint8_t> packet(2 * 8 + 1 + 2 * 4 + 1);
+  ASSERT_EQ(port->message_size, packet.size());
+  ASSERT_TRUE(wait_until([&] {
+    block.update();
+    return port->read(packet.data(), 0.0);
+  }));
+  double input;
+  std::memcpy(&input, packet.data(), 8);
+  EXPECT_EQ(input, 1.0);
+  EXPECT_EQ(packet[17] | packet[18] << 8, 3);  // g.v input[0]
+
+  // Always: from registration on, under the topic name given.
+  parameter_block always(provider.get(), "h", true, "my.topic");
+  ASSERT_TRUE(always.register_parameters(port_description<double>("b", "", &a, &a_out)));
+  ln::inport* always_port = caller->subscribe("my.topic", "");
+  ASSERT_TRUE(wait_until([&] {
+    always.update();
+    return always_port->read(packet.data(), 0.0);
+  }));
+}
+
 TEST_F(Parameters, SetFloatParameterKnowsLn29sSettings) {
   auto c = client("settings");
   EXPECT_EQ(ln_client_set_float_parameter(nullptr, "__LN_CPP_WRAPPER_VERSION", 32), 0);

@@ -14,6 +14,7 @@
 #include "parameters/diagnostics.hpp"
 #include "parameters/pattern.hpp"
 #include "parameters/remote.hpp"
+#include "parameters/topic_layout.hpp"
 #include "parameters/values.hpp"
 
 namespace ln::paramcore {
@@ -27,6 +28,9 @@ constexpr const char* kPool = "parameter_service_pool";
 constexpr unsigned kPoolThreads = 4;
 // How long an override with wait_step waits for the block's next update.
 constexpr std::chrono::seconds kWaitStepTimeout{10};
+// How long a block publishes its topic after a request_parameter_topic
+// (then only while it has subscribers), as LN 2.9.
+constexpr std::chrono::seconds kTopicRequestLifetime{10};
 
 std::string no_step_error(const std::string& block_name) {
   return "no update() of parameter block '" + block_name + "' within " + std::to_string(kWaitStepTimeout.count()) +
@@ -67,11 +71,23 @@ struct SignalState {
   }
 };
 
+struct BlockTopic {
+  std::string name;
+  std::string message_definition;
+  ln_outport port = nullptr;
+  std::vector<std::size_t> order;  // signals in packet order
+  std::vector<std::uint8_t> packet;
+  std::chrono::steady_clock::time_point requested_until{};
+};
+
 struct BlockState {
   std::string name;
   std::vector<SignalState> signals;
   bool registered = false;
   bool closed = false;
+  bool always_publish = false;
+  std::string topic_name;             // "" = "<client name>.<block name>"
+  std::unique_ptr<BlockTopic> topic;  // once published
   // Updates started (inputs read, overrides applied) and completed. An
   // override set while `started` is n takes effect in update n + 1.
   std::uint64_t started = 0;
@@ -90,6 +106,13 @@ class Server : public std::enable_shared_from_this<Server> {
   void remove_block(const std::shared_ptr<BlockState>& block);
   void register_signals(BlockState& block, const ln_parameter_signal* signals, unsigned n_signals);
   void update(BlockState& block, const void* const* inputs, void* const* outputs, bool only_inputs);
+  /// always_publish: the topic from registration on. Throws Failure.
+  void publish_now(const std::shared_ptr<BlockState>& block) { ensure_topic(block); }
+  void unregister(BlockState& block) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    block.registered = false;
+    block.signals.clear();
+  }
 
  private:
   struct Deferred {  // sync handling: an override waiting for its block's step
@@ -115,6 +138,12 @@ class Server : public std::enable_shared_from_this<Server> {
   std::vector<std::pair<std::shared_ptr<BlockState>, SignalState*>> matching_locked(std::string_view patterns);
   static int respond_override(ln_service_request req, ln_parameters_override_dict_single_t& data,
                               const std::string& error);
+  /// Publishes the block's topic unless it is already (not with mutex_
+  /// held: asks the manager). Throws Failure.
+  void ensure_topic(const std::shared_ptr<BlockState>& block);
+  /// Writes the block's packet if someone wants it (update() thread).
+  void publish_step(BlockState& block);
+  int request_topic(ln_service_request req, ln_parameters_request_parameter_topic_t& data);
 
   const ln_client clnt_;
   std::string client_name_;
@@ -125,6 +154,7 @@ class Server : public std::enable_shared_from_this<Server> {
   std::vector<std::shared_ptr<BlockState>> blocks_;
   std::vector<Deferred> deferred_;
   ln_service services_[4] = {};
+  std::mutex topics_mutex_;  // one topic set-up at a time
 };
 
 // ------------------------------------------------------------- registry
@@ -232,6 +262,10 @@ void Server::close() {
   // Waits for running handlers (a handler waiting for a step saw closed_).
   for (ln_service& service : services_)
     if (service != nullptr) ln_service_deinit(&service);
+  std::lock_guard<std::mutex> topics(topics_mutex_);
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (const auto& block : blocks_)
+    if (block->topic && block->topic->port != nullptr) ln_unpublish(&block->topic->port);
 }
 
 void Server::add_block(const std::shared_ptr<BlockState>& block) {
@@ -259,6 +293,13 @@ void Server::remove_block(const std::shared_ptr<BlockState>& block) {
     ln_parameters_override_dict_single_t data{};
     respond_override(d.request, data, "parameter block '" + block->name + "' was destroyed before its next update");
   }
+  std::lock_guard<std::mutex> topics(topics_mutex_);
+  ln_outport port = nullptr;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (block->topic != nullptr && !closed_) std::swap(port, block->topic->port);
+  }
+  if (port != nullptr) ln_unpublish(&port);
 }
 
 void Server::register_signals(BlockState& block, const ln_parameter_signal* signals, unsigned n_signals) {
@@ -307,6 +348,57 @@ void Server::register_signals(BlockState& block, const ln_parameter_signal* sign
   block.signals = std::move(states);
   block.registered = true;
   debug_log(clnt_, "parameter block '%s' registered %zu parameters", block.name.c_str(), block.signals.size());
+}
+
+void Server::ensure_topic(const std::shared_ptr<BlockState>& block) {
+  std::lock_guard<std::mutex> topics(topics_mutex_);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (block->topic != nullptr) return;
+    if (closed_ || block->closed) throw Failure(LNE_CLIENT_NOT_INITIALIZED, "parameter block '" + block->name + "' is gone");
+  }
+  // The signals do not change once registered.
+  std::vector<TopicField> fields;
+  for (const SignalState& s : block->signals) fields.push_back(TopicField{s.full_name, s.type, s.shape.elements()});
+  const TopicLayout layout = topic_layout(fields);
+  const std::string who = "parameter block '" + block->name + "' cannot be published on a topic: ";
+  if (!layout.error.empty()) throw Failure(LNE_INVALID_PARAMETER, who + layout.error);
+  for (const auto& [name, text] : layout.definitions) {
+    const int ret = ln_put_message_definition(clnt_, name.c_str(), text.c_str(), nullptr);
+    if (ret < 0) throw Failure(-ret, who + ln_get_error_message(clnt_));
+  }
+  auto topic = std::make_unique<BlockTopic>();
+  topic->name = block->topic_name.empty() ? client_name_ + "." + block->name : block->topic_name;
+  topic->message_definition = layout.root;
+  topic->order = layout.order;
+  topic->packet.reserve(layout.packet_size);
+  const int ret = ln_publish(clnt_, topic->name.c_str(), layout.root.c_str(), &topic->port);
+  if (ret < 0) throw Failure(-ret, who + ln_get_error_message(clnt_));
+  debug_log(clnt_, "parameter block '%s' publishes topic '%s' (%s)", block->name.c_str(), topic->name.c_str(),
+            layout.root.c_str());
+  std::lock_guard<std::mutex> lock(mutex_);
+  block->topic = std::move(topic);
+}
+
+void Server::publish_step(BlockState& block) {
+  ln_outport port = nullptr;
+  std::vector<std::uint8_t>* packet = nullptr;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    BlockTopic* topic = block.topic.get();
+    if (topic == nullptr || topic->port == nullptr || closed_) return;
+    const bool requested = std::chrono::steady_clock::now() < topic->requested_until;
+    if (!block.always_publish && !requested && ln_has_subscriber(topic->port) <= 0) return;
+    topic->packet.clear();
+    for (const std::size_t i : topic->order) {
+      const SignalState& s = block.signals[i];
+      append_to_packet(topic->packet, s.input_value, s.output_value, s.override_enabled);
+    }
+    port = topic->port;
+    packet = &topic->packet;
+  }
+  // Only this thread (the block's update()) writes the packet buffer.
+  ln_write(port, packet->data(), static_cast<unsigned>(packet->size()), nullptr);
 }
 
 void Server::update(BlockState& block, const void* const* inputs, void* const* outputs, bool only_inputs) {
@@ -368,6 +460,7 @@ void Server::update(BlockState& block, const void* const* inputs, void* const* o
     ln_parameters_override_dict_single_t data{};
     respond_override(request, data, error);
   }
+  publish_step(block);
 }
 
 std::vector<std::pair<std::shared_ptr<BlockState>, SignalState*>> Server::matching_locked(std::string_view patterns) {
@@ -559,13 +652,68 @@ int Server::finish_override(ln_service_request req, ln_parameters_override_dict_
   return respond_override(req, data, "");
 }
 
-int Server::on_request_topic(ln_client, ln_service_request req, void*) {
+int Server::on_request_topic(ln_client, ln_service_request req, void* self_) {
   ln_parameters_request_parameter_topic_t data{};
   if (ln_service_request_set_data(req, &data, LN_PARAMETERS_REQUEST_PARAMETER_TOPIC_SIGNATURE) != 0)
     return -LNE_SVC_RECV_REQ;
-  const std::string error = "parameter topics are not available from ln_core providers";
+  const std::shared_ptr<Server> self = alive(self_);
+  std::string error = "the parameter provider is shutting down";
+  if (self) {
+    try {
+      return self->request_topic(req, data);
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+  }
   data.resp.error_len = static_cast<std::uint32_t>(error.size());
-  data.resp.error = const_cast<char*>(error.data());
+  data.resp.error = error.data();
+  return ln_service_request_respond(req);
+}
+
+int Server::request_topic(ln_service_request req, ln_parameters_request_parameter_topic_t& data) {
+  // "a.b, a.c": LN 2.9 separates the names by ", ".
+  std::vector<std::string> names;
+  const std::string list(request_text(data.req.parameters, data.req.parameters_len));
+  for (std::size_t start = 0; start <= list.size();) {
+    std::size_t comma = list.find(',', start);
+    if (comma == std::string::npos) comma = list.size();
+    std::string name = list.substr(start, comma - start);
+    name.erase(0, name.find_first_not_of(' '));
+    name.erase(name.find_last_not_of(' ') + 1);
+    if (!name.empty()) names.push_back(name);
+    start = comma + 1;
+  }
+  std::string error;
+  std::vector<std::pair<std::string, std::shared_ptr<BlockState>>> wanted;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (names.empty()) error = "no parameter names given ('" + list + "')";
+    for (const std::string& name : names) {
+      const auto found = matching_locked(name);
+      if (found.size() != 1) {
+        error = found.empty() ? "no parameter '" + name + "' here (client '" + client_name_ + "')"
+                              : "'" + name + "' matches " + std::to_string(found.size()) + " parameters";
+        break;
+      }
+      wanted.emplace_back(found[0].second->full_name, found[0].first);
+    }
+  }
+  std::string text = "{\n";
+  if (error.empty()) {
+    for (const auto& [name, block] : wanted) ensure_topic(block);  // throws with a message
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& [name, block] : wanted) {
+      block->topic->requested_until = std::chrono::steady_clock::now() + kTopicRequestLifetime;
+      text += "  " + python_string_literal(name) + ": (" + python_string_literal(block->topic->name) + ", " +
+              python_string_literal(block->topic->message_definition) + "),\n";
+    }
+  }
+  text += "}\n";
+  if (!error.empty()) text.clear();
+  data.resp.parameter_topics_len = static_cast<std::uint32_t>(text.size());
+  data.resp.parameter_topics = text.data();
+  data.resp.error_len = static_cast<std::uint32_t>(error.size());
+  data.resp.error = error.data();
   return ln_service_request_respond(req);
 }
 
@@ -582,10 +730,10 @@ std::shared_ptr<Server> alive(void* self) {
 
 Block::Block(ln_client clnt, const char* group_name, bool always_publish, const char* topic_name)
     : server_(Server::of(clnt)), state_(std::make_shared<BlockState>()) {
-  (void)always_publish;
-  (void)topic_name;
   const char* prefix = std::getenv("LN_PARAMETER_PREFIX");
   state_->name = std::string(prefix != nullptr ? prefix : "") + (group_name != nullptr ? group_name : "");
+  state_->always_publish = always_publish;
+  state_->topic_name = topic_name != nullptr ? topic_name : "";
   server_->add_block(state_);
 }
 
@@ -593,6 +741,13 @@ Block::~Block() { server_->remove_block(state_); }
 
 void Block::register_signals(const ln_parameter_signal* signals, unsigned n_signals) {
   server_->register_signals(*state_, signals, n_signals);
+  if (!state_->always_publish) return;
+  try {
+    server_->publish_now(state_);
+  } catch (...) {
+    server_->unregister(*state_);  // all or nothing
+    throw;
+  }
 }
 
 void Block::update(const void* const* inputs, void* const* outputs, bool only_inputs) {
