@@ -13,24 +13,14 @@ import pytest
 
 import links_and_nodes as ln
 
-from conftest import LN_CORE, MSGDEFS, Manager, which_compiler
+from conftest import LN_CORE, which_compiler
 
-SHARE = os.path.join(LN_CORE, "share", "message_definitions")
 CPP = os.path.join(os.path.dirname(os.path.abspath(__file__)), "cpp")
 
 
 @pytest.fixture(scope="module")
-def manager(tmp_path_factory):
-    # The built-in ln/parameters/* definitions from the source tree.
-    m = Manager(tmp_path_factory.mktemp("manager"), md_dirs=(MSGDEFS, SHARE))
-    saved = os.environ.get("LN_MANAGER")
-    os.environ["LN_MANAGER"] = m.address
-    yield m
-    if saved is None:
-        os.environ.pop("LN_MANAGER", None)
-    else:
-        os.environ["LN_MANAGER"] = saved
-    m.stop()
+def manager(builtins_manager):
+    return builtins_manager  # ln/parameters/* from the source tree
 
 
 class Loop:
