@@ -78,86 +78,84 @@ uint32_t _get_param_typeid() {
 template <typename T, typename T2 = T>
 struct port_description;
 
-template <typename T>
-struct port_description<T, typename std::enable_if<std::is_arithmetic<T>::value, T>::type> {
+namespace detail {
+
+/// What every port_description has (LN 2.9's members); `Value` is the
+/// type the program's callbacks take.
+template <typename Value>
+struct port_description_fields {
   std::string signal_name;
   std::string signal_description;
   uint32_t width, type_id, num_dims;
   uint32_t* dims;
   void *input, *output;
-  bool row_major = false;
+  bool row_major;
   std::function<bool(void*)> before_update_callback;
   std::function<void(void*)> after_update_callback;
 
+  port_description_fields(std::string name, std::string description, uint32_t width_, uint32_t type, uint32_t n_dims,
+                          void* input_, void* output_, bool row_major_,
+                          const std::function<bool(Value&)>& before_update,
+                          const std::function<void(Value&)>& after_update)
+      : signal_name(std::move(name)),
+        signal_description(std::move(description)),
+        width(width_),
+        type_id(type),
+        num_dims(n_dims),
+        dims(nullptr),
+        input(input_),
+        output(output_),
+        row_major(row_major_) {
+    if (before_update) before_update_callback = [before_update](void* v) { return before_update(*static_cast<Value*>(v)); };
+    if (after_update) after_update_callback = [after_update](void* v) { after_update(*static_cast<Value*>(v)); };
+  }
+};
+
+}  // namespace detail
+
+template <typename T>
+struct port_description<T, typename std::enable_if<std::is_arithmetic<T>::value, T>::type>
+    : detail::port_description_fields<T> {
   port_description(std::string signal_name_, std::string signal_description_, T* input_, T* output_,
                    std::function<bool(T&)> before_update = std::function<bool(T&)>(),
                    std::function<void(T&)> after_update = std::function<void(T&)>())
-      : signal_name(std::move(signal_name_)),
-        signal_description(std::move(signal_description_)),
-        width(1),
-        type_id(_get_param_typeid<T>()),
-        num_dims(1),
-        dims(nullptr),
-        input(input_),
-        output(output_) {
-    if (before_update) before_update_callback = [before_update](void* v) { return before_update(*static_cast<T*>(v)); };
-    if (after_update) after_update_callback = [after_update](void* v) { after_update(*static_cast<T*>(v)); };
-  }
+      : detail::port_description_fields<T>(std::move(signal_name_), std::move(signal_description_), 1,
+                                           _get_param_typeid<T>(), 1, input_, output_, false, before_update,
+                                           after_update) {}
 };
 
 /// C arrays of up to two dimensions, stored row-major.
 template <typename T>
 struct port_description<T, typename std::enable_if<std::is_array<T>::value &&
                                                        std::is_arithmetic<typename std::remove_all_extents<T>::type>::value,
-                                                   T>::type> {
+                                                   T>::type> : detail::port_description_fields<T> {
   typedef typename std::remove_all_extents<T>::type scalar_type;
-
-  std::string signal_name;
-  std::string signal_description;
-  uint32_t width, type_id, num_dims;
-  uint32_t* dims;  // points into extents_
-  void *input, *output;
-  bool row_major = true;
-  std::function<bool(void*)> before_update_callback;
-  std::function<void(void*)> after_update_callback;
 
   port_description(std::string signal_name_, std::string signal_description_, T* input_, T* output_,
                    std::function<bool(T&)> before_update = std::function<bool(T&)>(),
                    std::function<void(T&)> after_update = std::function<void(T&)>())
-      : signal_name(std::move(signal_name_)),
-        signal_description(std::move(signal_description_)),
-        width(static_cast<uint32_t>(sizeof(T) / sizeof(scalar_type))),
-        type_id(_get_param_typeid<scalar_type>()),
-        num_dims(static_cast<uint32_t>(std::rank<T>::value)),
-        dims(nullptr),
-        input(input_),
-        output(output_) {
-    extents_ = {static_cast<uint32_t>(std::extent<T, 0>::value), static_cast<uint32_t>(std::extent<T, 1>::value),
-                static_cast<uint32_t>(std::extent<T, 2>::value)};
-    extents_.resize(num_dims);
-    dims = extents_.data();
-    if (before_update) before_update_callback = [before_update](void* v) { return before_update(*static_cast<T*>(v)); };
-    if (after_update) after_update_callback = [after_update](void* v) { after_update(*static_cast<T*>(v)); };
+      : detail::port_description_fields<T>(std::move(signal_name_), std::move(signal_description_),
+                                           static_cast<uint32_t>(sizeof(T) / sizeof(scalar_type)),
+                                           _get_param_typeid<scalar_type>(), static_cast<uint32_t>(std::rank<T>::value),
+                                           input_, output_, true, before_update, after_update),
+        extents_{static_cast<uint32_t>(std::extent<T, 0>::value), static_cast<uint32_t>(std::extent<T, 1>::value),
+                 static_cast<uint32_t>(std::extent<T, 2>::value)} {
+    extents_.resize(this->num_dims);
+    this->dims = extents_.data();
   }
-  port_description(const port_description& other) { *this = other; }
+  port_description(const port_description& other)
+      : detail::port_description_fields<T>(other), extents_(other.extents_) {
+    this->dims = extents_.data();
+  }
   port_description& operator=(const port_description& other) {
-    signal_name = other.signal_name;
-    signal_description = other.signal_description;
-    width = other.width;
-    type_id = other.type_id;
-    num_dims = other.num_dims;
-    input = other.input;
-    output = other.output;
-    row_major = other.row_major;
-    before_update_callback = other.before_update_callback;
-    after_update_callback = other.after_update_callback;
+    detail::port_description_fields<T>::operator=(other);
     extents_ = other.extents_;
-    dims = extents_.data();
+    this->dims = extents_.data();
     return *this;
   }
 
  private:
-  std::vector<uint32_t> extents_;
+  std::vector<uint32_t> extents_;  // what dims points to
 };
 
 /// A group of parameters named "<LN_PARAMETER_PREFIX><group>.<signal>".

@@ -530,30 +530,40 @@ def _unpack(data, dtype, shape):
     return array.reshape(shape).copy()
 
 
-class ParameterOutputs:
+class _Named:
+    """[name], `in`, keys(), items() and iteration over the dict _named()."""
+
+    def __getitem__(self, name):
+        return self._named()[name]
+
+    def __contains__(self, name):
+        return name in self._named()
+
+    def keys(self):
+        return self._named().keys()
+
+    def items(self):
+        return self._named().items()
+
+    def __iter__(self):
+        return iter(self._named())
+
+
+class ParameterOutputs(_Named):
     """The values in effect after ParameterBlock.update(): by attribute,
     item or as a dict."""
 
     def __init__(self, values):
         self._values = values
 
+    def _named(self):
+        return self._values
+
     def __getattr__(self, name):
         try:
             return self.__dict__["_values"][name]
         except KeyError:
             raise AttributeError(name)
-
-    def __getitem__(self, name):
-        return self._values[name]
-
-    def __contains__(self, name):
-        return name in self._values
-
-    def keys(self):
-        return self._values.keys()
-
-    def items(self):
-        return self._values.items()
 
     def get(self, name, default=None):
         return self._values.get(name, default)
@@ -596,7 +606,7 @@ class ParameterSignal:
         return "<ln.ParameterSignal %r dtype=%s shape=%r>" % (self.name, self.dtype, self.shape)
 
 
-class ParameterBlock:
+class ParameterBlock(_Named):
     """Parameters this program provides under `parameter_group_name`
     (client.parameter_block()). add() every parameter, register(), then call
     update() once per loop iteration: it publishes the inputs and returns
@@ -719,20 +729,8 @@ class ParameterBlock:
         with self.lock:
             return _unpack(self._bridge.output(signal._index), signal.dtype, signal.shape)
 
-    def __getitem__(self, name):
-        return self._signals[name]
-
-    def __contains__(self, name):
-        return name in self._signals
-
-    def keys(self):
-        return self._signals.keys()
-
-    def items(self):
-        return self._signals.items()
-
-    def __iter__(self):
-        return iter(self._signals)
+    def _named(self):
+        return self._signals
 
     def __repr__(self):
         return "<ln.ParameterBlock %r signals=%r registered=%r>" % (

@@ -298,9 +298,13 @@ bool parse_binary_type_string(std::string_view text, ElementType& type, Shape& s
   return true;
 }
 
-void to_row_major(const void* from, void* to, ElementType type, const Shape& shape, bool from_row_major) {
+namespace {
+
+// Copies a value between row-major and column-major order (or just copies
+// it when `transpose` is false or it has fewer than two dimensions).
+void copy_layout(const void* from, void* to, ElementType type, const Shape& shape, bool transpose, bool to_row) {
   const std::size_t size = info(type).size;
-  if (from_row_major || shape.dims.size() != 2) {
+  if (!transpose || shape.dims.size() != 2) {
     std::memcpy(to, from, shape.elements() * size);
     return;
   }
@@ -308,20 +312,20 @@ void to_row_major(const void* from, void* to, ElementType type, const Shape& sha
   const auto* in = static_cast<const std::uint8_t*>(from);
   auto* out = static_cast<std::uint8_t*>(to);
   for (std::size_t r = 0; r < rows; ++r)
-    for (std::size_t c = 0; c < columns; ++c) std::memcpy(out + (r * columns + c) * size, in + (c * rows + r) * size, size);
+    for (std::size_t c = 0; c < columns; ++c) {
+      const std::size_t row_major = (r * columns + c) * size, column_major = (c * rows + r) * size;
+      std::memcpy(out + (to_row ? row_major : column_major), in + (to_row ? column_major : row_major), size);
+    }
+}
+
+}  // namespace
+
+void to_row_major(const void* from, void* to, ElementType type, const Shape& shape, bool from_row_major) {
+  copy_layout(from, to, type, shape, !from_row_major, true);
 }
 
 void from_row_major(const void* from, void* to, ElementType type, const Shape& shape, bool to_row_major) {
-  const std::size_t size = info(type).size;
-  if (to_row_major || shape.dims.size() != 2) {
-    std::memcpy(to, from, shape.elements() * size);
-    return;
-  }
-  const std::size_t rows = shape.dims[0], columns = shape.dims[1];
-  const auto* in = static_cast<const std::uint8_t*>(from);
-  auto* out = static_cast<std::uint8_t*>(to);
-  for (std::size_t r = 0; r < rows; ++r)
-    for (std::size_t c = 0; c < columns; ++c) std::memcpy(out + (c * rows + r) * size, in + (r * columns + c) * size, size);
+  copy_layout(from, to, type, shape, !to_row_major, false);
 }
 
 // ---------------------------------------------------------------- elements
