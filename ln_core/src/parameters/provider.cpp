@@ -94,7 +94,7 @@ struct BlockState {
   std::uint64_t steps = 0;
 };
 
-class Server : public std::enable_shared_from_this<Server> {
+class Server {
  public:
   static std::shared_ptr<Server> of(ln_client clnt);
   static void forget(ln_client clnt);
@@ -155,6 +155,24 @@ class Server : public std::enable_shared_from_this<Server> {
   std::vector<Deferred> deferred_;
   ln_service services_[4] = {};
   std::mutex topics_mutex_;  // one topic set-up at a time
+  // Handlers running: close() lets them answer before it ends the services
+  // (ending them closes the callers' connections at once).
+  int handlers_running_ = 0;
+  std::condition_variable handlers_done_;
+
+ public:
+  /// Marks a handler as running for its whole lifetime.
+  struct Handling {
+    Server& server;
+    explicit Handling(Server& s) : server(s) {
+      std::lock_guard<std::mutex> lock(server.mutex_);
+      ++server.handlers_running_;
+    }
+    ~Handling() {
+      std::lock_guard<std::mutex> lock(server.mutex_);
+      if (--server.handlers_running_ == 0) server.handlers_done_.notify_all();
+    }
+  };
 };
 
 // ------------------------------------------------------------- registry
@@ -259,7 +277,11 @@ void Server::close() {
     ln_parameters_override_dict_single_t data{};
     respond_override(d.request, data, "the parameter provider is shutting down");
   }
-  // Waits for running handlers (a handler waiting for a step saw closed_).
+  {
+    // Handlers waiting for a step saw closed_ and answer now.
+    std::unique_lock<std::mutex> lock(mutex_);
+    handlers_done_.wait(lock, [this] { return handlers_running_ == 0; });
+  }
   for (ln_service& service : services_)
     if (service != nullptr) ln_service_deinit(&service);
   std::lock_guard<std::mutex> topics(topics_mutex_);
@@ -480,15 +502,13 @@ std::string_view request_text(const char* text, std::uint32_t len) {
   return text != nullptr ? std::string_view(text, len) : std::string_view();
 }
 
-// The server behind a handler's user_data, unless it is being destroyed.
-std::shared_ptr<Server> alive(void* self);
-
 }  // namespace
 
 int Server::on_query(ln_client, ln_service_request req, void* self_) {
   ln_parameters_query_t data{};
   if (ln_service_request_set_data(req, &data, LN_PARAMETERS_QUERY_SIGNATURE) != 0) return -LNE_SVC_RECV_REQ;
   auto* self = static_cast<Server*>(self_);
+  const Handling handling(*self);
   struct Row {
     std::string name, data_type;
     std::vector<std::uint8_t> output, input;
@@ -528,6 +548,7 @@ int Server::on_query_dict(ln_client, ln_service_request req, void* self_) {
   ln_parameters_query_dict_t data{};
   if (ln_service_request_set_data(req, &data, LN_PARAMETERS_QUERY_DICT_SIGNATURE) != 0) return -LNE_SVC_RECV_REQ;
   auto* self = static_cast<Server*>(self_);
+  const Handling handling(*self);
   std::string text = "{\n";
   {
     std::lock_guard<std::mutex> lock(self->mutex_);
@@ -559,8 +580,10 @@ int Server::on_override(ln_client, ln_service_request req, void* self_) {
   ln_parameters_override_dict_single_t data{};
   if (ln_service_request_set_data(req, &data, LN_PARAMETERS_OVERRIDE_DICT_SINGLE_SIGNATURE) != 0)
     return -LNE_SVC_RECV_REQ;
-  const std::shared_ptr<Server> self = alive(self_);
-  if (!self) return respond_override(req, data, "the parameter provider is shutting down");
+  // No owning reference here: the last one must not go in a handler
+  // thread. ~Server waits in close() for running handlers, which see closed_.
+  auto* self = static_cast<Server*>(self_);
+  const Handling handling(*self);
   return self->override(req, data);
 }
 
@@ -656,14 +679,13 @@ int Server::on_request_topic(ln_client, ln_service_request req, void* self_) {
   ln_parameters_request_parameter_topic_t data{};
   if (ln_service_request_set_data(req, &data, LN_PARAMETERS_REQUEST_PARAMETER_TOPIC_SIGNATURE) != 0)
     return -LNE_SVC_RECV_REQ;
-  const std::shared_ptr<Server> self = alive(self_);
-  std::string error = "the parameter provider is shutting down";
-  if (self) {
-    try {
-      return self->request_topic(req, data);
-    } catch (const std::exception& e) {
-      error = e.what();
-    }
+  auto* self = static_cast<Server*>(self_);
+  const Handling handling(*self);
+  std::string error;
+  try {
+    return self->request_topic(req, data);
+  } catch (const std::exception& e) {
+    error = e.what();
   }
   data.resp.error_len = static_cast<std::uint32_t>(error.size());
   data.resp.error = error.data();
@@ -717,14 +739,6 @@ int Server::request_topic(ln_service_request req, ln_parameters_request_paramete
   return ln_service_request_respond(req);
 }
 
-namespace {
-
-std::shared_ptr<Server> alive(void* self) {
-  // weak_from_this(): empty while ~Server waits for this very handler.
-  return static_cast<Server*>(self)->weak_from_this().lock();
-}
-
-}  // namespace
 
 // ----------------------------------------------------------------- block
 
