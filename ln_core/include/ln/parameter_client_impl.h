@@ -3,8 +3,14 @@
 #ifndef LN_PARAMETER_CLIENT_IMPL_H
 #define LN_PARAMETER_CLIENT_IMPL_H
 
+// <cmath>, <exception>, <iomanip>, <limits>, <sstream>: LN 2.9's version brings them in.
 #include <array>
+#include <cmath>
 #include <cstring>
+#include <exception>
+#include <iomanip>
+#include <limits>
+#include <sstream>
 #include <stdexcept>
 #include <type_traits>
 #include <utility>

@@ -23,9 +23,15 @@
 #ifndef LN_PARAMETERS_H
 #define LN_PARAMETERS_H
 
+// The standard headers LN 2.9's version brings in, for programs that rely on them.
+#include <cassert>
+#include <condition_variable>
 #include <cstdint>
 #include <functional>
+#include <list>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <stdexcept>
 #include <string>
 #include <type_traits>

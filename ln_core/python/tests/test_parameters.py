@@ -72,6 +72,11 @@ def make_block(provider, group, **extra):
     return block.register()
 
 
+def test_ln29_names():
+    assert (ln.LN_PARAM_DOUBLE, ln.LN_PARAM_SINGLE, ln.LN_PARAM_BOOLEAN, ln.LN_PARAM_UINT64) == (0, 1, 8, 10)
+    assert ln.ParameterBlock and ln.ParameterSignal and ln.ParameterOutputs and ln.parameters_proxy
+
+
 def test_block_values_types_and_outputs(provider, unique):
     block = make_block(provider, "b" + unique)
     assert (block.gain.dtype, block.n.dtype, block.vec.dtype, block.mat.dtype, block.flag.dtype) == (
