@@ -48,6 +48,17 @@ void write_as(void* p, T v) {
   std::memcpy(p, &v, sizeof v);
 }
 
+// The low `size` bytes of `bits`: an unsigned value, or a signed one in
+// two's complement.
+void write_integer(void* p, std::size_t size, std::uint64_t bits) {
+  switch (size) {
+    case 1: write_as<std::uint8_t>(p, static_cast<std::uint8_t>(bits)); break;
+    case 2: write_as<std::uint16_t>(p, static_cast<std::uint16_t>(bits)); break;
+    case 4: write_as<std::uint32_t>(p, static_cast<std::uint32_t>(bits)); break;
+    default: write_as<std::uint64_t>(p, bits);
+  }
+}
+
 std::string range_text(ElementType type) {
   const std::size_t size = info(type).size;
   switch (info(type).kind) {
@@ -394,12 +405,7 @@ std::string store_element(ElementType type, const Scalar& value, void* p) {
   if (t.kind == ElementKind::Unsigned) {
     if ((negative && magnitude != 0) || magnitude > unsigned_max(size))
       return scalar_text(value) + " does not fit " + range_text(type);
-    switch (size) {
-      case 1: write_as<std::uint8_t>(p, static_cast<std::uint8_t>(magnitude)); break;
-      case 2: write_as<std::uint16_t>(p, static_cast<std::uint16_t>(magnitude)); break;
-      case 4: write_as<std::uint32_t>(p, static_cast<std::uint32_t>(magnitude)); break;
-      default: write_as<std::uint64_t>(p, magnitude);
-    }
+    write_integer(p, size, magnitude);
     return "";
   }
   const std::uint64_t limit = negative ? static_cast<std::uint64_t>(-(signed_min(size) + 1)) + 1
@@ -407,12 +413,7 @@ std::string store_element(ElementType type, const Scalar& value, void* p) {
   if (magnitude > limit) return scalar_text(value) + " does not fit " + range_text(type);
   const std::int64_t v = negative ? (magnitude == (std::uint64_t{1} << 63) ? INT64_MIN : -static_cast<std::int64_t>(magnitude))
                                   : static_cast<std::int64_t>(magnitude);
-  switch (size) {
-    case 1: write_as<std::int8_t>(p, static_cast<std::int8_t>(v)); break;
-    case 2: write_as<std::int16_t>(p, static_cast<std::int16_t>(v)); break;
-    case 4: write_as<std::int32_t>(p, static_cast<std::int32_t>(v)); break;
-    default: write_as<std::int64_t>(p, v);
-  }
+  write_integer(p, size, static_cast<std::uint64_t>(v));
   return "";
 }
 
