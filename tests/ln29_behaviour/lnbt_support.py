@@ -21,6 +21,7 @@ import shutil
 import signal
 import socket
 import subprocess
+import sys
 import threading
 import time
 import uuid
@@ -32,8 +33,8 @@ REPO_ROOT = HERE.parent.parent
 PROGRAMS_DIR = HERE / "programs"
 MSGDEFS_DIR = HERE / "msgdefs"
 OUR_SOURCE_INCLUDE_DIR = REPO_ROOT / "ln_core" / "include"
-PROGRAMS = ("lnbt_probe", "lnbt_publisher", "lnbt_subscriber", "lnbt_services")
-MESSAGES = ("lnbt/counter", "lnbt/other", "lnbt/echo")
+PROGRAMS = ("lnbt_probe", "lnbt_publisher", "lnbt_subscriber", "lnbt_services", "lnbt_parameters")
+MESSAGES = ("lnbt/counter", "lnbt/other", "lnbt/echo", "ln/parameters/query", "ln/parameters/query_dict")
 
 IN_CI = bool(os.environ.get("CI"))
 #: Marks the environment of every process of this run, so that the LN 2.9
@@ -241,6 +242,23 @@ def run(argv, env, timeout=PROGRAM_TIMEOUT, cwd=None) -> Program:
     program = Program(argv, env, cwd=cwd)
     program.finish(timeout)
     return program
+
+
+def python_for(system: System) -> tuple[list[str], dict[str, str]] | MissingPrerequisite:
+    """How to run a Python script against `system`: (interpreter argv,
+    environment additions) - LN 2.9's venv python, or this interpreter with
+    ln_core's links_and_nodes (next to its libln.so) on PYTHONPATH."""
+    if system.is_reference:
+        python = system.ln_manager.parent / "python"
+        if not python.exists():
+            return MissingPrerequisite(f"no python next to {system.ln_manager}")
+        return [str(python)], {}
+    candidates = [system.lib_dir / "python"] + sorted(Path(p) for p in glob.glob(
+        str(system.lib_dir / "python3*" / "site-packages")))
+    for directory in candidates:
+        if (directory / "links_and_nodes" / "__init__.py").is_file():
+            return [sys.executable], {"PYTHONPATH": str(directory)}
+    return MissingPrerequisite(f"ln_core's links_and_nodes not found below {system.lib_dir}")
 
 
 # --------------------------------------------------------------- building

@@ -70,8 +70,10 @@ nb::dict as_dict(const ln_manager_status& status) {
   return d;
 }
 
+}  // namespace
+
 // Raises links_and_nodes.LNError as the rest of the module does: (message, code, 0).
-[[noreturn]] void raise(nb::handle ln_error, int ret, const std::string& what, ln_client handle) {
+[[noreturn]] void raise_ln_error(nb::handle ln_error, int ret, const std::string& what, ln_client handle) {
   std::string message = what + ": " + ln_format_error(ret);
   const char* detail = ln_get_error_message(handle);
   if (detail != nullptr && *detail != '\0') message += ": " + std::string(detail);
@@ -80,6 +82,8 @@ nb::dict as_dict(const ln_manager_status& status) {
   Py_XDECREF(args);
   throw nb::python_error();
 }
+
+namespace {
 
 // One ln_list_* call with the GIL released, its rows as dicts.
 template <typename Row>
@@ -94,7 +98,7 @@ nb::list list_of(WithClient with_client, nb::handle ln_error, nb::handle client,
       nb::gil_scoped_release release;
       ret = list(handle, &rows, &count);
     }
-    if (ret < 0) raise(ln_error, ret, what, handle);
+    if (ret < 0) raise_ln_error(ln_error, ret, what, handle);
     const std::unique_ptr<Row, FreeList> owned(rows);
     for (unsigned int i = 0; i < count; ++i) out.append(as_dict(rows[i]));
   });
@@ -134,7 +138,7 @@ void register_introspection(nb::module_& module, WithClient with_client) {
             nb::gil_scoped_release release;
             ret = ln_get_manager_status(handle, &status);
           }
-          if (ret < 0) raise(ln_error, ret, "get_manager_status", handle);
+          if (ret < 0) raise_ln_error(ln_error, ret, "get_manager_status", handle);
           const std::unique_ptr<ln_manager_status, FreeList> owned(status);
           out = as_dict(*status);
         });

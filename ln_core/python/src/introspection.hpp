@@ -5,6 +5,7 @@
 #pragma once
 
 #include <functional>
+#include <string>
 
 #include <nanobind/nanobind.h>
 
@@ -15,6 +16,10 @@ namespace lnpy {
 /// Runs `body` with the ln_client of `client` (a links_and_nodes._ln.Client)
 /// while a concurrent close() waits; raises LNError if it is closed.
 using WithClient = void (*)(nanobind::handle client, const std::function<void(ln_client)>& body);
+
+/// Raises `ln_error` (links_and_nodes.LNError) for a failed call: (message
+/// with the detail of ln_get_error_message(handle), code, 0).
+[[noreturn]] void raise_ln_error(nanobind::handle ln_error, int ret, const std::string& what, ln_client handle);
 
 /// Adds list_topics(client), list_clients(client), list_services(client)
 /// (lists of dicts) and manager_status(client) (a dict) to `module`, whose

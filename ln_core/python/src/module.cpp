@@ -29,6 +29,7 @@
 
 #include "ln/ln.h"
 #include "introspection.hpp"
+#include "parameters.hpp"
 #include "model.hpp"
 
 namespace nb = nanobind;
@@ -1334,9 +1335,11 @@ NB_MODULE(_ln, m) {
       .def("get_fd", &Service::get_fd)
       .def("release", &Service::release);
 
-  register_introspection(m, [](nb::handle client, const std::function<void(ln_client)>& body) {
+  const WithClient with_client = [](nb::handle client, const std::function<void(ln_client)>& body) {
     Client& native = nb::cast<Client&>(client);
     Use use(*native.state());
     body(native.handle());
-  });
+  };
+  register_introspection(m, with_client);
+  register_parameters(m, with_client);
 }

@@ -22,6 +22,7 @@ import pytest
 HERE = os.path.dirname(os.path.abspath(__file__))
 MSGDEFS = os.path.join(HERE, "msgdefs")
 LN_CORE = os.path.dirname(os.path.dirname(HERE))
+BUILTIN_MSGDEFS = os.path.join(LN_CORE, "share", "message_definitions")
 
 
 def _find(env, patterns):
@@ -88,9 +89,8 @@ class Manager:
         self.log.close()
 
 
-@pytest.fixture(scope="module")
-def manager(tmp_path_factory):
-    m = Manager(tmp_path_factory.mktemp("manager"))
+def _running_manager(tmp_path_factory, md_dirs):
+    m = Manager(tmp_path_factory.mktemp("manager"), md_dirs)
     saved = os.environ.get("LN_MANAGER")
     os.environ["LN_MANAGER"] = m.address
     yield m
@@ -99,6 +99,18 @@ def manager(tmp_path_factory):
     else:
         os.environ["LN_MANAGER"] = saved
     m.stop()
+
+
+@pytest.fixture(scope="module")
+def manager(tmp_path_factory):
+    yield from _running_manager(tmp_path_factory, (MSGDEFS,))
+
+
+@pytest.fixture(scope="module")
+def builtins_manager(tmp_path_factory):
+    """A manager that also searches the source tree's built-in definitions
+    (ln/parameters/*, ...), not only the installed ones."""
+    yield from _running_manager(tmp_path_factory, (MSGDEFS, BUILTIN_MSGDEFS))
 
 
 @pytest.fixture
