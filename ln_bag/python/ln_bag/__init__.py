@@ -1,0 +1,1 @@
+"""ln_bag: MCAP recordings of LN systems."""
