@@ -26,10 +26,13 @@ double monotonic_seconds() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
-/// An LN timestamp (seconds) as MCAP nanoseconds; 0 where it has none.
+/// An LN timestamp (seconds) as MCAP nanoseconds, the nearest nanosecond (the
+/// whole seconds apart: seconds * 1e9 as one double would be off by up to
+/// 128 ns); 0 where it has none.
 std::uint64_t timestamp_ns(double seconds) {
   if (!(seconds > 0) || !std::isfinite(seconds) || seconds >= 1.8e10) return 0;
-  return static_cast<std::uint64_t>(std::llround(seconds * 1e9));
+  const double whole = std::floor(seconds);
+  return static_cast<std::uint64_t>(whole) * 1000000000u + static_cast<std::uint64_t>(std::llround((seconds - whole) * 1e9));
 }
 
 std::string ln_failure(ln_client client, int code) {

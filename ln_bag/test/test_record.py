@@ -9,6 +9,7 @@ import subprocess
 import sys
 import threading
 import time
+from fractions import Fraction
 
 import links_and_nodes as ln
 from bag_readers import mcap_messages, mcap_stream, rosbags_messages
@@ -122,7 +123,7 @@ def test_records_every_message_with_its_ln_definition(manager, unique, tmp_path)
     assert metadata["ln.text"] == md_text("bagtest/pose")
     assert json.loads(metadata["ln.uses"]) == {"bagtest/vec3": md_text("bagtest/vec3")}
     for i, m in enumerate(poses):
-        assert m.publish_time == round((EPOCH + i / 1000.0) * 1e9)  # the LN timestamp
+        assert m.publish_time == round(Fraction(EPOCH + i / 1000.0) * 10**9)  # the LN timestamp, to the ns
         assert abs(m.log_time / 1e9 - time.time()) < 120            # when it was received
         d = m.decoded
         assert (d.time, d.counter, d.position.x, d.position.y, d.position.z) == (i * 0.01, i, i, -i, 0.5)

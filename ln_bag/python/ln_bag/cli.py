@@ -85,6 +85,10 @@ def register(groups, common):
                    help="skip this much of the recording's beginning")
     p.add_argument("--wait", type=_seconds, default=1.0, metavar="SECONDS",
                    help="wait up to this long for subscribers of every topic before playing (default 1)")
+    p.add_argument("--capacity", action="append", default=[], metavar="TYPE.FIELD=N",
+                   help="for ROS types played through their LN form: room for N elements (bytes of a string) "
+                        "in a string or sequence field, e.g. sensor_msgs/msg/Image.data=6220800 (default 64 "
+                        "elements, 255 bytes)")
     p.set_defaults(run=_lazy("play"))
 
     group = groups.add_parser("bag", help="inspect and convert recordings",
