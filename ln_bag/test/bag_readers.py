@@ -73,7 +73,9 @@ def rosbags_messages(bag_dir):
     with Reader(bag_dir) as reader:
         types = {}
         for connection in reader.connections:
-            types.update(get_types_from_msg(connection.msgdef.data, connection.msgtype))
+            found = get_types_from_msg(connection.msgdef.data, connection.msgtype)
+            # rosbags files "pkg/srv/X_Request" (a service part, a real ROS type name) as "pkg/srv/msg/X_Request"
+            types.update({name.replace("/srv/msg/", "/srv/"): t for name, t in found.items()})
         store.register(types)
         for connection, timestamp, raw in reader.messages():
             out.append((connection.topic, connection.msgtype, timestamp,

@@ -17,6 +17,7 @@ where no ROS package and no LN definition file exists:
 """
 
 import json
+import math
 
 from msg_mapping.names import ros_name_for
 
@@ -91,3 +92,19 @@ def mapping_from_metadata(metadata, where):
         raise BagError("%s: the recorded text of '%s' has hash %s, but the channel says %s"
                        % (where, metadata[DEFINITION], mapping.ln_hash, metadata[HASH]))
     return mapping
+
+
+def ns_from_seconds(seconds):
+    """LN's double seconds as MCAP nanoseconds, the nearest one (the whole seconds
+    apart: one product with 1e9 would be off by up to 128 ns); 0 where there is none."""
+    if not seconds > 0 or not math.isfinite(seconds) or seconds >= 1.8e10:
+        return 0
+    whole = math.floor(seconds)
+    return whole * 10**9 + round((seconds - whole) * 1e9)
+
+
+def seconds_from_ns(ns):
+    """MCAP nanoseconds as LN's double seconds, the nearest double (so the LN
+    timestamp a publish_time came from comes back exactly)."""
+    whole, rest = divmod(ns, 10**9)
+    return whole + rest / 1e9

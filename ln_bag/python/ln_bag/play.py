@@ -26,7 +26,7 @@ from links_and_nodes.cli.output import human_duration
 from msg_mapping.names import ln_name_for
 
 from ._native import BagError, TopicMapping
-from .channels import TOPIC, is_ln_channel, mapping_from_metadata
+from .channels import TOPIC, is_ln_channel, mapping_from_metadata, seconds_from_ns
 from .info import mcap_files
 from .reading import Recording
 
@@ -242,18 +242,11 @@ class Player:
                               % (channel.topic, str(error).splitlines()[0]))
                 bad[channel.topic] = bad.get(channel.topic, 0) + 1
                 continue
-            stamp = seconds(message.publish_time) if message.publish_time else None
+            stamp = seconds_from_ns(message.publish_time) if message.publish_time else None
             topic[3].port.write(packet, stamp)
             topic[4] += 1
             progress.count += 1
         return True
-
-
-def seconds(ns):
-    """Nanoseconds as LN's double seconds, the nearest double: the LN timestamp a
-    recording's publish_time came from, exactly."""
-    whole, rest = divmod(ns, 10**9)
-    return whole + rest / 1e9
 
 
 class Progress:
