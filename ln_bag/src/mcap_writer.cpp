@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
+#include <chrono>
 #include <condition_variable>
 #include <cstring>
 #include <deque>
@@ -208,6 +209,7 @@ struct McapWriter::Impl {
         changed.notify_all();
         if (!error.empty()) continue;  // after an error nothing more reaches the file
       }
+      const auto began = std::chrono::steady_clock::now();
       std::uint8_t* bytes = blob.bytes.data();
       store_le<std::uint32_t>(bytes + chunk_crc_at, crc(0, bytes + chunk_header_size, blob.records_size));
       if (!write_all(bytes, blob.bytes.size())) {
@@ -228,10 +230,12 @@ struct McapWriter::Impl {
         end_time = std::max(end_time, blob.end_time);
       }
       file_offset += blob.bytes.size();
+      const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count();
       std::lock_guard<std::mutex> lock(mutex);
       written.messages += blob.messages;
       written.chunks += 1;
       written.file_bytes = file_offset;
+      written.write_seconds += took;
       if (spare.size() < 4) {
         blob.bytes.clear();
         spare.push_back(std::move(blob.bytes));

@@ -100,6 +100,7 @@ NB_MODULE(_native, m) {
                      d["messages"] = s.messages;
                      d["chunks"] = s.chunks;
                      d["file_bytes"] = s.file_bytes;
+                     d["write_seconds"] = s.write_seconds;
                      return d;
                    })
       .def_prop_ro("error", &McapWriter::error)

@@ -54,6 +54,7 @@ struct WrittenStats {
   std::uint64_t messages = 0;
   std::uint64_t chunks = 0;
   std::uint64_t file_bytes = 0;  ///< the size of the file so far
+  double write_seconds = 0;      ///< time the I/O thread spent writing (and checksumming) chunks
 };
 
 class McapWriter {

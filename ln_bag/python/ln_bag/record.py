@@ -222,7 +222,7 @@ def run(cli):
         failure = str(error)
     if bag_dir and not failure:
         rosbag2.write_metadata(bag_dir, path)
-    report(cli, path, bag_dir, seconds, stats, session, interrupted)
+    report(cli, path, bag_dir, seconds, stats, session, interrupted, session.writer.written)
     if failure:
         raise CliError(failure)
     return 0
@@ -232,9 +232,10 @@ def _interrupt(signum, frame):
     raise KeyboardInterrupt
 
 
-def report(cli, path, bag_dir, seconds, stats, session, interrupted):
+def report(cli, path, bag_dir, seconds, stats, session, interrupted, written):
     out = cli.out
     summary = {"file": path, "rosbag2": bag_dir, "seconds": round(seconds, 3), "interrupted": interrupted,
+               "file_bytes": written["file_bytes"], "write_seconds": round(written["write_seconds"], 6),
                "messages": sum(s["messages"] for s in stats), "bytes": sum(s["bytes"] for s in stats),
                "lost": sum(s["lost"] for s in stats),
                "topics": [dict(s, type=session.topics.get(s["topic"], "")) for s in stats],
