@@ -149,6 +149,17 @@ NB_MODULE(_native, m) {
           nb::arg("chunk_seconds") = RecorderOptions{}.chunk_seconds, nb::keep_alive<1, 2>())
       .def("add_topic", &Recorder::add_topic, nb::arg("topic"), nb::arg("ros_topic"), nb::arg("mapping"),
            nb::arg("metadata"), nb::arg("buffers"), nb::call_guard<nb::gil_scoped_release>())
+      .def("add_channel", &Recorder::add_channel, nb::arg("ros_topic"), nb::arg("mapping"), nb::arg("metadata"),
+           nb::call_guard<nb::gil_scoped_release>())
+      .def(
+          "post_message",
+          [](Recorder& r, std::uint16_t channel, std::uint32_t sequence, std::uint64_t log_time,
+             std::uint64_t publish_time, nb::bytes data) {
+            std::string copy(data.c_str(), data.size());
+            nb::gil_scoped_release release;
+            r.post_message(channel, sequence, log_time, publish_time, std::move(copy));
+          },
+          nb::arg("channel_id"), nb::arg("sequence"), nb::arg("log_time"), nb::arg("publish_time"), nb::arg("data"))
       .def("start", &Recorder::start)
       .def("wait", &Recorder::wait, nb::arg("timeout"), nb::call_guard<nb::gil_scoped_release>())
       .def("stop", &Recorder::stop, nb::call_guard<nb::gil_scoped_release>())

@@ -114,15 +114,38 @@ struct Recorder::Impl {
       ln_unsubscribe(&topic->port);
       throw BagError("topic '" + name + "': " + ln_failure(client, r));
     }
-    const std::string schema_key = mapping.ros_type() + '\n' + mapping.schema();
-    auto schema = schemas.find(schema_key);
-    if (schema == schemas.end())
-      schema = schemas.emplace(schema_key, writer.add_schema(mapping.ros_type(), ros2msg_encoding, mapping.schema())).first;
-    topic->channel = writer.add_channel(schema->second, ros_topic, "cdr", metadata);
+    topic->channel = channel_for(ros_topic, mapping, metadata);
     const std::uint16_t channel = topic->channel;
     std::lock_guard<std::mutex> lock(mutex);
     topics.push_back(std::move(topic));
     return channel;
+  }
+
+  // A channel of `mapping`'s ROS type (its schema added once).
+  std::uint16_t channel_for(const std::string& ros_topic, const TopicMapping& mapping,
+                            const std::map<std::string, std::string>& metadata) {
+    const std::string schema_key = mapping.ros_type() + '\n' + mapping.schema();
+    auto schema = schemas.find(schema_key);
+    if (schema == schemas.end())
+      schema = schemas.emplace(schema_key, writer.add_schema(mapping.ros_type(), ros2msg_encoding, mapping.schema())).first;
+    return writer.add_channel(schema->second, ros_topic, "cdr", metadata);
+  }
+
+  // Runs `work` in the recording thread once it runs (at once before), waiting for it or not.
+  void in_recording_thread(std::function<void()> work, bool wait) {
+    Command command{std::move(work), {}};
+    std::future<void> done = command.done.get_future();
+    {
+      std::unique_lock<std::mutex> lock(mutex);
+      if (finished) throw BagError("the recording has ended" + (error.empty() ? "" : ": " + error));
+      if (running) {
+        commands.push_back(std::move(command));
+      } else {
+        lock.unlock();
+        command.run();
+      }
+    }
+    if (wait) done.get();  // rethrows the command's BagError
   }
 
   // Records every packet the topic has; returns how many.
@@ -204,6 +227,7 @@ struct Recorder::Impl {
           if (topics.empty()) std::this_thread::sleep_for(std::chrono::duration<double>(wait));
         }
       }
+      run_commands();  // what was posted before the end still goes in
       writer.flush_chunk();
     } catch (const std::exception& e) {
       failure = e.what();
@@ -245,20 +269,27 @@ std::uint16_t Recorder::add_topic(const std::string& topic, const std::string& r
                                   const std::map<std::string, std::string>& metadata, unsigned buffers) {
   Impl& m = *impl_;
   std::uint16_t channel = 0;
-  Command command{[&] { channel = m.subscribe(topic, ros_topic, mapping, metadata, buffers); }, {}};
-  std::future<void> done = command.done.get_future();
-  {
-    std::unique_lock<std::mutex> lock(m.mutex);
-    if (m.finished) throw BagError("the recording has ended" + (m.error.empty() ? "" : ": " + m.error));
-    if (m.running) {
-      m.commands.push_back(std::move(command));
-    } else {
-      lock.unlock();
-      command.run();
-    }
-  }
-  done.get();  // rethrows the command's BagError
+  m.in_recording_thread([&] { channel = m.subscribe(topic, ros_topic, mapping, metadata, buffers); }, true);
   return channel;
+}
+
+std::uint16_t Recorder::add_channel(const std::string& ros_topic, const TopicMapping& mapping,
+                                    const std::map<std::string, std::string>& metadata) {
+  Impl& m = *impl_;
+  std::uint16_t channel = 0;
+  m.in_recording_thread([&] { channel = m.channel_for(ros_topic, mapping, metadata); }, true);
+  return channel;
+}
+
+void Recorder::post_message(std::uint16_t channel_id, std::uint32_t sequence, std::uint64_t log_time,
+                            std::uint64_t publish_time, std::string data) {
+  Impl& m = *impl_;
+  m.in_recording_thread(
+      [&m, channel_id, sequence, log_time, publish_time, data = std::move(data)] {
+        m.writer.add_message(channel_id, sequence, log_time, publish_time, data.data(), data.size());
+        m.total.fetch_add(1, std::memory_order_relaxed);
+      },
+      false);
 }
 
 void Recorder::start() {

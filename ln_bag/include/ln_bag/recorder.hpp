@@ -63,6 +63,15 @@ class Recorder {
   std::uint16_t add_topic(const std::string& topic, const std::string& ros_topic, const TopicMapping& mapping,
                           const std::map<std::string, std::string>& metadata, unsigned buffers);
 
+  /// Adds a channel that is not a subscription (e.g. service calls, see
+  /// post_message()); the schema once per ROS type. Returns its id.
+  std::uint16_t add_channel(const std::string& ros_topic, const TopicMapping& mapping,
+                            const std::map<std::string, std::string>& metadata);
+  /// Queues a message of a channel of add_channel() for the recording thread
+  /// (which owns the writer); returns at once.
+  void post_message(std::uint16_t channel_id, std::uint32_t sequence, std::uint64_t log_time,
+                    std::uint64_t publish_time, std::string data);
+
   /// Starts the recording thread.
   void start();
   /// Waits up to `timeout` seconds (< 0: without limit) for the recording to

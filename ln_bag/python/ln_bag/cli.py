@@ -65,6 +65,9 @@ def register(groups, common):
     p.add_argument("--buffers", type=_positive_int, metavar="N",
                    help="subscription buffers per topic (default: half a second of its traffic, 16 at least, "
                         "32 MiB at most)")
+    p.add_argument("--services", action="store_true",
+                   help="also record every service call (request and response; --exclude applies) on the "
+                        "channels SERVICE/_request and SERVICE/_response, through the manager's service logging")
     p.add_argument("--overwrite", action="store_true", help="replace an existing FILE")
     p.set_defaults(run=_lazy("record"))
 

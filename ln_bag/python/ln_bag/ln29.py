@@ -225,15 +225,21 @@ def read_pcap(path):
             # 3 (topic gone) and 4 (service peer) carry nothing a conversion needs
 
 
-def _call(key, item_type, flags, stamp, completion, request_id, client_id, payload, order, where):
-    """A Call from a service event's payload: uint32 total length, then the
-    request (after the call header when flags say so) or status + response."""
-    if len(payload) < 4 or struct.unpack(order + "I", payload[:4])[0] != len(payload):
+def call_payload(item_type, flags, payload, where, order="<"):
+    """(part, LN flat bytes) of what LN's service logging carries for a call
+    (lnrecorder's service events, ln/log_service's data): uint32 total length,
+    then the request (after the call header when flags say so) or the status
+    and the response."""
+    if len(payload) < 4 or struct.unpack(order + "I", bytes(payload[:4]))[0] != len(payload):
         raise BagError("%s: a service event whose length field does not match its %d bytes" % (where, len(payload)))
     if item_type == 0:
-        return Call(key, "request", stamp, completion, request_id, client_id,
-                    payload[4 + (CALL_HEADER_SIZE if flags & HAS_CALL_HEADER else 0):])
-    return Call(key, "response", stamp, completion, request_id, client_id, payload[8:])
+        return "request", bytes(payload[4 + (CALL_HEADER_SIZE if flags & HAS_CALL_HEADER else 0):])
+    return "response", bytes(payload[8:])
+
+
+def _call(key, item_type, flags, stamp, completion, request_id, client_id, payload, order, where):
+    part, data = call_payload(item_type, flags, payload, where, order)
+    return Call(key, part, stamp, completion, request_id, client_id, data)
 
 
 # ------------------------------------------------------------------------ lnrdb

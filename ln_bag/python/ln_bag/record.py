@@ -19,7 +19,8 @@ from msg_mapping.manager import load_fetching
 
 from . import rosbag2
 from ._native import BagError, McapWriter, Recorder, TopicMapping
-from .channels import channel_metadata, ros_topic_for
+from .channels import channel_metadata, ns_from_seconds, ros_topic_for
+from .ln29 import call_payload
 
 #: Subscriptions hold this much of a topic's traffic (at the rate the manager measured) ...
 BUFFER_SECONDS = 0.5
@@ -52,6 +53,9 @@ class Selection:
             return False
         return self.everything or any(fnmatch.fnmatchcase(topic, p) for p in self.patterns)
 
+    def wants_service(self, service):
+        return not any(fnmatch.fnmatchcase(service, e) for e in self.excludes)
+
     def missing(self, seen):
         """Exact names given that the manager does not list yet."""
         return [p for p in self.patterns if not any(c in p for c in "*?[") and p not in seen]
@@ -65,10 +69,11 @@ class Definitions:
         self.texts = {}
         self.fetched = set()
 
-    def mapping(self, md_name):
+    def mapping(self, md_name, part=""):
         def fetch(missing):
             self.texts[missing] = self.clnt.get_message_definition_text(missing)
-        return load_fetching(lambda name: TopicMapping(name, dict(self.texts)), md_name, fetch, self.fetched)
+        return load_fetching(lambda name: TopicMapping(name, dict(self.texts), part=part), md_name, fetch,
+                             self.fetched)
 
 
 def output_paths(args):
@@ -100,6 +105,7 @@ class Session:
         self.failed = {}      # LN topic -> why it is not recorded
         self.waiting_said = set()
         self.progress = Progress(sys.stderr.isatty() and not cli.json)
+        self.services = None
         try:
             self.writer = McapWriter(path)
             self.recorder = Recorder(self.writer, cli.manager_address, client_name="ln_record",
@@ -139,6 +145,67 @@ class Session:
         self.progress.clear()
         sys.stderr.write("ln record: %s\n" % text)
         sys.stderr.flush()
+
+
+class ServiceCallWriter:
+    """Writes service calls as LN's service logging reports them: the request
+    and the response of a call each go to the channel NAME/_request or
+    NAME/_response of its service (created on first use, definition from the
+    manager), sequence = the request id, publish_time = when the caller
+    (request) or the provider (response) completed it."""
+
+    def __init__(self, session):
+        self.session = session
+        self.channels = {}     # (service, interface, part) -> (channel id, mapping)
+        self.counts = {}       # service -> messages recorded (requests + responses)
+
+    def record(self, service, interface, client, item_type, flags, request_id, completion_time, payload):
+        log_time = time.time_ns()
+        part, flat = call_payload(item_type, flags, payload, "service '%s'" % service)
+        key = (service, interface, part)
+        if key not in self.channels:
+            mapping = self.session.definitions.mapping(interface, part)
+            metadata = channel_metadata(service, mapping, client if part == "response" else None, part)
+            self.channels[key] = (self.session.recorder.add_channel(ros_topic_for(service, part), mapping, metadata),
+                                  mapping)
+        channel, mapping = self.channels[key]
+        self.session.recorder.post_message(channel, request_id & 0xFFFFFFFF, log_time,
+                                           ns_from_seconds(completion_time), mapping.ln_to_cdr(flat))
+        self.counts[service] = self.counts.get(service, 0) + 1
+
+
+class ServiceCalls(ServiceCallWriter):
+    """--services: the manager's service logging (ln_register_as_service_logger)
+    sends every call's request and response to a service of ours (interface
+    ln/log_service, as for LN 2.9's lnrecorder), served by a thread pool."""
+
+    GROUP = "ln_record_log_service"
+
+    def __init__(self, session):
+        ServiceCallWriter.__init__(self, session)
+        clnt = session.clnt
+        self.name = clnt.name + ".log_service"
+        self.failed = {}       # service -> why its calls are not recorded
+        self.provider = clnt.get_service_provider(self.name, "ln/log_service")
+        self.provider.set_handler(self.handle)
+        self.provider.do_register(self.GROUP)
+        clnt.handle_service_group_in_thread_pool(self.GROUP, "ln_record")
+        clnt.register_as_service_logger(self.name, "*")
+
+    def handle(self, request, req, resp):
+        import numpy as np
+        service = str(req.service_name)
+        if service not in self.failed and self.session.selection.wants_service(service):
+            try:
+                self.record(service, str(req.service_interface), str(req.client_name), int(req.item_type),
+                            int(req.flags), int(req.request_id), float(req.completion_time),
+                            np.asarray(req.data, dtype=np.uint8).tobytes())
+            except Exception as error:  # noqa: BLE001 - one service's problem must not end the recording
+                self.failed[service] = str(error).strip().splitlines()[0]
+                self.session.note("not recording calls of service '%s': %s" % (service, self.failed[service]))
+        resp.error_message = ""
+        request.respond()
+        return 0
 
 
 class Progress:
@@ -189,11 +256,26 @@ def run(cli):
         os.makedirs(bag_dir)
     # A file size limit makes write() fail (EFBIG) instead of killing us.
     signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    session = None
     try:
         session = Session(cli, path)
-    except Exception:
+        if args.services:
+            session.services = ServiceCalls(session)
+    except Exception as error:
+        # nothing is recorded yet: no empty file or bag stays behind
+        if session is not None:
+            session.recorder.stop()
+            try:
+                session.writer.close()
+            except BagError:
+                pass
+            os.unlink(path)
         if bag_dir and not os.listdir(bag_dir):
             os.rmdir(bag_dir)
+        if session is not None and not isinstance(error, CliError):
+            from links_and_nodes.cli.common import describe_error
+            raise CliError("--services: cannot record service calls: %s" % describe_error(error),
+                           "the manager's service logging (ln_register_as_service_logger) is needed") from None
         raise
     previous_term = signal.signal(signal.SIGTERM, _interrupt)
     started = time.monotonic()
@@ -240,6 +322,9 @@ def report(cli, path, bag_dir, seconds, stats, session, interrupted, written):
                "lost": sum(s["lost"] for s in stats),
                "topics": [dict(s, type=session.topics.get(s["topic"], "")) for s in stats],
                "not_recorded": session.failed}
+    if session.services:
+        summary["services"] = dict(session.services.counts)
+        summary["not_recorded"] = dict(session.failed, **session.services.failed)
     if cli.json:
         out.json(summary)
         return
