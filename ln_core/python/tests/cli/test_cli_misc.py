@@ -87,7 +87,10 @@ def test_completion_script(manager):
 
 
 def test_completion_of_commands_and_options(manager):
-    assert complete(manager, "ln ") == ["client", "completion", "manager", "md", "service", "topic"]
+    assert complete(manager, "ln ") == ["bag", "client", "completion", "manager", "md", "play", "record", "service",
+                                        "topic"]
+    assert complete(manager, "ln bag ") == ["convert", "info"]
+    assert complete(manager, "ln record --e") == ["--exclude"]
     assert complete(manager, "ln to") == ["topic"]
     assert complete(manager, "ln topic ") == ["bw", "echo", "hz", "info", "list", "pub"]
     assert complete(manager, "ln topic echo --c") == ["--color", "--count", "--csv"]
