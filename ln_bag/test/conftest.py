@@ -8,7 +8,6 @@ helpers (cli_helpers.py); this file only points them at ln_bag's definitions
 Environment (ctest sets it, see CMakeLists.txt; after `. launchless_scripts/env.sh`
 the installed ln_bag is used):
   LN_BAG_PYTHONPATH   the build tree's python/ directory (holds ln_bag)
-  LN_BAG_TMP          where test files go (default: pytest's tmp_path)
 """
 
 import importlib.util
@@ -36,15 +35,8 @@ _spec.loader.exec_module(ln_fixtures)
 @pytest.fixture(scope="module")
 def manager(tmp_path_factory):
     """An ln_core manager with msgdefs/ on its search path; LN_MANAGER points at it."""
-    m = ln_fixtures.Manager(tmp_path_factory.mktemp("manager"), md_dirs=(MSGDEFS,))
-    saved = os.environ.get("LN_MANAGER")
-    os.environ["LN_MANAGER"] = m.address
-    yield m
-    if saved is None:
-        os.environ.pop("LN_MANAGER", None)
-    else:
-        os.environ["LN_MANAGER"] = saved
-    m.stop()
+    with ln_fixtures.running_manager(tmp_path_factory.mktemp("manager"), md_dirs=(MSGDEFS,)) as m:
+        yield m
 
 
 @pytest.fixture

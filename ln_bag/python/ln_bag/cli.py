@@ -4,25 +4,7 @@ command line of links_and_nodes.cli, which runs them with its Session)."""
 import argparse
 import math
 
-
-def _positive_int(text):
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError("'%s' is not a whole number" % text) from None
-    if value < 1:
-        raise argparse.ArgumentTypeError("must be at least 1, got %s" % text)
-    return value
-
-
-def _positive_float(text):
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError("'%s' is not a number" % text) from None
-    if not value > 0 or math.isinf(value):
-        raise argparse.ArgumentTypeError("must be a positive number, got %s" % text)
-    return value
+from links_and_nodes.cli.common import positive_float as _positive_float, positive_int as _positive_int
 
 
 def _seconds(text):
