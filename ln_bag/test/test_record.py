@@ -241,6 +241,9 @@ def test_refuses_to_overwrite_and_reports_bad_arguments(manager, unique, tmp_pat
     one_line_error(run_ln(manager, "record", "a.b", "--rosbag2", str(tmp_path / "d")), "already exists")
     one_line_error(run_ln(manager, "record", "a.b", "-o", str(tmp_path / "no" / "dir.mcap"), "--count", "1"),
                    "cannot create", "no/dir.mcap")
+    unreachable = run_ln(manager, "record", "a.b", "-o", str(tmp_path / "z.mcap"), "--ln-manager", "127.0.0.1:1")
+    one_line_error(unreachable, "cannot reach the ln_manager at 127.0.0.1:1")
+    assert not (tmp_path / "z.mcap").exists()
 
 
 def test_a_full_disk_ends_the_recording_with_a_clear_error_and_keeps_the_file(manager, unique, tmp_path):

@@ -203,37 +203,36 @@ def _topic_definitions(items):
     return out
 
 
-def run(cli):
-    args = cli.args
-    source = args.input
+def convert_file(source, output, md_dirs=(), topics=None, rosbag2_dir=False, overwrite=False):
+    """Converts `source` (see the module doc) into the MCAP file (or, with
+    rosbag2_dir, the bag directory) `output`. Returns (kind, messages, damage):
+    damage says where a cut-off input ended (everything before is converted).
+    Raises BagError naming the file and what is wrong, leaving no output then.
+    (The entry point for other tools, e.g. a logger's manager_save(FILE, "mcap")
+    after saving LN 2.9's logger pcap.)"""
     if not os.path.exists(source):
-        raise CliError("%s does not exist" % source)
+        raise BagError("%s does not exist" % source)
     kind = ln29.kind_of(source)
     if kind is None:
-        raise CliError("%s is not a recording ln bag convert knows" % source,
-                       "it reads lnrecorder .pcap files and lnrdb directories, LN 2.9 logger .pcap/.pickle files "
-                       "and MCAP files")
+        raise BagError("%s is not a recording ln bag convert knows (it reads lnrecorder .pcap files and lnrdb "
+                       "directories, LN 2.9 logger .pcap/.pickle files and MCAP files)" % source)
     if kind == "mat":
-        raise CliError("%s: LN 2.9 logger files in MATLAB format are not supported yet" % source,
-                       "save the logger as .pcap or .pickle (manager_save(FILE, 'pcap'))")
-    topics = _topic_definitions(args.topic)
-    if args.rosbag2:
-        bag_dir = args.output.rstrip("/") or args.output
+        raise BagError("%s: LN 2.9 logger files in MATLAB format are not supported yet (save the logger as .pcap "
+                       "or .pickle: manager_save(FILE, 'pcap'))" % source)
+    if rosbag2_dir:
+        bag_dir = output.rstrip("/") or output
         if os.path.exists(bag_dir):
-            raise CliError("%s already exists" % bag_dir, "rosbag2 bags are new directories")
+            raise BagError("%s already exists (rosbag2 bags are new directories)" % bag_dir)
         os.makedirs(bag_dir)
         path = os.path.join(bag_dir, rosbag2.mcap_name(bag_dir))
     else:
-        bag_dir, path = None, args.output
-        if os.path.exists(path) and not args.overwrite:
-            raise CliError("%s already exists" % path, "choose another name or pass --overwrite")
+        bag_dir, path = None, output
+        if os.path.exists(path) and not overwrite:
+            raise BagError("%s already exists (choose another name or pass --overwrite)" % path)
         if os.path.abspath(path) == os.path.abspath(source):
-            raise CliError("%s: input and output are the same file" % path)
-    try:
-        writer = McapWriter(path)
-    except BagError as error:
-        raise CliError(str(error)) from None
-    converter = Converter(writer, args.md_dir)
+            raise BagError("%s: input and output are the same file" % path)
+    writer = McapWriter(path)
+    converter = Converter(writer, list(md_dirs))
     damage = None
     try:
         if kind == "mcap":
@@ -241,7 +240,7 @@ def run(cli):
                 converter.mcap(rec)
                 damage = rec.problem
         elif kind == "pickle":
-            converter.ln29_events(read_logger_pickle(source, topics, args.md_dir), source)
+            converter.ln29_events(read_logger_pickle(source, topics or {}, list(md_dirs)), source)
         else:
             events = ln29.read_pcap(source) if kind == "pcap" else ln29.read_lnrdb(source)
             try:
@@ -250,26 +249,32 @@ def run(cli):
                 if "cut off" not in str(error):
                     raise
                 damage = str(error)
-    except BagError as error:
+    except BagError:
         # Nothing usable was converted (the input is untouched): no half output stays behind.
         try:
             writer.close()
         except BagError:
             pass
         shutil.rmtree(bag_dir) if bag_dir else os.unlink(path)
-        raise CliError(str(error)) from None
-    try:
-        writer.close()
-    except BagError as error:
-        raise CliError(str(error)) from None
+        raise
+    writer.close()
     if bag_dir:
         rosbag2.write_metadata(bag_dir, path)
+    return kind, converter.messages, damage
+
+
+def run(cli):
+    args = cli.args
+    try:
+        kind, messages, damage = convert_file(args.input, args.output, args.md_dir, _topic_definitions(args.topic),
+                                              args.rosbag2, args.overwrite)
+    except BagError as error:
+        raise CliError(str(error)) from None
     if damage:
         sys.stderr.write("ln bag convert: %s; converted everything before\n" % damage)
-    summary = {"input": source, "format": kind, "output": bag_dir or path, "messages": converter.messages,
-               "channels": len(converter.channels) if kind != "mcap" else None}
+    output = args.output.rstrip("/") if args.rosbag2 else args.output
     if cli.json:
-        cli.out.json(summary)
+        cli.out.json({"input": args.input, "format": kind, "output": output, "messages": messages})
     else:
-        cli.out.line("converted %d messages from %s (%s) to %s" % (converter.messages, source, kind, bag_dir or path))
+        cli.out.line("converted %d messages from %s (%s) to %s" % (messages, args.input, kind, output))
     return 0
