@@ -8,7 +8,7 @@ import pytest
 from ln_bag import BagError, McapWriter
 from mcap.reader import make_reader
 from mcap.records import Channel, Chunk, ChunkIndex, Message, MessageIndex, Schema, Statistics
-from mcap.stream_reader import StreamReader, breakup_chunk
+from mcap.stream_reader import StreamReader
 
 
 def write(path, messages, channels=3, chunk_size=4096):
