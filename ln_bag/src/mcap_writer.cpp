@@ -52,6 +52,11 @@ std::uint32_t crc(std::uint32_t running, const std::uint8_t* data, std::size_t s
   return running;
 }
 
+/// The CRC of A then B from crc(A), crc(B) and B's length.
+std::uint32_t combine(std::uint32_t first, std::uint32_t second, std::size_t second_size) {
+  return static_cast<std::uint32_t>(crc32_combine(first, second, static_cast<z_off_t>(second_size)));
+}
+
 // A record whose length is filled in by finish().
 class Record {
  public:
@@ -211,7 +216,8 @@ struct McapWriter::Impl {
       }
       const auto began = std::chrono::steady_clock::now();
       std::uint8_t* bytes = blob.bytes.data();
-      store_le<std::uint32_t>(bytes + chunk_crc_at, crc(0, bytes + chunk_header_size, blob.records_size));
+      const std::uint32_t records_crc = crc(0, bytes + chunk_header_size, blob.records_size);
+      store_le<std::uint32_t>(bytes + chunk_crc_at, records_crc);
       if (!write_all(bytes, blob.bytes.size())) {
         const int e = errno;
         cut_back();
@@ -219,7 +225,12 @@ struct McapWriter::Impl {
         fail_locked(write_error(e));
         continue;
       }
-      data_crc = crc(data_crc, bytes, blob.bytes.size());
+      // The data section's CRC from the pieces: the records are not checksummed twice.
+      const std::size_t tail = blob.bytes.size() - blob.chunk_record_size;
+      std::uint32_t blob_crc = crc(0, bytes, chunk_header_size);
+      blob_crc = combine(blob_crc, records_crc, blob.records_size);
+      blob_crc = combine(blob_crc, crc(0, bytes + blob.chunk_record_size, tail), tail);
+      data_crc = combine(data_crc, blob_crc, blob.bytes.size());
       ChunkIndexInfo index{blob.start_time, blob.end_time, file_offset, blob.chunk_record_size,
                            blob.bytes.size() - blob.chunk_record_size, blob.records_size, {}};
       for (const auto& [channel, offset] : blob.index_offsets) index.index_offsets.emplace_back(channel, file_offset + offset);
