@@ -2,7 +2,6 @@
 
 #include <fcntl.h>
 #include <unistd.h>
-#include <zlib.h>
 
 #include <algorithm>
 #include <atomic>
@@ -15,6 +14,7 @@
 #include <thread>
 
 #include "byte_buffer.hpp"
+#include "crc32.hpp"
 
 namespace ln_bag {
 namespace {
@@ -41,21 +41,6 @@ constexpr std::size_t chunk_header_size = 1 + 8 + 8 + 8 + 8 + 4 + 4 + 8;
 constexpr std::size_t chunk_crc_at = 1 + 8 + 8 + 8 + 8;
 // opcode + length + channel, sequence, log time, publish time
 constexpr std::size_t message_header_size = 1 + 8 + 2 + 4 + 8 + 8;
-
-std::uint32_t crc(std::uint32_t running, const std::uint8_t* data, std::size_t size) {
-  while (size > 0) {
-    const uInt n = static_cast<uInt>(std::min<std::size_t>(size, 1u << 30));
-    running = static_cast<std::uint32_t>(crc32(running, data, n));
-    data += n;
-    size -= n;
-  }
-  return running;
-}
-
-/// The CRC of A then B from crc(A), crc(B) and B's length.
-std::uint32_t combine(std::uint32_t first, std::uint32_t second, std::size_t second_size) {
-  return static_cast<std::uint32_t>(crc32_combine(first, second, static_cast<z_off_t>(second_size)));
-}
 
 // A record whose length is filled in by finish().
 class Record {
@@ -216,7 +201,7 @@ struct McapWriter::Impl {
       }
       const auto began = std::chrono::steady_clock::now();
       std::uint8_t* bytes = blob.bytes.data();
-      const std::uint32_t records_crc = crc(0, bytes + chunk_header_size, blob.records_size);
+      const std::uint32_t records_crc = crc32(0, bytes + chunk_header_size, blob.records_size);
       store_le<std::uint32_t>(bytes + chunk_crc_at, records_crc);
       if (!write_all(bytes, blob.bytes.size())) {
         const int e = errno;
@@ -227,10 +212,10 @@ struct McapWriter::Impl {
       }
       // The data section's CRC from the pieces: the records are not checksummed twice.
       const std::size_t tail = blob.bytes.size() - blob.chunk_record_size;
-      std::uint32_t blob_crc = crc(0, bytes, chunk_header_size);
-      blob_crc = combine(blob_crc, records_crc, blob.records_size);
-      blob_crc = combine(blob_crc, crc(0, bytes + blob.chunk_record_size, tail), tail);
-      data_crc = combine(data_crc, blob_crc, blob.bytes.size());
+      std::uint32_t blob_crc = crc32(0, bytes, chunk_header_size);
+      blob_crc = crc32_combine(blob_crc, records_crc, blob.records_size);
+      blob_crc = crc32_combine(blob_crc, crc32(0, bytes + blob.chunk_record_size, tail), tail);
+      data_crc = crc32_combine(data_crc, blob_crc, blob.bytes.size());
       ChunkIndexInfo index{blob.start_time, blob.end_time, file_offset, blob.chunk_record_size,
                            blob.bytes.size() - blob.chunk_record_size, blob.records_size, {}};
       for (const auto& [channel, offset] : blob.index_offsets) index.index_offsets.emplace_back(channel, file_offset + offset);
@@ -388,7 +373,7 @@ struct McapWriter::Impl {
     out.u64(summary_start);  // never empty: Statistics is always there
     out.u64(summary_offset_start);
     const std::size_t summary_from = summary_start - file_offset;
-    out.u32(crc(0, out.data() + summary_from, out.size() - summary_from));
+    out.u32(crc32(0, out.data() + summary_from, out.size() - summary_from));
     out.put(magic, magic_size);
     return out;
   }
@@ -414,7 +399,7 @@ McapWriter::McapWriter(std::string path, WriterOptions options) : impl_(std::mak
     throw BagError(m.write_error(e));
   }
   m.file_offset = head.size();
-  m.data_crc = crc(0, head.data(), head.size());
+  m.data_crc = crc32(0, head.data(), head.size());
   m.written.file_bytes = m.file_offset;
   m.io = std::thread([&m] { m.io_loop(); });
 }
