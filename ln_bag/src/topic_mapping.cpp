@@ -82,7 +82,9 @@ TopicMapping::TopicMapping(const std::string& name, const std::map<std::string, 
   } catch (const BagError&) {
     throw;
   } catch (const std::exception& e) {
-    throw BagError("LN definition '" + name + "'" + (part.empty() ? "" : " (" + part + ")") + ": " + e.what());
+    const std::string what = e.what();
+    if (what.find("'" + name + "'") != std::string::npos) throw BagError(what);  // it names the definition
+    throw BagError("LN definition '" + name + "'" + (part.empty() ? "" : " (" + part + ")") + ": " + what);
   }
 }
 

@@ -194,6 +194,15 @@ def test_damaged_and_unknown_inputs_get_one_clear_error(tmp_path):
     one_line_error(convert(broken_path, tmp_path / "b.mcap"), str(broken_path), "frame at byte 24",
                    "impossible frame length")
 
+    wrong_hash = bytearray(data)
+    at = bytes(wrong_hash).index(b"ln29.pose")  # the topic's frame: name, definition, text, publisher, hash
+    hash_at = bytes(wrong_hash).index(b"\x40\x00\x00\x00", at) + 4
+    wrong_hash[hash_at] = ord("0") if wrong_hash[hash_at] != ord("0") else ord("1")
+    wrong_path = tmp_path / "wrong_hash.pcap"
+    wrong_path.write_bytes(bytes(wrong_hash))
+    line = one_line_error(convert(wrong_path, tmp_path / "w.mcap"), "definition 'bagtest/pose'", "--md-dir")
+    assert "names hash %s" % bytes(wrong_hash[hash_at:hash_at + 64]).decode() in line
+
     existing = tmp_path / "existing.mcap"
     existing.write_bytes(b"keep me")
     one_line_error(convert(DATA / "recorder.pcap", existing), "already exists")

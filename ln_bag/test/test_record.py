@@ -268,3 +268,23 @@ def test_a_full_disk_ends_the_recording_with_a_clear_error_and_keeps_the_file(ma
     assert len(messages) > 10
     seqs = [m.decoded.seq for m in messages]
     assert seqs == list(range(seqs[0], seqs[0] + len(seqs)))
+
+
+def test_a_topic_without_ros_type_is_named_and_the_others_are_recorded(manager, unique, tmp_path):
+    good, clash = "bag.%s.good" % unique, "bag.%s.clash" % unique
+    out = str(tmp_path / "partly.mcap")
+    sources = [Source(good, "bagtest/counter", fill_counter, 10**6, rate=100),
+               Source(clash, "bagtest/clash", lambda p, i: None, 10**6, rate=100)]
+    try:
+        record = start_ln(manager, "record", good, clash, "-o", out, "--duration", "2", "--json")
+        sources[0].wait_for_subscriber().start()
+        sources[1].start()
+        result = finish(record)
+    finally:
+        for s in sources:
+            s.close()
+    summary = json.loads(ok(result))
+    why = summary["not_recorded"][clash]
+    assert "'bagtest/clash'" in why and "num_counts" in why
+    assert "ln record: not recording topic '%s': " % clash in result.stderr
+    assert {m.topic for m in mcap_messages(out)} == {"/bag/%s/good" % unique}
