@@ -252,3 +252,36 @@ def test_an_mcap_file_cut_off_while_recording_is_rewritten_with_its_index(tmp_pa
     counts = [m.decoded.count for m in messages]
     assert 100 < len(counts) < 500 and counts == list(range(len(counts)))
     assert [m.sequence for m in messages] == counts
+
+
+def test_logger_mat_files_of_one_and_of_several_topics(tmp_path):
+    """LN 2.9's logger .mat files, written here by libmatio from LN 2.9's own logger data (its pickle),
+    convert to the same messages as the pickle."""
+    from mat_writer import logger_variables, write_mat
+    with open(DATA / "logger.pickle", "rb") as f:
+        columns = pickle.load(f)["ln29.pose"]
+    ok(convert(DATA / "logger.pickle", tmp_path / "pickle.mcap", "--topic", "ln29.pose:bagtest/pose",
+               "--md-dir", MSGDEFS))
+    expected = [(m.data, m.log_time, m.publish_time, m.sequence) for m in mcap_messages(str(tmp_path / "pickle.mcap"))]
+
+    one = tmp_path / "one.mat"
+    write_mat(one, logger_variables(columns))
+    ok(convert(one, tmp_path / "one.mcap", "--topic", "ln29.pose:bagtest/pose", "--md-dir", MSGDEFS))
+    assert [(m.data, m.log_time, m.publish_time, m.sequence) for m in mcap_messages(str(tmp_path / "one.mcap"))] \
+        == expected
+
+    several = tmp_path / "several.mat"
+    write_mat(several, dict(logger_variables(columns, "ln29_pose"), **logger_variables(columns, "other_pose")),
+              compressed=True)
+    one_line_error(convert(several, tmp_path / "x.mcap", "--topic", "ln29.pose:bagtest/pose", "--md-dir", MSGDEFS),
+                   "other_pose", "--topic TOPIC:DEFINITION")
+    ok(convert(several, tmp_path / "several.mcap", "--topic", "ln29.pose:bagtest/pose", "--topic",
+               "other.pose:bagtest/pose", "--md-dir", MSGDEFS))
+    topics = by_topic(mcap_messages(str(tmp_path / "several.mcap")))
+    assert sorted(topics) == ["/ln29/pose", "/other/pose"]
+    assert [m.data for m in topics["/other/pose"]] == [e[0] for e in expected]
+
+    damaged = tmp_path / "damaged.mat"
+    damaged.write_bytes(one.read_bytes()[:-100])
+    one_line_error(convert(damaged, tmp_path / "d.mcap", "--topic", "ln29.pose:bagtest/pose", "--md-dir", MSGDEFS),
+                   str(damaged), "cut off")

@@ -5,9 +5,9 @@ Inputs (recognised by content):
 * lnrecorder pcap logs (also gzip/bzip2/xz) and lnrdb directories: topics and
   service calls; LN 2.9 keeps no packet counter there, so a message's
   sequence is its position on its topic (service calls: the request id);
-* LN 2.9 logger files written by manager_save: .pcap (as above) and .pickle
-  (per topic the flattened fields plus _packet_log_ts, _packet_source_ts,
-  _packet_counter; the file names no definitions: --topic TOPIC:DEFINITION);
+* LN 2.9 logger files written by manager_save: .pcap (as above), .pickle and
+  .mat (per topic the flattened fields plus _packet_log_ts, _packet_source_ts,
+  _packet_counter; the files name no definitions: --topic TOPIC:DEFINITION);
 * an MCAP file: what is readable is written again, complete with its index
   (the repair of a recording that was cut off).
 
@@ -155,8 +155,6 @@ def logger_columns(model, defs, parent=None):
 
 def read_logger_pickle(path, topics, md_dirs):
     """Events of an LN 2.9 logger file saved as .pickle; topics: {topic: definition}."""
-    import numpy as np
-    from links_and_nodes import _ln
     try:
         with open(path, "rb") as f:
             data = _ArraysOnly(f).load()
@@ -168,29 +166,78 @@ def read_logger_pickle(path, topics, md_dirs):
     if missing:
         raise BagError("%s holds topics %s; say their LN definitions with --topic TOPIC:DEFINITION"
                        % (path, ", ".join(missing)))
+    return _logger_events(path, data, topics, md_dirs, lambda topic, column: column)
+
+
+def _mat_name(name):
+    """A name as LN 2.9's logger turns it into a MATLAB variable name."""
+    return name.replace(".", "_").replace("/", "_").replace("[", "_").replace("]", "")
+
+
+def read_logger_mat(path, topics, md_dirs):
+    """Events of an LN 2.9 logger file saved as .mat: one variable per column, named
+    COLUMN (one topic; a leading '_' moves to the end) or TOPIC_COLUMN (several
+    topics; without the column's leading '_'), '.', '/', '[' as '_' and ']' dropped."""
+    from .matfile import read_mat5
+    variables = read_mat5(path)
+    if "packet_log_ts_" in variables:  # a file of one topic
+        if len(topics) != 1:
+            raise BagError("%s is the log of one topic; say which with one --topic TOPIC:DEFINITION" % path)
+
+        def variable(topic, column):
+            return _mat_name(column[1:] + "_" if column.startswith("_") else column)
+        return _logger_events(path, {next(iter(topics)): variables}, topics, md_dirs, variable)
+    logged = sorted(v[:-len("_packet_log_ts")] for v in variables if v.endswith("_packet_log_ts"))
+    by_name = {_mat_name(t): t for t in topics}
+    missing = [name for name in logged if name not in by_name]
+    if missing or not logged:
+        raise BagError("%s holds the logs of %s; say their LN topics and definitions with --topic TOPIC:DEFINITION"
+                       % (path, ", ".join(missing) if logged else "no topic"))
+
+    def variable(topic, column):
+        return _mat_name("%s_%s" % (topic, column[1:] if column.startswith("_") else column))
+    return _logger_events(path, {by_name[name]: variables for name in logged}, topics, md_dirs, variable)
+
+
+def _logger_events(path, data, topics, md_dirs, variable):
+    """Topic and Packet events of LN 2.9's flattened logger data: data = {topic: columns},
+    variable(topic, column) the name of a column in `columns`."""
+    import numpy as np
+    from links_and_nodes import _ln
     import msg_mapping
-    search = msg_mapping.Library(md_dirs, True).search_dirs
-    for key, (topic, columns) in enumerate(sorted(data.items())):
-        md_name = topics[topic]
+    search = msg_mapping.Library(list(md_dirs), True).search_dirs
+    for key, topic in enumerate(sorted(data)):
+        columns, md_name = data[topic], topics[topic]
         try:
             model = _ln.model_from_dirs(md_name, search)
         except Exception as error:  # noqa: BLE001 - ln_core's error names the definition
             raise BagError("%s: topic '%s': %s" % (path, topic, str(error).splitlines()[0])) from None
         layout = logger_columns(model, model.get("defs", {}))
-        for needed in ["_packet_log_ts", "_packet_source_ts", "_packet_counter"] + [c for c, _, _ in layout]:
-            if needed not in columns:
+        names = ["_packet_log_ts", "_packet_source_ts", "_packet_counter"] + [c for c, _, _ in layout]
+        for needed in names:
+            if variable(topic, needed) not in columns:
                 raise BagError("%s: topic '%s' has no column '%s', which definition '%s' needs (is it the "
-                               "definition the topic was logged with?)" % (path, topic, needed, md_name))
-        n = len(columns["_packet_counter"])
+                               "definition the topic was logged with?)" % (path, topic, variable(topic, needed),
+                                                                          md_name))
+        log_ts, source_ts, counters = (np.asarray(columns[variable(topic, c)]).reshape(-1) for c in names[:3])
+        n = len(counters)
         fmt = "<" + "".join("%d%s" % (count, _STRUCT_CODES[primitive]) for _, primitive, count in layout)
         yield ln29.Topic(key, topic, md_name, None, model["hash"], "", struct.calcsize(fmt))
-        arrays = [np.asarray(columns[c]).reshape(n, -1) for c, _, _ in layout]
+        arrays = [np.asarray(columns[variable(topic, c)]).reshape(n, -1) for c, _, _ in layout]
         for i in range(n):
             values = []
             for a in arrays:
-                values += [int(v) if isinstance(v, (bytes, np.integer)) else v for v in a[i].tolist()]
-            yield ln29.Packet(key, float(columns["_packet_log_ts"][i]), float(columns["_packet_source_ts"][i]),
-                              struct.pack(fmt, *values), int(columns["_packet_counter"][i]))
+                values += [_number(v) for v in a[i].tolist()]
+            yield ln29.Packet(key, float(log_ts[i]), float(source_ts[i]), struct.pack(fmt, *values), int(counters[i]))
+
+
+def _number(value):
+    """A logged value as struct.pack takes it (char columns hold small arrays or bytes)."""
+    if hasattr(value, "item"):
+        value = value.item() if getattr(value, "size", 1) == 1 else value
+    if isinstance(value, bytes):
+        return value[0] if value else 0
+    return value
 
 
 def _topic_definitions(items):
@@ -215,10 +262,7 @@ def convert_file(source, output, md_dirs=(), topics=None, rosbag2_dir=False, ove
     kind = ln29.kind_of(source)
     if kind is None:
         raise BagError("%s is not a recording ln bag convert knows (it reads lnrecorder .pcap files and lnrdb "
-                       "directories, LN 2.9 logger .pcap/.pickle files and MCAP files)" % source)
-    if kind == "mat":
-        raise BagError("%s: LN 2.9 logger files in MATLAB format are not supported yet (save the logger as .pcap "
-                       "or .pickle: manager_save(FILE, 'pcap'))" % source)
+                       "directories, LN 2.9 logger .pcap/.pickle/.mat files and MCAP files)" % source)
     if rosbag2_dir:
         bag_dir = output.rstrip("/") or output
         if os.path.exists(bag_dir):
@@ -239,8 +283,9 @@ def convert_file(source, output, md_dirs=(), topics=None, rosbag2_dir=False, ove
             with Recording(source) as rec:
                 converter.mcap(rec)
                 damage = rec.problem
-        elif kind == "pickle":
-            converter.ln29_events(read_logger_pickle(source, topics or {}, list(md_dirs)), source)
+        elif kind in ("pickle", "mat"):
+            read = read_logger_pickle if kind == "pickle" else read_logger_mat
+            converter.ln29_events(read(source, topics or {}, list(md_dirs)), source)
         else:
             events = ln29.read_pcap(source) if kind == "pcap" else ln29.read_lnrdb(source)
             try:
