@@ -42,7 +42,7 @@ def register(groups, common):
     p.add_argument("--output", "-o", metavar="FILE.mcap", help="the file (default: ln_record_<date>.mcap)")
     p.add_argument("--rosbag2", metavar="DIR", help="write a rosbag2 bag directory (metadata.yaml + the MCAP file) "
                    "instead")
-    p.add_argument("--count", "-n", type=_positive_int, metavar="N", help="stop after N messages")
+    p.add_argument("--count", "-n", type=_positive_int, metavar="N", help="stop after N messages (all topics together)")
     p.add_argument("--duration", "-d", type=_positive_float, metavar="SECONDS", help="stop after this long")
     p.add_argument("--buffers", type=_positive_int, metavar="N",
                    help="subscription buffers per topic (default: half a second of its traffic, 16 at least, "
