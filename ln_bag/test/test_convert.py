@@ -143,6 +143,8 @@ def test_converting_into_a_rosbag2_directory(tmp_path):
     messages = rosbags_messages(str(bag))
     poses = [m.counter for t, _, _, m in messages if t == "/ln29/pose"]
     assert len(poses) > 30 and poses == list(range(poses[0], ln29_recordings.PACKETS))
+    ok(convert(bag, tmp_path / "back.mcap"))  # and a bag directory back into a plain file
+    assert [m.decoded.counter for m in mcap_messages(str(tmp_path / "back.mcap")) if m.topic == "/ln29/pose"] == poses
 
 
 def test_a_fresh_lnrecorder_recording(ln29, tmp_path):

@@ -259,6 +259,12 @@ def convert_file(source, output, md_dirs=(), topics=None, rosbag2_dir=False, ove
     after saving LN 2.9's logger pcap.)"""
     if not os.path.exists(source):
         raise BagError("%s does not exist" % source)
+    if os.path.isfile(os.path.join(source, "metadata.yaml")):  # a rosbag2 bag: its MCAP file
+        from .info import mcap_files
+        files = mcap_files(source)
+        if len(files) != 1:
+            raise BagError("%s has %d files; ln bag convert reads bags of one file" % (source, len(files)))
+        source = files[0]
     kind = ln29.kind_of(source)
     if kind is None:
         raise BagError("%s is not a recording ln bag convert knows (it reads lnrecorder .pcap files and lnrdb "
