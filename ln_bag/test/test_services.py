@@ -92,21 +92,25 @@ def test_ln_record_services_records_every_call(manager, unique, tmp_path):
     providers.provide(service, "bagtest/add", handler)
     providers.start()
     path = str(tmp_path / "services.mcap")
+    calls = 30
     try:
-        record = start_ln(manager, "record", "--all", "--services", "-o", path, "--duration", "4", "--json")
-        time.sleep(1.5)  # ln record registers its log service and the manager tells the provider
+        record = start_ln(manager, "record", "--all", "--services", "-o", path, "--duration", "5", "--json")
         with ln.client("bag_add_caller") as clnt:
             svc = clnt.get_service(service, "bagtest/add")
-            for i in range(5):
+            for i in range(calls):  # over 3 s: the calls after ln record's logging reached both sides are recorded
                 svc.req.a, svc.req.b, svc.req.text = i, 10, "call %d" % i
                 svc.call()
+                time.sleep(0.1)
         summary = json.loads(ok(finish(record)))
     finally:
         providers.stop()
-    assert summary["services"] == {service: 10}
     topics = {}
     for m in mcap_messages(path):
         topics.setdefault(m.topic, []).append(m.decoded)
     prefix = "/" + service.replace(".", "/")
-    assert [(r.a, r.text) for r in topics[prefix + "/_request"]] == [(i, "call %d" % i) for i in range(5)]
-    assert [r.sum for r in topics[prefix + "/_response"]] == [i + 10 for i in range(5)]
+    requests = [(r.a, r.text) for r in topics[prefix + "/_request"]]
+    first = requests[0][0]
+    assert calls - first >= 10 and requests == [(i, "call %d" % i) for i in range(first, calls)]
+    responses = [r.sum for r in topics[prefix + "/_response"]]
+    assert responses[-1] == calls - 1 + 10 and responses == list(range(responses[0], calls + 10))
+    assert summary["services"] == {service: len(requests) + len(responses)}
