@@ -323,14 +323,15 @@ class Manager:
             return ""
 
 
-def start_manager(system: System, work: Path, env: dict[str, str]) -> Manager | MissingPrerequisite:
-    """Starts the system's manager with a config that adds msgdefs/; returns
-    once it listens. LN 2.9 runs in --isolated-test mode (free port, private
-    ln_daemon); ln_core on 127.0.0.1 with port 0 (a free port)."""
+def start_manager(system: System, work: Path, env: dict[str, str],
+                  md_dir: Path = MSGDEFS_DIR) -> Manager | MissingPrerequisite:
+    """Starts the system's manager with a config that adds `md_dir` (default
+    msgdefs/); returns once it listens. LN 2.9 runs in --isolated-test mode
+    (free port, private ln_daemon); ln_core on 127.0.0.1 with port 0 (a free port)."""
     work.mkdir(parents=True, exist_ok=True)
     config = work / "lnbt.lnc"
     config.write_text(f"instance\nname: lnbt_{system.label}_{os.getpid()}\nmanager: :{free_port()}\n"
-                      f"add_message_definition_dir: {MSGDEFS_DIR}\n")
+                      f"add_message_definition_dir: {md_dir}\n")
     log_file = work / "manager.log"
     if system.is_reference:
         argv = [str(system.ln_manager), "-c", str(config), "--without-gui", "--isolated-test", "--log-level", "info"]
