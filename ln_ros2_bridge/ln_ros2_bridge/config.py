@@ -9,6 +9,7 @@ from dataclasses import dataclass, field, replace
 from typing import Optional
 
 import yaml
+from msg_mapping.names import ln_name_for, ros_name_for
 
 
 class ConfigError(Exception):
@@ -155,23 +156,16 @@ def ros_name_problem(name):
     return None
 
 
-def _sanitize_token(token):
-    token = re.sub(r"[^A-Za-z0-9_]", "_", token)
-    if not token or token[0].isdigit():
-        token = "ln_" + token
-    return token
-
-
 def ln_to_ros_name(ln_name, auto):
     """LN topic/service name -> ROS name: remap rules first, else a.b.c -> /a/b/c.
     Characters ROS does not allow become '_' (a leading digit gets 'ln_')."""
     for rule in auto.remap:
         if ln_name.startswith(rule.ln_prefix):
             rest = ln_name[len(rule.ln_prefix):]
-            name = rule.ros_prefix.rstrip("/") + "/" + "/".join(_sanitize_token(t) for t in rest.split(".") if t)
+            name = ros_name_for(rest, rule.ros_prefix)
             break
     else:
-        name = "/" + "/".join(_sanitize_token(t) for t in ln_name.split(".") if t)
+        name = ros_name_for(ln_name)
     if auto.ros_namespace:
         name = auto.ros_namespace.rstrip("/") + name
     return name
@@ -185,8 +179,8 @@ def ros_to_ln_name(ros_name, auto):
     for rule in auto.remap:
         prefix = rule.ros_prefix.rstrip("/") + "/"
         if name.startswith(prefix):
-            return rule.ln_prefix + ".".join(t for t in name[len(prefix):].split("/") if t)
-    return ".".join(t for t in name.split("/") if t)
+            return rule.ln_prefix + ln_name_for(name[len(prefix):])
+    return ln_name_for(name)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -21,6 +21,7 @@ import shutil
 import signal
 import socket
 import subprocess
+import sys
 import threading
 import time
 import uuid
@@ -32,8 +33,8 @@ REPO_ROOT = HERE.parent.parent
 PROGRAMS_DIR = HERE / "programs"
 MSGDEFS_DIR = HERE / "msgdefs"
 OUR_SOURCE_INCLUDE_DIR = REPO_ROOT / "ln_core" / "include"
-PROGRAMS = ("lnbt_probe", "lnbt_publisher", "lnbt_subscriber", "lnbt_services", "lnbt_logger")
-MESSAGES = ("lnbt/counter", "lnbt/other", "lnbt/echo")
+PROGRAMS = ("lnbt_probe", "lnbt_publisher", "lnbt_subscriber", "lnbt_services", "lnbt_parameters", "lnbt_logger")
+MESSAGES = ("lnbt/counter", "lnbt/other", "lnbt/echo", "ln/parameters/query", "ln/parameters/query_dict")
 
 IN_CI = bool(os.environ.get("CI"))
 #: Marks the environment of every process of this run, so that the LN 2.9
@@ -243,6 +244,23 @@ def run(argv, env, timeout=PROGRAM_TIMEOUT, cwd=None) -> Program:
     return program
 
 
+def python_for(system: System) -> tuple[list[str], dict[str, str]] | MissingPrerequisite:
+    """How to run a Python script against `system`: (interpreter argv,
+    environment additions) - LN 2.9's venv python, or this interpreter with
+    ln_core's links_and_nodes (next to its libln.so) on PYTHONPATH."""
+    if system.is_reference:
+        python = system.ln_manager.parent / "python"
+        if not python.exists():
+            return MissingPrerequisite(f"no python next to {system.ln_manager}")
+        return [str(python)], {}
+    candidates = [system.lib_dir / "python"] + sorted(Path(p) for p in glob.glob(
+        str(system.lib_dir / "python3*" / "site-packages")))
+    for directory in candidates:
+        if (directory / "links_and_nodes" / "__init__.py").is_file():
+            return [sys.executable], {"PYTHONPATH": str(directory)}
+    return MissingPrerequisite(f"ln_core's links_and_nodes not found below {system.lib_dir}")
+
+
 # --------------------------------------------------------------- building
 
 
@@ -305,14 +323,15 @@ class Manager:
             return ""
 
 
-def start_manager(system: System, work: Path, env: dict[str, str]) -> Manager | MissingPrerequisite:
-    """Starts the system's manager with a config that adds msgdefs/; returns
-    once it listens. LN 2.9 runs in --isolated-test mode (free port, private
-    ln_daemon); ln_core on 127.0.0.1 with port 0 (a free port)."""
+def start_manager(system: System, work: Path, env: dict[str, str],
+                  md_dir: Path = MSGDEFS_DIR) -> Manager | MissingPrerequisite:
+    """Starts the system's manager with a config that adds `md_dir` (default
+    msgdefs/); returns once it listens. LN 2.9 runs in --isolated-test mode
+    (free port, private ln_daemon); ln_core on 127.0.0.1 with port 0 (a free port)."""
     work.mkdir(parents=True, exist_ok=True)
     config = work / "lnbt.lnc"
     config.write_text(f"instance\nname: lnbt_{system.label}_{os.getpid()}\nmanager: :{free_port()}\n"
-                      f"add_message_definition_dir: {MSGDEFS_DIR}\n")
+                      f"add_message_definition_dir: {md_dir}\n")
     log_file = work / "manager.log"
     if system.is_reference:
         argv = [str(system.ln_manager), "-c", str(config), "--without-gui", "--isolated-test", "--log-level", "info"]

@@ -406,12 +406,12 @@ class client {
   /// a logger service this client provides.
   void register_as_service_logger(std::string logger_service_name,
                                   std::string service_name_patterns_to_log);
-  /// Sets a tuning parameter of the client library.
+  /// Sets a client setting (see ln_client_set_float_parameter()); throws
+  /// for unknown names and invalid values.
   void set_float_parameter(std::string parameter_name, float value);
 
-  /// Access to the parameters published under a prefix. Declared here for
-  /// LN 2.9 compatibility; defined with the parameters API
-  /// (ln/parameter_client.h), not by this header.
+  /// The parameters other clients provide below @p group_prefix; include
+  /// ln/parameter_client.h (which defines it) to use it.
   parameters::parameter_proxy get_parameters(std::string group_prefix = "",
                                              bool strict_type_checks = false);
 

@@ -912,7 +912,15 @@ LN_API int ln_event_call_get_buffer(ln_event_call call, void** ptr, uint32_t* le
 /* ======================================================================== */
 /**@{*/
 
-/** Sets a named tuning parameter of the client library. */
+/** Sets a named setting of the client (LN 2.9's names): "debug" (the
+    LN_DEBUG level, 0 = quiet), "reconnect_interval" (the longest wait, in
+    seconds, between attempts to reach a restarted manager; 0 < value <=
+    3600), "win32_async_ping_timeout", "win32_async_ping_interval",
+    "win32_wait_for_service_request_timeout" (accepted; for Windows only).
+    "__LN_CPP_WRAPPER_VERSION" answers 0 even without a client.
+    @return 0; -LNE_UNKNOWN_PARAMETER for other names, -LNE_INVALID_PARAMETER
+            for a value out of range or a NULL name. (Parameters that programs
+            expose to others are a different thing: ln/parameters_c.h.) */
 LN_API int ln_client_set_float_parameter(ln_client clnt, const char* name, float value);
 
 /** Build features of the shared-memory implementation (LN 2.9 diagnostics);

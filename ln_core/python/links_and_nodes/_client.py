@@ -107,7 +107,8 @@ class client:
         return self._native.get_service_signature_for_service(service_name)
 
     def find_services_with_interface(self, interface_name):
-        return self._native.find_services_with_interface(interface_name)
+        """The names of the services with this interface, one per line (as LN 2.9)."""
+        return "\n".join(self._native.find_services_with_interface(interface_name))
 
     # -- topics -----------------------------------------------------------
     def _topic_model(self, md_name):
@@ -258,10 +259,18 @@ class client:
         raise LNError("%s is not supported by links_and_nodes on ln_core" % what, LNE_NOT_YET_IMPLEMENTED, 0)
 
     def get_parameters(self, parameter_group_prefix="", allow_empty=False):
-        self._unsupported("client.get_parameters()")
+        """The parameters other clients provide below `parameter_group_prefix`
+        (LN_PARAMETER_PREFIX in front), as a parameters_proxy; fails if there
+        are none, unless allow_empty."""
+        from ._parameters import parameters_proxy
+        return parameters_proxy(self, parameter_group_prefix, allow_empty)
 
     def parameter_block(self, parameter_group_name, always_publish=False, topic_name=""):
-        self._unsupported("client.parameter_block()")
+        """Parameters this program provides, named
+        "<LN_PARAMETER_PREFIX><parameter_group_name>.<name>": add(), register(),
+        then update() once per loop iteration (see ParameterBlock)."""
+        from ._parameters import ParameterBlock
+        return ParameterBlock(self, parameter_group_name, always_publish, topic_name)
 
     def connect_to_event(self, *args, **kwargs):
         self._unsupported("client.connect_to_event()")

@@ -70,6 +70,21 @@ nb::dict as_dict(const ln_manager_status& status) {
   return d;
 }
 
+}  // namespace
+
+// Raises links_and_nodes.LNError as the rest of the module does: (message, code, 0).
+[[noreturn]] void raise_ln_error(nb::handle ln_error, int ret, const std::string& what, ln_client handle) {
+  std::string message = what + ": " + ln_format_error(ret);
+  const char* detail = ln_get_error_message(handle);
+  if (detail != nullptr && *detail != '\0') message += ": " + std::string(detail);
+  PyObject* args = Py_BuildValue("(sii)", message.c_str(), ret < 0 ? -ret : ret, 0);
+  PyErr_SetObject(ln_error.ptr(), args);
+  Py_XDECREF(args);
+  throw nb::python_error();
+}
+
+namespace {
+
 // One ln_list_* call with the GIL released, its rows as dicts.
 template <typename Row>
 nb::list list_of(WithClient with_client, nb::handle ln_error, nb::handle client, const char* what,
@@ -91,16 +106,6 @@ nb::list list_of(WithClient with_client, nb::handle ln_error, nb::handle client,
 }
 
 }  // namespace
-
-void raise_ln_error(nb::handle ln_error, int ret, const std::string& what, ln_client handle) {
-  std::string message = what + ": " + ln_format_error(ret);
-  const char* detail = ln_get_error_message(handle);
-  if (detail != nullptr && *detail != '\0') message += ": " + std::string(detail);
-  PyObject* args = Py_BuildValue("(sii)", message.c_str(), ret < 0 ? -ret : ret, 0);
-  PyErr_SetObject(ln_error.ptr(), args);
-  Py_XDECREF(args);
-  throw nb::python_error();
-}
 
 void register_introspection(nb::module_& module, WithClient with_client) {
   nb::object ln_error = module.attr("LNError");

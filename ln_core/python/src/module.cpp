@@ -30,6 +30,7 @@
 #include "ln/ln.h"
 #include "introspection.hpp"
 #include "loggers.hpp"
+#include "parameters.hpp"
 #include "model.hpp"
 
 namespace nb = nanobind;
@@ -1342,4 +1343,5 @@ NB_MODULE(_ln, m) {
   };
   register_introspection(m, with_client);
   register_loggers(m, with_client);
+  register_parameters(m, with_client);
 }

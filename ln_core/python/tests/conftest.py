@@ -9,6 +9,7 @@ Environment (set by ctest, see python.cmake; otherwise searched):
 links_and_nodes itself must be importable (PYTHONPATH=<build>/python).
 """
 
+import contextlib
 import glob
 import os
 import shutil
@@ -22,6 +23,7 @@ import pytest
 HERE = os.path.dirname(os.path.abspath(__file__))
 MSGDEFS = os.path.join(HERE, "msgdefs")
 LN_CORE = os.path.dirname(os.path.dirname(HERE))
+BUILTIN_MSGDEFS = os.path.join(LN_CORE, "share", "message_definitions")
 
 
 def _find(env, patterns):
@@ -88,17 +90,34 @@ class Manager:
         self.log.close()
 
 
-@pytest.fixture(scope="module")
-def manager(tmp_path_factory):
-    m = Manager(tmp_path_factory.mktemp("manager"))
+@contextlib.contextmanager
+def running_manager(tmp_path, md_dirs=(MSGDEFS,)):
+    """A Manager, with LN_MANAGER pointing at it, for the duration of the block."""
+    m = Manager(tmp_path, md_dirs)
     saved = os.environ.get("LN_MANAGER")
     os.environ["LN_MANAGER"] = m.address
-    yield m
-    if saved is None:
-        os.environ.pop("LN_MANAGER", None)
-    else:
-        os.environ["LN_MANAGER"] = saved
-    m.stop()
+    try:
+        yield m
+    finally:
+        if saved is None:
+            os.environ.pop("LN_MANAGER", None)
+        else:
+            os.environ["LN_MANAGER"] = saved
+        m.stop()
+
+
+@pytest.fixture(scope="module")
+def manager(tmp_path_factory):
+    with running_manager(tmp_path_factory.mktemp("manager")) as m:
+        yield m
+
+
+@pytest.fixture(scope="module")
+def builtins_manager(tmp_path_factory):
+    """A manager that also searches the source tree's built-in definitions
+    (ln/parameters/*, ...), not only the installed ones."""
+    with running_manager(tmp_path_factory.mktemp("manager"), (MSGDEFS, BUILTIN_MSGDEFS)) as m:
+        yield m
 
 
 @pytest.fixture

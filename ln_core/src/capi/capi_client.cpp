@@ -1,13 +1,17 @@
 // ln.h: versions, errors, time and the client itself.
 #include <time.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstdarg>
+#include <cstring>
 #include <mutex>
 #include <set>
 
 #include "capi/capi_support.hpp"
+#include "parameters/provider.hpp"
 
 namespace ln::capi {
 namespace {
@@ -107,10 +111,39 @@ int ln_deinit(ln_client* clnt) {
   if (clnt == nullptr) return -LNE_INVALID_PARAMETER;
   Client* client = client_from(*clnt);
   if (client == nullptr) return -LNE_CLIENT_NOT_INITIALIZED;
+  ln::paramcore::client_closing(*clnt);  // its parameter services, while it can still release them
   ln::capi::unregister_client(client);
   delete client;
   *clnt = nullptr;
   return 0;
+}
+
+// LN 2.9's client settings: "debug" (level), "reconnect_interval" (seconds),
+// the Windows-only "win32_*" timings (accepted, without effect here, as in
+// LN 2.9 on Linux) and "__LN_CPP_WRAPPER_VERSION" (its C++ wrapper's
+// version check; needs no client).
+int ln_client_set_float_parameter(ln_client clnt, const char* name, float value) {
+  if (name != nullptr && std::strcmp(name, "__LN_CPP_WRAPPER_VERSION") == 0) return 0;
+  Client* client = client_from(clnt);
+  if (client == nullptr) return -LNE_CLIENT_NOT_INITIALIZED;
+  return guarded(client, [&] {
+    ln::capi::require(name != nullptr, "name");
+    const std::string setting = name;
+    if (setting == "debug") {
+      client->set_debug_level(std::isfinite(value) ? static_cast<int>(value) : 0);
+    } else if (setting == "reconnect_interval") {
+      if (!(value > 0) || !std::isfinite(value) || value > 3600)
+        throw ln::clientlib::Failure(LNE_INVALID_PARAMETER, "reconnect_interval must be between 0 and 3600 seconds, not " +
+                                                 std::to_string(value));
+      client->set_reconnect_interval(std::chrono::milliseconds(std::max(1L, std::lround(value * 1000.0))));
+    } else if (setting != "win32_async_ping_timeout" && setting != "win32_async_ping_interval" &&
+               setting != "win32_wait_for_service_request_timeout") {
+      throw ln::clientlib::Failure(LNE_UNKNOWN_PARAMETER, "unknown client setting '" + setting +
+                                               "' (debug, reconnect_interval, win32_async_ping_timeout, "
+                                               "win32_async_ping_interval, win32_wait_for_service_request_timeout)");
+    }
+    return 0;
+  });
 }
 
 void ln_debug(ln_client clnt_, const char* format, ...) {

@@ -70,6 +70,8 @@ target_link_libraries(ln PRIVATE ln_md ln_protocol ln_transport ln_services Thre
 target_link_options(ln PRIVATE -Wl,--version-script=${LN_CLIENT_DIR}/libln.map -Wl,--no-undefined)
 set_property(TARGET ln APPEND PROPERTY LINK_DEPENDS ${LN_CLIENT_DIR}/libln.map)
 
+include(${LN_CLIENT_SRC_DIR}/parameters/parameters.cmake)
+
 if(BUILD_TESTING)
   find_package(GTest REQUIRED)
   include(GoogleTest)

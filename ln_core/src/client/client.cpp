@@ -31,7 +31,6 @@ constexpr milliseconds kPeerTimeout{2000};
 // subscribers_changed that names it; well below kPeerTimeout.
 constexpr milliseconds kListingWait{500};
 constexpr milliseconds kFirstBackoff{50};
-constexpr milliseconds kLongestBackoff{1000};
 
 std::string without_hash(const std::string& md_name) { return md_name.substr(0, md_name.find('|')); }
 
@@ -843,8 +842,9 @@ void Client::on_disconnect(const std::string& reason) {
 }
 
 void Client::schedule_reconnect() {
-  loop_.run_after(backoff_, [this] { try_reconnect(); });
-  backoff_ = std::min(backoff_ * 2, kLongestBackoff);
+  const milliseconds longest{longest_backoff_ms_.load()};
+  loop_.run_after(std::min(backoff_, longest), [this] { try_reconnect(); });
+  backoff_ = std::min(backoff_ * 2, longest);
 }
 
 void Client::try_reconnect() {

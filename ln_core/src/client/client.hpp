@@ -105,6 +105,11 @@ class Client {
   bool debugging() const { return debug_level_.load(std::memory_order_relaxed) > 0; }
   void debug(const char* format, ...) const __attribute__((format(printf, 2, 3)));
   void vdebug(const char* format, va_list args) const;
+  /// ln_client_set_float_parameter("debug"): 0 quiet, > 0 LN_DEBUG output.
+  void set_debug_level(int level) { debug_level_.store(level); }
+  /// ln_client_set_float_parameter("reconnect_interval"): the longest wait
+  /// between two attempts to reach a restarted manager (> 0).
+  void set_reconnect_interval(std::chrono::milliseconds interval) { longest_backoff_ms_.store(interval.count()); }
 
   // ---- extension points (for services and availability callbacks)
   EventLoop& loop() { return loop_; }
@@ -210,6 +215,7 @@ class Client {
 
   // I/O thread only
   std::chrono::milliseconds backoff_{50};
+  std::atomic<std::int64_t> longest_backoff_ms_{1000};
   UniqueFd connecting_;
   std::map<std::string, std::vector<NotificationHandler>, std::less<>> notification_handlers_;
   std::vector<std::function<void()>> reconnect_handlers_;

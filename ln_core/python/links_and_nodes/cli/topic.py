@@ -6,6 +6,7 @@ import time
 from collections import deque
 
 from .common import CliError, as_dict, find_by_name, introspect, lnerror_text
+from .common import positive_float as _positive_float, positive_int as _positive_int
 from .output import human_bytes, human_rate
 from . import values as V
 
@@ -76,28 +77,6 @@ def register(groups, common):
     p.add_argument("--wait", type=float, default=2.0, metavar="SECONDS",
                    help="with --once/--count: wait this long for a subscriber first (default 2)")
     p.set_defaults(run=cmd_pub)
-
-
-def _positive_int(text):
-    import argparse
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError("'%s' is not a whole number" % text) from None
-    if value < 1:
-        raise argparse.ArgumentTypeError("must be at least 1, got %s" % text)
-    return value
-
-
-def _positive_float(text):
-    import argparse
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError("'%s' is not a number" % text) from None
-    if not value > 0 or math.isinf(value):
-        raise argparse.ArgumentTypeError("must be a positive number, got %s" % text)
-    return value
 
 
 def _add_read_options(p):

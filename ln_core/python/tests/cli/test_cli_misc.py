@@ -87,7 +87,14 @@ def test_completion_script(manager):
 
 
 def test_completion_of_commands_and_options(manager):
-    assert complete(manager, "ln ") == ["client", "completion", "manager", "md", "service", "topic"]
+    assert complete(manager, "ln ") == ["bag", "client", "completion", "manager", "md", "param", "play", "record",
+                                        "service", "topic"]
+    import importlib.util
+    if importlib.util.find_spec("ln_bag") is not None:   # recordings come from the ln_bag package
+        assert complete(manager, "ln bag ") == ["convert", "info"]
+        assert complete(manager, "ln record --e") == ["--exclude"]
+    else:
+        one_line_error(run_ln(manager, "record", "a.b"), "recordings need the ln_bag package", "colcon build")
     assert complete(manager, "ln to") == ["topic"]
     assert complete(manager, "ln topic ") == ["bw", "echo", "hz", "info", "list", "pub"]
     assert complete(manager, "ln topic echo --c") == ["--color", "--count", "--csv"]
