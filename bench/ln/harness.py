@@ -41,7 +41,7 @@ REPO_ROOT = LN_DIR.parent.parent
 LN_CORE_SRC = REPO_ROOT / "ln_core"
 MSGDEFS = LN_DIR / "msgdefs"
 MESSAGES = ["lnbench/p64", "lnbench/p4k", "lnbench/p1m", "lnbench/small_srv", "lnbench/blob_srv"]
-PROGRAMS = ["pingpong", "rate", "setup", "srv"]
+PROGRAMS = ["pingpong", "rate", "setup", "srv", "logger"]
 CXXFLAGS = ["-O2", "-std=c++17", "-Wall", "-Wextra"]
 
 

@@ -50,6 +50,7 @@ nanobind_add_module(ln_python NB_STATIC
   ${LN_PYTHON_DIR}/src/module.cpp
   ${LN_PYTHON_DIR}/src/model.cpp
   ${LN_PYTHON_DIR}/src/introspection.cpp
+  ${LN_PYTHON_DIR}/src/loggers.cpp
   ${LN_PYTHON_DIR}/src/parameters.cpp)
 target_link_libraries(ln_python PRIVATE ln ln_md)
 target_compile_options(ln_python PRIVATE -Wall -Wextra)

@@ -33,7 +33,7 @@ REPO_ROOT = HERE.parent.parent
 PROGRAMS_DIR = HERE / "programs"
 MSGDEFS_DIR = HERE / "msgdefs"
 OUR_SOURCE_INCLUDE_DIR = REPO_ROOT / "ln_core" / "include"
-PROGRAMS = ("lnbt_probe", "lnbt_publisher", "lnbt_subscriber", "lnbt_services", "lnbt_parameters")
+PROGRAMS = ("lnbt_probe", "lnbt_publisher", "lnbt_subscriber", "lnbt_services", "lnbt_parameters", "lnbt_logger")
 MESSAGES = ("lnbt/counter", "lnbt/other", "lnbt/echo", "ln/parameters/query", "ln/parameters/query_dict")
 
 IN_CI = bool(os.environ.get("CI"))

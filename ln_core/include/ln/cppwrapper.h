@@ -813,8 +813,8 @@ class string_buffer {
   uint32_t length_ = 0;
 };
 
-/// A named recording of topics kept by the daemons; obtained from
-/// client::get_logger(), owned by the client.
+/// A named recording of topics, made and kept by the manager (see ln.h,
+/// "Topic loggers"); obtained from client::get_logger(), owned by the client.
 class logger {
  public:
   client* clnt;
@@ -830,7 +830,7 @@ class logger {
   /// Fetches the recording through the manager; the result is owned by the
   /// logger and replaced by the next download.
   logger_data* download();
-  /// As download(), directly from the daemons.
+  /// As LN 2.9: disables the logger, then downloads.
   logger_data* direct_download();
   /// Lets the manager save the recording on its host ("auto": format by
   /// file name).

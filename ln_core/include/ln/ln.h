@@ -267,8 +267,9 @@ LN_API int ln_get_remaining_args(ln_client clnt, unsigned int* n_args, char** ar
     explanation behind -LNE_REQUEST_FAILED). Every failing call sets it, to ""
     when it has no detail, so right after a failure it describes that
     failure (the C++ wrapper appends it to its exceptions). Belongs to the
-    client; NULL for a NULL client. Not synchronised with failures in other
-    threads. */
+    client. Not synchronised with failures in other threads. For a NULL
+    client: the detail of this thread's last failed call that has no client
+    (ln_logger_data_save/_load/...), NULL if there was none. */
 LN_API char* ln_get_error_message(ln_client clnt_);
 
 /**@}*/
@@ -763,53 +764,82 @@ LN_API int ln_register_as_service_logger(ln_client clnt, const char* logger_serv
 /**@}*/
 
 /* ======================================================================== */
-/** @name Topic loggers (recording by the daemons) */
+/** @name Topic loggers
+    A logger records topics at the publisher's side: the ln_manager maps
+    each publisher's shared-memory segment and copies its packets into a ring
+    of log_size samples per topic (there are no daemons in ln_core). It is
+    not a subscriber (ln_has_subscriber(), ln_list_topics() do not count it).
+    A logger is a name the manager knows from its first enable on, for every
+    client; its recording stays in the manager until the logger is enabled
+    again, also after the publisher (or the client that enabled it) is gone.
+    Publishers on another host (network namespace) cannot be recorded:
+    enabling such a topic fails with -LNE_REQUEST_FAILED. */
 /* ======================================================================== */
 /**@{*/
 
-/** A named recording of topics, kept in memory by the daemons. */
+/** A named recording of topics, made and kept by the manager. */
 typedef void* ln_logger;
 /** Downloaded or loaded logger contents. */
 typedef void* ln_logger_data;
 
-/** Returns the logger of that name, creating it on first use. Owned by the
-    client. */
+/** Returns the logger of that name, creating it on first use (the same
+    handle for the same name). Owned by the client. */
 LN_API int ln_client_get_logger(ln_client clnt, ln_logger* logger, const char* logger_name);
-/** Records a topic: @p log_size samples in a ring, every @p divisor-th
-    packet. */
+/** Adds a topic to record (or changes the settings of one added before):
+    the newest @p log_size samples (>= 1; -LNE_INVALID_PARAMETER for 0),
+    every @p divisor-th packet counted from ln_logger_enable() (0 counts as
+    1). The topic need not be published yet: it is recorded from the moment
+    it is. Takes effect with the next ln_logger_enable(). */
 LN_API int ln_logger_add_topic(ln_logger logger, const char* topic_name, unsigned int log_size, unsigned int divisor);
-/** ln_logger_add_topic() for sizes beyond 32 bits. */
+/** ln_logger_add_topic() for sizes beyond 32 bits. Logs that do not fit the
+    manager's memory fail at ln_logger_enable() with -LNE_NO_MEM. */
 LN_API int ln_logger_add_topic64(ln_logger logger, const char* topic_name, uint64_t log_size, unsigned int divisor);
-/** Removes all topics from the logger. */
+/** Removes all topics from the logger (takes effect with the next enable). */
 LN_API int ln_logger_clear_topics(ln_logger logger);
-/** Non-zero: record timestamps only, no packet data. */
+/** Non-zero: record only the sample headers (timestamps and packet
+    counters), no packet data; samples are then 20 bytes. */
 LN_API int ln_logger_set_only_ts(ln_logger logger, int only_ts);
-/** Starts recording. */
+/** Starts a new recording of the added topics (the previous samples of the
+    logger are dropped); returns once every published topic records.
+    -LNE_NO_LOGGER_TOPICS without topics. */
 LN_API int ln_logger_enable(ln_logger logger);
-/** Stops recording. */
+/** Stops recording; the packets written before are recorded. */
 LN_API int ln_logger_disable(ln_logger logger);
-/** Fetches the recording through the manager. @p *logger_data belongs to
-    the logger and is replaced by its next download. */
+/** Fetches the recording through the manager: every topic of the logger in
+    its order, the samples oldest first (while enabled: as recorded so far).
+    Can be repeated. @p *logger_data belongs to the logger and is replaced
+    (freed) by its next download. -LNE_REQUEST_FAILED for a logger that was
+    never enabled. */
 LN_API int ln_logger_download(ln_logger logger, ln_logger_data* logger_data);
-/** As ln_logger_download(), fetching directly from the daemons. */
+/** As in LN 2.9: disables the logger, then downloads (the manager holds
+    the data, so there is no more direct way). */
 LN_API int ln_logger_direct_download(ln_logger logger, ln_logger_data* logger_data);
-/** Lets the manager save the recording to a file on its host.
-    @param format file format, "auto" chooses by file name. */
+/** Lets the manager write the recording to a file on its host.
+    @param format "raw" (the samples of a one-topic logger back to back),
+    "pcap" (LN's recorder format), "mat" (MATLAB 5), "mat4" (MATLAB 4), or
+    "auto"/NULL: chosen by the file name's extension (.raw, .pcap, .mat).
+    "pickle" is refused: the manager is not a Python program. */
 LN_API int ln_logger_manager_save(ln_logger logger, const char* filename, const char* format);
-/** Writes logger data to a file. */
+/** Writes logger data to a file in LN 2.9's format (loadable by LN 2.9).
+    On failure ln_get_error_message(NULL) says why. */
 LN_API int ln_logger_data_save(ln_logger_data logger_data, const char* filename);
-/** Loads logger data from a file; free it with ln_logger_data_deinit(). */
+/** Loads logger data from a file written by ln_logger_data_save() (also by
+    LN 2.9); free it with ln_logger_data_deinit(). A file of the other byte
+    order: -LNE_WRONG_BYTE_ORDER; a newer format: -LNE_LOG_FILE_TOO_NEW; a
+    damaged file: -LNE_INVALID_PARAMETER; ln_get_error_message(NULL) says
+    why. */
 LN_API int ln_logger_data_load(ln_logger_data* logger_data, const char* filename);
 /** Frees logger data obtained from ln_logger_data_load() (not from a
-    download) and sets *logger_data to NULL. */
+    download: -LNE_INVALID_PARAMETER) and sets *logger_data to NULL. */
 LN_API int ln_logger_data_deinit(ln_logger_data* logger_data);
 
 #include "packed.h"
 /** One recorded sample; samples of a topic are sample_size bytes apart. */
 typedef struct LN_PACKED {
-  double log_ts;           /**< when the daemon recorded it */
+  double log_ts;           /**< when the manager's recorder copied it (wall clock;
+                                it polls, so up to a few ms after the write) */
   double src_ts;           /**< the publisher's timestamp */
-  uint32_t packet_counter; /**< the publisher's packet counter */
+  uint32_t packet_counter; /**< the publisher's packet counter (low 32 bits) */
   uint8_t data;            /**< first byte of the packet (absent with only_ts) */
 } logger_sample;
 #include "endpacked.h"
@@ -824,15 +854,18 @@ struct logger_topic_ {
   uint32_t divisor;
   /* Filled in by a download or load: */
   uint32_t n_samples;
-  uint32_t sample_size;    /**< distance between samples in bytes */
-  char* md_name;
-  char* md;
-  logger_sample* samples;
+  uint32_t sample_size;    /**< distance between samples in bytes: 20 + message
+                                size, 20 with only_ts, 0 for a topic never seen
+                                published */
+  char* md_name;           /**< message definition name ("" if never seen) */
+  char* md;                /**< the definition in LN 2.9's Python dict notation */
+  logger_sample* samples;  /**< n_samples samples, oldest first */
 };
 
 /** Number of topics in logger data. */
 LN_API int ln_logger_data_get_info(ln_logger_data logger_data, unsigned int* n_topics);
-/** Topic @p topic_id (0-based) of logger data; belongs to the data. */
+/** Topic @p topic_id (0-based) of logger data; belongs to the data.
+    -LNE_TOPIC_ID_OUT_OF_RANGE beyond the last topic. */
 LN_API int ln_logger_data_get_topic(ln_logger_data logger_data, unsigned int topic_id, logger_topic** topic);
 
 /**@}*/
@@ -1153,6 +1186,11 @@ LN_API int ln_list_services(ln_client clnt, ln_service_info** services, unsigned
                 release it with ln_free_list().
     @return as ln_list_topics(). */
 LN_API int ln_get_manager_status(ln_client clnt, ln_manager_status** status);
+
+/** A copy of logger data that belongs to the caller (free it with
+    ln_logger_data_deinit()): a download kept beyond the logger's next one.
+    @return 0, or -LNE_INVALID_PARAMETER for an invalid handle. */
+LN_API int ln_logger_data_copy(ln_logger_data logger_data, ln_logger_data* copy);
 
 /** Releases the result of ln_list_topics(), ln_list_clients(),
     ln_list_services() or ln_get_manager_status(); NULL does nothing. Every

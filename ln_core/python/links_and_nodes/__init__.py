@@ -23,6 +23,7 @@ from ._packets import FieldError, FieldTypeError, FieldValueError, Part as ln_pa
 from ._client import client, port_wrapper, multi_waiter, borrowed_packet  # noqa: F401
 from ._services import service_wrapper, request_wrapper, ServiceFuture, SVC_RESP_LATER  # noqa: F401
 from ._introspection import topic_info, client_info, service_info, manager_status  # noqa: F401
+from ._loggers import logger, logger_data, logger_topic_, logger_data_wrapper, topic_cursor_wrapper  # noqa: F401
 from ._parameters import parameters_proxy, ParameterBlock, ParameterSignal, ParameterOutputs  # noqa: F401
 from ._ln import (  # noqa: F401  (parameter element types, as LN 2.9 exports them)
     LN_PARAM_BOOLEAN, LN_PARAM_DOUBLE, LN_PARAM_INT16, LN_PARAM_INT32, LN_PARAM_INT64, LN_PARAM_INT8,

@@ -152,6 +152,12 @@ class client:
     def get_multi_waiter(self):
         return multi_waiter(self)
 
+    # -- topic loggers ----------------------------------------------------
+    def get_logger(self, logger_name):
+        """The topic logger of that name (made on first use); the manager records."""
+        from ._loggers import logger
+        return logger(_ln.get_logger(self._native, logger_name))
+
     # -- services ---------------------------------------------------------
     def get_service(self, service_name, interface_name="", mainloop=None):
         """A service to call. Without interface_name the running provider's is used."""
@@ -251,9 +257,6 @@ class client:
 
     def _unsupported(self, what):
         raise LNError("%s is not supported by links_and_nodes on ln_core" % what, LNE_NOT_YET_IMPLEMENTED, 0)
-
-    def get_logger(self, logger_name):
-        self._unsupported("client.get_logger()")
 
     def get_parameters(self, parameter_group_prefix="", allow_empty=False):
         """The parameters other clients provide below `parameter_group_prefix`

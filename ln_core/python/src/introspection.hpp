@@ -17,8 +17,10 @@ namespace lnpy {
 /// while a concurrent close() waits; raises LNError if it is closed.
 using WithClient = void (*)(nanobind::handle client, const std::function<void(ln_client)>& body);
 
-/// Raises `ln_error` (links_and_nodes.LNError) for a failed call: (message
-/// with the detail of ln_get_error_message(handle), code, 0).
+/// Raises `ln_error` (links_and_nodes.LNError) as the module does: (message,
+/// code, 0), the message naming `what`, the code and the client's detail
+/// (ln_get_error_message(handle); handle NULL: the detail of this thread's
+/// last failed call without client).
 [[noreturn]] void raise_ln_error(nanobind::handle ln_error, int ret, const std::string& what, ln_client handle);
 
 /// Adds list_topics(client), list_clients(client), list_services(client)

@@ -29,6 +29,7 @@
 
 #include "ln/ln.h"
 #include "introspection.hpp"
+#include "loggers.hpp"
 #include "parameters.hpp"
 #include "model.hpp"
 
@@ -1341,5 +1342,6 @@ NB_MODULE(_ln, m) {
     body(native.handle());
   };
   register_introspection(m, with_client);
+  register_loggers(m, with_client);
   register_parameters(m, with_client);
 }

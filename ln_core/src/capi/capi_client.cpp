@@ -180,7 +180,7 @@ int ln_get_remaining_args(ln_client clnt, unsigned int* n_args, char** args_ptr)
 
 char* ln_get_error_message(ln_client clnt_) {
   Client* client = client_from(clnt_);
-  return client != nullptr ? client->errors().text() : nullptr;
+  return client != nullptr ? client->errors().text() : ln::capi::clientless_error_text();
 }
 
 }  // extern "C"

@@ -9,21 +9,6 @@
 extern "C" {
 
 int ln_register_as_service_logger(ln_client clnt, const char* logger_service_name, const char* service_name_patterns_to_log) { return -LNE_NOT_YET_IMPLEMENTED; }
-int ln_client_get_logger(ln_client clnt, ln_logger* logger, const char* logger_name) { return -LNE_NOT_YET_IMPLEMENTED; }
-int ln_logger_add_topic(ln_logger logger, const char* topic_name, unsigned int log_size, unsigned int divisor) { return -LNE_NOT_YET_IMPLEMENTED; }
-int ln_logger_add_topic64(ln_logger logger, const char* topic_name, uint64_t log_size, unsigned int divisor) { return -LNE_NOT_YET_IMPLEMENTED; }
-int ln_logger_clear_topics(ln_logger logger) { return -LNE_NOT_YET_IMPLEMENTED; }
-int ln_logger_set_only_ts(ln_logger logger, int only_ts) { return -LNE_NOT_YET_IMPLEMENTED; }
-int ln_logger_enable(ln_logger logger) { return -LNE_NOT_YET_IMPLEMENTED; }
-int ln_logger_disable(ln_logger logger) { return -LNE_NOT_YET_IMPLEMENTED; }
-int ln_logger_download(ln_logger logger, ln_logger_data* logger_data) { return -LNE_NOT_YET_IMPLEMENTED; }
-int ln_logger_direct_download(ln_logger logger, ln_logger_data* logger_data) { return -LNE_NOT_YET_IMPLEMENTED; }
-int ln_logger_manager_save(ln_logger logger, const char* filename, const char* format) { return -LNE_NOT_YET_IMPLEMENTED; }
-int ln_logger_data_save(ln_logger_data logger_data, const char* filename) { return -LNE_NOT_YET_IMPLEMENTED; }
-int ln_logger_data_load(ln_logger_data* logger_data, const char* filename) { return -LNE_NOT_YET_IMPLEMENTED; }
-int ln_logger_data_deinit(ln_logger_data* logger_data) { return -LNE_NOT_YET_IMPLEMENTED; }
-int ln_logger_data_get_info(ln_logger_data logger_data, unsigned int* n_topics) { return -LNE_NOT_YET_IMPLEMENTED; }
-int ln_logger_data_get_topic(ln_logger_data logger_data, unsigned int topic_id, logger_topic** topic) { return -LNE_NOT_YET_IMPLEMENTED; }
 int ln_event_connect(ln_client clnt, ln_event_connection* conn, const char* event_name, const char* connect_signature, void* connect_data, ln_event_handler handler, void* user_data) { return -LNE_NOT_YET_IMPLEMENTED; }
 int ln_event_connect_flat(ln_client clnt, ln_event_connection* conn, const char* event_name, const char* connect_signature, void* connect_data_flat, uint32_t connect_data_flat_len, ln_event_handler handler, void* user_data) { return -LNE_NOT_YET_IMPLEMENTED; }
 int ln_event_connection_deinit(ln_event_connection* conn) { return -LNE_NOT_YET_IMPLEMENTED; }

@@ -27,11 +27,11 @@ void unregister_client(Client* client);
 Client* client_from(ln_client handle);
 
 /// Runs `body` (returning an int >= 0) and maps failures to -LNE_* codes,
-/// storing the detail in the client's error slot (when there is a client).
+/// storing the detail in `slot` (when there is one).
 template <typename Body>
-int guarded(Client* client, Body&& body) noexcept {
-  auto record = [client](int code, const std::string& text) noexcept {
-    if (client != nullptr) client->errors().set(text);
+int guarded_into(clientlib::ErrorSlot* slot, Body&& body) noexcept {
+  auto record = [slot](int code, const std::string& text) noexcept {
+    if (slot != nullptr) slot->set(text);
     return -code;
   };
   try {
@@ -50,6 +50,16 @@ int guarded(Client* client, Body&& body) noexcept {
     return record(LNE_INTERNAL_ERROR, "unexpected exception");
   }
 }
+
+/// guarded_into() the client's error slot (when there is a client).
+template <typename Body>
+int guarded(Client* client, Body&& body) noexcept {
+  return guarded_into(client != nullptr ? &client->errors() : nullptr, std::forward<Body>(body));
+}
+
+/// The detail of the last failed call of this thread that has no client
+/// (ln_logger_data_*), or nullptr; what ln_get_error_message(NULL) returns.
+char* clientless_error_text() noexcept;
 
 /// A malloc()ed copy for strings the caller frees. Throws bad_alloc.
 inline char* malloc_copy(const std::string& text) {

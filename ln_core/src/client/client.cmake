@@ -24,6 +24,8 @@ add_library(ln_client_objects OBJECT
   ${LN_CLIENT_DIR}/event_loop.cpp
   ${LN_CLIENT_DIR}/failure.cpp
   ${LN_CLIENT_DIR}/launch_options.cpp
+  ${LN_CLIENT_DIR}/logger_data.cpp
+  ${LN_CLIENT_DIR}/loggers.cpp
   ${LN_CLIENT_DIR}/manager_link.cpp
   ${LN_CLIENT_DIR}/multi_waiter.cpp
   ${LN_CLIENT_DIR}/name_mapping.cpp
@@ -35,6 +37,7 @@ add_library(ln_client_objects OBJECT
   ${LN_CLIENT_SRC_DIR}/capi/capi_client.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_definitions.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_introspection.cpp
+  ${LN_CLIENT_SRC_DIR}/capi/capi_loggers.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_topics.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_services.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_not_yet_implemented.cpp
@@ -76,6 +79,7 @@ if(BUILD_TESTING)
   # White-box tests of the pieces that need no manager.
   add_executable(ln_client_unit_tests
     ${LN_CLIENT_DIR}/launch_options_test.cpp
+    ${LN_CLIENT_DIR}/logger_data_test.cpp
     ${LN_CLIENT_DIR}/multi_waiter_test.cpp
     ${LN_CLIENT_DIR}/net_test.cpp
     ${LN_CLIENT_DIR}/peer_test.cpp
@@ -90,6 +94,7 @@ if(BUILD_TESTING)
     # The public API of libln.so against an in-process manager.
     add_executable(ln_client_tests
       ${LN_CLIENT_DIR}/client_test.cpp
+      ${LN_CLIENT_DIR}/loggers_test.cpp
       ${LN_CLIENT_DIR}/topics_test.cpp)
     target_link_libraries(ln_client_tests PRIVATE ln ln_manager_core GTest::gtest GTest::gtest_main)
     target_include_directories(ln_client_tests PRIVATE ${LN_CLIENT_SRC_DIR})

@@ -196,11 +196,14 @@ Client::~Client() {
   link_.detach("the client was closed");
   connecting_.reset();
   std::shared_ptr<void> services;
+  std::map<std::string, std::shared_ptr<void>> parts;
   {
     std::lock_guard<std::mutex> lock(services_mutex_);
     services.swap(services_);
+    parts.swap(parts_);
   }
   services.reset();  // stops its threads; handlers may still use the client
+  parts.clear();
   std::lock_guard<std::mutex> lock(registry_mutex_);
   waiters_.clear();   // before the ports they look at
   outports_.clear();  // closes the segments: local subscribers see the publisher leave at once
@@ -272,6 +275,13 @@ void Client::add_reconnect_handler(std::function<void()> handler) {
   auto add = [this, handler = std::move(handler)]() mutable { reconnect_handlers_.push_back(std::move(handler)); };
   if (loop_.in_loop_thread()) add();
   else loop_.post(std::move(add));
+}
+
+std::shared_ptr<void> Client::part_state(const std::string& part, const std::function<std::shared_ptr<void>()>& make) {
+  std::lock_guard<std::mutex> lock(services_mutex_);
+  std::shared_ptr<void>& state = parts_[part];
+  if (!state) state = make();
+  return state;
 }
 
 std::shared_ptr<void> Client::services_state(const std::function<std::shared_ptr<void>()>& make) {

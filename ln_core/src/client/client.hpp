@@ -128,6 +128,8 @@ class Client {
   /// (services_glue.hpp): `make`s it on first use. Released in ~Client once
   /// the I/O thread stopped and the manager link is closed.
   std::shared_ptr<void> services_state(const std::function<std::shared_ptr<void>()>& make);
+  /// The same for other parts of the library, by name (loggers: "loggers").
+  std::shared_ptr<void> part_state(const std::string& part, const std::function<std::shared_ptr<void>()>& make);
 
  private:
   struct Settings {
@@ -252,6 +254,7 @@ class Client {
   std::vector<std::unique_ptr<MultiWaiter>> waiters_;
   std::mutex services_mutex_;
   std::shared_ptr<void> services_;
+  std::map<std::string, std::shared_ptr<void>> parts_;  // services_mutex_
   // Receives topic data from publishers on other hosts; made with the first
   // subscription (it must be named in the subscribe request).
   std::unique_ptr<RemoteReceiver> receiver_;

@@ -8,6 +8,7 @@
 
 #include "ln/md/message_definition.hpp"
 #include "manager/definitions.hpp"
+#include "manager/loggers.hpp"
 #include "manager/request_error.hpp"
 #include "protocol/methods.hpp"
 
@@ -66,6 +67,12 @@ Dispatcher::Dispatcher(Registry& registry, DefinitionStore& definitions, std::st
   };
 }
 
+Message Dispatcher::deferred() { return Message::notification("(answered later)"); }
+
+bool Dispatcher::is_deferred(const Message& response) {
+  return response.kind() == protocol::Kind::Notification && response.get_string_or("method", "") == "(answered later)";
+}
+
 void Dispatcher::listening_at(std::string address) {
   listen_address_ = std::move(address);
   started_ = std::chrono::steady_clock::now();
@@ -91,10 +98,15 @@ Message Dispatcher::handle(Session& session, const Message& request, Outbox& out
   try {
     name = request.get_string("method");
     const auto handler = handlers_.find(name);
-    if (handler == handlers_.end())
+    const bool for_loggers = loggers_ != nullptr && Loggers::handles(name);
+    if (handler == handlers_.end() && !for_loggers)
       throw RequestError(LNE_MANAGER_TOO_OLD, "this manager does not know the method '" + name + "'");
-    if (!session.client && handler->second != &Dispatcher::hello)
+    if (!session.client && (for_loggers || handler->second != &Dispatcher::hello))
       throw RequestError(LNE_CLIENT_NOT_INITIALIZED, "say hello first: '" + name + "' needs a registered client");
+    if (for_loggers) {
+      auto response = loggers_->handle(*session.client, request, out);
+      return response ? std::move(*response) : deferred();
+    }
     return (this->*handler->second)(session, request, out);
   } catch (const RequestError& e) {
     return Message::error_response_to(request, e.code(), e.what());
@@ -176,8 +188,9 @@ Message Dispatcher::publisher_ready(Session& session, const Message& request, Ou
   constexpr std::int64_t max = std::numeric_limits<std::int64_t>::max();
   std::optional<std::int64_t> packets;
   if (request.has("packets")) packets = request.get_int("packets", 0, max);
-  registry_.publisher_ready(*session.client, get_id(request, "topic_id"), request.get_int("segment_generation", 0, max),
-                            packets, out);
+  const Id topic = get_id(request, "topic_id");
+  registry_.publisher_ready(*session.client, topic, request.get_int("segment_generation", 0, max), packets, out);
+  if (loggers_ != nullptr) loggers_->publisher_ready(registry_.topic(topic), out);
   return Message::response_to(request);
 }
 

@@ -15,6 +15,7 @@
 namespace ln::manager {
 
 class DefinitionStore;
+class Loggers;
 
 /// What the manager knows about one connection's conversation.
 struct Session {
@@ -37,6 +38,11 @@ class Dispatcher {
   /// The manager listens at `address` ("IP:PORT") from now on: manager_status
   /// reports it and counts the uptime from here.
   void listening_at(std::string address);
+  /// Serves the logger_* methods through `loggers` from now on.
+  void serve_loggers(Loggers& loggers) { loggers_ = &loggers; }
+  /// handle()'s answer to a request whose response is sent later.
+  static protocol::Message deferred();
+  static bool is_deferred(const protocol::Message& response);
 
  private:
   using Handler = protocol::Message (Dispatcher::*)(Session&, const protocol::Message&, Outbox&);
@@ -69,6 +75,7 @@ class Dispatcher {
   std::string listen_address_;
   std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
   std::map<std::string, Handler, std::less<>> handlers_;
+  Loggers* loggers_ = nullptr;
 };
 
 }  // namespace ln::manager

@@ -9,12 +9,28 @@ add_library(ln_manager_core STATIC
   ${LN_MANAGER_SOURCE_DIR}/config.cpp
   ${LN_MANAGER_SOURCE_DIR}/definitions.cpp
   ${LN_MANAGER_SOURCE_DIR}/dispatch.cpp
+  ${LN_MANAGER_SOURCE_DIR}/log_files.cpp
+  ${LN_MANAGER_SOURCE_DIR}/loggers.cpp
   ${LN_MANAGER_SOURCE_DIR}/manager.cpp
   ${LN_MANAGER_SOURCE_DIR}/names.cpp
+  ${LN_MANAGER_SOURCE_DIR}/recorder.cpp
   ${LN_MANAGER_SOURCE_DIR}/registry.cpp
+  ${LN_MANAGER_SOURCE_DIR}/sample_log.cpp
 )
 target_include_directories(ln_manager_core PUBLIC ${LN_MANAGER_SOURCE_DIR}/..)
-target_link_libraries(ln_manager_core PUBLIC ln_md ln_protocol Threads::Threads)
+target_link_libraries(ln_manager_core PUBLIC ln_md ln_protocol ln_transport Threads::Threads)
+# libmatio writes the MATLAB files of ln_logger_manager_save(); without it
+# (e.g. a pip build elsewhere) those formats answer with an error saying so.
+find_package(PkgConfig)
+if(PkgConfig_FOUND)
+  pkg_check_modules(MATIO IMPORTED_TARGET matio)
+endif()
+if(MATIO_FOUND)
+  target_link_libraries(ln_manager_core PRIVATE PkgConfig::MATIO)
+  target_compile_definitions(ln_manager_core PRIVATE LN_WITH_MATIO)
+else()
+  message(STATUS "libmatio not found (Debian: libmatio-dev): manager_save will refuse the MATLAB formats")
+endif()
 target_compile_definitions(ln_manager_core PRIVATE LN_MANAGER_VERSION="${PROJECT_VERSION}")
 ln_target_warnings(ln_manager_core)
 
@@ -33,8 +49,16 @@ if(BUILD_TESTING)
     ${LN_MANAGER_SOURCE_DIR}/introspection_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/robustness_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/binary_test.cpp
+    ${LN_MANAGER_SOURCE_DIR}/sample_log_test.cpp
+    ${LN_MANAGER_SOURCE_DIR}/log_files_test.cpp
+    ${LN_MANAGER_SOURCE_DIR}/loggers_test.cpp
+    ${LN_MANAGER_SOURCE_DIR}/recorder_test.cpp
   )
   target_link_libraries(manager_tests PRIVATE ln_manager_core GTest::gtest GTest::gtest_main)
+  if(MATIO_FOUND)  # the MATLAB files are read back with libmatio
+    target_link_libraries(manager_tests PRIVATE PkgConfig::MATIO)
+    target_compile_definitions(manager_tests PRIVATE LN_WITH_MATIO)
+  endif()
   # The binary test starts the real daemon.
   target_compile_definitions(manager_tests PRIVATE LN_MANAGER_BINARY="$<TARGET_FILE:ln_manager>")
   add_dependencies(manager_tests ln_manager)

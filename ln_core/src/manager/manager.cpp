@@ -22,6 +22,7 @@
 
 #include "manager/definitions.hpp"
 #include "manager/dispatch.hpp"
+#include "manager/loggers.hpp"
 #include "manager/registry.hpp"
 #include "manager/request_error.hpp"
 #include "protocol/wire.hpp"
@@ -83,9 +84,16 @@ struct Manager::Impl {
                                                          ? default_generated_dir()
                                                          : options.generated_definition_dir),
         registry(definitions),
-        dispatcher(registry, definitions, std::string("ln_core ") + LN_MANAGER_VERSION) {}
+        dispatcher(registry, definitions, std::string("ln_core ") + LN_MANAGER_VERSION),
+        loggers(registry, definitions, [this](Loggers::Task task) { post(std::move(task)); }, options.log) {
+    dispatcher.serve_loggers(loggers);
+  }
 
   ~Impl() {
+    {
+      std::lock_guard<std::mutex> lock(posted_mutex);
+      wake_fd_closing = true;  // the loggers' threads still run until they are destroyed
+    }
     for (auto& entry : connections) ::close(entry.first);
     for (int fd : {listen_fd, wake_fd, epoll_fd, spare_fd})
       if (fd >= 0) ::close(fd);
@@ -160,6 +168,7 @@ struct Manager::Impl {
         if (fd == wake_fd) {
           std::uint64_t ignored;
           (void)!::read(wake_fd, &ignored, sizeof ignored);
+          run_posted_tasks();
         } else if (fd == listen_fd) {
           accept_connections();
         } else if (auto it = connections.find(fd); it != connections.end() && !it->second->doomed) {
@@ -174,6 +183,29 @@ struct Manager::Impl {
     for (auto& entry : connections) ::close(entry.first);
     connections.clear();
     by_client.clear();
+  }
+
+  // Work finished by other threads (the loggers' workers) comes back here,
+  // to run in the loop thread.
+  void post(Loggers::Task task) {
+    std::lock_guard<std::mutex> lock(posted_mutex);
+    if (wake_fd_closing) return;
+    posted.push_back(std::move(task));
+    const std::uint64_t one = 1;
+    if (wake_fd >= 0) (void)!::write(wake_fd, &one, sizeof one);
+  }
+
+  void run_posted_tasks() {
+    std::vector<Loggers::Task> tasks;
+    {
+      std::lock_guard<std::mutex> lock(posted_mutex);
+      tasks.swap(posted);
+    }
+    for (auto& task : tasks) {
+      Outbox out;
+      task(out);
+      deliver(out);
+    }
   }
 
   void stop() {
@@ -288,6 +320,7 @@ struct Manager::Impl {
     const std::optional<Id> before = connection.session.client;
     Outbox out;
     const protocol::Message response = dispatcher.handle(connection.session, message, out, options.log);
+    if (Dispatcher::is_deferred(response)) return deliver(out);  // answered through post() later
     if (response.is_error())
       log(LogLevel::Debug, describe(connection) + ": '" + message.get_string_or("method", "") +
                                "' refused: " + response.error_text());
@@ -413,6 +446,10 @@ struct Manager::Impl {
   DefinitionStore definitions;
   Registry registry;
   Dispatcher dispatcher;
+  std::mutex posted_mutex;
+  std::vector<Loggers::Task> posted;
+  bool wake_fd_closing = false;
+  Loggers loggers;  // after everything it uses: destroyed (its threads stopped) first
 
   int epoll_fd = -1;
   int listen_fd = -1;

@@ -287,6 +287,8 @@ const Topic& Registry::topic_named(const std::string& name) const {
 std::int64_t Registry::subscriber_buffers(const Topic& topic) const {
   std::int64_t largest = 0;
   for (Id id : topic.subscriptions) largest = std::max(largest, subscriptions_.at(id).buffers);
+  for (const auto& entry : taps_)
+    if (entry.second.topic == topic.name) largest = std::max(largest, entry.second.buffers);
   return largest;
 }
 
@@ -315,6 +317,8 @@ protocol::Message Registry::subscribers_changed(const Topic& topic) const {
     remote.push_back(std::to_string(subscription.id) + " " + shortest_text(subscription.rate) + " " +
                      (subscription.reliable ? "1" : "0") + " " + subscription.receive_address);
   }
+  for (const auto& [id, tap] : taps_)
+    if (tap.topic == topic.name) local.push_back(std::to_string(id));
   auto message = protocol::Message::notification(method::subscribers_changed);
   message.set("topic_id", topic.id)
       .set("subscribers", static_cast<std::int64_t>(topic.subscriptions.size()))
@@ -326,6 +330,35 @@ protocol::Message Registry::subscribers_changed(const Topic& topic) const {
 
 void Registry::notify_publisher(const Topic& topic, Outbox& out) const {
   if (topic.publisher) out.push_back({*topic.publisher, subscribers_changed(topic)});
+}
+
+void Registry::notify_publisher_of(const std::string& topic, Outbox& out) const {
+  if (const auto it = topic_names_.find(topic); it != topic_names_.end()) notify_publisher(topics_.at(it->second), out);
+}
+
+Id Registry::add_tap(const std::string& topic, std::int64_t buffers, Outbox& out) {
+  check_name(topic_name_problem(topic));
+  check_buffers(buffers);
+  const Id id = ++last_id_;
+  taps_[id] = Tap{topic, buffers};
+  notify_publisher_of(topic, out);
+  return id;
+}
+
+void Registry::set_tap_buffers(Id tap, std::int64_t buffers, Outbox& out) {
+  check_buffers(buffers);
+  const auto it = taps_.find(tap);
+  if (it == taps_.end() || it->second.buffers == buffers) return;
+  it->second.buffers = buffers;
+  notify_publisher_of(it->second.topic, out);
+}
+
+void Registry::remove_tap(Id tap, Outbox& out) {
+  const auto it = taps_.find(tap);
+  if (it == taps_.end()) return;
+  const std::string topic = it->second.topic;
+  taps_.erase(it);
+  notify_publisher_of(topic, out);
 }
 
 void Registry::erase_topic_if_unused(Id id) {

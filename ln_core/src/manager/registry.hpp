@@ -144,6 +144,16 @@ class Registry {
   /// Packets per second as list_topics shows it now (0 once stale).
   double current_rate(const Topic& topic) const;
 
+  // --------------------------------------------------------- recorder taps
+  /// A tap: the manager's own recorder (manager/recorder.hpp) reading topic
+  /// `topic`'s segment like a subscriber on the publisher's host, listed in
+  /// subscribers_changed's `local` ids and counted in subscriber_buffers, but
+  /// not as a subscriber (has_subscriber, list_topics, list_clients). Kept by
+  /// topic name, also while the topic has no publisher or does not exist.
+  Id add_tap(const std::string& topic, std::int64_t buffers, Outbox& out);
+  void set_tap_buffers(Id tap, std::int64_t buffers, Outbox& out);
+  void remove_tap(Id tap, Outbox& out);
+
   // ------------------------------------------------------------ services
   const Service& register_service(Id client, const std::string& name, const std::string& interface,
                                   const std::string& signature, const std::string& group, Outbox& out);
@@ -185,6 +195,12 @@ class Registry {
   std::map<Id, Subscription> subscriptions_;
   std::map<Id, Service> services_;
   std::map<std::string, Id> service_names_;
+  struct Tap {
+    std::string topic;
+    std::int64_t buffers = 1;
+  };
+  std::map<Id, Tap> taps_;
+  void notify_publisher_of(const std::string& topic, Outbox& out) const;
 };
 
 }  // namespace ln::manager

@@ -132,6 +132,34 @@
 //                  in search order: configured dirs, generated dir, standard
 //                  dirs; only directories that exist)
 //
+// Topic loggers (manager/loggers.hpp): the manager records, a logger is a
+// name; its recording lives in the manager until the logger is enabled again.
+// logger_enable    name (str), topics (list: topic names, in the logger's
+//                  order), log_sizes (list: samples kept per topic, decimal,
+//                  >= 1), divisors (list: record every n-th packet, decimal,
+//                  0 counts as 1), only_ts (bool)
+//   -> ok once every listed topic with a ready publisher records (the answer
+//   waits for the recorder to attach to the publishers' segments); topics
+//   without a publisher are recorded from its publisher_ready on. Starts a new
+//   recording (earlier samples of the logger are dropped). Lists of unequal
+//   length, log size 0, invalid topic names -> LNE_INVALID_PARAMETER; logs that
+//   do not fit the manager's memory -> LNE_NO_MEM; a publisher whose segment
+//   cannot be attached (another host) -> LNE_REQUEST_FAILED (the other
+//   topics record).
+// logger_disable   name -> ok; packets written before the request are
+//   recorded, none after. An unknown logger is not an error.
+// logger_download  name -> download (int), topics, log_sizes, divisors,
+//   n_samples, sample_sizes (lists, numbers in decimal), md_names, mds (lists:
+//   definition name and md::python_dict_text, "" for a topic never seen
+//   published): a frozen view of the recording (an enabled logger goes on
+//   recording). A logger never enabled -> LNE_REQUEST_FAILED.
+// logger_download_data  download (int), topic (int: index), offset (int:
+//   byte offset) -> data (str: the topic's samples from offset on, at most
+//   logger::kDownloadChunk bytes). A view lives until the client's next
+//   logger_download or until it leaves.
+// logger_manager_save  name, filename, format (str) -> ok once the manager
+//   wrote the file on its host (formats: manager/log_files.hpp).
+//
 // ---------------------------------------------------------------------------
 // Client -> manager notifications (the only notifications the manager reads;
 // others, and those of a connection without hello, are dropped)
@@ -238,6 +266,11 @@ inline constexpr std::string_view list_topics = "list_topics";
 inline constexpr std::string_view list_services = "list_services";
 inline constexpr std::string_view manager_status = "manager_status";
 inline constexpr std::string_view topic_stats = "topic_stats";
+inline constexpr std::string_view logger_enable = "logger_enable";
+inline constexpr std::string_view logger_disable = "logger_disable";
+inline constexpr std::string_view logger_download = "logger_download";
+inline constexpr std::string_view logger_download_data = "logger_download_data";
+inline constexpr std::string_view logger_manager_save = "logger_manager_save";
 
 inline constexpr std::string_view publisher_available = "publisher_available";
 inline constexpr std::string_view publisher_gone = "publisher_gone";

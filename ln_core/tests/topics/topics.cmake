@@ -21,7 +21,8 @@ foreach(program ln_test_publisher.c ln_test_subscriber.cpp ln_bench_pingpong.cpp
   ln_target_warnings(${name})
 endforeach()
 
-add_executable(ln_topic_tests ${LN_TOPICS_TEST_DIR}/topics_process_test.cpp)
+add_executable(ln_topic_tests ${LN_TOPICS_TEST_DIR}/topics_process_test.cpp
+                              ${LN_TOPICS_TEST_DIR}/loggers_process_test.cpp)
 target_link_libraries(ln_topic_tests PRIVATE ln ln_manager_core GTest::gtest GTest::gtest_main)
 target_include_directories(ln_topic_tests PRIVATE ${LN_CLIENT_SRC_DIR})
 target_compile_definitions(ln_topic_tests PRIVATE
