@@ -1,0 +1,103 @@
+#include "bridge/sender_filter.hpp"
+
+#include <fnmatch.h>
+
+#include <algorithm>
+#include <set>
+#include <utility>
+
+namespace msg_mapping::bridge {
+
+SenderFilter::SenderFilter(Lookup lookup, IsBridge is_bridge, std::size_t hold, double pending,
+                           double lookup_interval)
+    : lookup_(std::move(lookup)),
+      is_bridge_(std::move(is_bridge)),
+      hold_(std::max<std::size_t>(1, hold)),
+      pending_(pending),
+      lookup_interval_(lookup_interval) {}
+
+void SenderFilter::classify(double now, bool force, std::vector<Endpoint>* seen) {
+  if (!force && now - looked_up_at_ < lookup_interval_) return;
+  looked_up_at_ = now;
+  std::vector<Endpoint> endpoints = lookup_();
+  for (const Endpoint& e : endpoints)
+    if (!e.node.empty() && !verdicts_.count(e.gid)) verdicts_[e.gid] = !is_bridge_(e.node);
+  if (seen) *seen = std::move(endpoints);
+}
+
+SenderFilter::Decision SenderFilter::decide(const Gid& gid, double now) {
+  auto verdict = verdicts_.find(gid);
+  if (verdict == verdicts_.end()) {
+    // A sender seen for the first time is looked up at once; one already held
+    // waits for the next look-up slot, so a flood of messages is not a flood of
+    // graph queries.
+    classify(now, !held_.count(gid));
+    verdict = verdicts_.find(gid);
+    if (verdict == verdicts_.end()) return Decision::Hold;
+  }
+  if (!verdict->second) {
+    ++dropped_;
+    return Decision::Drop;
+  }
+  return Decision::Forward;
+}
+
+void SenderFilter::hold(const Gid& gid, HeldMessage message, double now) {
+  auto [it, added] = held_.try_emplace(gid);
+  if (added) it->second.first_seen = now;
+  it->second.messages.push_back(std::move(message));
+  if (it->second.messages.size() > hold_) it->second.messages.pop_front();
+}
+
+std::vector<HeldMessage> SenderFilter::release(double now, bool refresh) {
+  std::vector<HeldMessage> out;
+  if (refresh) {
+    std::vector<Endpoint> seen;
+    classify(now, true, &seen);
+    std::set<Gid> present;
+    for (const Endpoint& e : seen) present.insert(e.gid);
+    for (auto it = verdicts_.begin(); it != verdicts_.end();)
+      it = present.count(it->first) ? std::next(it) : verdicts_.erase(it);
+  } else if (!held_.empty()) {
+    classify(now, false);
+  }
+  for (auto it = held_.begin(); it != held_.end();) {
+    auto verdict = verdicts_.find(it->first);
+    if (verdict == verdicts_.end() && now - it->second.first_seen >= pending_) {
+      verdict = verdicts_.emplace(it->first, true).first;
+      nodeless_.push_back(it->first);
+    }
+    if (verdict == verdicts_.end()) {
+      ++it;
+      continue;
+    }
+    if (verdict->second) {
+      for (auto& m : it->second.messages) out.push_back(std::move(m));
+    } else {
+      dropped_ += it->second.messages.size();
+    }
+    it = held_.erase(it);
+  }
+  return out;
+}
+
+std::size_t SenderFilter::held_count() const {
+  std::size_t n = 0;
+  for (const auto& entry : held_) n += entry.second.messages.size();
+  return n;
+}
+
+bool SenderFilter::is_bridge(const Gid& gid) const {
+  const auto verdict = verdicts_.find(gid);
+  return verdict != verdicts_.end() && !verdict->second;
+}
+
+std::vector<Gid> SenderFilter::take_nodeless() { return std::exchange(nodeless_, {}); }
+
+bool matches_any(const std::string& node, const std::vector<std::string>& patterns) {
+  const std::string name = node.substr(node.rfind('/') + 1);
+  return std::any_of(patterns.begin(), patterns.end(),
+                     [&](const std::string& p) { return fnmatch(p.c_str(), name.c_str(), 0) == 0; });
+}
+
+}  // namespace msg_mapping::bridge
