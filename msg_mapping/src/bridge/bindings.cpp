@@ -75,7 +75,7 @@ void bind_bridge(nb::module_& parent) {
   nb::class_<LnToRosPath>(m, "LnToRosPath", "LN subscription -> codec -> rcl publisher, in a thread of its own")
       .def(
           "__init__",
-          [](LnToRosPath* self, const LnClient& client, const std::string& topic, const std::string& md_name,
+          [](LnToRosPath* self, LnClient& client, const std::string& topic, const std::string& md_name,
              double rate, unsigned int buffers, bool reliable, nb::handle codec, std::uintptr_t publisher) {
             const TopicCodec converter = topic_codec(codec);
             auto* rcl_publisher = address<rcl_publisher_t>(publisher, "rcl publisher");
@@ -91,7 +91,7 @@ void bind_bridge(nb::module_& parent) {
   nb::class_<RosToLnPath>(m, "RosToLnPath", "rcl subscription -> loop prevention -> codec -> LN, in a thread of its own")
       .def(
           "__init__",
-          [](RosToLnPath* self, const LnClient& client, const std::string& topic, const std::string& md_name,
+          [](RosToLnPath* self, LnClient& client, const std::string& topic, const std::string& md_name,
              unsigned int buffers, nb::handle codec, std::uintptr_t node, nb::handle type_support,
              const std::string& ros_topic, const std::string& reliability, const std::string& durability,
              const std::string& history, std::size_t depth, std::vector<std::string> bridge_names) {

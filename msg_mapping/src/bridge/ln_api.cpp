@@ -37,6 +37,12 @@ LnApi load(const std::string& module_file) {
   resolve(module, "ln_write", api.write, true, module_file);
   resolve(module, "ln_get_message_size", api.message_size, true, module_file);
   resolve(module, "ln_format_error", api.format_error, true, module_file);
+  resolve(module, "ln_multi_waiter_init", api.multi_waiter_init, true, module_file);
+  resolve(module, "ln_multi_waiter_deinit", api.multi_waiter_deinit, true, module_file);
+  resolve(module, "ln_multi_waiter_add_port", api.multi_waiter_add, true, module_file);
+  resolve(module, "ln_multi_waiter_remove_port", api.multi_waiter_remove, true, module_file);
+  resolve(module, "ln_multi_waiter_wait", api.multi_waiter_wait, true, module_file);
+  resolve(module, "ln_multi_waiter_can_read", api.multi_waiter_can_read, true, module_file);
   resolve(module, "ln_read_borrow", api.read_borrow, false, module_file);
   resolve(module, "ln_read_release", api.read_release, false, module_file);
   if (!api.read_release) api.read_borrow = nullptr;

@@ -26,6 +26,12 @@ struct LnApi {
   decltype(&ln_write) write = nullptr;
   decltype(&ln_get_message_size) message_size = nullptr;
   decltype(&ln_format_error) format_error = nullptr;
+  decltype(&ln_multi_waiter_init) multi_waiter_init = nullptr;
+  decltype(&ln_multi_waiter_deinit) multi_waiter_deinit = nullptr;
+  decltype(&ln_multi_waiter_add_port) multi_waiter_add = nullptr;
+  decltype(&ln_multi_waiter_remove_port) multi_waiter_remove = nullptr;
+  decltype(&ln_multi_waiter_wait) multi_waiter_wait = nullptr;
+  decltype(&ln_multi_waiter_can_read) multi_waiter_can_read = nullptr;
   // ln_core's extensions (nullptr on LN 2.9): zero-copy reads with loss counts.
   decltype(&ln_read_borrow) read_borrow = nullptr;
   decltype(&ln_read_release) read_release = nullptr;

@@ -8,33 +8,12 @@
 
 namespace msg_mapping::bridge {
 
-SenderFilter::SenderFilter(Lookup lookup, IsBridge is_bridge, std::size_t hold, double pending,
-                           double lookup_interval)
-    : lookup_(std::move(lookup)),
-      is_bridge_(std::move(is_bridge)),
-      hold_(std::max<std::size_t>(1, hold)),
-      pending_(pending),
-      lookup_interval_(lookup_interval) {}
+SenderFilter::SenderFilter(IsBridge is_bridge, std::size_t hold, double pending)
+    : is_bridge_(std::move(is_bridge)), hold_(std::max<std::size_t>(1, hold)), pending_(pending) {}
 
-void SenderFilter::classify(double now, bool force, std::vector<Endpoint>* seen) {
-  if (!force && now - looked_up_at_ < lookup_interval_) return;
-  looked_up_at_ = now;
-  std::vector<Endpoint> endpoints = lookup_();
-  for (const Endpoint& e : endpoints)
-    if (!e.node.empty() && !verdicts_.count(e.gid)) verdicts_[e.gid] = !is_bridge_(e.node);
-  if (seen) *seen = std::move(endpoints);
-}
-
-SenderFilter::Decision SenderFilter::decide(const Gid& gid, double now) {
-  auto verdict = verdicts_.find(gid);
-  if (verdict == verdicts_.end()) {
-    // A sender seen for the first time is looked up at once; one already held
-    // waits for the next look-up slot, so a flood of messages is not a flood of
-    // graph queries.
-    classify(now, !held_.count(gid));
-    verdict = verdicts_.find(gid);
-    if (verdict == verdicts_.end()) return Decision::Hold;
-  }
+SenderFilter::Decision SenderFilter::decide(const Gid& gid) {
+  const auto verdict = verdicts_.find(gid);
+  if (verdict == verdicts_.end()) return Decision::Hold;
   if (!verdict->second) {
     ++dropped_;
     return Decision::Drop;
@@ -49,18 +28,18 @@ void SenderFilter::hold(const Gid& gid, HeldMessage message, double now) {
   if (it->second.messages.size() > hold_) it->second.messages.pop_front();
 }
 
-std::vector<HeldMessage> SenderFilter::release(double now, bool refresh) {
+void SenderFilter::learn(const std::vector<Endpoint>& publishers, bool forget_departed) {
+  for (const Endpoint& e : publishers)
+    if (!e.node.empty() && !verdicts_.count(e.gid)) verdicts_[e.gid] = !is_bridge_(e.node);
+  if (!forget_departed) return;
+  std::set<Gid> present;
+  for (const Endpoint& e : publishers) present.insert(e.gid);
+  for (auto it = verdicts_.begin(); it != verdicts_.end();)
+    it = present.count(it->first) ? std::next(it) : verdicts_.erase(it);
+}
+
+std::vector<HeldMessage> SenderFilter::release(double now) {
   std::vector<HeldMessage> out;
-  if (refresh) {
-    std::vector<Endpoint> seen;
-    classify(now, true, &seen);
-    std::set<Gid> present;
-    for (const Endpoint& e : seen) present.insert(e.gid);
-    for (auto it = verdicts_.begin(); it != verdicts_.end();)
-      it = present.count(it->first) ? std::next(it) : verdicts_.erase(it);
-  } else if (!held_.empty()) {
-    classify(now, false);
-  }
   for (auto it = held_.begin(); it != held_.end();) {
     auto verdict = verdicts_.find(it->first);
     if (verdict == verdicts_.end() && now - it->second.first_seen >= pending_) {

@@ -5,13 +5,14 @@
 //
 // Every rmw puts the sending publisher's gid in the message info, and the ROS
 // graph maps that gid to the publisher's node (rcl_get_publishers_info_by_topic).
-// A message from a publisher the graph does not place yet (discovery still
+// A message from a publisher the graph has not placed yet (discovery still
 // running) is held -- the newest `hold` per publisher -- until the graph names
 // its node, or for at most `pending` seconds, after which the publisher counts
 // as a non-bridge: a plain DDS participant never gets a node name.
 //
-// Pure logic (time is passed in, the graph is a function), not thread-safe:
-// one path's worker thread owns it.
+// Pure logic: time and graph snapshots are passed in, so messages can be
+// decided where they are taken while the graph is asked elsewhere. Not
+// thread-safe: the path serialises the calls.
 #pragma once
 
 #include <array>
@@ -41,22 +42,22 @@ struct HeldMessage {
 class SenderFilter {
  public:
   enum class Decision { Forward, Drop, Hold };
-  using Lookup = std::function<std::vector<Endpoint>()>;
   using IsBridge = std::function<bool(const std::string& node)>;
 
-  SenderFilter(Lookup lookup, IsBridge is_bridge, std::size_t hold, double pending = 2.0,
-               double lookup_interval = 0.05);
+  SenderFilter(IsBridge is_bridge, std::size_t hold, double pending = 2.0);
 
-  /// What to do with a message of `gid` now; an unknown sender makes the graph
-  /// be asked (at most every lookup_interval). Drop counts in dropped().
-  Decision decide(const Gid& gid, double now);
+  /// What to do with a message of `gid`, by what the graph said so far: an
+  /// unknown sender's messages are held (see hold()). Drop counts in dropped().
+  Decision decide(const Gid& gid);
   /// Keeps a message whose decision was Hold (the oldest of its sender goes
   /// when `hold` are kept).
   void hold(const Gid& gid, HeldMessage message, double now);
+  /// Learns the nodes of a topic's publishers from a graph snapshot; with
+  /// `forget_departed`, senders missing from it are forgotten.
+  void learn(const std::vector<Endpoint>& publishers, bool forget_departed);
   /// Held messages that can go now, in order: their senders were placed
-  /// meanwhile or waited `pending` seconds. `refresh` asks the graph again and
-  /// forgets senders that left it.
-  std::vector<HeldMessage> release(double now, bool refresh);
+  /// meanwhile or waited `pending` seconds.
+  std::vector<HeldMessage> release(double now);
 
   bool has_held() const { return !held_.empty(); }
   std::size_t held_count() const;
@@ -67,18 +68,14 @@ class SenderFilter {
   std::vector<Gid> take_nodeless();
 
  private:
-  void classify(double now, bool force, std::vector<Endpoint>* seen = nullptr);
-
   struct Held {
     double first_seen = 0;
     std::deque<HeldMessage> messages;
   };
 
-  Lookup lookup_;
   IsBridge is_bridge_;
   std::size_t hold_;
-  double pending_, lookup_interval_;
-  double looked_up_at_ = -1e300;
+  double pending_;
   std::map<Gid, bool> verdicts_;  ///< true: forward, false: a bridge's
   std::map<Gid, Held> held_;
   std::vector<Gid> nodeless_;

@@ -1,5 +1,6 @@
 #include "bridge/topic_paths.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -31,9 +32,9 @@ Gid gid_of(const std::uint8_t* data) {
 
 static_assert(RMW_GID_STORAGE_SIZE == std::tuple_size<Gid>::value, "Gid must hold an rmw gid");
 
-constexpr double read_slice = 0.5;   // seconds a blocked LN read waits before checking for close()
-constexpr double idle_wake = 0.25;   // seconds between takes without a new-message event (a missed one)
-constexpr double held_wake = 0.05;   // ... while messages wait for the graph to name their publisher
+constexpr double read_slice = 0.5;      // seconds a blocked LN read waits before checking for close()
+constexpr double group_slice = 0.05;    // seconds the shared LN reader sleeps before taking new ports
+constexpr double held_wake = 0.05;      // seconds between graph look-ups while messages wait for one
 constexpr double refresh_period = 1.0;  // seconds between graph look-ups that forget departed publishers
 
 }  // namespace
@@ -111,8 +112,19 @@ LnClient::LnClient(const LnApi& api, const std::string& name, const std::string&
 LnClient::~LnClient() { close(); }
 
 void LnClient::close() {
+  {
+    std::lock_guard<std::mutex> lock(readers_mutex_);
+    readers_.reset();
+  }
   if (owned_ && handle_) api_.deinit(&handle_);
   handle_ = nullptr;
+}
+
+LnReaderGroup& LnClient::readers() {
+  std::lock_guard<std::mutex> lock(readers_mutex_);
+  if (!handle_) throw std::runtime_error("the LN client is closed");
+  if (!readers_) readers_ = std::make_unique<LnReaderGroup>(api_, handle_);
+  return *readers_;
 }
 
 std::string LnClient::name() const {
@@ -123,7 +135,7 @@ std::string LnClient::name() const {
 
 // ------------------------------------------------------------------ LN -> ROS
 
-LnToRosPath::LnToRosPath(const LnClient& client, const std::string& topic, const std::string& md_name,
+LnToRosPath::LnToRosPath(LnClient& client, const std::string& topic, const std::string& md_name,
                          const LnPortOptions& options, TopicCodec codec, rcl_publisher_t* publisher)
     : ln_(client.api()), rcl_(RclApi::loaded()), codec_(codec), publisher_(publisher) {
   if (!client.handle()) throw std::runtime_error("the LN client is closed");
@@ -136,7 +148,18 @@ LnToRosPath::LnToRosPath(const LnClient& client, const std::string& topic, const
     throw std::runtime_error("LN topic " + topic + " carries " + std::to_string(size_) + "-byte packets but " +
                              md_name + " is " + std::to_string(codec_.ln_size()) + " bytes: the definitions differ");
   }
-  thread_ = std::thread(&LnToRosPath::run, this);
+  packet_.resize(size_);
+  try {
+    if (size_ < own_thread_above) {
+      group_ = &client.readers();
+      group_->add(this);
+    } else {
+      thread_ = std::thread(&LnToRosPath::run, this);
+    }
+  } catch (...) {
+    ln_.unsubscribe(&port_);
+    throw;
+  }
 }
 
 LnToRosPath::~LnToRosPath() { close(); }
@@ -144,45 +167,129 @@ LnToRosPath::~LnToRosPath() { close(); }
 void LnToRosPath::close() {
   if (!port_) return;
   stop_ = true;
-  ln_.unblock(port_);
-  if (thread_.joinable()) thread_.join();
+  if (group_) {
+    group_->remove(this);
+  } else {
+    ln_.unblock(port_);
+    if (thread_.joinable()) thread_.join();
+  }
   ln_.unsubscribe(&port_);
   port_ = nullptr;
 }
 
 void LnToRosPath::run() {
-  std::vector<std::uint8_t> packet(size_), cdr;
+  while (!stop_ && pump(read_slice)) {
+  }
+}
+
+bool LnToRosPath::pump(double timeout) {
   rcl_serialized_message_t message{};  // (zero-initialized: no library call)
-  while (!stop_) {
-    const void* data = packet.data();
+  for (;; timeout = 0) {
+    const void* data = packet_.data();
     unsigned int size = static_cast<unsigned int>(size_);
     ln_sample_info info{};
     double timestamp = 0;
     const bool borrowing = ln_.read_borrow != nullptr;  // ln_core: the packet in place, no copy
-    const int ret = borrowing ? ln_.read_borrow(port_, &data, &size, &info, read_slice)
-                              : ln_.read_timeout(port_, packet.data(), size, &timestamp, read_slice);
-    if (ret == 0 || (ret == -LNE_PORT_UNBLOCKED && !stop_)) continue;
+    const int ret = borrowing ? ln_.read_borrow(port_, &data, &size, &info, timeout)
+                              : ln_.read_timeout(port_, packet_.data(), size, &timestamp, timeout);
+    if (ret == 0 || (ret == -LNE_PORT_UNBLOCKED && !stop_)) return true;
     if (ret < 0) {
-      if (!stop_) state_.fail(ln_.error("LN read", ret));
-      break;
+      if (stop_) return false;
+      state_.fail(ln_.error("LN read", ret));
+      return false;
     }
     ++state_.received;
     state_.lost += info.lost;
     std::size_t cdr_size = 0;
     try {
-      cdr_size = codec_.to_cdr({static_cast<const std::uint8_t*>(data), size}, cdr);
+      cdr_size = codec_.to_cdr({static_cast<const std::uint8_t*>(data), size}, cdr_);
     } catch (const std::exception& e) {
       state_.error(e.what());
     }
     if (borrowing) ln_.read_release(port_);
     if (!cdr_size) continue;
-    message.buffer = cdr.data();
+    message.buffer = cdr_.data();
     message.buffer_length = cdr_size;
-    message.buffer_capacity = cdr.size();
+    message.buffer_capacity = cdr_.size();
     const rcl_ret_t published = rcl_.publish_serialized(publisher_, &message, nullptr);
     if (published == RCL_RET_OK) ++state_.forwarded;
     else state_.error(rcl_.error("publish", published));
   }
+}
+
+// ------------------------------------------------------------------ shared LN reader
+
+LnReaderGroup::LnReaderGroup(const LnApi& api, ln_client client) : api_(api), client_(client) {
+  thread_ = std::thread(&LnReaderGroup::run, this);
+}
+
+LnReaderGroup::~LnReaderGroup() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = true;
+  }
+  changed_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+void LnReaderGroup::add(LnToRosPath* path) { request(path, true); }
+void LnReaderGroup::remove(LnToRosPath* path) { request(path, false); }
+
+void LnReaderGroup::request(LnToRosPath* path, bool add) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  if (!failure_.empty()) {
+    if (add) throw std::runtime_error(failure_);
+    return;
+  }
+  requests_.emplace_back(path, add);
+  const std::uint64_t ticket = ++requested_;
+  changed_.notify_all();
+  // The thread applies requests between waits of at most group_slice.
+  changed_.wait(lock, [&] { return applied_ >= ticket || stop_ || !failure_.empty(); });
+  if (add && !failure_.empty()) throw std::runtime_error(failure_);
+}
+
+void LnReaderGroup::run() {
+  ln_multi_waiter waiter = nullptr;
+  const int made = api_.multi_waiter_init(client_, &waiter);
+  std::vector<LnToRosPath*> paths;
+  std::unique_lock<std::mutex> lock(mutex_);
+  if (made < 0) {
+    failure_ = api_.error("cannot make an LN multi-waiter", made);
+    changed_.notify_all();
+    return;
+  }
+  while (!stop_) {
+    for (auto& [path, add] : requests_) {
+      if (add) {
+        api_.multi_waiter_add(waiter, path->port_);
+        paths.push_back(path);
+      } else {
+        api_.multi_waiter_remove(waiter, path->port_);
+        paths.erase(std::remove(paths.begin(), paths.end(), path), paths.end());
+      }
+    }
+    applied_ += requests_.size();
+    requests_.clear();
+    changed_.notify_all();
+    if (paths.empty()) {
+      changed_.wait(lock, [this] { return stop_ || !requests_.empty(); });
+      continue;
+    }
+    lock.unlock();
+    std::vector<LnToRosPath*> failed;
+    if (api_.multi_waiter_wait(waiter, group_slice) > 0) {
+      for (LnToRosPath* path : paths)
+        if (api_.multi_waiter_can_read(waiter, path->port_) > 0 && !path->pump(0)) failed.push_back(path);
+    }
+    lock.lock();
+    for (LnToRosPath* path : failed) {  // (the bridge closes it soon; meanwhile its port must not wake us)
+      api_.multi_waiter_remove(waiter, path->port_);
+      paths.erase(std::remove(paths.begin(), paths.end(), path), paths.end());
+    }
+  }
+  for (LnToRosPath* path : paths) api_.multi_waiter_remove(waiter, path->port_);
+  api_.multi_waiter_deinit(&waiter);
 }
 
 // ------------------------------------------------------------------ ROS -> LN
@@ -208,7 +315,7 @@ rmw_qos_profile_t qos_profile(const RclApi& rcl, const RosQos& qos) {
 
 }  // namespace
 
-RosToLnPath::RosToLnPath(const LnClient& client, const std::string& topic, const std::string& md_name,
+RosToLnPath::RosToLnPath(LnClient& client, const std::string& topic, const std::string& md_name,
                          unsigned int buffers, TopicCodec codec, rcl_node_t* node,
                          const rosidl_message_type_support_t* type_support, const std::string& ros_topic,
                          const RosQos& qos, std::vector<std::string> bridge_names)
@@ -218,29 +325,35 @@ RosToLnPath::RosToLnPath(const LnClient& client, const std::string& topic, const
       node_(node),
       subscription_(rcl_.zero_subscription()),
       bridge_names_(std::move(bridge_names)),
-      senders_([this] { return publishers(); },
-               [this](const std::string& n) { return matches_any(n, bridge_names_); }, qos.depth) {
+      senders_([this](const std::string& n) { return matches_any(n, bridge_names_); }, qos.depth) {
   if (!client.handle()) throw std::runtime_error("the LN client is closed");
+  rcutils_allocator_t allocator = rcl_.default_allocator();
+  if (rcl_.uint8_array_init(&message_, 4096, &allocator) != RCUTILS_RET_OK)
+    throw std::runtime_error(rcl_.error("cannot allocate a message buffer", RCL_RET_BAD_ALLOC));
   int ret = ln_.publish(client.handle(), topic.c_str(), md_name.c_str(), buffers, &port_);
-  if (ret < 0) throw std::runtime_error(ln_.error("cannot publish LN topic " + topic, ret));
+  if (ret < 0) {
+    release_buffer();
+    throw std::runtime_error(ln_.error("cannot publish LN topic " + topic, ret));
+  }
   packet_.resize(static_cast<std::size_t>(ln_.message_size(port_)));
-  if (packet_.size() != codec_.ln_size()) {
-    ln_.unpublish(&port_);
-    throw std::runtime_error("LN topic " + topic + " carries " + std::to_string(packet_.size()) + "-byte packets but " +
-                             md_name + " is " + std::to_string(codec_.ln_size()) + " bytes: the definitions differ");
-  }
+  std::string problem;
   rcl_subscription_options_t options = rcl_.subscription_default_options();
-  try {
-    options.qos = qos_profile(rcl_, qos);
-  } catch (...) {
-    ln_.unpublish(&port_);
-    throw;
+  if (packet_.size() != codec_.ln_size()) {
+    problem = "LN topic " + topic + " carries " + std::to_string(packet_.size()) + "-byte packets but " + md_name +
+              " is " + std::to_string(codec_.ln_size()) + " bytes: the definitions differ";
+  } else {
+    try {
+      options.qos = qos_profile(rcl_, qos);
+      ret = rcl_.subscription_init(&subscription_, node_, type_support, ros_topic.c_str(), &options);
+      if (ret != RCL_RET_OK) problem = rcl_.error("cannot subscribe ROS topic " + ros_topic, ret);
+    } catch (const std::exception& e) {
+      problem = e.what();
+    }
   }
-  ret = rcl_.subscription_init(&subscription_, node_, type_support, ros_topic.c_str(), &options);
-  if (ret != RCL_RET_OK) {
-    const std::string text = rcl_.error("cannot subscribe ROS topic " + ros_topic, ret);
+  if (!problem.empty()) {
     ln_.unpublish(&port_);
-    throw std::runtime_error(text);
+    release_buffer();
+    throw std::runtime_error(problem);
   }
   ros_topic_ = rcl_.subscription_topic_name(&subscription_);
   thread_ = std::thread(&RosToLnPath::run, this);
@@ -254,28 +367,40 @@ RosToLnPath::RosToLnPath(const LnClient& client, const std::string& topic, const
 
 RosToLnPath::~RosToLnPath() { close(); }
 
-void RosToLnPath::on_new_message(const void* self, std::size_t count) {
-  auto* path = const_cast<RosToLnPath*>(static_cast<const RosToLnPath*>(self));
+void RosToLnPath::release_buffer() {
+  if (message_.buffer && rcl_.uint8_array_fini(&message_) != RCUTILS_RET_OK) rcl_.reset_error();
+}
+
+void RosToLnPath::wake() {
   {
-    std::lock_guard<std::mutex> lock(path->wake_mutex_);
-    path->unread_ += count;
+    std::lock_guard<std::mutex> lock(wake_mutex_);
+    wake_flag_ = true;
   }
-  path->wake_.notify_one();
+  wake_.notify_one();
+}
+
+void RosToLnPath::on_new_message(const void* self, std::size_t) {
+  auto* path = const_cast<RosToLnPath*>(static_cast<const RosToLnPath*>(self));
+  bool held = false;
+  {
+    std::lock_guard<std::mutex> lock(path->take_mutex_);
+    path->drain();
+    held = path->senders_.has_held();
+  }
+  if (held) path->wake();  // a publisher the path does not know: its thread asks the graph
 }
 
 void RosToLnPath::close() {
   if (!port_) return;
   // After this returns the middleware no longer calls on_new_message.
   if (rcl_.set_on_new_message_callback(&subscription_, nullptr, nullptr) != RCL_RET_OK) rcl_.reset_error();
-  {
-    std::lock_guard<std::mutex> lock(wake_mutex_);
-    stop_ = true;
-  }
-  wake_.notify_one();
+  stop_ = true;
+  wake();
   if (thread_.joinable()) thread_.join();
   if (rcl_.subscription_fini(&subscription_, node_) != RCL_RET_OK) rcl_.reset_error();
   ln_.unpublish(&port_);
   port_ = nullptr;
+  release_buffer();
 }
 
 std::vector<Endpoint> RosToLnPath::publishers() const {
@@ -303,44 +428,44 @@ std::vector<Endpoint> RosToLnPath::publishers() const {
 }
 
 void RosToLnPath::run() {
-  rcl_serialized_message_t message{};  // (zero-initialized: no library call)
-  rcutils_allocator_t allocator = rcl_.default_allocator();
-  if (rcl_.uint8_array_init(&message, 4096, &allocator) != RCUTILS_RET_OK) {
-    state_.fail("cannot allocate the message buffer");
-    return;
-  }
-  double refreshed_at = monotonic_seconds();
-  for (;;) {
+  double refreshed_at = -refresh_period;
+  while (!stop_) {
     {
       std::unique_lock<std::mutex> lock(wake_mutex_);
-      const double wait = senders_.has_held() ? held_wake : idle_wake;
-      wake_.wait_for(lock, std::chrono::duration<double>(wait), [this] { return unread_ > 0 || stop_; });
-      if (stop_) break;
-      unread_ = 0;
+      const double wait = senders_held_ ? held_wake : refresh_period;
+      wake_.wait_for(lock, std::chrono::duration<double>(wait), [this] { return wake_flag_ || stop_.load(); });
+      wake_flag_ = false;
     }
-    // Take everything there is: events may be coalesced or (rarely) missed.
-    for (int taken = 0; !stop_; ++taken) {
-      rmw_message_info_t info{};
-      const rcl_ret_t ret = rcl_.take_serialized(&subscription_, &message, &info, nullptr);
-      if (ret == RCL_RET_SUBSCRIPTION_TAKE_FAILED) break;
-      if (ret != RCL_RET_OK) {
-        state_.error(rcl_.error("take", ret));
-        break;
-      }
-      ++state_.received;
-      process(message.buffer, message.buffer_length, info);
-    }
-    const double now = monotonic_seconds();
+    if (stop_) break;
+    // The graph is asked without take_mutex_: the middleware's thread may be
+    // waiting for it in on_new_message, holding locks of its own.
+    const std::vector<Endpoint> graph = publishers();
+    double now = monotonic_seconds();
     const bool refresh = now - refreshed_at >= refresh_period;
     if (refresh) refreshed_at = now;
-    if (senders_.has_held() || refresh) {
-      for (const HeldMessage& m : senders_.release(now, refresh)) write(m.cdr.data(), m.cdr.size(), m.source_timestamp);
-      for (const Gid& gid : senders_.take_nodeless()) state_.nodeless(hex(gid));
-      state_.ignored = senders_.dropped();
-      state_.held = senders_.held_count();
-    }
+    std::lock_guard<std::mutex> lock(take_mutex_);
+    senders_.learn(graph, refresh);
+    now = monotonic_seconds();
+    for (const HeldMessage& m : senders_.release(now)) write(m.cdr.data(), m.cdr.size(), m.source_timestamp);
+    for (const Gid& gid : senders_.take_nodeless()) state_.nodeless(hex(gid));
+    state_.ignored = senders_.dropped();
+    state_.held = senders_.held_count();
+    senders_held_ = senders_.has_held();
   }
-  if (rcl_.uint8_array_fini(&message) != RCUTILS_RET_OK) rcl_.reset_error();
+}
+
+void RosToLnPath::drain() {
+  for (;;) {
+    rmw_message_info_t info{};
+    const rcl_ret_t ret = rcl_.take_serialized(&subscription_, &message_, &info, nullptr);
+    if (ret == RCL_RET_SUBSCRIPTION_TAKE_FAILED) return;
+    if (ret != RCL_RET_OK) {
+      state_.error(rcl_.error("take", ret));
+      return;
+    }
+    ++state_.received;
+    process(message_.buffer, message_.buffer_length, info);
+  }
 }
 
 void RosToLnPath::process(const std::uint8_t* cdr, std::size_t size, const rmw_message_info_t& info) {
@@ -353,17 +478,16 @@ void RosToLnPath::process(const std::uint8_t* cdr, std::size_t size, const rmw_m
       last->second = std::max(last->second, sequence);
     }
   }
-  const double now = monotonic_seconds();
-  const SenderFilter::Decision decision = senders_.decide(gid, now);
-  if (decision == SenderFilter::Decision::Hold) {
-    senders_.hold(gid, HeldMessage{std::vector<std::uint8_t>(cdr, cdr + size), info.source_timestamp}, now);
+  switch (senders_.decide(gid)) {
+    case SenderFilter::Decision::Forward: write(cdr, size, info.source_timestamp); break;
+    case SenderFilter::Decision::Drop: state_.ignored = senders_.dropped(); break;
+    case SenderFilter::Decision::Hold:
+      senders_.hold(gid, HeldMessage{std::vector<std::uint8_t>(cdr, cdr + size), info.source_timestamp},
+                    monotonic_seconds());
+      state_.held = senders_.held_count();
+      senders_held_ = true;
+      break;
   }
-  if (senders_.has_held()) {
-    for (const HeldMessage& m : senders_.release(now, false)) write(m.cdr.data(), m.cdr.size(), m.source_timestamp);
-  }
-  if (decision == SenderFilter::Decision::Forward) write(cdr, size, info.source_timestamp);
-  state_.ignored = senders_.dropped();
-  state_.held = senders_.held_count();
 }
 
 void RosToLnPath::write(const std::uint8_t* cdr, std::size_t size, std::int64_t source_timestamp) {

@@ -81,8 +81,12 @@ class PathState {
   std::atomic<bool> failed_{false};
 };
 
+class LnReaderGroup;
+class LnToRosPath;
+
 /// An LN client handle for the data path: the Python side's own (ln_core
 /// exposes its handle) or one opened here (LN 2.9's Python API does not).
+/// It also runs the reader shared by the LN -> ROS paths of small packets.
 class LnClient {
  public:
   /// Uses a client owned elsewhere.
@@ -96,12 +100,17 @@ class LnClient {
   const LnApi& api() const { return api_; }
   ln_client handle() const { return handle_; }
   std::string name() const;
+  /// Stops the shared reader (its paths must be closed) and closes an own client.
   void close();
+  /// The reader shared by LN -> ROS paths (started at first use).
+  LnReaderGroup& readers();
 
  private:
   const LnApi& api_;
   ln_client handle_ = nullptr;
   bool owned_ = false;
+  std::mutex readers_mutex_;
+  std::unique_ptr<LnReaderGroup> readers_;
 };
 
 struct LnPortOptions {
@@ -112,29 +121,72 @@ struct LnPortOptions {
 
 /// An LN subscription republished on an rcl publisher (made by rclpy; it must
 /// outlive the path).
+///
+/// Paths of small packets share one reader thread per LN client, which sleeps
+/// on all their ports at once (an LN multi-waiter): the topics of one control
+/// loop, written in one go, cost one wake-up together rather than one each --
+/// on a VM the wake-up is most of a message's cost. A path of packets from
+/// `own_thread_above` bytes (images) reads in a thread of its own, so its
+/// copies never delay the small ones.
 class LnToRosPath {
  public:
-  LnToRosPath(const LnClient& client, const std::string& topic, const std::string& md_name,
+  static constexpr std::size_t own_thread_above = 64 * 1024;
+
+  LnToRosPath(LnClient& client, const std::string& topic, const std::string& md_name,
               const LnPortOptions& options, TopicCodec codec, rcl_publisher_t* publisher);
   ~LnToRosPath();
   LnToRosPath(const LnToRosPath&) = delete;
   LnToRosPath& operator=(const LnToRosPath&) = delete;
 
-  /// Stops the thread and unsubscribes; idempotent.
+  /// Stops reading and unsubscribes; idempotent.
   void close();
   PathReport report() { return state_.report(); }
 
  private:
+  friend class LnReaderGroup;
   void run();
+  /// Publishes the packets the port has, waiting up to `timeout` s for the
+  /// first; false when the path cannot go on (it is marked failed then).
+  bool pump(double timeout);
 
   const LnApi& ln_;
   const RclApi& rcl_;
   TopicCodec codec_;
   rcl_publisher_t* publisher_;
+  LnReaderGroup* group_ = nullptr;  ///< the shared reader, or nullptr: thread_
   ln_inport port_ = nullptr;
   std::size_t size_ = 0;
+  std::vector<std::uint8_t> packet_, cdr_;
   std::atomic<bool> stop_{false};
   PathState state_;
+  std::thread thread_;
+};
+
+/// One thread reading the ports of many LN -> ROS paths through an LN
+/// multi-waiter. Ports are added and removed by the thread itself (the
+/// multi-waiter belongs to it); add() and remove() return once it did.
+class LnReaderGroup {
+ public:
+  LnReaderGroup(const LnApi& api, ln_client client);
+  ~LnReaderGroup();
+  LnReaderGroup(const LnReaderGroup&) = delete;
+  LnReaderGroup& operator=(const LnReaderGroup&) = delete;
+
+  void add(LnToRosPath* path);
+  void remove(LnToRosPath* path);
+
+ private:
+  void run();
+  void request(LnToRosPath* path, bool add);
+
+  const LnApi& api_;
+  ln_client client_;
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::vector<std::pair<LnToRosPath*, bool>> requests_;  ///< (path, add?), guarded by mutex_
+  std::uint64_t requested_ = 0, applied_ = 0;           ///< guarded by mutex_
+  std::string failure_;                                  ///< the multi-waiter could not be made
+  bool stop_ = false;                                    ///< guarded by mutex_
   std::thread thread_;
 };
 
@@ -148,12 +200,20 @@ struct RosQos {
 
 /// An rcl subscription (made here, so no rclpy executor takes from it)
 /// written into an LN topic this path publishes.
+///
+/// Messages are taken in the middleware's new-message callback, in the thread
+/// that received them: a hand-over to a thread of our own would cost one more
+/// wake-up per message, the biggest cost there is. Only that callback takes
+/// (the middleware calls it with its reader's locks held, so a take from
+/// another thread under our lock could deadlock), and it never asks the ROS
+/// graph who a new publisher is: such messages are held for the path's own
+/// thread, which asks and releases them.
 class RosToLnPath {
  public:
   /// `node` is rclpy's rcl node (it must outlive the path), `type_support` the
   /// message type's rosidl_message_type_support_t. `bridge_names`: fnmatch
   /// patterns of bridge node names, whose messages are not forwarded.
-  RosToLnPath(const LnClient& client, const std::string& topic, const std::string& md_name, unsigned int buffers,
+  RosToLnPath(LnClient& client, const std::string& topic, const std::string& md_name, unsigned int buffers,
               TopicCodec codec, rcl_node_t* node, const rosidl_message_type_support_t* type_support,
               const std::string& ros_topic, const RosQos& qos, std::vector<std::string> bridge_names);
   ~RosToLnPath();
@@ -168,9 +228,13 @@ class RosToLnPath {
  private:
   static void on_new_message(const void* self, std::size_t count);
   void run();
+  /// Takes every message there is and forwards, holds or drops each (take_mutex_ held).
+  void drain();
   void process(const std::uint8_t* cdr, std::size_t size, const rmw_message_info_t& info);
   void write(const std::uint8_t* cdr, std::size_t size, std::int64_t source_timestamp);
   std::vector<Endpoint> publishers() const;
+  void wake();
+  void release_buffer();
 
   const LnApi& ln_;
   const RclApi& rcl_;
@@ -183,9 +247,12 @@ class RosToLnPath {
   std::vector<std::string> bridge_names_;
   SenderFilter senders_;
   std::map<Gid, std::uint64_t> last_sequence_;
+  std::mutex take_mutex_;  ///< the subscription, senders_, packet_, message_: callback and thread
+  rcl_serialized_message_t message_{};
   std::mutex wake_mutex_;
   std::condition_variable wake_;
-  std::size_t unread_ = 0;  ///< guarded by wake_mutex_
+  bool wake_flag_ = false;  ///< guarded by wake_mutex_
+  std::atomic<bool> senders_held_{false};  ///< messages wait for the graph: the thread looks more often
   std::atomic<bool> stop_{false};
   PathState state_;
   std::thread thread_;
