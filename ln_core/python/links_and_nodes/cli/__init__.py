@@ -5,6 +5,7 @@
     ln md show | find | generate
     ln client list
     ln manager status
+    ln ros node list | topic list|info|echo|hz | service list|call   (the ROS 2 side; needs rclpy)
     ln completion bash
 
 Every command takes --json (machine-readable output), --ln-manager HOST:PORT
@@ -22,7 +23,7 @@ import sys
 from .common import CliError, Session, describe_error
 
 #: The first arguments that belong to this `ln`; anything else is the system's ln.
-GROUPS = ("topic", "service", "md", "client", "manager", "completion")
+GROUPS = ("topic", "service", "md", "client", "manager", "ros", "completion")
 OWN_FIRST_ARGUMENTS = GROUPS + ("__complete", "-h", "--help", "--json", "--ln-manager", "--color")
 SYSTEM_LN = ("/bin/ln", "/usr/bin/ln")
 
@@ -48,7 +49,7 @@ def common_options():
 
 
 def build_parser():
-    from . import clients, completion, manager, md, service, topic
+    from . import clients, completion, manager, md, ros, service, topic
     common = common_options()
     parser = ArgumentParser(
         prog="ln", parents=[common],
@@ -57,7 +58,7 @@ def build_parser():
         epilog="Anything else (e.g. 'ln -s TARGET LINK') runs the system's ln. "
                "Each command has --help.")
     groups = parser.add_subparsers(dest="group", metavar="COMMAND")
-    for module in (topic, service, md, clients, manager, completion):
+    for module in (topic, service, md, clients, manager, ros, completion):
         module.register(groups, common)
     return parser
 
