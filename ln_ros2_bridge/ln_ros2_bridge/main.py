@@ -11,6 +11,7 @@ logger of its node (console and /rosout).
 
 import argparse
 import logging
+import os
 import signal
 import sys
 import threading
@@ -71,6 +72,22 @@ def use_ros_logging(node, level_name):
     root.propagate = False
 
 
+FASTDDS_PROFILE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "fastdds_profile.xml")
+
+
+def use_bridge_fastdds_profile():
+    """Gives the bridge's Fast DDS participant the bridge's profile (a 32 MiB shared-memory
+    segment, for large packets) unless the environment names a profile. Returns the profile
+    in use. Must run before rclpy.init()."""
+    for name in ("FASTRTPS_DEFAULT_PROFILES_FILE", "FASTDDS_DEFAULT_PROFILES_FILE"):
+        if os.environ.get(name):
+            return os.environ[name]
+    if os.path.exists(FASTDDS_PROFILE):
+        os.environ["FASTRTPS_DEFAULT_PROFILES_FILE"] = FASTDDS_PROFILE
+        return FASTDDS_PROFILE
+    return None
+
+
 def main(argv=None):
     import rclpy
     from rclpy.utilities import remove_ros_args
@@ -101,9 +118,11 @@ def main(argv=None):
     from .bridge import Bridge
     from .types import UnknownType
 
+    profile = use_bridge_fastdds_profile()
     rclpy.init(args=argv)
     node = rclpy.create_node(config.ros_node_name, namespace=config.ros_namespace or None)
     use_ros_logging(node, args.log_level)
+    log.debug("Fast DDS profile: %s", profile or "Fast DDS's defaults")
     try:
         bridge = Bridge(config, node)
     except UnknownType as error:   # e.g. a rule file that does not compile
