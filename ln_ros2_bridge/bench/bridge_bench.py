@@ -17,7 +17,10 @@ netns-run; prints one JSON object per result.
   bridge_bench.py ros-to-ln --topics N [--rate HZ] [--seconds S]
       ROS 2 -> bridge -> LN at HZ messages/s in total, spread over N topics (64 B,
       reliable, depth 100): messages lost on the way (by sequence number), the bridge's
-      CPU share and its CPU time per message beyond idle
+      CPU share and its CPU time per message beyond idle, and the rclpy publisher's
+  bridge_bench.py ln-to-ros --topics N [--rate HZ] [--seconds S] [--reliability R]
+      LN -> bridge -> ROS 2 -> a second bridge (a fast ROS sink) -> LN: the first
+      bridge's CPU time per message beyond idle, and messages lost end to end
 
 Both paths use the same sink (raw subscription, fields read from the CDR bytes) and the
 same QoS (reliable, keep last 10); the reference sender publishes pre-serialized bytes,
@@ -263,11 +266,11 @@ class Run:
         shutil.rmtree(self.work, ignore_errors=True)
 
 
-def bridge_config(topic, kind, direction="ln_to_ros", topics=1, depth=10):
+def bridge_config(topic, kind, direction="ln_to_ros", topics=1, depth=10, reliability="reliable"):
     ln_name = KINDS[kind][0]
     return "topics:\n" + "".join(
-        "  - {ln: %s, ros: /%s, type: %s, direction: %s, qos: {depth: %d}, ln_port: {buffers: 16}}\n"
-        % (t, t.replace(".", "/"), ln_name, direction, depth) for t in _topics(topic, topics))
+        "  - {ln: %s, ros: /%s, type: %s, direction: %s, qos: {depth: %d, reliability: %s}, ln_port: {buffers: 16}}\n"
+        % (t, t.replace(".", "/"), ln_name, direction, depth, reliability) for t in _topics(topic, topics))
 
 
 class CpuMeter:
@@ -279,11 +282,14 @@ class CpuMeter:
         self.idle_share = 0.0
         self._mark = None
 
-    def idle(self, seconds):
-        cpu, wall = _cpu_seconds(self.pid), time.monotonic()
+    def idle(self, seconds, also=None):
+        """`also`: another CpuMeter measured over the same window."""
+        meters = [self] + ([also] if also else [])
+        starts = [(_cpu_seconds(m.pid), time.monotonic()) for m in meters]
         time.sleep(seconds)   # a measurement window, not a wait for the other side
-        self._mark = (_cpu_seconds(self.pid), time.monotonic())
-        self.idle_share = (self._mark[0] - cpu) / (self._mark[1] - wall)
+        for m, (cpu, wall) in zip(meters, starts):
+            m._mark = (_cpu_seconds(m.pid), time.monotonic())
+            m.idle_share = (m._mark[0] - cpu) / (m._mark[1] - wall)
 
     def flow(self):
         """(CPU seconds, wall seconds, CPU seconds beyond the idle rate) since idle() ended."""
@@ -341,12 +347,13 @@ def measure_ln_to_ros(args):
         sink = run.role("sink", "ln-sink", "--topic", sink_topic, "--topics", args.topics, "--timeout", args.timeout,
                         "--idle", 2.0, ln_env=True, python=run.ln().peer_python())
         run.events("sink", "ready", 60)
-        entries = "".join("  - {ln: %s, ros: %s, type: %s, direction: ros_to_ln, qos: {depth: 100}}\n"
-                          % (ln_name, ros_name, KINDS["stamped"][0]) for ln_name, ros_name in
+        entries = "".join("  - {ln: %s, ros: %s, type: %s, direction: ros_to_ln, qos: {depth: 100, reliability: %s}}\n"
+                          % (ln_name, ros_name, KINDS["stamped"][0], args.reliability) for ln_name, ros_name in
                           zip(_topics(sink_topic, args.topics), _topics(ros_topic, args.topics)))
         run.bridge("ln: {client_name: bench_forwarder}\nros: {node_name: bench_forwarder}\n"
                    "loop_prevention: {bridge_names: [bench_forwarder]}\ntopics:\n" + entries, name="forwarder")
-        bridge = run.bridge(bridge_config(source_topic, "stamped", "ln_to_ros", args.topics, depth=100))
+        bridge = run.bridge(bridge_config(source_topic, "stamped", "ln_to_ros", args.topics, depth=100,
+                                          reliability=args.reliability))
         source = run.role("source", "ln-source", "--topic", source_topic, "--topics", args.topics,
                           "--count", 10 ** 9, "--rate", args.rate, "--seconds", args.seconds,
                           "--timeout", args.timeout, "--start-delay", IDLE_WINDOW + 2.0,
@@ -381,10 +388,11 @@ def measure_ros_to_ln(args):
                           "--count", 10 ** 9, "--rate", args.rate, "--seconds", args.seconds,
                           "--timeout", args.timeout, "--start-delay", IDLE_WINDOW + 1.0)
         run.events("source", "ready", 60)   # every topic matched by the bridge
-        meter = CpuMeter(bridge.pid)
-        meter.idle(IDLE_WINDOW)
+        meter, source_meter = CpuMeter(bridge.pid), CpuMeter(source.pid)
+        meter.idle(IDLE_WINDOW, also=source_meter)
         sent = run.events("source", "sent", args.timeout + 30)
         cpu, wall, beyond = meter.flow()
+        source_beyond = source_meter.flow()[2]
         received = run.events("sink", "received", args.timeout + 30)
         per_topic = [len(range(t, sent["count"], args.topics)) for t in range(args.topics)]   # round robin
         lost = sum(max(0, n - got) for n, got in zip(per_topic, received["counts"]))
@@ -392,7 +400,8 @@ def measure_ros_to_ln(args):
         source.wait(timeout=30)
         return dict(sent=sent["count"], rate=sent["count"] / max(1e-9, sent["seconds"]), received=sum(received["counts"]),
                     lost=lost, bridge_cpu_share=cpu / max(1e-9, wall), bridge_idle_share=meter.idle_share,
-                    cpu_us_per_msg=1e6 * beyond / max(1, sum(received["counts"])))
+                    cpu_us_per_msg=1e6 * beyond / max(1, sum(received["counts"])),
+                    source_cpu_us_per_msg=1e6 * source_beyond / max(1, sent["count"]))
     finally:
         run.close()
 
@@ -418,6 +427,7 @@ def main():
     parser.add_argument("--topic", default="bench.stamped")
     parser.add_argument("--topics", type=int, default=1)
     parser.add_argument("--depth", type=int, default=10)
+    parser.add_argument("--reliability", default="reliable", choices=["reliable", "best_effort"])
     parser.add_argument("--n", "--count", dest="count", type=int, default=2000)
     parser.add_argument("--rate", type=float, default=None)
     parser.add_argument("--seconds", type=float, default=0.0)
@@ -453,7 +463,7 @@ def main():
              bridge_idle_share=report["bridge_idle_share"],
              cpu_us_per_msg=1e6 * report["bridge_cpu_beyond_idle"] / max(1, report["count"]))
     elif args.mode == "ln-to-ros":
-        emit(mode="ln-to-ros", ln=args.ln, topics=args.topics,
+        emit(mode="ln-to-ros", ln=args.ln, topics=args.topics, reliability=args.reliability,
              **measure_ln_to_ros(argparse.Namespace(**dict(vars(args), rate=args.rate or 2000.0,
                                                            seconds=args.seconds or 5.0))))
     elif args.mode == "ros-to-ln":

@@ -11,7 +11,9 @@ inside netns-run):
   Fast DDS's defaults, as typical nodes do;
 * the bridge's CPU time per 64-byte message beyond its idle CPU (measured just before),
   at 10 kHz spread over 20 topics, each direction (target <= 10 us): LN -> bridge -> ROS 2
-  (into a second bridge as a fast ROS sink) and rclpy -> bridge -> LN;
+  (into a second bridge as a fast ROS sink), reliable and best effort, and rclpy -> bridge
+  -> LN. The LN -> ROS 2 rows are next to what publishing the same messages costs an rclpy
+  node (the publisher of the ROS 2 -> LN flow, measured the same way);
 * ROS 2 -> LN, reliable, at 2 kHz on one topic and at 10 kHz over 20 topics: messages
   lost between the rclpy publisher and the LN subscriber (by sequence number; target 0)
   and the bridge's CPU share (target < 50 % of a core).
@@ -89,6 +91,8 @@ def run(ctx):
             add(("image", kind), measure("image", "--via", "bridge", *ln, "--seconds", seconds))
             add(("image-latency", kind), measure("image-latency", "--via", "bridge", *ln, "--n", images))
             add(("ln-to-ros", kind), measure("ln-to-ros", *ln, "--topics", 20, "--rate", 10000, "--seconds", seconds))
+            add(("ln-to-ros best effort", kind), measure("ln-to-ros", *ln, "--topics", 20, "--rate", 10000,
+                                                         "--seconds", seconds, "--reliability", "best_effort"))
             add(("ros-to-ln 20", kind), measure("ros-to-ln", *ln, "--topics", 20, "--rate", 10000,
                                                "--seconds", seconds))
             add(("ros-to-ln 1", kind), measure("ros-to-ln", *ln, "--topics", 1, "--rate", 2000,
@@ -115,11 +119,15 @@ def run(ctx):
                   reference_name="rclpy -> rclpy", reference_value=median(values("image-latency direct", "median_ms")),
                   note="target <= 1.0x; bridge: 32 MiB shared-memory segment; " + spread_note(v))
         group = "ROS 2 bridge: CPU per 64 B message, 10 kHz over 20 topics"
-        for key, what in (("ln-to-ros", "%s -> bridge -> ROS 2" % LABEL[kind]),
-                          ("ros-to-ln 20", "rclpy -> bridge -> %s" % LABEL[kind])):
+        publisher = median(values(("ros-to-ln 20", kind), "source_cpu_us_per_msg"))
+        for key, what, reference in (
+                ("ln-to-ros", "%s -> bridge -> ROS 2, reliable" % LABEL[kind], "rclpy publisher, reliable"),
+                ("ln-to-ros best effort", "%s -> bridge -> ROS 2, best effort" % LABEL[kind], ""),
+                ("ros-to-ln 20", "rclpy -> bridge -> %s, reliable" % LABEL[kind], "")):
             v = values((key, kind), "cpu_us_per_msg")
             shares = values((key, kind), "bridge_cpu_share")
             yield Row(group=group, name=what, metric="bridge CPU beyond idle", unit="us", value=median(v),
+                      reference_name=reference, reference_value=publisher if reference else None,
                       note="target <= 10 us; bridge %.0f %% of a core in all, idle %.1f %%; %s"
                       % (100 * median(shares), 100 * median(values((key, kind), "bridge_idle_share")),
                          spread_note(v)))
