@@ -15,7 +15,7 @@ import os
 import time
 
 from .common import CliError
-from .topic import RateMeter, _ms, _positive_float, _positive_int
+from .topic import RateMeter, _ms, _positive_float, _positive_int, add_report_options
 from . import values as V
 
 
@@ -32,17 +32,18 @@ def register(groups, common):
         p.add_argument("--spin-time", type=_positive_float, default=3.0, metavar="SECONDS",
                        help="how long to let discovery find the others before answering (default 3)")
 
-    node = kinds.add_parser("node", help="ROS nodes", description="Nodes of the ROS graph.")
-    node.set_defaults(group_parser=node)
-    sub = node.add_subparsers(dest="command", metavar="SUBCOMMAND")
+    def subcommands(kind, what):
+        parser = kinds.add_parser(kind, help="ROS %s" % what, description="%s of the ROS graph." % what.capitalize())
+        parser.set_defaults(group_parser=parser)
+        return parser.add_subparsers(dest="command", metavar="SUBCOMMAND")
+
+    sub = subcommands("node", "nodes")
     p = sub.add_parser("list", parents=[common], help="nodes of the ROS graph (hidden ones with --all)")
     p.add_argument("--all", "-a", action="store_true", help="also hidden nodes (names starting with '_')")
     graph_options(p)
     p.set_defaults(run=cmd_node_list)
 
-    topic = kinds.add_parser("topic", help="ROS topics", description="Topics of the ROS graph.")
-    topic.set_defaults(group_parser=topic)
-    sub = topic.add_subparsers(dest="command", metavar="SUBCOMMAND")
+    sub = subcommands("topic", "topics")
     p = sub.add_parser("list", parents=[common], help="topics with type, publishers and subscribers")
     graph_options(p)
     p.set_defaults(run=cmd_topic_list)
@@ -69,19 +70,11 @@ def register(groups, common):
                                    "messages every --period seconds, over the last --window messages.")
     p.add_argument("name", metavar="TOPIC")
     p.add_argument("--type", "-t", metavar="TYPE", help="pkg/msg/Type (default: the topic's, from the graph)")
-    p.add_argument("--window", "-w", type=_positive_int, default=100, metavar="N",
-                   help="messages to average over (default 100)")
-    p.add_argument("--period", type=_positive_float, default=1.0, metavar="SECONDS",
-                   help="seconds between reports (default 1)")
-    p.add_argument("--count", "-n", type=_positive_int, metavar="N", help="exit after N reports")
-    p.add_argument("--duration", "-d", type=_positive_float, metavar="SECONDS",
-                   help="measure this long, print one report and exit")
+    add_report_options(p)
     graph_options(p)
     p.set_defaults(run=cmd_topic_hz)
 
-    service = kinds.add_parser("service", help="ROS services", description="Services of the ROS graph.")
-    service.set_defaults(group_parser=service)
-    sub = service.add_subparsers(dest="command", metavar="SUBCOMMAND")
+    sub = subcommands("service", "services")
     p = sub.add_parser("list", parents=[common], help="services with their types and servers")
     p.add_argument("--all", "-a", action="store_true",
                    help="also every node's parameter and type-description services")
