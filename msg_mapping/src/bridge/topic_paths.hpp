@@ -4,10 +4,11 @@
 //   ROS -> LN:  rcl_take_serialized_message (with the publisher's gid) -> loop
 //               prevention -> codec -> ln_write
 //
-// Each path runs its own thread that never touches Python; the bridge's Python
-// side (configuration, discovery, services) makes and closes paths and reads
-// their reports. LN calls go through LnApi (the libln the Python side loaded),
-// rcl calls through RclApi (rclpy's librcl).
+// Messages move in threads that never touch Python (a shared LN reader, the
+// middleware's receiving threads, a thread per large-packet path); the bridge's
+// Python side (configuration, discovery, services) makes and closes paths and
+// reads their reports. LN calls go through LnApi (the libln the Python side
+// loaded), rcl calls through RclApi (rclpy's librcl).
 #pragma once
 
 #include <atomic>
