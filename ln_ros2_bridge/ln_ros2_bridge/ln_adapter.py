@@ -137,7 +137,9 @@ class LnConnection:
             elif known != md_hash:
                 raise ValueError("the LN manager has another definition of %s (hash %.12s; this bridge derives "
                                  "%.12s): LN programs use it with other capacities or from another version of "
-                                 "the ROS type" % (name, known, md_hash))
+                                 "the ROS type (use the same capacities, or remove the manager's copy, e.g. "
+                                 "~/ln_message_definitions/gen/%s of its user, and restart it)"
+                                 % (name, known, md_hash, name))
             self._defined[name] = md_hash
 
     # -- manager --------------------------------------------------------------
