@@ -132,3 +132,20 @@ def test_bad_types_and_capacities_are_reported_per_entry(ln, start_bridge, ln_pe
                              subscriber, 3)
     assert received[-1]["names"] == ["a", "b"]
     assert bridge.running()
+
+
+def test_a_derived_definition_the_manager_has_otherwise_is_an_error_naming_the_entry(ln, start_bridge):
+    """One LN definition per ROS type: a bridge that derives std_msgs/msg/String with another
+    capacity than the one the LN manager already has (from another bridge) reports its entry
+    and leaves the manager's definition alone."""
+    start_bridge({"topics": [{"ln": "bt.text_a", "type": "std_msgs/msg/String"}]}, name="bridge_a",
+                 extra_args=["--node-name", "ln_ros2_bridge_a", "--ln-client-name", "ln_ros2_bridge_a"],
+                 wait=["bridging topic bt.text_a"])
+    other = start_bridge({"defaults": {"string_capacity": 16},
+                          "topics": [{"ln": "bt.text_b", "type": "std_msgs/msg/String"},
+                                     {"ln": "bt.twist_b", "type": "geometry_msgs/msg/Twist"}]}, name="bridge_b",
+                         extra_args=["--node-name", "ln_ros2_bridge_b", "--ln-client-name", "ln_ros2_bridge_b"],
+                         wait=["bridging topic bt.twist_b"])
+    other.wait_log(r"topic bt.text_b \(ln_to_ros, ROS /bt/text_b\): cannot bridge: the LN manager has another "
+                   r"definition of ros2/std_msgs/msg/String .*use the same capacities", 20)
+    assert other.running()
