@@ -43,6 +43,7 @@ _ln_core_env() {
       prefix=${prefix%/}
       _ln_core_prepend CMAKE_PREFIX_PATH "$prefix"
       _ln_core_prepend PATH "$prefix/bin"
+      _ln_core_prepend PATH "$prefix/lib/${prefix##*/}"   # ament_python commands (ros2 run's lib/<package>/)
       _ln_core_prepend LD_LIBRARY_PATH "$prefix/lib"
       _ln_core_prepend PYTHONPATH "$prefix/lib/python3.11/site-packages"
     done

@@ -152,6 +152,10 @@ class LnSystem:
     def __init__(self, work_dir):
         self.work_dir = Path(work_dir)
         self.work_dir.mkdir(parents=True, exist_ok=True)
+        # Both managers keep definitions their clients put in $HOME/ln_message_definitions/gen
+        # (the bridge puts those it derives from ROS types): a home of its own per system.
+        self.home = self.work_dir / "home"
+        self.home.mkdir(exist_ok=True)
         self.address = ""
         self.manager = None
         self.port = 0
@@ -167,6 +171,7 @@ class LnSystem:
     def env(self, base=None):
         env = dict(os.environ if base is None else base)
         env["LN_MANAGER"] = self.address
+        env["HOME"] = str(self.home)
         env["PYTHONPATH"] = os.pathsep.join(p for p in [self.python_path(), env.get("PYTHONPATH", "")] if p)
         return env
 
@@ -205,8 +210,6 @@ class Ln29(LnSystem):
             raise Unavailable("LN 2.9 venv not found at %s (LN_CORE_LN29_VENV)" % venv)
         self.venv = venv
         self.site = next((venv / "lib").glob("python3*/site-packages"))
-        self.home = self.work_dir / "home"
-        self.home.mkdir(exist_ok=True)
 
     def python_path(self):
         # Only LN's own packages, not its numpy: the ROS venv has its own.
@@ -224,8 +227,7 @@ class Ln29(LnSystem):
         return str(self.venv / "bin" / "python")
 
     def env(self, base=None):
-        env = super().env(base)
-        env["HOME"] = str(self.home)      # LN 2.9 writes keys and generated files into $HOME
+        env = super().env(base)           # (LN 2.9 also writes keys into $HOME)
         env["TMPDIR"] = str(self.work_dir)
         return env
 

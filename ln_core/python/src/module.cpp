@@ -20,6 +20,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <cstring>
 #include <memory>
@@ -1255,6 +1256,9 @@ NB_MODULE(_ln, m) {
            "name"_a, "manager"_a = nb::none(), "argv"_a = nb::none())
       .def("close", &Client::close)
       .def_prop_ro("closed", &Client::closed)
+      // The C API's ln_client, for compiled code in this process that uses the
+      // same connection (ln_ros2_bridge's data path); 0 once closed.
+      .def_prop_ro("handle", [](const Client& c) { return reinterpret_cast<std::uintptr_t>(c.handle()); })
       .def_prop_ro("name", &Client::name)
       .def("get_remaining_args", &Client::remaining_args)
       .def("ping", &Client::ping, "timeout"_a = -1.0)

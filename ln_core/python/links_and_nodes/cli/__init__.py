@@ -7,6 +7,7 @@
     ln client list
     ln manager status
     ln record | play | bag info | bag convert   (the ln_bag package)
+    ln ros node list | topic list|info|echo|hz | service list|call   (the ROS 2 side; needs rclpy)
     ln completion bash
 
 Every command takes --json (machine-readable output), --ln-manager HOST:PORT
@@ -24,7 +25,7 @@ import sys
 from .common import CliError, Session, describe_error
 
 #: The first arguments that belong to this `ln`; anything else is the system's ln.
-GROUPS = ("topic", "service", "param", "md", "client", "manager", "completion", "record", "play", "bag")
+GROUPS = ("topic", "service", "param", "md", "client", "manager", "ros", "completion", "record", "play", "bag")
 OWN_FIRST_ARGUMENTS = GROUPS + ("__complete", "-h", "--help", "--json", "--ln-manager", "--color")
 SYSTEM_LN = ("/bin/ln", "/usr/bin/ln")
 
@@ -50,7 +51,7 @@ def common_options():
 
 
 def build_parser():
-    from . import bag, clients, completion, manager, md, param, service, topic
+    from . import bag, clients, completion, manager, md, param, ros, service, topic
     common = common_options()
     parser = ArgumentParser(
         prog="ln", parents=[common],
@@ -59,7 +60,7 @@ def build_parser():
         epilog="Anything else (e.g. 'ln -s TARGET LINK') runs the system's ln. "
                "Each command has --help.")
     groups = parser.add_subparsers(dest="group", metavar="COMMAND")
-    for module in (topic, service, param, md, clients, manager, bag, completion):
+    for module in (topic, service, param, md, clients, manager, ros, bag, completion):
         module.register(groups, common)
     return parser
 

@@ -50,13 +50,7 @@ def register(groups, common):
                                        "last --window messages (lost packets are counted too)." % what)
         p.add_argument("name", metavar="TOPIC").completer = "topics"
         _add_read_options(p)
-        p.add_argument("--window", "-w", type=_positive_int, default=100, metavar="N",
-                       help="messages to average over (default 100)")
-        p.add_argument("--period", type=_positive_float, default=1.0, metavar="SECONDS",
-                       help="seconds between reports (default 1)")
-        p.add_argument("--count", "-n", type=_positive_int, metavar="N", help="exit after N reports")
-        p.add_argument("--duration", "-d", type=_positive_float, metavar="SECONDS",
-                       help="measure this long, print one report and exit")
+        add_report_options(p)
         p.set_defaults(run=run)
 
     p = sub.add_parser("pub", parents=[common], help="publish messages on a topic",
@@ -77,6 +71,17 @@ def register(groups, common):
     p.add_argument("--wait", type=float, default=2.0, metavar="SECONDS",
                    help="with --once/--count: wait this long for a subscriber first (default 2)")
     p.set_defaults(run=cmd_pub)
+
+
+def add_report_options(p):
+    """--window, --period, --count, --duration of the commands that measure a topic (hz, bw)."""
+    p.add_argument("--window", "-w", type=_positive_int, default=100, metavar="N",
+                   help="messages to average over (default 100)")
+    p.add_argument("--period", type=_positive_float, default=1.0, metavar="SECONDS",
+                   help="seconds between reports (default 1)")
+    p.add_argument("--count", "-n", type=_positive_int, metavar="N", help="exit after N reports")
+    p.add_argument("--duration", "-d", type=_positive_float, metavar="SECONDS",
+                   help="measure this long, print one report and exit")
 
 
 def _add_read_options(p):
