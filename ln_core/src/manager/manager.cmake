@@ -7,8 +7,11 @@ set(LN_MANAGER_SOURCE_DIR ${CMAKE_CURRENT_LIST_DIR})
 
 add_library(ln_manager_core STATIC
   ${LN_MANAGER_SOURCE_DIR}/config.cpp
+  ${LN_MANAGER_SOURCE_DIR}/config_objects.cpp
   ${LN_MANAGER_SOURCE_DIR}/definitions.cpp
   ${LN_MANAGER_SOURCE_DIR}/dispatch.cpp
+  ${LN_MANAGER_SOURCE_DIR}/line_regex.cpp
+  ${LN_MANAGER_SOURCE_DIR}/lnc_eval.cpp
   ${LN_MANAGER_SOURCE_DIR}/manager.cpp
   ${LN_MANAGER_SOURCE_DIR}/names.cpp
   ${LN_MANAGER_SOURCE_DIR}/registry.cpp
@@ -29,7 +32,10 @@ if(BUILD_TESTING)
   add_executable(manager_tests
     ${LN_MANAGER_SOURCE_DIR}/names_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/config_test.cpp
-    ${LN_MANAGER_SOURCE_DIR}/manager_test.cpp
+    ${LN_MANAGER_SOURCE_DIR}/config_objects_test.cpp
+    ${LN_MANAGER_SOURCE_DIR}/lnc_eval_test.cpp
+    ${LN_MANAGER_SOURCE_DIR}/line_regex_test.cpp
+      ${LN_MANAGER_SOURCE_DIR}/manager_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/introspection_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/robustness_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/binary_test.cpp
