@@ -15,6 +15,7 @@
 namespace ln::manager {
 
 class DefinitionStore;
+class ProcessControl;
 
 /// What the manager knows about one connection's conversation.
 struct Session {
@@ -37,6 +38,9 @@ class Dispatcher {
   /// The manager listens at `address` ("IP:PORT") from now on: manager_status
   /// reports it and counts the uptime from here.
   void listening_at(std::string address);
+  /// The processes, states and groups the process_* requests act on
+  /// (process_methods.cpp); none until set.
+  void set_process_control(ProcessControl* control) { process_control_ = control; }
 
  private:
   using Handler = protocol::Message (Dispatcher::*)(Session&, const protocol::Message&, Outbox&);
@@ -62,6 +66,11 @@ class Dispatcher {
   protocol::Message list_topics(Session&, const protocol::Message&, Outbox&);
   protocol::Message list_services(Session&, const protocol::Message&, Outbox&);
   protocol::Message manager_status(Session&, const protocol::Message&, Outbox&);
+  // process_methods.cpp
+  protocol::Message process_list(Session&, const protocol::Message&, Outbox&);
+  protocol::Message process_control(Session&, const protocol::Message&, Outbox&);
+  protocol::Message process_output(Session&, const protocol::Message&, Outbox&);
+  protocol::Message needs_provider(Session&, const protocol::Message&, Outbox&);
 
   Registry& registry_;
   DefinitionStore& definitions_;
@@ -69,6 +78,7 @@ class Dispatcher {
   std::string listen_address_;
   std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
   std::map<std::string, Handler, std::less<>> handlers_;
+  ProcessControl* process_control_ = nullptr;
 };
 
 }  // namespace ln::manager

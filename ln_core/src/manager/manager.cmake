@@ -6,6 +6,7 @@ find_package(Threads REQUIRED)
 set(LN_MANAGER_SOURCE_DIR ${CMAKE_CURRENT_LIST_DIR})
 
 add_library(ln_manager_core STATIC
+  ${LN_MANAGER_SOURCE_DIR}/child_process.cpp
   ${LN_MANAGER_SOURCE_DIR}/config.cpp
   ${LN_MANAGER_SOURCE_DIR}/config_objects.cpp
   ${LN_MANAGER_SOURCE_DIR}/definitions.cpp
@@ -14,6 +15,9 @@ add_library(ln_manager_core STATIC
   ${LN_MANAGER_SOURCE_DIR}/lnc_eval.cpp
   ${LN_MANAGER_SOURCE_DIR}/manager.cpp
   ${LN_MANAGER_SOURCE_DIR}/names.cpp
+  ${LN_MANAGER_SOURCE_DIR}/process_control.cpp
+  ${LN_MANAGER_SOURCE_DIR}/process_methods.cpp
+  ${LN_MANAGER_SOURCE_DIR}/process_output.cpp
   ${LN_MANAGER_SOURCE_DIR}/registry.cpp
 )
 target_include_directories(ln_manager_core PUBLIC ${LN_MANAGER_SOURCE_DIR}/..)
@@ -35,7 +39,8 @@ if(BUILD_TESTING)
     ${LN_MANAGER_SOURCE_DIR}/config_objects_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/lnc_eval_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/line_regex_test.cpp
-      ${LN_MANAGER_SOURCE_DIR}/manager_test.cpp
+    ${LN_MANAGER_SOURCE_DIR}/process_control_test.cpp
+    ${LN_MANAGER_SOURCE_DIR}/manager_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/introspection_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/robustness_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/binary_test.cpp

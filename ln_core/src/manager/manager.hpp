@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "manager/config.hpp"
 #include "manager/log.hpp"
 
 namespace ln::manager {
@@ -32,6 +33,19 @@ struct ManagerOptions {
   /// Further connections are accepted and closed at once.
   std::size_t max_clients = 4096;
   LogFunction log;
+  /// The processes, states and groups to supervise (process_control.hpp);
+  /// none by default.
+  std::shared_ptr<const LncSettings> system;
+  /// Started (processes, groups) or brought up (states) once listening.
+  std::vector<std::string> start;
+  /// Processes get their term_signal if the manager dies without stopping
+  /// them (SIGKILL); false leaves them running.
+  bool stop_processes_with_manager = true;
+  /// Adopt and stop orphaned descendants (a child subreaper): only for a
+  /// program that runs nothing but the manager (the ln_manager daemon).
+  bool reap_orphans = false;
+  /// Added to the processes' LD_LIBRARY_PATH; "" = nothing.
+  std::string library_dir;
 };
 
 class Manager {
@@ -52,7 +66,9 @@ class Manager {
   void run_in_thread();
   /// Ends run() soon; from any thread (also a signal-handling one), any
   /// number of times. Joins the thread of run_in_thread() unless called
-  /// from it.
+  /// from it. With processes, run() first stops them (dependents first,
+  /// term_signal, SIGKILL after term_timeout) while it keeps serving
+  /// clients; a second stop() kills them at once.
   void stop();
 
  private:
