@@ -20,6 +20,7 @@
 
 #include "manager/config.hpp"
 #include "manager/manager.hpp"
+#include "manager/process_keeper.hpp"
 
 namespace {
 
@@ -155,6 +156,13 @@ LncContext config_context(const std::string& instance_name, const std::string& p
 }  // namespace
 
 int main(int argc, char** argv) {
+  // The keeper of --keep-processes (process_keeper.hpp), started by a
+  // manager with its link as descriptor 3: not for people to run.
+  if (argc == 3 && std::string(argv[1]) == "--process-keeper") {
+    ::signal(SIGINT, SIG_IGN);  // a Ctrl-C in the terminal is for the manager
+    ::signal(SIGPIPE, SIG_IGN);
+    return run_process_keeper(3, argv[2]);
+  }
   std::string config_file, instance_name, listen;
   std::optional<std::uint16_t> port_override;
   std::vector<std::string> start;
@@ -247,6 +255,10 @@ int main(int argc, char** argv) {
   }
   options.reap_orphans = true;  // this program runs nothing but the manager
   options.stop_processes_with_manager = !keep_processes;
+  options.keep_processes = keep_processes;
+  char exe[PATH_MAX] = "";
+  if (const ssize_t n = ::readlink("/proc/self/exe", exe, sizeof exe - 1); n > 0)
+    options.keeper_command = {std::string(exe, static_cast<std::size_t>(n)), "--process-keeper", options.instance_name};
   if (exists(prefix + "/lib/libln.so")) options.library_dir = prefix + "/lib";
 
   // Signals are taken by sigwait() below, never by a handler that

@@ -2,6 +2,7 @@
 
 #include <dirent.h>
 #include <fcntl.h>
+#include <poll.h>
 #include <sched.h>
 #include <signal.h>
 #include <stdlib.h>
@@ -75,7 +76,8 @@ class Fd {
 // The child between fork and exec: async-signal-safe calls only.
 [[noreturn]] void run_child(const SpawnRequest& request, char* const* argv, char* const* envp, const char* slave_name,
                             int null_fd, int output_write_fd, int status_fd, pid_t parent) {
-  auto report = [&](bool fatal, int step) {
+  // status_fd may move (see extra_fd); report() uses its current value
+  auto report = [&status_fd](bool fatal, int step) {
     const Report r{fatal ? 'E' : 'W', step, errno};
     (void)!::write(status_fd, &r, sizeof r);
     if (fatal) ::_exit(127);
@@ -103,8 +105,15 @@ class Fd {
     if (slave > 2) ::close(slave);
   } else {
     ::dup2(null_fd, 0);
-    ::dup2(output_write_fd, 1);
-    ::dup2(output_write_fd, 2);
+    ::dup2(request.discard_output ? null_fd : output_write_fd, 1);
+    ::dup2(request.discard_output ? null_fd : output_write_fd, 2);
+  }
+  int first_closed = 3;
+  if (request.extra_fd >= 0) {
+    if (status_fd == 3) status_fd = ::fcntl(status_fd, F_DUPFD_CLOEXEC, 4);
+    if (request.extra_fd == 3) ::fcntl(3, F_SETFD, 0);
+    else ::dup2(request.extra_fd, 3);
+    first_closed = 4;
   }
   if (!request.directory.empty() && ::chdir(request.directory.c_str()) != 0) report(true, Directory);
   for (const ResourceLimit& limit : request.limits) {
@@ -134,9 +143,8 @@ class Fd {
   }
   // Nothing of the manager's leaks into the program (the status pipe closes
   // at exec, which tells the manager that exec worked).
-  if (::syscall(SYS_close_range, 3u, ~0u, CLOSE_RANGE_CLOEXEC) != 0)
-    for (int fd = 3; fd < 65536; ++fd)
-      if (fd != status_fd) ::fcntl(fd, F_SETFD, FD_CLOEXEC);
+  if (::syscall(SYS_close_range, static_cast<unsigned>(first_closed), ~0u, CLOSE_RANGE_CLOEXEC) != 0)
+    for (int fd = first_closed; fd < 65536; ++fd) ::fcntl(fd, F_SETFD, FD_CLOEXEC);
   ::execve(argv[0], argv, envp);
   report(true, Exec);
   ::_exit(127);
@@ -187,6 +195,8 @@ SpawnedChild spawn_child(const SpawnRequest& request) {
     size.ws_row = 24;
     size.ws_col = 160;
     ::ioctl(master.get(), TIOCSWINSZ, &size);
+  } else if (request.discard_output) {
+    null_fd.reset(::open("/dev/null", O_RDWR | O_CLOEXEC));
   } else {
     int fds[2];
     if (::pipe2(fds, O_CLOEXEC) != 0) throw SpawnError(errno_text("cannot create the output pipe"));
@@ -237,19 +247,25 @@ SpawnedChild spawn_child(const SpawnRequest& request) {
   }
   ::fcntl(child.pidfd, F_SETFD, FD_CLOEXEC);
   const int output = request.pty ? master.release() : output_read.release();
-  ::fcntl(output, F_SETFL, ::fcntl(output, F_GETFL) | O_NONBLOCK);
+  if (output >= 0) ::fcntl(output, F_SETFL, ::fcntl(output, F_GETFL) | O_NONBLOCK);
   child.output_fd = output;
   return child;
 }
 
-bool reap_child(int pidfd, pid_t pid, int& code, int& status) {
+Reaped reap_child(int pidfd, pid_t pid, int& code, int& status) {
   siginfo_t info{};
   int result = ::waitid(P_PIDFD, static_cast<id_t>(pidfd), &info, WEXITED | WNOHANG);
   if (result != 0 && errno == EINVAL) result = ::waitid(P_PID, static_cast<id_t>(pid), &info, WEXITED | WNOHANG);
-  if (result != 0 || info.si_pid == 0) return false;
+  if (result != 0) {
+    if (errno != ECHILD) return Reaped::Running;
+    // Not our child: it is gone once its pidfd is readable.
+    pollfd p{pidfd, POLLIN, 0};
+    return ::poll(&p, 1, 0) == 1 ? Reaped::Unknown : Reaped::Running;
+  }
+  if (info.si_pid == 0) return Reaped::Running;
   code = info.si_code;
   status = info.si_status;
-  return true;
+  return Reaped::Ended;
 }
 
 std::string describe_exit(int code, int status) {

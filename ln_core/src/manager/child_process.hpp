@@ -35,6 +35,10 @@ struct SpawnRequest {
   std::vector<ResourceLimit> limits;
   /// Sent to the child when the manager dies (PR_SET_PDEATHSIG); 0 = none.
   int death_signal = 0;
+  /// Becomes the child's descriptor 3 (-1: none).
+  int extra_fd = -1;
+  /// stdout and stderr go to /dev/null (no output descriptor).
+  bool discard_output = false;
 };
 
 struct SpawnedChild {
@@ -53,10 +57,13 @@ SpawnedChild spawn_child(const SpawnRequest& request);
 /// "killed by SIGSEGV (core dumped)".
 std::string describe_exit(int code, int status);
 
-/// waitid() for the child behind `pidfd` without blocking; false while it
-/// runs. `code`/`status` as in siginfo_t (CLD_EXITED: exit status, else the
-/// signal).
-bool reap_child(int pidfd, pid_t pid, int& code, int& status);
+enum class Reaped {
+  Running,
+  Ended,   ///< code/status as in siginfo_t (CLD_EXITED: exit status, else the signal)
+  Unknown  ///< it ended, but it is not our child (adopted): no status
+};
+/// waitid() for the child behind `pidfd` without blocking.
+Reaped reap_child(int pidfd, pid_t pid, int& code, int& status);
 
 /// Whether any process of process group `group` still runs (zombies do not
 /// count).

@@ -146,6 +146,9 @@ struct Manager::Impl {
     process_options.library_dir = options.library_dir;
     process_options.stop_with_manager = options.stop_processes_with_manager;
     process_options.reap_orphans = options.reap_orphans;
+    process_options.keep_processes = options.keep_processes;
+    process_options.keeper_command = options.keeper_command;
+    process_options.instance_name = options.instance_name;
     processes = std::make_unique<ProcessControl>(*system, process_options);
     dispatcher.set_process_control(processes.get());
     watch(processes->fd(), EPOLLIN);

@@ -46,6 +46,11 @@ struct ManagerOptions {
   bool reap_orphans = false;
   /// Added to the processes' LD_LIBRARY_PATH; "" = nothing.
   std::string library_dir;
+  /// --keep-processes: leave the processes to a keeper started with
+  /// `keeper_command` when the manager stops or dies (process_keeper.hpp).
+  /// Whatever the keeper of this instance holds is adopted in any case.
+  bool keep_processes = false;
+  std::vector<std::string> keeper_command;
 };
 
 class Manager {

@@ -22,6 +22,7 @@
 #include "manager/child_process.hpp"
 #include "manager/line_regex.hpp"
 #include "manager/lnc_eval.hpp"
+#include "manager/process_keeper.hpp"
 #include "manager/request_error.hpp"
 
 extern char** environ;
@@ -98,6 +99,7 @@ struct ProcessControl::Impl {
     unsigned restarts = 0, quick_failures = 0;
     bool restarting = false;  // the pending start is an automatic restart
     bool passive = false;     // waits for its dependencies to come back, starts none
+    bool adopted = false;     // started by an earlier manager: no exit status
     std::vector<std::string> dependents;          // depends_on or depends_on_restart this
     std::vector<std::string> restart_dependents;  // depends_on_restart this
 
@@ -157,10 +159,92 @@ struct ProcessControl::Impl {
     if (options.reap_orphans && ::prctl(PR_SET_CHILD_SUBREAPER, 1) != 0)
       log(LogLevel::Warning, "cannot become a child subreaper (" + std::string(std::strerror(errno)) +
                                  "): orphans of managed processes go to init");
+    adopt();
+    if (options.keep_processes) start_keeper();
     schedule();
   }
 
+  // ----------------------------------------------------------- keeping
+
+  // What a keeper holds for this instance (a manager started with
+  // --keep-processes stopped or died) becomes ours again.
+  void adopt() {
+    if (options.instance_name.empty()) return;
+    std::vector<KeptProcess> kept;
+    try {
+      kept = adopt_from_keeper(options.instance_name, 5.0);
+    } catch (const std::exception& e) {
+      log(LogLevel::Warning, std::string("cannot adopt processes: ") + e.what());
+      return;
+    }
+    for (KeptProcess& k : kept) {
+      Process* p = find_process(k.name);
+      const bool runs = !k.ended && k.start_ticks != 0 && process_start_ticks(k.pid) == k.start_ticks;
+      if (p == nullptr || !runs || p->child.running()) {
+        if (runs) {
+          log(LogLevel::Warning, "the previous manager's process '" + k.name + "' (pid " + std::to_string(k.pid) +
+                                     ") is not in this config: stopping it");
+          ::kill(-k.pid, SIGTERM);
+        } else {
+          log(LogLevel::Info, "the previous manager's process '" + k.name + "' ended meanwhile");
+        }
+        if (k.output_fd >= 0) ::close(k.output_fd);
+        if (k.pidfd >= 0) ::close(k.pidfd);
+        continue;
+      }
+      p->child = {k.pid, k.pidfd, k.output_fd};
+      if (k.pidfd >= 0) watch(k.pidfd);
+      if (k.output_fd >= 0) watch(k.output_fd);
+      p->phase = Process::Phase::Running;
+      p->ready = k.ready || !p->config.has_ready_condition();
+      p->adopted = true;
+      p->started_at = Clock::now() - std::chrono::duration_cast<Clock::duration>(Seconds(seconds_since_start(k.start_ticks)));
+      for (const auto& line : k.output) p->output.append(line + "\n", [&](const std::string& l) { write_log(*p, l); });
+      note(*p, "adopted (pid " + std::to_string(k.pid) + ") from the previous manager of the instance");
+      log(LogLevel::Info, "adopted '" + k.name + "' (pid " + std::to_string(k.pid) + ") from the previous manager");
+    }
+  }
+
+  static double seconds_since_start(std::uint64_t start_ticks) {
+    std::ifstream in("/proc/uptime");
+    double uptime = 0;
+    in >> uptime;
+    const long ticks = ::sysconf(_SC_CLK_TCK);
+    return ticks > 0 ? std::max(0.0, uptime - static_cast<double>(start_ticks) / static_cast<double>(ticks)) : 0.0;
+  }
+
+  void start_keeper() {
+    const std::string problem = keeper.start(options.keeper_command);
+    if (!problem.empty()) {
+      log(LogLevel::Warning, "--keep-processes: cannot start the process keeper (" + problem +
+                                 "); the processes will be stopped with the manager");
+      return;
+    }
+    log(LogLevel::Info, "process keeper started (pid " + std::to_string(keeper.pid()) + ")");
+    for (auto& [name, p] : processes)
+      if (p->child.running()) keep(*p);
+  }
+
+  void keep(const Process& p) {
+    KeptProcess k;
+    k.name = p.config.name;
+    k.pid = p.child.pid;
+    k.start_ticks = process_start_ticks(p.child.pid);
+    k.ready = p.ready;
+    k.output_fd = p.child.output_fd;
+    k.pidfd = p.child.pidfd;
+    keeper.add(k);
+  }
+
   ~Impl() {
+    if (handed_over) {
+      // the keeper holds the processes now; only the descriptors are ours to close
+      for (auto& [name, p] : processes) forget(p->child);
+      for (auto& [name, s] : states) reap_blocking(s->child);
+      ::close(epoll_fd);
+      ::close(timer_fd);
+      return;
+    }
     kill_everything();
     for (auto& [name, process] : processes) reap_blocking(process->child);
     for (auto& [name, state] : states) reap_blocking(state->child);
@@ -668,6 +752,7 @@ struct ProcessControl::Impl {
     }
     if (!p.config.has_ready_condition()) become_ready(p, "");
     else if (p.config.ready_time) p.ready_at = after(*p.config.ready_time);
+    keep(p);
     mark_changed();
   }
 
@@ -742,7 +827,9 @@ struct ProcessControl::Impl {
 
   void process_exited(Process& p) {
     int code = 0, status = 0;
-    if (!reap_child(p.child.pidfd, p.child.pid, code, status)) return;
+    const Reaped reaped = reap_child(p.child.pidfd, p.child.pid, code, status);
+    if (reaped == Reaped::Running) return;
+    keeper.remove(p.config.name);
     if (p.child.output_fd >= 0) {
       read_output(p.child, p.output, [&](const std::string& line) { on_line(p, line); });
       unwatch(p.child.output_fd);
@@ -751,10 +838,13 @@ struct ProcessControl::Impl {
     unwatch(p.child.pidfd);
     const pid_t pid = p.child.pid;
     p.child.pid = 0;
+    sweep_until = after(orphan_term_timeout);
     const bool killed_by_us = p.kill_at.has_value() && code != CLD_EXITED && status == SIGKILL;
     collect_leftovers(pid, p.config.name, killed_by_us ? SIGKILL : p.config.term_signal, p.config.term_timeout);
-    const std::string how = describe_exit(code, status);
+    const std::string how = reaped == Reaped::Ended ? describe_exit(code, status)
+                                                    : std::string("exit status unknown (adopted from an earlier manager)");
     p.last_exit = how;
+    p.adopted = false;
     p.stopped_at = Clock::now();
     const double ran = Seconds(p.stopped_at - p.started_at).count();
     const bool expected = p.stop_expected || shutting_down;
@@ -773,7 +863,7 @@ struct ProcessControl::Impl {
         for (const auto& d : p.config.start_on_successful_stop) request_dependency(d, "start_on_successful_stop of '" + p.config.name + "'");
       return;
     }
-    const bool successful = code == CLD_EXITED && status == 0;
+    const bool successful = reaped == Reaped::Ended && code == CLD_EXITED && status == 0;
     const bool no_error = p.config.has_flag("no_error_on_stop") ||
                           (successful && p.config.has_flag("no_error_on_successful_stop"));
     p.last_stop_successful = no_error;
@@ -925,7 +1015,7 @@ struct ProcessControl::Impl {
 
   void state_command_exited(State& s) {
     int code = 0, status = 0;
-    if (!reap_child(s.child.pidfd, s.child.pid, code, status)) return;
+    if (reap_child(s.child.pidfd, s.child.pid, code, status) == Reaped::Running) return;
     if (s.child.output_fd >= 0) {
       read_output(s.child, s.output, {});
       unwatch(s.child.output_fd);
@@ -933,6 +1023,7 @@ struct ProcessControl::Impl {
     s.output.flush({});
     unwatch(s.child.pidfd);
     collect_leftovers(s.child.pid, "state " + s.config.name, SIGTERM, orphan_term_timeout);
+    sweep_until = after(orphan_term_timeout);
     s.child.pid = 0;
     s.kill_at.reset();
     const std::string kind = s.command_kind;
@@ -971,6 +1062,7 @@ struct ProcessControl::Impl {
       if (p->child.running()) known.insert(p->child.pid);
     for (const auto& [name, s] : states)
       if (s->child.running()) known.insert(s->child.pid);
+    if (keeper.running()) known.insert(keeper.pid());
     for (pid_t pid : list_children()) {
       if (known.count(pid) || foreign.count(pid)) continue;
       std::string command;
@@ -996,7 +1088,7 @@ struct ProcessControl::Impl {
 
   bool anything_runs() const {
     for (const auto& [name, p] : processes)
-      if (p->child.running()) return true;
+      if (p->child.running() && !handed_over) return true;
     for (const auto& [name, s] : states)
       if (s->child.running()) return true;
     return false;
@@ -1033,7 +1125,15 @@ struct ProcessControl::Impl {
       }
       ++it;
     }
-    if (options.reap_orphans && (anything_runs() || !foreign.empty() || shutting_down)) sweep_orphans();
+    if (sweeping()) sweep_orphans();
+  }
+
+  // Orphans appear when a process (or a state's command) ends, a moment
+  // after its exit: look for them while anything runs and for a while after
+  // something ended.
+  bool sweeping() const {
+    return options.reap_orphans &&
+           (anything_runs() || !foreign.empty() || shutting_down || (sweep_until && Clock::now() < *sweep_until));
   }
 
   // Arms the timer for the next deadline (or a short poll while SIGKILLed
@@ -1053,7 +1153,10 @@ struct ProcessControl::Impl {
       if (s->goal == Goal::None && s->config.check.size() && s->command_kind.empty()) consider(s->next_auto_check);
     }
     for (const auto& leftover : leftovers) consider(leftover.killed ? after(0.05) : leftover.kill_at);
-    if (options.reap_orphans && (anything_runs() || !foreign.empty())) consider(after(foreign.empty() ? orphan_sweep_interval : 0.1));
+    if (sweeping()) {
+      const bool soon = !foreign.empty() || (sweep_until && Clock::now() < *sweep_until);
+      consider(after(soon ? 0.1 : orphan_sweep_interval));
+    }
     itimerspec spec{};
     if (next) {
       const auto wait = std::max<Clock::duration>(*next - Clock::now(), std::chrono::milliseconds(1));
@@ -1095,7 +1198,20 @@ struct ProcessControl::Impl {
   void begin_shutdown() {
     if (shutting_down) return;
     shutting_down = true;
+    if (keeper.running()) {
+      handed_over = true;
+      unsigned running = 0;
+      for (auto& [name, p] : processes) {
+        running += p->child.running();
+        p->goal = Goal::None;
+        p->restart_at.reset();
+      }
+      log(LogLevel::Info, "leaving " + std::to_string(running) + " running process(es) to the keeper (pid " +
+                              std::to_string(keeper.pid()) + ") for the next manager of instance '" +
+                              options.instance_name + "'");
+    }
     for (auto& [name, p] : processes) {
+      if (handed_over) break;
       p->restart_at.reset();
       p->restarting = false;
       p->restart_after_stop = false;
@@ -1115,11 +1231,17 @@ struct ProcessControl::Impl {
 
   void kill_everything() {
     for (auto& [name, p] : processes)
-      if (p->child.running()) ::kill(-p->child.pid, SIGKILL);
+      if (p->child.running() && !handed_over) ::kill(-p->child.pid, SIGKILL);
     for (auto& [name, s] : states)
       if (s->child.running()) ::kill(-s->child.pid, SIGKILL);
     for (auto& leftover : leftovers) ::kill(-leftover.group, SIGKILL);
     for (auto& [pid, entry] : foreign) ::kill(pid, SIGKILL);
+  }
+
+  static void forget(Child& child) {
+    if (child.pidfd >= 0) ::close(child.pidfd);
+    if (child.output_fd >= 0) ::close(child.output_fd);
+    child = Child{};
   }
 
   void reap_blocking(Child& child) {
@@ -1231,7 +1353,10 @@ struct ProcessControl::Impl {
   std::vector<GroupConfig> groups;
   std::vector<Leftover> leftovers;
   std::map<pid_t, Foreign> foreign;
+  std::optional<Clock::time_point> sweep_until;
+  KeeperLink keeper;
   bool shutting_down = false;
+  bool handed_over = false;  // the keeper holds the processes
   bool changed = false;
 };
 

@@ -17,7 +17,9 @@
 //   depend on; finished() tells when nothing runs any more;
 // * if the manager dies without stopping them (SIGKILL), each process gets
 //   its term_signal from the kernel (PR_SET_PDEATHSIG) unless
-//   stop_with_manager is false.
+//   stop_with_manager is false;
+// * with keep_processes, processes outlive the manager (stopped or dead)
+//   and the next manager of the instance adopts them (process_keeper.hpp).
 #pragma once
 
 #include <sys/types.h>
@@ -48,6 +50,14 @@ struct ProcessControlOptions {
   /// process that runs nothing but the manager: it reaps children it did
   /// not start.
   bool reap_orphans = false;
+  /// Leave the processes running when the manager stops or dies, held by a
+  /// keeper (process_keeper.hpp) started with `keeper_command`, for the next
+  /// manager of `instance_name` to adopt.
+  bool keep_processes = false;
+  std::vector<std::string> keeper_command;
+  /// Whose processes a keeper holds; a new ProcessControl adopts those of
+  /// its instance that its config names.
+  std::string instance_name;
 };
 
 /// One row of ProcessControl::status().

@@ -107,20 +107,8 @@ class ProcessControlTest : public ::testing::Test {
     return false;
   }
 
-  // Running, not a zombie (the container's init may not reap orphans).
-  static bool alive(long pid) {
-    std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
-    std::string stat;
-    if (pid <= 0 || !std::getline(in, stat)) return false;
-    const auto close = stat.rfind(')');
-    return close != std::string::npos && close + 2 < stat.size() && stat[close + 2] != 'Z';
-  }
-
-  bool wait_gone(long pid, Clock::duration timeout = 10s) {
-    const auto deadline = Clock::now() + timeout;
-    while (alive(pid) && Clock::now() < deadline) std::this_thread::sleep_for(5ms);
-    return !alive(pid);
-  }
+  static bool alive(long pid) { return testing::process_running(pid); }
+  static bool wait_gone(long pid) { return testing::wait_process_gone(pid, 10s); }
 
   // Stops the manager like SIGTERM does and waits for its loop to end.
   void stop_manager() {
