@@ -6,6 +6,7 @@
 #include <cstdarg>
 #include <mutex>
 #include <set>
+#include <string>
 
 #include "capi/capi_support.hpp"
 
@@ -22,21 +23,31 @@ std::set<Client*>& live_clients() {
   return clients;
 }
 
+// Why the last ln_init* of this thread failed: no client exists to keep
+// it (ln_get_error_message(NULL)).
+thread_local std::string creation_error;
+
 template <typename Create>
 int init_with(ln_client* handle, Create&& create) noexcept {
   if (handle == nullptr) return -LNE_INVALID_PARAMETER;
   *handle = nullptr;
-  // No client exists on failure, so the detail text is lost; ln_format_error
-  // still names the errno of a refused connection, as in LN 2.9.
+  creation_error.clear();
   return guarded(nullptr, [&] {
-    std::unique_ptr<Client> client = create();
-    register_client(client.get());
-    *handle = client.release();
-    return 0;
+    try {
+      std::unique_ptr<Client> client = create();
+      register_client(client.get());
+      *handle = client.release();
+      return 0;
+    } catch (const std::exception& e) {
+      creation_error = e.what();
+      throw;
+    }
   });
 }
 
 }  // namespace
+
+char* creation_error_text() { return creation_error.data(); }
 
 void register_client(Client* client) {
   std::lock_guard<std::mutex> lock(live_clients_mutex());
@@ -146,6 +157,7 @@ int ln_get_remaining_args(ln_client clnt, unsigned int* n_args, char** args_ptr)
 }
 
 char* ln_get_error_message(ln_client clnt_) {
+  if (clnt_ == nullptr) return ln::capi::creation_error_text();
   Client* client = client_from(clnt_);
   return client != nullptr ? client->errors().text() : nullptr;
 }

@@ -23,6 +23,8 @@ using clientlib::Failure;
 /// foreign client handles are refused instead of followed.
 void register_client(Client* client);
 void unregister_client(Client* client);
+/// Why the last ln_init* of this thread failed (ln_get_error_message(NULL)).
+char* creation_error_text();
 /// The client behind a handle, or nullptr if it is not a live client.
 Client* client_from(ln_client handle);
 

@@ -5,6 +5,9 @@
     ln md show | find | generate
     ln client list
     ln manager status
+    ln process list | info | start | stop | restart | output
+    ln state list | check | up | down
+    ln group list | start | stop | restart
     ln completion bash
 
 Every command takes --json (machine-readable output), --ln-manager HOST:PORT
@@ -22,7 +25,7 @@ import sys
 from .common import CliError, Session, describe_error
 
 #: The first arguments that belong to this `ln`; anything else is the system's ln.
-GROUPS = ("topic", "service", "md", "client", "manager", "completion")
+GROUPS = ("topic", "service", "md", "client", "manager", "process", "state", "group", "completion")
 OWN_FIRST_ARGUMENTS = GROUPS + ("__complete", "-h", "--help", "--json", "--ln-manager", "--color")
 SYSTEM_LN = ("/bin/ln", "/usr/bin/ln")
 
@@ -48,16 +51,16 @@ def common_options():
 
 
 def build_parser():
-    from . import clients, completion, manager, md, service, topic
+    from . import clients, completion, manager, md, processes, service, topic
     common = common_options()
     parser = ArgumentParser(
         prog="ln", parents=[common],
         description="Links and Nodes on the command line: inspect and use the topics, services, message "
-                    "definitions and clients of a running ln_manager.",
+                    "definitions, clients and processes of a running ln_manager.",
         epilog="Anything else (e.g. 'ln -s TARGET LINK') runs the system's ln. "
                "Each command has --help.")
     groups = parser.add_subparsers(dest="group", metavar="COMMAND")
-    for module in (topic, service, md, clients, manager, completion):
+    for module in (topic, service, md, clients, manager, processes, completion):
         module.register(groups, common)
     return parser
 

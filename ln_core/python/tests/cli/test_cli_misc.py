@@ -87,7 +87,8 @@ def test_completion_script(manager):
 
 
 def test_completion_of_commands_and_options(manager):
-    assert complete(manager, "ln ") == ["client", "completion", "manager", "md", "service", "topic"]
+    assert complete(manager, "ln ") == ["client", "completion", "group", "manager", "md", "process", "service", "state",
+                                        "topic"]
     assert complete(manager, "ln to") == ["topic"]
     assert complete(manager, "ln topic ") == ["bw", "echo", "hz", "info", "list", "pub"]
     assert complete(manager, "ln topic echo --c") == ["--color", "--count", "--csv"]
