@@ -19,8 +19,10 @@
 #include <thread>
 
 #include "manager/config.hpp"
+#include "manager/definitions.hpp"
 #include "manager/manager.hpp"
 #include "manager/process_keeper.hpp"
+#include "manager/process_launch.hpp"
 
 namespace {
 
@@ -40,7 +42,7 @@ of its processes. Clients find it through LN_MANAGER=HOST:PORT or
                       (name, manager, gen_message_definition_path), defines,
                       the directives (include, push_name_prefix, ...),
                       templates, and the process, state and group sections it
-                      supervises (docs/processes.md). What ln_core does not
+                      supervises (docs/lnc.md). What ln_core does not
                       implement (hosts, networks, GUI plugins...) is reported
                       once and ignored; a malformed file is an error naming the
                       file, the line and the cause.
@@ -60,7 +62,12 @@ of its processes. Clients find it through LN_MANAGER=HOST:PORT or
                       tests that must not meet another manager
   --keep-processes    leave the processes running when the manager stops (or
                       dies); a manager started later with the same instance
-                      name adopts them (docs/processes.md)
+                      name adopts them (docs/lnc.md)
+  --check             read the config, print what each process would run (its
+                      command line and environment), its dependencies, and the
+                      states and groups, then exit: 0 if everything could start,
+                      1 if something could not (the reason is printed), 2 for a
+                      bad config
   --log-level LEVEL   what to log to stderr: debug, info (default), warning, error
   --without-gui       accepted for LN compatibility; there is no GUI
   -h, --help          this text
@@ -153,6 +160,62 @@ LncContext config_context(const std::string& instance_name, const std::string& p
   return context;
 }
 
+std::string joined(const std::vector<Dependency>& list) {
+  std::string out;
+  for (const auto& dependency : list) {
+    std::string alternatives;
+    for (const auto& candidate : dependency.candidates) alternatives += (alternatives.empty() ? "" : "|") + candidate;
+    out += (out.empty() ? "" : ", ") + std::string(dependency.down ? "!" : "") + alternatives;
+  }
+  return out;
+}
+
+// --check: what the manager would run, without running anything.
+int print_check(const ManagerOptions& options) {
+  const LncSettings empty;
+  const LncSettings& system = options.system ? *options.system : empty;
+  const char* home = std::getenv("HOME");
+  const DefinitionStore definitions(options.message_definition_dirs,
+                                    !options.generated_definition_dir.empty()
+                                        ? options.generated_definition_dir
+                                        : std::string(home && *home ? home : "/tmp") + "/ln_message_definitions/gen");
+  const std::string host = options.listen_host == "0.0.0.0" ? "127.0.0.1" : options.listen_host;
+  const LaunchContext context{host + ":" + std::to_string(options.port), definitions.search_dirs(), options.library_dir};
+  int status = 0;
+  std::printf("instance %s, manager at %s\n", options.instance_name.c_str(), context.manager_address.c_str());
+  for (const ProcessConfig& p : system.processes) {
+    std::printf("\nprocess %s (%s)\n", p.name.c_str(), p.place.text().c_str());
+    std::string problem;
+    if (!p.remote_host.empty()) problem = "runs on host '" + p.remote_host + "', not this one";
+    else if (p.command.empty()) problem = "has no command";
+    else process_argv(p, p.command, problem);
+    std::printf("  command: %s\n", p.command.empty() ? "(none)" : p.command.c_str());
+    for (const auto& [name, command] : p.alt_commands) std::printf("  alt_command %s: %s\n", name.c_str(), command.c_str());
+    for (const auto& entry : process_environment(p, context)) std::printf("  env %s\n", entry.c_str());
+    if (!p.change_directory.empty()) std::printf("  directory: %s\n", p.change_directory.c_str());
+    if (!p.depends_on.empty()) std::printf("  depends_on: %s\n", joined(p.depends_on).c_str());
+    if (!p.depends_on_restart.empty()) std::printf("  depends_on_restart: %s\n", joined(p.depends_on_restart).c_str());
+    if (!p.flags.empty()) {
+      std::string flags;
+      for (const auto& flag : p.flags) flags += (flags.empty() ? "" : ", ") + flag;
+      std::printf("  flags: %s\n", flags.c_str());
+    }
+    if (!problem.empty()) {
+      std::printf("  cannot start: %s\n", problem.c_str());
+      status = 1;
+    }
+  }
+  for (const StateConfig& s : system.states)
+    std::printf("\nstate %s (%s)\n  check: %s\n  up: %s\n  down: %s\n", s.name.c_str(), s.place.text().c_str(),
+                s.check.c_str(), s.up.c_str(), s.down.c_str());
+  for (const GroupConfig& g : system.groups) {
+    std::string members;
+    for (const auto& member : g.members) members += (members.empty() ? "" : ", ") + member;
+    std::printf("\ngroup %s: %s\n", g.name.c_str(), members.c_str());
+  }
+  return status;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -166,7 +229,7 @@ int main(int argc, char** argv) {
   std::string config_file, instance_name, listen;
   std::optional<std::uint16_t> port_override;
   std::vector<std::string> start;
-  bool isolated_test = false, keep_processes = false;
+  bool isolated_test = false, keep_processes = false, check = false;
   LogLevel threshold = LogLevel::Info;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
@@ -191,6 +254,8 @@ int main(int argc, char** argv) {
       isolated_test = true;
     } else if (arg == "--keep-processes") {
       keep_processes = true;
+    } else if (arg == "--check") {
+      check = true;
     } else if (arg == "--log-level") {
       const std::string text = value();
       const auto level = parse_level(text);
@@ -253,13 +318,14 @@ int main(int argc, char** argv) {
       usage_error(std::string("--listen: ") + e.what());
     }
   }
+  if (exists(prefix + "/lib/libln.so")) options.library_dir = prefix + "/lib";
+  if (check) return print_check(options);
   options.reap_orphans = true;  // this program runs nothing but the manager
   options.stop_processes_with_manager = !keep_processes;
   options.keep_processes = keep_processes;
   char exe[PATH_MAX] = "";
   if (const ssize_t n = ::readlink("/proc/self/exe", exe, sizeof exe - 1); n > 0)
     options.keeper_command = {std::string(exe, static_cast<std::size_t>(n)), "--process-keeper", options.instance_name};
-  if (exists(prefix + "/lib/libln.so")) options.library_dir = prefix + "/lib";
 
   // Signals are taken by sigwait() below, never by a handler that
   // interrupts the manager's thread.

@@ -66,6 +66,14 @@ std::string single_line_value(std::string_view raw) {
     std::string inner;
     std::size_t i = 1;
     for (; i < text.size() && text[i] != '"'; ++i) {
+      if (text.compare(i, 2, "%(") == 0) {
+        // a replacement may hold quoted arguments: %(subst "a", "b", "%(x)")
+        const std::size_t close = replacement_end(text, i);
+        if (close == std::string::npos) break;
+        inner += text.substr(i, close + 1 - i);
+        i = close;
+        continue;
+      }
       if (text[i] == '\\' && i + 1 < text.size() && (text[i + 1] == '"' || text[i + 1] == '\\')) ++i;
       inner += text[i];
     }
@@ -304,8 +312,11 @@ class LncReader {
   // ---------------------------------------------------------- defines
 
   std::optional<std::string> define(const std::string& name) const {
-    if (name == "CURDIR") return dirname_of(real_path(file_.path));
-    if (name == "CURRENT") return real_path(file_.path);
+    // where the line being evaluated is used: a template line is evaluated
+    // where the template is used (as LN 2.9 does)
+    const std::string& current = using_file_.empty() ? file_.path : using_file_;
+    if (name == "CURDIR") return dirname_of(real_path(current));
+    if (name == "CURRENT") return real_path(current);
     if (name == "instance_name")
       return context_.instance_name.empty() ? settings_.instance_name : context_.instance_name;
     if (name == "manager" && settings_.manager_port)
@@ -722,6 +733,13 @@ class LncReader {
     if (args.size() > found->template_params.size())
       fail("use_template: template '" + name + "' takes " + std::to_string(found->template_params.size()) +
            " argument(s), got " + std::to_string(args.size()));
+    const std::string saved_using = using_file_;
+    if (using_file_.empty()) using_file_ = place.file;
+    struct Restore {
+      std::string& target;
+      std::string value;
+      ~Restore() { target = value; }
+    } restore{using_file_, saved_using};
     std::vector<std::pair<std::string, std::string>> bound;
     for (std::size_t i = 0; i < found->template_params.size(); ++i)
       bound.emplace_back(found->template_params[i].first, i < args.size() ? args[i] : found->template_params[i].second);
@@ -780,6 +798,7 @@ class LncReader {
   std::map<std::string, std::string> defines_;
   std::map<std::string, std::string> define_problems_;  ///< define -> why it has no value
   std::map<std::string, std::string> object_defines_;
+  std::string using_file_;  ///< while a template is replayed: the file that uses it
   std::map<std::string, std::string> node_map_;
   std::set<std::string> reported_;
   LncSettings settings_;

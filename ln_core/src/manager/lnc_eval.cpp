@@ -152,6 +152,8 @@ std::vector<std::string> split_words(const std::string& text) {
   return words;
 }
 
+std::size_t replacement_end(const std::string& text, std::size_t open) { return closing_paren(text, open); }
+
 unsigned port_from_string(const std::string& text) {
   unsigned long sum = 0;
   for (unsigned char c : text) sum += c;

@@ -87,6 +87,10 @@ ShellResult run_shell_command(const std::string& command, double timeout_seconds
 /// Throws EvaluationError for an unclosed quote.
 std::vector<std::string> split_words(const std::string& text);
 
+/// The index of the ')' that closes the "%(" at `open` in `text` (quoted
+/// strings and \( \) inside do not count), or std::string::npos.
+std::size_t replacement_end(const std::string& text, std::size_t open);
+
 /// LN's stable port for a text: 1024 + (sum of its bytes) mod 64511.
 unsigned port_from_string(const std::string& text);
 

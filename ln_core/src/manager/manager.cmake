@@ -17,6 +17,7 @@ add_library(ln_manager_core STATIC
   ${LN_MANAGER_SOURCE_DIR}/names.cpp
   ${LN_MANAGER_SOURCE_DIR}/process_control.cpp
   ${LN_MANAGER_SOURCE_DIR}/process_keeper.cpp
+  ${LN_MANAGER_SOURCE_DIR}/process_launch.cpp
   ${LN_MANAGER_SOURCE_DIR}/process_methods.cpp
   ${LN_MANAGER_SOURCE_DIR}/process_output.cpp
   ${LN_MANAGER_SOURCE_DIR}/registry.cpp

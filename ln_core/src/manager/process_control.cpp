@@ -1,7 +1,6 @@
 #include "manager/process_control.hpp"
 
 #include <fcntl.h>
-#include <fnmatch.h>
 #include <signal.h>
 #include <sys/epoll.h>
 #include <sys/prctl.h>
@@ -23,6 +22,7 @@
 #include "manager/line_regex.hpp"
 #include "manager/lnc_eval.hpp"
 #include "manager/process_keeper.hpp"
+#include "manager/process_launch.hpp"
 #include "manager/request_error.hpp"
 
 extern char** environ;
@@ -124,7 +124,8 @@ struct ProcessControl::Impl {
     explicit State(const StateConfig& c) : config(c), output(c.max_output_lines) {}
   };
 
-  Impl(const LncSettings& config, ProcessControlOptions o) : options(std::move(o)) {
+  Impl(const LncSettings& config, ProcessControlOptions o)
+      : options(std::move(o)), launch{options.manager_address, options.definition_dirs, options.library_dir} {
     epoll_fd = ::epoll_create1(EPOLL_CLOEXEC);
     timer_fd = ::timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
     if (epoll_fd < 0 || timer_fd < 0) throw std::runtime_error("cannot create the process control's descriptors: " + std::string(std::strerror(errno)));
@@ -628,95 +629,14 @@ struct ProcessControl::Impl {
 
   // ----------------------------------------------------------- starting
 
-  std::vector<std::string> environment_of(const Process& p) const {
-    std::vector<std::pair<std::string, std::string>> env = p.config.environment;
-    auto has = [&](const std::string& name) {
-      return std::any_of(env.begin(), env.end(), [&](const auto& e) { return e.first == name; });
-    };
-    auto value = [&](const std::string& name) -> std::string& {
-      for (auto& e : env)
-        if (e.first == name) return e.second;
-      env.emplace_back(name, "");
-      return env.back().second;
-    };
-    for (const auto& pattern : p.config.pass_environment)
-      for (char** entry = environ; *entry != nullptr; ++entry) {
-        const std::string text = *entry;
-        const auto equals = text.find('=');
-        if (equals == std::string::npos) continue;
-        const std::string name = text.substr(0, equals);
-        if (::fnmatch(pattern.c_str(), name.c_str(), 0) == 0 && !has(name)) env.emplace_back(name, text.substr(equals + 1));
-      }
-    if (!options.library_dir.empty() && !p.config.has_flag("no_ln_ld_library_path")) {
-      std::string& path = value("LD_LIBRARY_PATH");
-      if (("::" + path + ":").find(":" + options.library_dir + ":") == std::string::npos)
-        path = path.empty() ? options.library_dir : path + ":" + options.library_dir;
-    }
-    if (!has("LN_PROGRAM_NAME")) env.emplace_back("LN_PROGRAM_NAME", p.config.display_name);
-    std::string dirs;
-    for (const auto& dir : options.definition_dirs) dirs += (dirs.empty() ? "" : ":") + dir;
-    if (!dirs.empty()) {
-      std::string& configured = value("LN_MESSAGE_DEFINITION_DIRS");
-      configured = configured.empty() ? dirs : configured + ":" + dirs;
-    }
-    for (const auto& [name, list] : {std::pair{"LN_MAP_TOPICS", &p.config.map_topics},
-                                     std::pair{"LN_MAP_SERVICES", &p.config.map_services}}) {
-      if (list->empty() || has(name)) continue;
-      std::string joined;
-      for (const auto& [from, to] : *list) joined += (joined.empty() ? "" : "|") + from + "|" + to;
-      env.emplace_back(name, joined);
-    }
-    if (!p.config.has_flag("no_pty") && !has("TERM")) env.emplace_back("TERM", "xterm");
-    if (!has("LN_MANAGER") && !options.manager_address.empty()) env.emplace_back("LN_MANAGER", options.manager_address);
-    std::vector<std::string> out;
-    for (const auto& [name, text] : env) out.push_back(name + "=" + text);
-    return out;
-  }
-
-  std::string command_of(const Process& p) const {
-    if (!p.alt_command.empty())
-      for (const auto& [name, command] : p.config.alt_commands)
-        if (name == p.alt_command) return command;
-    return p.config.command;
-  }
-
-  // The argv of a process, or the reason it cannot run.
-  std::vector<std::string> argv_of(const Process& p, const std::string& command, std::string& problem) const {
-    if (p.config.has_flag("start_in_shell")) return {"/bin/sh", "-c", command};
-    std::vector<std::string> argv;
-    try {
-      argv = split_words(command);
-    } catch (const EvaluationError& e) {
-      problem = "its command cannot be split into words: " + std::string(e.what());
-      return {};
-    }
-    if (argv.empty()) {
-      problem = "its command is empty";
-      return {};
-    }
-    const std::string& program = argv.front();
-    if (program.find('/') == std::string::npos) {
-      if (!p.config.has_flag("use_execvpe"))
-        problem = "command not found: '" + program +
-                  "' has no directory, and processes start without a PATH search (as in LN 2.9): give its path "
-                  "(for instance /usr/bin/" + program + "), or add the flag use_execvpe or start_in_shell";
-      return argv;
-    }
-    const std::string path =
-        program.front() == '/' || p.config.change_directory.empty() ? program : p.config.change_directory + "/" + program;
-    if (::access(path.c_str(), F_OK) != 0) problem = "command not found: '" + program + "' does not exist";
-    else if (::access(path.c_str(), X_OK) != 0) problem = "permission denied: '" + program + "' is not executable";
-    return argv;
-  }
-
   void start(Process& p) {
-    const std::string command = command_of(p);
+    const std::string command = process_command(p.config, p.alt_command);
     std::string problem;
     SpawnRequest request;
-    request.argv = argv_of(p, command, problem);
+    request.argv = process_argv(p.config, command, problem);
     if (!problem.empty()) return fail(p, "cannot start: " + problem);
     request.search_path = p.config.has_flag("use_execvpe");
-    request.environment = environment_of(p);
+    request.environment = process_environment(p.config, launch);
     request.directory = p.config.change_directory;
     request.pty = !p.config.has_flag("no_pty");
     request.policy = p.config.policy;
@@ -1345,6 +1265,7 @@ struct ProcessControl::Impl {
   }
 
   ProcessControlOptions options;
+  LaunchContext launch;
   int epoll_fd = -1;
   int timer_fd = -1;
   std::map<std::string, std::unique_ptr<Process>> processes;
