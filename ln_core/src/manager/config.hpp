@@ -4,7 +4,7 @@
 // sections a single-host manager acts on: instance, defines, process,
 // state, group, node_map. What LN 2.9 knows but ln_core does not implement
 // (hosts, networks, GUI plugins, X11 forwarding, ...) is reported once in
-// the log and otherwise ignored; docs/lnc_support.md lists both.
+// the log and otherwise ignored; docs/lnc.md lists both.
 //
 // The result is a plain model (LncSettings): processes, states and groups
 // with every value evaluated, checked and their references resolved, so

@@ -6,7 +6,7 @@
 // that the loop watches; handle_events() does what became due and never
 // blocks beyond a fork+exec.
 //
-// Lifecycle guarantees (docs/processes.md has the whole story):
+// Lifecycle guarantees (docs/lnc.md has the whole story):
 // * every process runs in its own session and process group; when it
 //   ends, what is left of its group gets its term_signal and SIGKILL after
 //   term_timeout;
