@@ -180,7 +180,8 @@ int print_check(const ManagerOptions& options) {
                                         ? options.generated_definition_dir
                                         : std::string(home && *home ? home : "/tmp") + "/ln_message_definitions/gen");
   const std::string host = options.listen_host == "0.0.0.0" ? "127.0.0.1" : options.listen_host;
-  const LaunchContext context{host + ":" + std::to_string(options.port), definitions.search_dirs(), options.library_dir};
+  const LaunchContext context{host + ":" + std::to_string(options.port), definitions.search_dirs(),
+                              options.process_options.library_dir};
   int status = 0;
   std::printf("instance %s, manager at %s\n", options.instance_name.c_str(), context.manager_address.c_str());
   for (const ProcessConfig& p : system.processes) {
@@ -318,14 +319,15 @@ int main(int argc, char** argv) {
       usage_error(std::string("--listen: ") + e.what());
     }
   }
-  if (exists(prefix + "/lib/libln.so")) options.library_dir = prefix + "/lib";
+  if (exists(prefix + "/lib/libln.so")) options.process_options.library_dir = prefix + "/lib";
   if (check) return print_check(options);
-  options.reap_orphans = true;  // this program runs nothing but the manager
-  options.stop_processes_with_manager = !keep_processes;
-  options.keep_processes = keep_processes;
+  ProcessControlOptions& processes = options.process_options;
+  processes.reap_orphans = true;  // this program runs nothing but the manager
+  processes.stop_with_manager = !keep_processes;
+  processes.keep_processes = keep_processes;
   char exe[PATH_MAX] = "";
   if (const ssize_t n = ::readlink("/proc/self/exe", exe, sizeof exe - 1); n > 0)
-    options.keeper_command = {std::string(exe, static_cast<std::size_t>(n)), "--process-keeper", options.instance_name};
+    processes.keeper_command = {std::string(exe, static_cast<std::size_t>(n)), "--process-keeper", options.instance_name};
 
   // Signals are taken by sigwait() below, never by a handler that
   // interrupts the manager's thread.

@@ -265,17 +265,23 @@ class BinaryProcessTest : public ::testing::Test {
     return text.str();
   }
 
+  // A registered client of `manager`, once it listens.
+  static std::unique_ptr<TestClient> client_of(ManagerProcess& manager) {
+    const std::uint16_t port = manager.wait_listening();
+    if (port == 0) throw std::runtime_error("the manager does not listen:\n" + manager.stderr_text());
+    auto client = std::make_unique<TestClient>(port);
+    if (client->hello("probe").is_error()) throw std::runtime_error("the manager refused hello");
+    return client;
+  }
+
   TempDir dir;
 };
 
 TEST_F(BinaryProcessTest, SigtermStopsDependentsFirstAndLeavesNoOrphan) {
   ManagerProcess manager(dir, {"-c", config("stop_order"), "--start", "top", "--start", "escaper"});
-  const std::uint16_t port = manager.wait_listening();
-  ASSERT_NE(port, 0) << manager.stderr_text();
-  TestClient client(port);
-  ASSERT_FALSE(client.hello("probe").is_error());
-  const long top = wait_state(client, "top", "ready");
-  const long escaper = wait_state(client, "escaper", "ready");
+  const auto client = client_of(manager);
+  const long top = wait_state(*client, "top", "ready");
+  const long escaper = wait_state(*client, "escaper", "ready");
   const long grandchild = file_pid("grandchild");
   ASSERT_TRUE(process_running(grandchild));
   manager.signal(SIGTERM);
@@ -288,15 +294,12 @@ TEST_F(BinaryProcessTest, SigtermStopsDependentsFirstAndLeavesNoOrphan) {
 
 TEST_F(BinaryProcessTest, AProcessKilledBySigkillLeavesNoOrphan) {
   ManagerProcess manager(dir, {"-c", config("sigkill_process"), "--start", "escaper"});
-  const std::uint16_t port = manager.wait_listening();
-  ASSERT_NE(port, 0) << manager.stderr_text();
-  TestClient client(port);
-  ASSERT_FALSE(client.hello("probe").is_error());
-  const long escaper = wait_state(client, "escaper", "ready");
+  const auto client = client_of(manager);
+  const long escaper = wait_state(*client, "escaper", "ready");
   const long grandchild = file_pid("grandchild");
   ASSERT_TRUE(process_running(grandchild));
   ::kill(static_cast<pid_t>(escaper), SIGKILL);
-  EXPECT_EQ(wait_state(client, "escaper", "failed"), 0);
+  EXPECT_EQ(wait_state(*client, "escaper", "failed"), 0);
   EXPECT_TRUE(wait_process_gone(grandchild, 10s)) << "the subreaper stops what lost its parent\n" << manager.stderr_text();
   manager.signal(SIGTERM);
   EXPECT_EQ(manager.wait_exit(10s), 0);
@@ -304,12 +307,9 @@ TEST_F(BinaryProcessTest, AProcessKilledBySigkillLeavesNoOrphan) {
 
 TEST_F(BinaryProcessTest, AManagerKilledBySigkillTakesItsProcessesAlong) {
   ManagerProcess manager(dir, {"-c", config("sigkill_manager"), "--start", "top", "--start", "counter"});
-  const std::uint16_t port = manager.wait_listening();
-  ASSERT_NE(port, 0) << manager.stderr_text();
-  TestClient client(port);
-  ASSERT_FALSE(client.hello("probe").is_error());
-  const long top = wait_state(client, "top", "ready");
-  const long counter = wait_state(client, "counter", "started");
+  const auto client = client_of(manager);
+  const long top = wait_state(*client, "top", "ready");
+  const long counter = wait_state(*client, "counter", "started");
   manager.signal(SIGKILL);
   EXPECT_EQ(manager.wait_exit(), 128 + SIGKILL);
   for (long pid : {top, counter}) EXPECT_TRUE(wait_process_gone(pid, 10s)) << "their term_signal comes from the kernel";
@@ -320,11 +320,8 @@ TEST_F(BinaryProcessTest, KeptProcessesAreAdoptedByTheNextManager) {
   long counter = 0;
   {
     ManagerProcess first(dir, {"-c", lnc, "--keep-processes", "--start", "counter"});
-    const std::uint16_t port = first.wait_listening();
-    ASSERT_NE(port, 0) << first.stderr_text();
-    TestClient client(port);
-    ASSERT_FALSE(client.hello("probe").is_error());
-    counter = wait_state(client, "counter", "started");
+    const auto client = client_of(first);
+    counter = wait_state(*client, "counter", "started");
     first.signal(SIGTERM);
     EXPECT_EQ(first.wait_exit(10s), 0) << first.stderr_text();
     EXPECT_NE(first.stderr_text().find("leaving 1 running process(es) to the keeper"), std::string::npos)
@@ -334,11 +331,8 @@ TEST_F(BinaryProcessTest, KeptProcessesAreAdoptedByTheNextManager) {
   {
     // killed, not stopped: the keeper holds them all the same
     ManagerProcess second(dir, {"-c", lnc, "--keep-processes"});
-    const std::uint16_t port = second.wait_listening();
-    ASSERT_NE(port, 0) << second.stderr_text();
-    TestClient client(port);
-    ASSERT_FALSE(client.hello("probe").is_error());
-    EXPECT_EQ(wait_state(client, "counter", "started"), counter) << second.stderr_text();
+    const auto client = client_of(second);
+    EXPECT_EQ(wait_state(*client, "counter", "started"), counter) << second.stderr_text();
     second.signal(SIGKILL);
     EXPECT_EQ(second.wait_exit(), 128 + SIGKILL);
   }
@@ -348,13 +342,10 @@ TEST_F(BinaryProcessTest, KeptProcessesAreAdoptedByTheNextManager) {
   const auto printing = Clock::now() + 10s;
   while (file_pid("count") < unread + 2 && Clock::now() < printing) std::this_thread::sleep_for(5ms);
   ManagerProcess third(dir, {"-c", lnc});
-  const std::uint16_t port = third.wait_listening();
-  ASSERT_NE(port, 0) << third.stderr_text();
-  TestClient client(port);
-  ASSERT_FALSE(client.hello("probe").is_error());
-  EXPECT_EQ(wait_state(client, "counter", "started"), counter) << third.stderr_text();
+  const auto client = client_of(third);
+  EXPECT_EQ(wait_state(*client, "counter", "started"), counter) << third.stderr_text();
   // what it printed while no manager read it, and what it prints now
-  const auto first_output = client.call("process_output", [](Message& m) { m.set("name", "counter").set("after", 0); });
+  const auto first_output = client->call("process_output", [](Message& m) { m.set("name", "counter").set("after", 0); });
   const auto& lines = first_output.get_list("lines");
   ASSERT_FALSE(lines.empty());
   std::string all;
@@ -364,10 +355,10 @@ TEST_F(BinaryProcessTest, KeptProcessesAreAdoptedByTheNextManager) {
   const auto deadline = Clock::now() + 10s;
   std::int64_t last = first_output.get_int("last");
   while (Clock::now() < deadline &&
-         client.call("process_output", [&](Message& m) { m.set("name", "counter").set("after", last); })
+         client->call("process_output", [&](Message& m) { m.set("name", "counter").set("after", last); })
              .get_list("lines").empty())
     std::this_thread::sleep_for(5ms);
-  EXPECT_GT(client.call("process_output", [&](Message& m) { m.set("name", "counter").set("after", 0); }).get_int("last"),
+  EXPECT_GT(client->call("process_output", [&](Message& m) { m.set("name", "counter").set("after", 0); }).get_int("last"),
             last) << "its output reaches the new manager";
   third.signal(SIGTERM);
   EXPECT_EQ(third.wait_exit(10s), 0) << third.stderr_text();
@@ -379,13 +370,10 @@ TEST_F(BinaryProcessTest, ASecondSignalKillsAtOnce) {
                                             "process stubborn\ncommand: /bin/sh -c \"trap '' TERM; echo up; "
                                             "while :; do sleep 0.05; done\"\nready_regex: ^up\nterm_timeout: 60\n"),
                                "--start", "stubborn"});
-  const std::uint16_t port = manager.wait_listening();
-  ASSERT_NE(port, 0) << manager.stderr_text();
-  TestClient client(port);
-  ASSERT_FALSE(client.hello("probe").is_error());
-  const long stubborn = wait_state(client, "stubborn", "ready");
+  const auto client = client_of(manager);
+  const long stubborn = wait_state(*client, "stubborn", "ready");
   manager.signal(SIGTERM);
-  EXPECT_EQ(wait_state(client, "stubborn", "stopping"), stubborn);
+  EXPECT_EQ(wait_state(*client, "stubborn", "stopping"), stubborn);
   manager.signal(SIGINT);
   EXPECT_EQ(manager.wait_exit(10s), 0) << manager.stderr_text();
   EXPECT_FALSE(process_running(stubborn));

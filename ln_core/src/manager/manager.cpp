@@ -23,7 +23,6 @@
 
 #include "manager/definitions.hpp"
 #include "manager/dispatch.hpp"
-#include "manager/process_control.hpp"
 #include "manager/registry.hpp"
 #include "manager/request_error.hpp"
 #include "protocol/wire.hpp"
@@ -137,17 +136,12 @@ struct Manager::Impl {
   void start_processes(const sockaddr_in& address) {
     const LncSettings* system = options.system.get();
     if (system == nullptr || (system->processes.empty() && system->states.empty() && system->groups.empty())) return;
-    ProcessControlOptions process_options;
+    ProcessControlOptions process_options = options.process_options;
     process_options.log = options.log;
     sockaddr_in reachable = address;
     if (reachable.sin_addr.s_addr == htonl(INADDR_ANY)) reachable.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
     process_options.manager_address = endpoint_text(reachable);
     process_options.definition_dirs = definitions.search_dirs();
-    process_options.library_dir = options.library_dir;
-    process_options.stop_with_manager = options.stop_processes_with_manager;
-    process_options.reap_orphans = options.reap_orphans;
-    process_options.keep_processes = options.keep_processes;
-    process_options.keeper_command = options.keeper_command;
     process_options.instance_name = options.instance_name;
     processes = std::make_unique<ProcessControl>(*system, process_options);
     dispatcher.set_process_control(processes.get());

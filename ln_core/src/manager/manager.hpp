@@ -11,6 +11,7 @@
 
 #include "manager/config.hpp"
 #include "manager/log.hpp"
+#include "manager/process_control.hpp"
 
 namespace ln::manager {
 
@@ -38,19 +39,10 @@ struct ManagerOptions {
   std::shared_ptr<const LncSettings> system;
   /// Started (processes, groups) or brought up (states) once listening.
   std::vector<std::string> start;
-  /// Processes get their term_signal if the manager dies without stopping
-  /// them (SIGKILL); false leaves them running.
-  bool stop_processes_with_manager = true;
-  /// Adopt and stop orphaned descendants (a child subreaper): only for a
-  /// program that runs nothing but the manager (the ln_manager daemon).
-  bool reap_orphans = false;
-  /// Added to the processes' LD_LIBRARY_PATH; "" = nothing.
-  std::string library_dir;
-  /// --keep-processes: leave the processes to a keeper started with
-  /// `keeper_command` when the manager stops or dies (process_keeper.hpp).
-  /// Whatever the keeper of this instance holds is adopted in any case.
-  bool keep_processes = false;
-  std::vector<std::string> keeper_command;
+  /// How they are supervised (stop_with_manager, reap_orphans,
+  /// keep_processes, keeper_command, library_dir); the manager fills in the
+  /// log, its address, the definition search path and the instance name.
+  ProcessControlOptions process_options;
 };
 
 class Manager {

@@ -273,22 +273,15 @@ struct ProcessControl::Impl {
     fd = -1;
   }
 
-  Process* find_process(const std::string& name) {
-    const auto it = processes.find(name);
-    return it == processes.end() ? nullptr : it->second.get();
+  template <typename Map>
+  static auto* find_in(Map& map, const std::string& name) {
+    const auto it = map.find(name);
+    return it == map.end() ? nullptr : it->second.get();
   }
-  const Process* find_process(const std::string& name) const {
-    const auto it = processes.find(name);
-    return it == processes.end() ? nullptr : it->second.get();
-  }
-  State* find_state(const std::string& name) {
-    const auto it = states.find(name);
-    return it == states.end() ? nullptr : it->second.get();
-  }
-  const State* find_state(const std::string& name) const {
-    const auto it = states.find(name);
-    return it == states.end() ? nullptr : it->second.get();
-  }
+  Process* find_process(const std::string& name) { return find_in(processes, name); }
+  const Process* find_process(const std::string& name) const { return find_in(processes, name); }
+  State* find_state(const std::string& name) { return find_in(states, name); }
+  const State* find_state(const std::string& name) const { return find_in(states, name); }
   const GroupConfig* find_group(const std::string& name) const {
     for (const auto& group : groups)
       if (group.name == name) return &group;

@@ -14,41 +14,19 @@ POLL = 0.05
 
 
 def register(groups, common):
-    _register_processes(groups, common)
-    _register_states(groups, common)
-    _register_groups(groups, common)
-
-
-def _waiting_options(parser, what):
-    parser.add_argument("--no-wait", action="store_true", help="return once the manager accepted the request")
-    parser.add_argument("--timeout", type=float, default=60.0, metavar="S",
-                        help="wait at most S seconds for %s (default 60)" % what)
-
-
-def _register_processes(groups, common):
-    group = groups.add_parser("process", help="the processes the manager runs (its .lnc config)",
-                              description="Processes of the running ln_manager's config: list, inspect, start, "
-                                          "stop, restart, read their output.")
-    group.set_defaults(group_parser=group)
-    sub = group.add_subparsers(dest="command", metavar="SUBCOMMAND")
-    p = sub.add_parser("list", parents=[common], help="processes with state, pid, uptime, restarts",
-                       description="Every process of the config: its state, pid, uptime, automatic restarts "
-                                   "and how it ended last.")
-    p.set_defaults(run=cmd_list, kind="process")
+    sub = _group(groups, common, "process", "processes",
+                 "the processes the manager runs (its .lnc config)",
+                 "Processes of the running ln_manager's config: list, inspect, start, stop, restart, read their "
+                 "output.",
+                 "processes with state, pid, uptime, restarts",
+                 (("start", "start processes (with what they depend on) and wait until they are ready"),
+                  ("stop", "stop processes (what depends on them first, as configured) and wait"),
+                  ("restart", "stop and start processes again, and wait until they are ready")))
     p = sub.add_parser("info", parents=[common], help="one process in detail, with its last output lines",
                        description="Everything the manager knows about one process, and its last output lines.")
     p.add_argument("name", help="process name").completer = "processes"
     p.add_argument("-n", "--lines", type=int, default=10, metavar="N", help="output lines to show (default 10)")
     p.set_defaults(run=cmd_info, kind="process")
-    for action, text in (("start", "start processes (with what they depend on) and wait until they are ready"),
-                         ("stop", "stop processes (what depends on them first, as configured) and wait"),
-                         ("restart", "stop and start processes again, and wait until they are ready")):
-        p = sub.add_parser(action, parents=[common], help=text, description=text[0].upper() + text[1:] + ".")
-        p.add_argument("names", nargs="+", metavar="NAME", help="process name").completer = "processes"
-        if action != "stop":
-            p.add_argument("--alt", metavar="ALT_COMMAND", help="start with this alt_command of the process")
-        _waiting_options(p, "the processes")
-        p.set_defaults(run=cmd_control, action=action, kind="process")
     p = sub.add_parser("output", parents=[common], help="what a process printed; -f follows it",
                        description="The output lines the manager kept of a process (or state); with -f, "
                                    "new lines as they come, until Ctrl-C or --duration.")
@@ -57,40 +35,41 @@ def _register_processes(groups, common):
     p.add_argument("-f", "--follow", action="store_true", help="keep printing new lines")
     p.add_argument("--duration", type=float, metavar="S", help="with -f: stop following after S seconds")
     p.set_defaults(run=cmd_output)
+    _group(groups, common, "state", "states",
+           "the states the manager checks and brings up or down",
+           "States of the running ln_manager's config: conditions checked by a command (check), reached by "
+           "others (up, down).",
+           "states and what the manager knows of them",
+           (("check", "run a state's check command now and show the result"),
+            ("up", "bring states up (check first, then their up command) and wait"),
+            ("down", "bring states down (check first, then their down command) and wait")))
+    _group(groups, common, "group", "groups",
+           "start or stop the processes of a group together",
+           "Groups of the running ln_manager's config: sets of processes and states, started (states: brought "
+           "up) and stopped together.",
+           "groups and their members",
+           (("start", "start every member and wait until all are ready"),
+            ("stop", "stop every member process and wait (states stay as they are)"),
+            ("restart", "restart every member process and wait until all are ready")))
 
 
-def _register_states(groups, common):
-    group = groups.add_parser("state", help="the states the manager checks and brings up or down",
-                              description="States of the running ln_manager's config: conditions checked by a "
-                                          "command (check), reached by others (up, down).")
+def _group(groups, common, kind, completer, help_text, description, list_help, actions):
+    """`ln KIND list` and `ln KIND ACTION NAME...` for each of `actions`; the subparsers."""
+    group = groups.add_parser(kind, help=help_text, description=description)
     group.set_defaults(group_parser=group)
     sub = group.add_subparsers(dest="command", metavar="SUBCOMMAND")
-    p = sub.add_parser("list", parents=[common], help="states and what the manager knows of them")
-    p.set_defaults(run=cmd_list, kind="state")
-    for action, text in (("check", "run a state's check command now and show the result"),
-                         ("up", "bring states up (check first, then their up command) and wait"),
-                         ("down", "bring states down (check first, then their down command) and wait")):
+    p = sub.add_parser("list", parents=[common], help=list_help)
+    p.set_defaults(run=cmd_list, kind=kind)
+    for action, text in actions:
         p = sub.add_parser(action, parents=[common], help=text, description=text[0].upper() + text[1:] + ".")
-        p.add_argument("names", nargs="+", metavar="NAME", help="state name").completer = "states"
-        _waiting_options(p, "the states")
-        p.set_defaults(run=cmd_control, action=action, kind="state")
-
-
-def _register_groups(groups, common):
-    group = groups.add_parser("group", help="start or stop the processes of a group together",
-                              description="Groups of the running ln_manager's config: sets of processes and "
-                                          "states, started (states: brought up) and stopped together.")
-    group.set_defaults(group_parser=group)
-    sub = group.add_subparsers(dest="command", metavar="SUBCOMMAND")
-    p = sub.add_parser("list", parents=[common], help="groups and their members")
-    p.set_defaults(run=cmd_list, kind="group")
-    for action, text in (("start", "start every member and wait until all are ready"),
-                         ("stop", "stop every member process and wait (states stay as they are)"),
-                         ("restart", "restart every member process and wait until all are ready")):
-        p = sub.add_parser(action, parents=[common], help=text, description=text[0].upper() + text[1:] + ".")
-        p.add_argument("names", nargs="+", metavar="NAME", help="group name").completer = "groups"
-        _waiting_options(p, "the members")
-        p.set_defaults(run=cmd_control, action=action, kind="group")
+        p.add_argument("names", nargs="+", metavar="NAME", help="%s name" % kind).completer = completer
+        if kind == "process" and action != "stop":
+            p.add_argument("--alt", metavar="ALT_COMMAND", help="start with this alt_command of the process")
+        p.add_argument("--no-wait", action="store_true", help="return once the manager accepted the request")
+        p.add_argument("--timeout", type=float, default=60.0, metavar="S",
+                       help="wait at most S seconds (default 60)")
+        p.set_defaults(run=cmd_control, action=action, kind=kind)
+    return sub
 
 
 # --------------------------------------------------------------- commands
