@@ -419,6 +419,36 @@ TEST_F(ProcessControlTest, GroupsStartBeforeAndSuccessfulStops) {
   wait_state("helper", "stopped");
 }
 
+TEST_F(ProcessControlTest, NiceAffinityAndResourceLimitsApply) {
+  start(
+      "process tuned\n"
+      "command: /bin/sh -c 'echo nice $(cut -d\\  -f19 /proc/self/stat); grep Cpus_allowed_list /proc/self/status; "
+      "echo files $(ulimit -n)'\n"
+      "nice: 7\n"
+      "affinity: 0\n"
+      "set_resource_limits: NOFILE=64\n"
+      "flags: no_error_on_successful_stop\n");
+  control("tuned", "start");
+  wait_state("tuned", "stopped");
+  std::string all;
+  for (const auto& line : output("tuned")) all += line + "\n";
+  EXPECT_NE(all.find("nice 7\n"), std::string::npos) << all;
+  EXPECT_NE(all.find("Cpus_allowed_list:\t0\n"), std::string::npos) << all;
+  EXPECT_NE(all.find("files 64\n"), std::string::npos) << all;
+}
+
+TEST_F(ProcessControlTest, AutoCheckIntervalFollowsAState) {
+  start(
+      "state door\n"
+      "check: test -f %(DIR)/open\n"
+      "auto_check_interval: 0.1\n");
+  wait_state("door", "DOWN");
+  dir.write("open", "");
+  wait_state("door", "UP");
+  ::unlink((dir.path() + "/open").c_str());
+  wait_state("door", "DOWN");
+}
+
 TEST_F(ProcessControlTest, NeedsProviderStartsTheConfiguredProvider) {
   start(
       "process provider\ncommand: /bin/sleep 1000\nprovides: robot.svc\n"
