@@ -2,7 +2,11 @@
 """The LN <-> ROS 2 elevator demo without a launch system (run by demo_bridge.sh,
 inside netns-run): an LN manager, the elevator simulator and controller (Python or
 C++, any mix), ln_ros2_bridge, and a ROS 2 listener that watches the sensors and
-calls the floor-request service. Everything started here is stopped here, by PID.
+calls the floor-request service.
+
+With ln_core, its ln_manager runs them all from one config, elevator.lnc, in
+dependency order and with readiness, and stops them when it stops. With LN 2.9
+this script starts them itself. Everything started here is stopped here, by PID.
 
     demo.py [--ln ln29|ln_core] [--sim py|cpp] [--control py|cpp] [--cpp-dir DIR] [--floor 3]
 """
@@ -41,6 +45,8 @@ def main():
     # the bridge from this source tree (the colcon install has the same code once built)
     ros_env["PYTHONPATH"] = os.pathsep.join([str(ROOT / "ln_ros2_bridge"), ros_env.get("PYTHONPATH", "")])
 
+    if args.ln == "ln_core":
+        return run_with_lnc(args, work, ros_env)
     system = support.ln_system(args.ln, work / args.ln)
     processes = []
 
@@ -90,6 +96,73 @@ def main():
             import shutil
             shutil.rmtree(work, ignore_errors=True)
     print("demo: %s" % ("PASSED" if status == 0 else "FAILED"))
+    return status
+
+
+def run_with_lnc(args, work, ros_env):
+    """ln_core: `ln_manager -c elevator.lnc --start ros_listener` starts the listener and
+    what it depends on (the bridge, the controller, the simulator), each once what it
+    needs is ready; this shows how the processes come up, the listener's output, and
+    stops the manager, which stops them all in reverse order."""
+    import signal
+    import time
+    manager_exe, package = support.LnCore.locate()
+    env = dict(ros_env, ELEVATOR_SIM=args.sim, ELEVATOR_CONTROL=args.control, ELEVATOR_FLOOR=str(args.floor))
+    env["PYTHONPATH"] = os.pathsep.join(p for p in [package, env.get("PYTHONPATH", "")] if p)
+    if args.cpp_dir:
+        env["ELEVATOR_CPP_DIR"] = str(args.cpp_dir)
+    log = work / "manager.log"
+    command = [manager_exe, "-c", HERE / "elevator.lnc", "-p", "0", "--start", "ros_listener"]
+    print("demo: $ %s" % " ".join(str(c) for c in command))
+    manager = support.start(command, log, env=env)
+    status = 1
+    try:
+        found = support.wait_for_log(log, r"ln_manager: listening on (\S+)", 30, manager)
+        address = found.group(1)
+        os.environ["PYTHONPATH"] = env["PYTHONPATH"]
+        sys.path.insert(0, package)
+        import links_and_nodes as ln
+        clnt = ln.client("elevator_demo", address)
+        try:
+            seen = {}
+            deadline = time.monotonic() + 180
+            listener = None
+            while time.monotonic() < deadline:
+                for p in clnt.list_processes():
+                    shown = (p.state, p.pid)
+                    if p.kind == "process" and seen.get(p.name) != shown:
+                        seen[p.name] = shown
+                        print("demo: %-16s %-9s%s" % (p.name, p.state, " pid %d" % p.pid if p.pid else ""))
+                    if p.name == "ros_listener":
+                        listener = p
+                if listener is not None and listener.state in ("stopped", "failed") and listener.last_exit:
+                    break
+                time.sleep(0.1)   # watching the manager's account of its processes
+            print("demo: ros_listener's output:")
+            for line in clnt.get_process_output("ros_listener").lines:
+                if not line.startswith("[ln_manager]"):
+                    print("  " + line)
+            if listener is None or not listener.last_exit:
+                print("demo: the listener did not finish within 180 s")
+            elif listener.last_exit == "exit status 0":
+                status = 0
+            else:
+                print("demo: the listener ended with %s%s" % (listener.last_exit,
+                                                              ": " + listener.error if listener.error else ""))
+        finally:
+            clnt.close()
+    finally:
+        code = support.stop(manager, sig=signal.SIGTERM, timeout=60)
+        print("demo: the manager stopped its processes, dependents first, and exited (%s)" % code)
+        stopped = [line.split(": ", 2)[-1] for line in support.tail(log, 40).splitlines() if "stopped '" in line]
+        for line in stopped:
+            print("demo:   " + line)
+        if status != 0:
+            print("---- manager log (tail) ----\n%s" % support.tail(log, 40))
+    print("demo: %s" % ("PASSED" if status == 0 else "FAILED"))
+    if status == 0 and not args.keep:
+        import shutil
+        shutil.rmtree(work, ignore_errors=True)
     return status
 
 

@@ -219,6 +219,10 @@ typedef void* ln_client;
     if it is taken; otherwise the manager makes the name unique by appending
     a number (see ln_client_get_name()).
 
+    LN_MANAGER_CONNECT_TIMEOUT=SECONDS (ln_core) makes it wait that long for
+    a manager that does not listen yet, so that a program may start before
+    its manager; unset or 0, a refused connection fails at once (LN 2.9).
+
     @param[out] clnt receives the new client; NULL on failure.
     @param argc, argv may be 0 and NULL.
     @return 0, or e.g. -LNE_NO_MANAGER_ADDRESS, -LNE_INVALID_MANAGER_ADDRESS,
@@ -267,9 +271,10 @@ LN_API int ln_get_remaining_args(ln_client clnt, unsigned int* n_args, char** ar
     explanation behind -LNE_REQUEST_FAILED). Every failing call sets it, to ""
     when it has no detail, so right after a failure it describes that
     failure (the C++ wrapper appends it to its exceptions). Belongs to the
-    client. Not synchronised with failures in other threads. For a NULL
-    client: the detail of this thread's last failed call that has no client
-    (ln_logger_data_save/_load/...), NULL if there was none. */
+    client. For a NULL client (ln_core): the detail of this thread's last
+    failed call that has no client - why ln_init() or ln_init_to_manager()
+    failed, or ln_logger_data_save/_load/... - and "" when the last such call
+    succeeded; never NULL. Not synchronised with failures in other threads. */
 LN_API char* ln_get_error_message(ln_client clnt_);
 
 /**@}*/
@@ -1193,9 +1198,79 @@ LN_API int ln_get_manager_status(ln_client clnt, ln_manager_status** status);
 LN_API int ln_logger_data_copy(ln_logger_data logger_data, ln_logger_data* copy);
 
 /** Releases the result of ln_list_topics(), ln_list_clients(),
-    ln_list_services() or ln_get_manager_status(); NULL does nothing. Every
-    pointer into the block becomes invalid. */
+    ln_list_services(), ln_get_manager_status(), ln_list_processes() or
+    ln_get_process_output(); NULL does nothing. Every pointer into the block
+    becomes invalid. */
 LN_API void ln_free_list(void* list);
+
+/**@}*/
+
+/* ======================================================================== */
+/** @name ln_core: processes, states and groups of the manager
+    The manager runs what its .lnc config describes (process, state and
+    group sections). These calls list them, start and stop them and read
+    their output, as `ln process|state|group` does. A manager without a
+    config that has any lists nothing. */
+/* ======================================================================== */
+/**@{*/
+
+/** One process, state or group (ln_list_processes()). */
+typedef struct ln_process_info {
+  const char* name;
+  const char* kind;       /**< "process", "state" or "group" */
+  /** processes: "stopped", "starting" (waiting for its dependencies),
+      "started" (runs; not ready yet, or without a ready condition), "ready",
+      "stopping", "restarting" (waiting for its automatic restart), "failed";
+      states: "UP", "DOWN", "unknown", "checking", "going up", "going down",
+      "error"; groups: "N/M running" */
+  const char* state;
+  const char* requested;  /**< on its way: "start", "stop", "up", "down", "check" or "" */
+  int64_t pid;            /**< 0 when it does not run */
+  double uptime;          /**< seconds since it started; 0 when it does not run */
+  unsigned int restarts;  /**< automatic restarts so far */
+  /** Processes: ready (or running without a ready condition); states: UP;
+      groups: every member process runs. */
+  int ready;
+  const char* last_exit;  /**< how it ended last: "exit status 3", "killed by SIGKILL", "" */
+  const char* error;      /**< why it failed or cannot start, "" */
+  const char* command;    /**< a process's command, a state's check command */
+  /** What it depends on (NULL-terminated): "a|b" is satisfied by either
+      (providers), "!s" needs state s DOWN. */
+  const char* const* depends_on;
+  const char* const* members;  /**< groups: their processes and states (NULL-terminated) */
+} ln_process_info;
+
+/** Lists the manager's processes, states and groups (in that order, each in
+    config order); memory and return values as ln_list_topics(). */
+LN_API int ln_list_processes(ln_client clnt, ln_process_info** processes, unsigned int* count);
+
+/** Asks the manager to start, stop or restart a process or group, or to
+    bring a state up or down or check it; returns once the manager accepted
+    the request (ln_list_processes() tells how it goes).
+    @param action "start", "stop", "restart" (processes, groups) or "up",
+           "down", "check" (states)
+    @param alt_command NULL, or the name of one of the process's
+           alt_command keys to start it with
+    @return 0, -LNE_INVALID_PARAMETER (no such name or action; see
+            ln_get_error_message()), -LNE_REQUEST_FAILED (refused: the flag
+            disable_stop, the manager shuts down), or another error. */
+LN_API int ln_control_process(ln_client clnt, const char* name, const char* action, const char* alt_command);
+
+/** Output of a process or state (ln_get_process_output()); lines are
+    numbered from 1 in the order the manager received them. */
+typedef struct ln_process_output {
+  const char* const* lines;  /**< NULL-terminated, oldest first, without newlines */
+  uint64_t first;            /**< number of lines[0] */
+  uint64_t last;             /**< number of the newest line the manager has (0: none yet) */
+  uint64_t dropped;          /**< lines after `after` that the manager no longer keeps */
+} ln_process_output;
+
+/** The lines a process or state printed after line number `after` (0: all
+    the manager keeps; see the config key max_output_lines); ask again with
+    `after` = last to follow it. Release with ln_free_list().
+    @return 0, -LNE_INVALID_PARAMETER (no such process or state), or
+            another error. */
+LN_API int ln_get_process_output(ln_client clnt, const char* name, uint64_t after, ln_process_output** output);
 
 /**@}*/
 

@@ -12,7 +12,8 @@ port.sample_info, service_wrapper.call_future(), request.respond_error(),
 client.wait_for_service(), client.set_*_availability_handler(),
 client.list_topics()/list_clients()/list_services()/get_manager_status()
 (introspection: topic_info, client_info, service_info, manager_status),
-client.close() and typed errors (LNError with .code, FieldError).
+client.list_processes()/control_process()/get_process_output() (the
+manager's processes: process_info, process_output), client.close() and typed errors (LNError with .code, FieldError).
 """
 
 from . import _ln
@@ -28,6 +29,7 @@ from ._parameters import parameters_proxy, ParameterBlock, ParameterSignal, Para
 from ._ln import (  # noqa: F401  (parameter element types, as LN 2.9 exports them)
     LN_PARAM_BOOLEAN, LN_PARAM_DOUBLE, LN_PARAM_INT16, LN_PARAM_INT32, LN_PARAM_INT64, LN_PARAM_INT8,
     LN_PARAM_SINGLE, LN_PARAM_UINT16, LN_PARAM_UINT32, LN_PARAM_UINT64, LN_PARAM_UINT8)
+from ._introspection import process_info, process_output  # noqa: F401
 from ._wrapped import (  # noqa: F401
     ServiceErrorResponse, service_provider, services_wrapper, wrapped_service, wrapped_service_provider)
 

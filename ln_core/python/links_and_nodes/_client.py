@@ -239,6 +239,23 @@ class client:
         definition search path, as ln.manager_status."""
         return _introspection.get_manager_status(self._native)
 
+    # -- processes of the manager's config (ln_core) ----------------------
+    def list_processes(self):
+        """ln_core: the manager's processes, states and groups, as a list of
+        ln.process_info (processes first, each kind in config order)."""
+        return _introspection.list_processes(self._native)
+
+    def control_process(self, name, action, alt_command=None):
+        """ln_core: asks the manager to "start", "stop" or "restart" a
+        process or group, or to bring a state "up", "down" or "check" it.
+        Returns once the manager accepted; list_processes() shows progress."""
+        _introspection.control_process(self._native, name, action, alt_command)
+
+    def get_process_output(self, name, after=0):
+        """ln_core: the lines a process or state printed after line number
+        `after`, as ln.process_output."""
+        return _introspection.get_process_output(self._native, name, after)
+
     # -- misc -------------------------------------------------------------
     def ping(self, timeout=-1):
         return self._native.ping(float(timeout))

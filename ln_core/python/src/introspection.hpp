@@ -23,10 +23,13 @@ using WithClient = void (*)(nanobind::handle client, const std::function<void(ln
 /// last failed call without client).
 [[noreturn]] void raise_ln_error(nanobind::handle ln_error, int ret, const std::string& what, ln_client handle);
 
-/// Adds list_topics(client), list_clients(client), list_services(client)
-/// (lists of dicts) and manager_status(client) (a dict) to `module`, whose
-/// LNError must exist already. The dict keys are the field names of
-/// links_and_nodes.topic_info, client_info, service_info and manager_status.
+/// Adds list_topics(client), list_clients(client), list_services(client),
+/// list_processes(client) (lists of dicts), manager_status(client) and
+/// process_output(client, name, after) (dicts), control_process(client,
+/// name, action, alt_command) to `module`, whose LNError must exist
+/// already. The dict keys are the field names of links_and_nodes.topic_info,
+/// client_info, service_info, manager_status, process_info and
+/// process_output.
 void register_introspection(nanobind::module_& module, WithClient with_client);
 
 }  // namespace lnpy

@@ -214,7 +214,13 @@ class Client {
       nb::gil_scoped_release release;
       ret = ln_init_to_manager(&handle, name.c_str(), manager ? manager->c_str() : nullptr);
     }
-    if (ret < 0) fail(ret, "cannot create client '" + name + "'");
+    if (ret < 0) {
+      // no client to ask: ln_get_error_message(NULL) tells why ln_init failed (ln_core)
+      std::string message = "cannot create client '" + name + "': " + ln_format_error(ret);
+      const char* detail = ln_get_error_message(nullptr);
+      if (detail != nullptr && *detail != '\0' && ret != -LNE_CHECK_ERRNO) message += ": " + std::string(detail);
+      throw Failure{-ret, message};
+    }
     state_->handle = handle;
   }
   ~Client() {

@@ -48,13 +48,15 @@ def manager_binary():
 class Manager:
     """A running ln_core manager; `address` is HOST:PORT."""
 
-    def __init__(self, tmp_path, md_dirs=(MSGDEFS,)):
+    def __init__(self, tmp_path, md_dirs=(MSGDEFS,), extra_config=""):
+        """`extra_config`: more .lnc text (processes, states, groups)."""
         self.home = str(tmp_path)
         config = os.path.join(self.home, "test.lnc")
         with open(config, "w") as f:
             f.write("instance\nname: pytest_%s\nmanager: 127.0.0.1:0\n" % uuid.uuid4().hex[:8])
             for d in md_dirs:
                 f.write("add_message_definition_dir: %s\n" % d)
+            f.write(extra_config)
         env = dict(os.environ, HOME=self.home)
         self.log_path = os.path.join(self.home, "manager.log")
         self.log = open(self.log_path, "w+")

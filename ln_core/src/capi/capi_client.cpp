@@ -9,6 +9,7 @@
 #include <cstring>
 #include <mutex>
 #include <set>
+#include <string>
 
 #include "capi/capi_support.hpp"
 #include "parameters/provider.hpp"
@@ -26,13 +27,15 @@ std::set<Client*>& live_clients() {
   return clients;
 }
 
+// The detail of this thread's last failed call without a client (ln_init*,
+// ln_logger_data_*): no client exists to keep it (ln_get_error_message(NULL)).
+thread_local clientlib::ErrorSlot clientless_slot;
+
 template <typename Create>
 int init_with(ln_client* handle, Create&& create) noexcept {
   if (handle == nullptr) return -LNE_INVALID_PARAMETER;
   *handle = nullptr;
-  // No client exists on failure, so the detail text is lost; ln_format_error
-  // still names the errno of a refused connection, as in LN 2.9.
-  return guarded(nullptr, [&] {
+  return clientless([&] {
     std::unique_ptr<Client> client = create();
     register_client(client.get());
     *handle = client.release();
@@ -41,6 +44,8 @@ int init_with(ln_client* handle, Create&& create) noexcept {
 }
 
 }  // namespace
+
+clientlib::ErrorSlot& clientless_errors() noexcept { return clientless_slot; }
 
 void register_client(Client* client) {
   std::lock_guard<std::mutex> lock(live_clients_mutex());
@@ -179,8 +184,8 @@ int ln_get_remaining_args(ln_client clnt, unsigned int* n_args, char** args_ptr)
 }
 
 char* ln_get_error_message(ln_client clnt_) {
-  Client* client = client_from(clnt_);
-  return client != nullptr ? client->errors().text() : ln::capi::clientless_error_text();
+  Client* client = clnt_ != nullptr ? client_from(clnt_) : nullptr;
+  return client != nullptr ? client->errors().text() : ln::capi::clientless_errors().text();
 }
 
 }  // extern "C"

@@ -8,18 +8,15 @@
 
 using ln::capi::client_from;
 using ln::capi::guarded;
-using ln::capi::guarded_into;
+using ln::capi::clientless;
 using ln::capi::require;
 using ln::clientlib::Client;
 using ln::clientlib::ClientLoggers;
-using ln::clientlib::ErrorSlot;
 using ln::clientlib::Failure;
 using ln::clientlib::Logger;
 using ln::clientlib::LoggerData;
 
 namespace {
-
-thread_local ErrorSlot clientless_errors;
 
 /// Runs `body(logger)` for a live logger handle, its failures recorded on
 /// the logger's client.
@@ -30,14 +27,6 @@ int with_logger(ln_logger handle, Body&& body) noexcept {
   return guarded(&logger->client(), [&] { return body(*logger); });
 }
 
-/// Runs `body()` for a call without client; the detail of a failure goes to
-/// this thread's slot (ln_get_error_message(NULL)).
-template <typename Body>
-int clientless(Body&& body) noexcept {
-  clientless_errors.clear();
-  return guarded_into(&clientless_errors, std::forward<Body>(body));
-}
-
 LoggerData& live_data(ln_logger_data handle) {
   if (!LoggerData::alive(handle))
     throw Failure(LNE_INVALID_PARAMETER, "not a logger data handle (or one that was freed or replaced by a later "
@@ -46,11 +35,6 @@ LoggerData& live_data(ln_logger_data handle) {
 }
 
 }  // namespace
-
-char* ln::capi::clientless_error_text() noexcept {
-  char* text = clientless_errors.text();
-  return *text != '\0' ? text : nullptr;
-}
 
 extern "C" {
 

@@ -57,9 +57,18 @@ int guarded(Client* client, Body&& body) noexcept {
   return guarded_into(client != nullptr ? &client->errors() : nullptr, std::forward<Body>(body));
 }
 
-/// The detail of the last failed call of this thread that has no client
-/// (ln_logger_data_*), or nullptr; what ln_get_error_message(NULL) returns.
-char* clientless_error_text() noexcept;
+/// The detail of this thread's last failed call that has no client (ln_init*,
+/// ln_logger_data_*; "" when the last such call succeeded): what
+/// ln_get_error_message(NULL) returns.
+clientlib::ErrorSlot& clientless_errors() noexcept;
+
+/// Runs `body()` for a call without client; the detail of a failure goes to
+/// clientless_errors().
+template <typename Body>
+int clientless(Body&& body) noexcept {
+  clientless_errors().clear();
+  return guarded_into(&clientless_errors(), std::forward<Body>(body));
+}
 
 /// A malloc()ed copy for strings the caller frees. Throws bad_alloc.
 inline char* malloc_copy(const std::string& text) {

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <thread>
 
 #include "client/c_api.hpp"
 #include "client/failure.hpp"
@@ -51,6 +52,37 @@ int debug_level_from_environment() {
   return end != value ? static_cast<int>(level) : 1;  // a non-number still asks for debugging
 }
 
+// LN_MANAGER_CONNECT_TIMEOUT: how many seconds a new client waits for a
+// manager that does not listen yet (0, the default: fail at once, as LN 2.9).
+double connect_timeout_from_environment() {
+  const char* value = std::getenv("LN_MANAGER_CONNECT_TIMEOUT");
+  if (value == nullptr || value[0] == '\0') return 0;
+  char* end = nullptr;
+  const double seconds = std::strtod(value, &end);
+  if (end == value || *end != '\0' || !(seconds >= 0) || seconds > 1e6)
+    throw Failure(LNE_INVALID_PARAMETER,
+                  "LN_MANAGER_CONNECT_TIMEOUT='" + std::string(value) + "' is not a number of seconds (0 to 1000000)");
+  return seconds;
+}
+
+// Connects, and while the manager refuses (not listening yet) tries again
+// until `wait_seconds` passed.
+UniqueFd connect_waiting(const sockaddr_in& address, double wait_seconds) {
+  const auto deadline = std::chrono::steady_clock::now() +
+                        std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(wait_seconds));
+  auto pause = milliseconds(10);
+  for (;;) {
+    const auto left = std::chrono::duration_cast<milliseconds>(deadline - std::chrono::steady_clock::now());
+    try {
+      return connect_tcp(address, wait_seconds > 0 ? std::clamp(left, milliseconds(1), kConnectTimeout) : kConnectTimeout);
+    } catch (const Failure&) {
+      if (std::chrono::steady_clock::now() + pause >= deadline) throw;
+    }
+    std::this_thread::sleep_for(pause);  // the manager is not there yet: nothing to wait on but time
+    pause = std::min(pause * 2, milliseconds(200));
+  }
+}
+
 std::uint64_t next_port_serial() {
   static std::atomic<std::uint64_t> counter{0};
   return ++counter;
@@ -90,7 +122,7 @@ std::unique_ptr<Client> Client::connect(const char* client_name, CommandLine com
                                                      command_line.program_name, program_name(command_line.remaining));
   settings.requested_name = requested.name;
   settings.exact = requested.exact;
-  UniqueFd socket = connect_tcp(settings.resolved, kConnectTimeout);
+  UniqueFd socket = connect_waiting(settings.resolved, connect_timeout_from_environment());
   std::unique_ptr<Client> client(new Client(std::move(settings), std::move(command_line)));
   client->start(std::move(socket));
   return client;

@@ -64,6 +64,10 @@ Dispatcher::Dispatcher(Registry& registry, DefinitionStore& definitions, std::st
       {std::string(method::list_topics), &Dispatcher::list_topics},
       {std::string(method::list_services), &Dispatcher::list_services},
       {std::string(method::manager_status), &Dispatcher::manager_status},
+      {std::string(method::process_list), &Dispatcher::process_list},
+      {std::string(method::process_control), &Dispatcher::process_control},
+      {std::string(method::process_output), &Dispatcher::process_output},
+      {std::string(method::needs_provider), &Dispatcher::needs_provider},
   };
 }
 

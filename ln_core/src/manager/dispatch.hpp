@@ -16,6 +16,7 @@ namespace ln::manager {
 
 class DefinitionStore;
 class Loggers;
+class ProcessControl;
 
 /// What the manager knows about one connection's conversation.
 struct Session {
@@ -43,6 +44,9 @@ class Dispatcher {
   /// handle()'s answer to a request whose response is sent later.
   static protocol::Message deferred();
   static bool is_deferred(const protocol::Message& response);
+  /// The processes, states and groups the process_* requests act on
+  /// (process_methods.cpp); none until set.
+  void set_process_control(ProcessControl* control) { process_control_ = control; }
 
  private:
   using Handler = protocol::Message (Dispatcher::*)(Session&, const protocol::Message&, Outbox&);
@@ -68,6 +72,11 @@ class Dispatcher {
   protocol::Message list_topics(Session&, const protocol::Message&, Outbox&);
   protocol::Message list_services(Session&, const protocol::Message&, Outbox&);
   protocol::Message manager_status(Session&, const protocol::Message&, Outbox&);
+  // process_methods.cpp
+  protocol::Message process_list(Session&, const protocol::Message&, Outbox&);
+  protocol::Message process_control(Session&, const protocol::Message&, Outbox&);
+  protocol::Message process_output(Session&, const protocol::Message&, Outbox&);
+  protocol::Message needs_provider(Session&, const protocol::Message&, Outbox&);
 
   Registry& registry_;
   DefinitionStore& definitions_;
@@ -76,6 +85,7 @@ class Dispatcher {
   std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
   std::map<std::string, Handler, std::less<>> handlers_;
   Loggers* loggers_ = nullptr;
+  ProcessControl* process_control_ = nullptr;
 };
 
 }  // namespace ln::manager

@@ -6,13 +6,22 @@ find_package(Threads REQUIRED)
 set(LN_MANAGER_SOURCE_DIR ${CMAKE_CURRENT_LIST_DIR})
 
 add_library(ln_manager_core STATIC
+  ${LN_MANAGER_SOURCE_DIR}/child_process.cpp
   ${LN_MANAGER_SOURCE_DIR}/config.cpp
+  ${LN_MANAGER_SOURCE_DIR}/config_objects.cpp
   ${LN_MANAGER_SOURCE_DIR}/definitions.cpp
   ${LN_MANAGER_SOURCE_DIR}/dispatch.cpp
+  ${LN_MANAGER_SOURCE_DIR}/line_regex.cpp
+  ${LN_MANAGER_SOURCE_DIR}/lnc_eval.cpp
   ${LN_MANAGER_SOURCE_DIR}/log_files.cpp
   ${LN_MANAGER_SOURCE_DIR}/loggers.cpp
   ${LN_MANAGER_SOURCE_DIR}/manager.cpp
   ${LN_MANAGER_SOURCE_DIR}/names.cpp
+  ${LN_MANAGER_SOURCE_DIR}/process_control.cpp
+  ${LN_MANAGER_SOURCE_DIR}/process_keeper.cpp
+  ${LN_MANAGER_SOURCE_DIR}/process_launch.cpp
+  ${LN_MANAGER_SOURCE_DIR}/process_methods.cpp
+  ${LN_MANAGER_SOURCE_DIR}/process_output.cpp
   ${LN_MANAGER_SOURCE_DIR}/recorder.cpp
   ${LN_MANAGER_SOURCE_DIR}/registry.cpp
   ${LN_MANAGER_SOURCE_DIR}/sample_log.cpp
@@ -45,6 +54,10 @@ if(BUILD_TESTING)
   add_executable(manager_tests
     ${LN_MANAGER_SOURCE_DIR}/names_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/config_test.cpp
+    ${LN_MANAGER_SOURCE_DIR}/config_objects_test.cpp
+    ${LN_MANAGER_SOURCE_DIR}/lnc_eval_test.cpp
+    ${LN_MANAGER_SOURCE_DIR}/line_regex_test.cpp
+    ${LN_MANAGER_SOURCE_DIR}/process_control_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/manager_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/introspection_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/robustness_test.cpp

@@ -10,6 +10,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <cerrno>
@@ -137,6 +138,31 @@ struct Manager::Impl {
     for (const auto& dir : definitions.search_dirs()) dirs += (dirs.empty() ? "" : ", ") + dir;
     log(LogLevel::Info, "message-definition search path: " + (dirs.empty() ? std::string("(no existing directory)") : dirs));
     log(LogLevel::Info, "put_message_definition stores into " + definitions.generated_dir());
+    start_processes(address);
+  }
+
+  void start_processes(const sockaddr_in& address) {
+    const LncSettings* system = options.system.get();
+    if (system == nullptr || (system->processes.empty() && system->states.empty() && system->groups.empty())) return;
+    ProcessControlOptions process_options = options.process_options;
+    process_options.log = options.log;
+    sockaddr_in reachable = address;
+    if (reachable.sin_addr.s_addr == htonl(INADDR_ANY)) reachable.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    process_options.manager_address = endpoint_text(reachable);
+    process_options.definition_dirs = definitions.search_dirs();
+    process_options.instance_name = options.instance_name;
+    processes = std::make_unique<ProcessControl>(*system, process_options);
+    dispatcher.set_process_control(processes.get());
+    watch(processes->fd(), EPOLLIN);
+    for (const auto& name : options.start) {
+      try {
+        const bool state = std::any_of(system->states.begin(), system->states.end(),
+                                       [&](const StateConfig& s) { return s.name == name; });
+        processes->request(name, state ? "up" : "start");
+      } catch (const RequestError& e) {
+        log(LogLevel::Error, "--start " + name + ": " + e.what());
+      }
+    }
   }
 
   void watch(int fd, std::uint32_t events) {
@@ -152,7 +178,7 @@ struct Manager::Impl {
     if (listen_fd < 0) throw std::runtime_error("Manager::run() needs start() first");
     loop_thread.store(std::this_thread::get_id());
     std::array<epoll_event, 64> events;
-    while (!stop_requested.load()) {
+    while (!stopping_done()) {
       // While listening is paused (out of descriptors), look again soon.
       const int timeout_ms = listening_paused ? 100 : -1;
       const int count = ::epoll_wait(epoll_fd, events.data(), static_cast<int>(events.size()), timeout_ms);
@@ -171,6 +197,8 @@ struct Manager::Impl {
           run_posted_tasks();
         } else if (fd == listen_fd) {
           accept_connections();
+        } else if (processes && fd == processes->fd()) {
+          processes->handle_events();
         } else if (auto it = connections.find(fd); it != connections.end() && !it->second->doomed) {
           Connection& connection = *it->second;
           if (what & (EPOLLIN | EPOLLHUP | EPOLLERR)) receive(connection);
@@ -208,8 +236,26 @@ struct Manager::Impl {
     }
   }
 
+  // Whether run() may end: once stop() was called and, with processes,
+  // they are all stopped. Keeps serving clients meanwhile.
+  bool stopping_done() {
+    const int requests = stop_requests.load();
+    if (requests == 0) return false;
+    if (!processes) return true;
+    if (!shutdown_begun) {
+      shutdown_begun = true;
+      processes->begin_shutdown();
+    }
+    if (requests > 1 && !killed_all) {
+      killed_all = true;
+      log(LogLevel::Warning, "asked to stop again: killing all processes (SIGKILL)");
+      processes->kill_all();
+    }
+    return processes->finished();
+  }
+
   void stop() {
-    stop_requested.store(true);
+    stop_requests.fetch_add(1);
     const std::uint64_t one = 1;
     if (wake_fd >= 0) (void)!::write(wake_fd, &one, sizeof one);
   }
@@ -457,7 +503,10 @@ struct Manager::Impl {
   int spare_fd = -1;
   bool listening_paused = false;
   std::uint16_t bound_port = 0;
-  std::atomic<bool> stop_requested{false};
+  std::atomic<int> stop_requests{0};
+  std::unique_ptr<ProcessControl> processes;
+  bool shutdown_begun = false;
+  bool killed_all = false;
   std::thread thread;
   std::mutex join_mutex;  ///< two threads calling stop() must not both join
   std::atomic<std::thread::id> loop_thread{};

@@ -200,6 +200,23 @@ class TestClient {
   std::deque<Message> notifications_;
 };
 
+/// Whether process `pid` runs (zombies do not count: the init of a
+/// container may never reap the orphans a test leaves).
+inline bool process_running(long pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+  std::string stat;
+  if (pid <= 0 || !std::getline(in, stat)) return false;
+  const auto close = stat.rfind(')');
+  return close != std::string::npos && close + 2 < stat.size() && stat[close + 2] != 'Z';
+}
+
+/// Waits (bounded) until process `pid` no longer runs.
+inline bool wait_process_gone(long pid, Clock::duration timeout = default_timeout) {
+  const auto deadline = Clock::now() + timeout;
+  while (process_running(pid) && Clock::now() < deadline) std::this_thread::sleep_for(5ms);
+  return !process_running(pid);
+}
+
 /// The message definitions the tests use, under "mt/".
 inline void write_test_definitions(const TempDir& dir) {
   dir.write("md/mt/point", "double x\ndouble y\ndouble z\n");

@@ -161,6 +161,38 @@
 //   wrote the file on its host (formats: manager/log_files.hpp).
 //
 // ---------------------------------------------------------------------------
+// Client -> manager requests: the processes, states and groups of the config
+// (manager/process_control.hpp). A manager without them answers an empty
+// process_list and refuses the others for an unknown name.
+//
+// process_list     (no fields) -> introspection table as for list_topics:
+//                  names, kinds ("process", "state", "group"), states,
+//                  requested, pids, uptimes (seconds, shortest form),
+//                  restarts, ready ("1"/"0"), last_exits, errors, commands,
+//                  depends_on (comma-joined; "a|b" for alternatives, "!s" for
+//                  a state that must be DOWN), members (groups, comma-joined)
+//   Values as ObjectStatus (process_control.hpp) describes them.
+// process_control  name (str), action (str: start, stop, restart for
+//                  processes and groups; up, down, check for states),
+//                  alt_command (str, optional: a process's alt_command to
+//                  start with) -> ok once the request is accepted (it does
+//                  not wait for the process: process_list tells).
+//   Unknown name or action -> LNE_INVALID_PARAMETER; refused (the flag
+//   disable_stop, shutting down) -> LNE_REQUEST_FAILED.
+// process_output   name (str: a process or state), after (int >= 0: the
+//                  number of the last line already seen; 0 = from the
+//                  oldest kept), max_lines (int >= 0, optional: 0 = up to
+//                  10000) -> lines (list), first (int: number of lines[0]),
+//                  last (int: number of the newest line), dropped (int:
+//                  lines after `after` the ring no longer holds)
+// needs_provider   name (str: a service or topic) -> provider (str: "" when
+//                  a registered client already provides or publishes it,
+//                  else the process or state asked to start)
+//   Nothing provides it and no process or state `provides` it ->
+//   LNE_NO_PROVIDER_FOUND. The client then waits for the service or
+//   publisher itself, and asks process_list whether the provider failed.
+//
+// ---------------------------------------------------------------------------
 // Client -> manager notifications (the only notifications the manager reads;
 // others, and those of a connection without hello, are dropped)
 //
@@ -271,6 +303,10 @@ inline constexpr std::string_view logger_disable = "logger_disable";
 inline constexpr std::string_view logger_download = "logger_download";
 inline constexpr std::string_view logger_download_data = "logger_download_data";
 inline constexpr std::string_view logger_manager_save = "logger_manager_save";
+inline constexpr std::string_view process_list = "process_list";
+inline constexpr std::string_view process_control = "process_control";
+inline constexpr std::string_view process_output = "process_output";
+inline constexpr std::string_view needs_provider = "needs_provider";
 
 inline constexpr std::string_view publisher_available = "publisher_available";
 inline constexpr std::string_view publisher_gone = "publisher_gone";

@@ -123,7 +123,8 @@ def complete(line, bash_word, session):
 
 
 def _live(kind, manager, session):
-    """Names of topics, services, definitions, clients or parameters; [] when there is no manager."""
+    """Names of topics, services, definitions, clients, parameters, processes,
+    states or groups; [] when there is no manager."""
     if kind is None:
         return []
     from .common import connect
@@ -147,6 +148,9 @@ def _live(kind, manager, session):
         if kind == "parameters":
             from .param import parameters
             return list(parameters(clnt))
+        if kind in ("processes", "states", "groups"):
+            kinds = {"processes": ("process", "state"), "states": ("state",), "groups": ("group",)}[kind]
+            return [p.name for p in clnt.list_processes() if p.kind in kinds]
         if kind == "mds":
             return list(definitions_in(clnt.get_manager_status().message_definition_dirs))
     except Exception:  # noqa: BLE001

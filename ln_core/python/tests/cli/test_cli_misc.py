@@ -87,8 +87,8 @@ def test_completion_script(manager):
 
 
 def test_completion_of_commands_and_options(manager):
-    assert complete(manager, "ln ") == ["bag", "client", "completion", "manager", "md", "param", "play", "record",
-                                        "ros", "service", "topic"]
+    assert complete(manager, "ln ") == ["bag", "client", "completion", "group", "manager", "md", "param", "play",
+                                        "process", "record", "ros", "service", "state", "topic"]
     import importlib.util
     if importlib.util.find_spec("ln_bag") is not None:   # recordings come from the ln_bag package
         assert complete(manager, "ln bag ") == ["convert", "info"]
