@@ -891,7 +891,8 @@ class logger_data {
 /// signature. Throws std::runtime_error on failure.
 std::string dsa_dss1_sign_message(const std::string& pem_private_key_filename, const std::string& message);
 /// True if @p signature is valid for @p message and the OpenSSH public key
-/// file; throws std::runtime_error on other failures.
+/// file, false if it is not (LN 2.9 throws then); throws std::runtime_error
+/// when the key cannot be read.
 bool dsa_dss1_verify_message_signature(const std::string& openssh_public_key_filename,
                                        const std::string& message, const std::string& signature);
 /// As dsa_dss1_verify_message_signature() with the key given as text.

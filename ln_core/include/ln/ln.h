@@ -886,23 +886,32 @@ LN_API int ln_client_set_float_parameter(ln_client clnt, const char* name, float
     each output is 0 or 1. */
 LN_API void ln_get_v16_features(unsigned int* is_with_sys_futex, unsigned int* is_glibc_atleast_2_25);
 
-/** Signs a message with a DSA private key (PEM file), as used to
-    authenticate with daemons. @p *signature_out is malloc()ed; the caller
-    frees it. */
+/** DSA signatures with SHA-1 ("DSS1"; OpenSSL's libcrypto does the work),
+    interchangeable with LN 2.9's: keys in its files (a traditional PEM
+    "BEGIN DSA PRIVATE KEY" file, an OpenSSH "ssh-dss ..." public key line),
+    signatures DER-encoded. These functions return 0 on success, else
+    -LNE_CHECK_ERRNO when a file cannot be read or written (errno says why;
+    EINVAL: not a DSA key in the expected format), -LNE_INVALID_PARAMETER for
+    a NULL argument.
+    Signs @p message with the private key; @p *signature_out is malloc()ed,
+    the caller frees it. */
 LN_API int ln_dsa_dss1_sign_message(const char* pem_private_key_filename, const uint8_t* message,
                                     unsigned int message_len, uint8_t** signature_out,
                                     unsigned int* signature_out_len);
 /** Verifies a signature against an OpenSSH public key file.
-    @return 0 valid, -LNE_INVALID_SIGNATURE invalid, other < 0 on error. */
+    @return 0 valid, -LNE_INVALID_DSA_SIGNATURE when it does not verify (also
+    when it is no DER signature at all), other < 0 on error. */
 LN_API int ln_dsa_dss1_verify_message_signature(const char* openssh_public_key_filename,
                                                 const uint8_t* message, unsigned int message_len,
                                                 const uint8_t* signature, unsigned int signature_len);
-/** As ln_dsa_dss1_verify_message_signature() with the key given as text. */
+/** As ln_dsa_dss1_verify_message_signature() with the key line given as text
+    (a trailing comment is allowed). */
 LN_API int ln_dsa_dss1_verify_message_signature_memkey(const char* openssh_public_key_contents,
                                                        const uint8_t* message, unsigned int message_len,
                                                        const uint8_t* signature,
                                                        unsigned int signature_len);
-/** Writes a new DSA key pair: PEM private key and OpenSSH public key. */
+/** Writes a new 1024-bit DSA key pair: the PEM private key (mode 0600) and
+    the OpenSSH public key; existing files are replaced atomically. */
 LN_API int ln_dsa_dss1_generate_key_pair(const char* pem_private_key_filename,
                                          const char* openssh_public_key_filename);
 

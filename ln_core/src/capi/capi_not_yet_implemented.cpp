@@ -32,10 +32,6 @@ int ln_event_call_set_data(ln_event_call call, const char* call_signature, void*
 int ln_event_call_get_buffer(ln_event_call call, void** ptr, uint32_t* len) { return -LNE_NOT_YET_IMPLEMENTED; }
 int ln_client_set_float_parameter(ln_client clnt, const char* name, float value) { return -LNE_NOT_YET_IMPLEMENTED; }
 void ln_get_v16_features(unsigned int* is_with_sys_futex, unsigned int* is_glibc_atleast_2_25) {}
-int ln_dsa_dss1_sign_message(const char* pem_private_key_filename, const uint8_t* message, unsigned int message_len, uint8_t** signature_out, unsigned int* signature_out_len) { return -LNE_NOT_YET_IMPLEMENTED; }
-int ln_dsa_dss1_verify_message_signature(const char* openssh_public_key_filename, const uint8_t* message, unsigned int message_len, const uint8_t* signature, unsigned int signature_len) { return -LNE_NOT_YET_IMPLEMENTED; }
-int ln_dsa_dss1_verify_message_signature_memkey(const char* openssh_public_key_contents, const uint8_t* message, unsigned int message_len, const uint8_t* signature, unsigned int signature_len) { return -LNE_NOT_YET_IMPLEMENTED; }
-int ln_dsa_dss1_generate_key_pair(const char* pem_private_key_filename, const char* openssh_public_key_filename) { return -LNE_NOT_YET_IMPLEMENTED; }
 int create_shm_target(shm_target_t*, const char* name, unsigned int element_size, unsigned int n_elements, unsigned int version) { return -LNE_NOT_YET_IMPLEMENTED; }
 int destroy_shm_target(shm_target_t*) { return -LNE_NOT_YET_IMPLEMENTED; }
 int open_shm_target(shm_target_t*, const char* name) { return -LNE_NOT_YET_IMPLEMENTED; }

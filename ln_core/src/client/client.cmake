@@ -34,6 +34,7 @@ add_library(ln_client_objects OBJECT
   ${LN_CLIENT_DIR}/services_glue.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_client.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_definitions.cpp
+  ${LN_CLIENT_SRC_DIR}/capi/capi_dsa.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_introspection.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_topics.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_services.cpp
@@ -44,7 +45,7 @@ set_target_properties(ln_client_objects PROPERTIES
   CXX_VISIBILITY_PRESET hidden
   VISIBILITY_INLINES_HIDDEN ON)
 target_include_directories(ln_client_objects PUBLIC ${LN_CLIENT_SRC_DIR} ${LN_CLIENT_ROOT_DIR}/include)
-target_link_libraries(ln_client_objects PUBLIC ln_md ln_protocol ln_transport ln_services Threads::Threads)
+target_link_libraries(ln_client_objects PUBLIC ln_md ln_protocol ln_transport ln_services ln_crypto Threads::Threads)
 ln_target_warnings(ln_client_objects)
 if(BUILD_TESTING)
   # Fault injection for the multi-host tests (remote.cpp, inert unless
@@ -60,7 +61,7 @@ set_target_properties(ln PROPERTIES
 target_include_directories(ln PUBLIC
   $<BUILD_INTERFACE:${LN_CLIENT_ROOT_DIR}/include>
   $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
-target_link_libraries(ln PRIVATE ln_md ln_protocol ln_transport ln_services Threads::Threads)
+target_link_libraries(ln PRIVATE ln_md ln_protocol ln_transport ln_services ln_crypto Threads::Threads)
 # Only ln.h's LN_API functions leave the library (libln.map; our code is also
 # compiled with hidden visibility), and anything unresolved is an error at
 # link time, not at a user's load time.
