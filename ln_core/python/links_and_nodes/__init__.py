@@ -32,6 +32,8 @@ LN_MANAGER_CLIENT_ID = 0xFFFFFFFF
 RATE_ON_REQUEST_NEXT = -3
 
 get_time = _ln.get_time
+dsa_dss1_sign_message = _ln.dsa_dss1_sign_message
+dsa_dss1_generate_key_pair = _ln.dsa_dss1_generate_key_pair
 get_monotonic_time = _ln.get_monotonic_time
 format_error = _ln.format_error
 from ._packets import ctor_name as get_packet_ctor_name  # noqa: E402,F401
