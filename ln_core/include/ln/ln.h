@@ -882,8 +882,9 @@ LN_API int ln_event_call_get_buffer(ln_event_call call, void** ptr, uint32_t* le
 /** Sets a named tuning parameter of the client library. */
 LN_API int ln_client_set_float_parameter(ln_client clnt, const char* name, float value);
 
-/** Build features of the shared-memory implementation (LN 2.9 diagnostics);
-    each output is 0 or 1. */
+/** Features of the shared-memory implementation (LN 2.9 diagnostics), each
+    0 or 1: blocking reads sleep in futex(2) (1 on Linux), and the library
+    was built against glibc 2.25 or later. NULL outputs are skipped. */
 LN_API void ln_get_v16_features(unsigned int* is_with_sys_futex, unsigned int* is_glibc_atleast_2_25);
 
 /** DSA signatures with SHA-1 ("DSS1"; OpenSSL's libcrypto does the work),
@@ -919,8 +920,26 @@ LN_API int ln_dsa_dss1_generate_key_pair(const char* pem_private_key_filename,
 
 /* ======================================================================== */
 /** @name Low-level shared-memory rings
-    Used by the daemons and tools; programs use ports instead. These return 0
-    on success; on failure see errno. */
+    Named segments (/dev/shm/NAME) in LN 2.9's byte layout, shared by name
+    between processes; topics do not use them (ports do that for you).
+    Either side creates the segment (create_*: replaces one of that name;
+    version 0..3, n_elements >= 1), the other opens it (open_*); close_*
+    detaches, destroy_* also removes the name. A target writes packets of up
+    to element_size bytes (get_next_buffer_from_shm_target() + a write with
+    data NULL writes in place); a source reads them in order, each once,
+    only those written after it attached; a reader that fell n_elements or
+    more behind continues with the oldest packet still in the ring.
+    read_last_from_shm_source() returns the newest packet again and again.
+    Reads return 1 (a packet: the timestamp, the packet's number in
+    *packet_counter and min(len, element_size) bytes), 0 (none; after a wait
+    that timed out errno is ETIMEDOUT), -2 when unblock_shm_source() ended
+    the wait. Version-3 segments interoperate with LN 2.9 processes in both
+    directions (versions 0..2 only among ln_core processes). Other failures
+    are < 0 with errno set: -1 (-LNE_CHECK_ERRNO) for system errors (ENOENT
+    ...), -LNE_INVALID_SHM_MAGIC, -LNE_SHM_VERSION_TOO_NEW,
+    -LNE_WRONG_SHM_SIZE, -LNE_SHM_NAME_TOO_LONG, -LNE_PACKET_TOO_LARGE,
+    -LNE_INVALID_PARAMETER (NULL or stale handles, no elements). One writer
+    at a time; the packet counter passed to reads is only written. */
 /* ======================================================================== */
 /**@{*/
 
@@ -938,6 +957,8 @@ LN_API int create_shm_source(shm_source_t*, const char* name, unsigned int eleme
                              unsigned int version);
 LN_API int destroy_shm_source(shm_source_t*);
 LN_API int open_shm_source(shm_source_t*, const char* name);
+/** The newest packet's number (0: none yet). Takes the handle or, as LN
+    2.9's library does, the handle itself cast to shm_source_t*. */
 LN_API int shm_source_get_last_counter(shm_source_t* source_, uint32_t* counter);
 LN_API int close_shm_source(shm_source_t*);
 LN_API int read_from_shm_source(shm_source_t, double* ts, uint32_t* packet_counter, void* data, unsigned int len,
@@ -946,6 +967,9 @@ LN_API int read_from_shm_source_timeout(shm_source_t, double* ts, uint32_t* pack
                                         unsigned int len, double timeout);
 LN_API int read_last_from_shm_source(shm_source_t, double* ts, uint32_t* packet_counter, void* data,
                                      unsigned int len);
+/** Waits until the segment's newest packet number differs from
+    *packet_counter (timeout < 0: no limit), stores it there and counts it as
+    read: 1, 0 (timeout, errno ETIMEDOUT) or -2 (unblocked). */
 LN_API int block_only_on_shm_source(shm_source_t source_, uint32_t* packet_counter, double timeout);
 LN_API int unblock_shm_source(shm_source_t source_);
 

@@ -31,22 +31,5 @@ unsigned int ln_event_connection_get_id(ln_event_connection conn) { return 0; }
 int ln_event_call_set_data(ln_event_call call, const char* call_signature, void* call_data) { return -LNE_NOT_YET_IMPLEMENTED; }
 int ln_event_call_get_buffer(ln_event_call call, void** ptr, uint32_t* len) { return -LNE_NOT_YET_IMPLEMENTED; }
 int ln_client_set_float_parameter(ln_client clnt, const char* name, float value) { return -LNE_NOT_YET_IMPLEMENTED; }
-void ln_get_v16_features(unsigned int* is_with_sys_futex, unsigned int* is_glibc_atleast_2_25) {}
-int create_shm_target(shm_target_t*, const char* name, unsigned int element_size, unsigned int n_elements, unsigned int version) { return -LNE_NOT_YET_IMPLEMENTED; }
-int destroy_shm_target(shm_target_t*) { return -LNE_NOT_YET_IMPLEMENTED; }
-int open_shm_target(shm_target_t*, const char* name) { return -LNE_NOT_YET_IMPLEMENTED; }
-int close_shm_target(shm_target_t*) { return -LNE_NOT_YET_IMPLEMENTED; }
-int write_to_shm_target(shm_target_t, double ts, void* data, unsigned int len) { return -LNE_NOT_YET_IMPLEMENTED; }
-int get_next_buffer_from_shm_target(shm_target_t, void** buffer) { return -LNE_NOT_YET_IMPLEMENTED; }
-int create_shm_source(shm_source_t*, const char* name, unsigned int element_size, unsigned int n_elements, unsigned int version) { return -LNE_NOT_YET_IMPLEMENTED; }
-int destroy_shm_source(shm_source_t*) { return -LNE_NOT_YET_IMPLEMENTED; }
-int open_shm_source(shm_source_t*, const char* name) { return -LNE_NOT_YET_IMPLEMENTED; }
-int shm_source_get_last_counter(shm_source_t* source_, uint32_t* counter) { return -LNE_NOT_YET_IMPLEMENTED; }
-int close_shm_source(shm_source_t*) { return -LNE_NOT_YET_IMPLEMENTED; }
-int read_from_shm_source(shm_source_t, double* ts, uint32_t* packet_counter, void* data, unsigned int len, int blocking) { return -LNE_NOT_YET_IMPLEMENTED; }
-int read_from_shm_source_timeout(shm_source_t, double* ts, uint32_t* packet_counter, void* data, unsigned int len, double timeout) { return -LNE_NOT_YET_IMPLEMENTED; }
-int read_last_from_shm_source(shm_source_t, double* ts, uint32_t* packet_counter, void* data, unsigned int len) { return -LNE_NOT_YET_IMPLEMENTED; }
-int block_only_on_shm_source(shm_source_t source_, uint32_t* packet_counter, double timeout) { return -LNE_NOT_YET_IMPLEMENTED; }
-int unblock_shm_source(shm_source_t source_) { return -LNE_NOT_YET_IMPLEMENTED; }
 
 }  // extern "C"

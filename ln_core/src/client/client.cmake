@@ -38,6 +38,7 @@ add_library(ln_client_objects OBJECT
   ${LN_CLIENT_SRC_DIR}/capi/capi_introspection.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_topics.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_services.cpp
+  ${LN_CLIENT_SRC_DIR}/capi/capi_shm.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_not_yet_implemented.cpp
 )
 set_target_properties(ln_client_objects PROPERTIES
