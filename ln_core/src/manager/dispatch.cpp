@@ -63,6 +63,8 @@ Dispatcher::Dispatcher(Registry& registry, DefinitionStore& definitions, std::st
       {std::string(method::list_topics), &Dispatcher::list_topics},
       {std::string(method::list_services), &Dispatcher::list_services},
       {std::string(method::manager_status), &Dispatcher::manager_status},
+      {std::string(method::connect_event), &Dispatcher::connect_event},
+      {std::string(method::disconnect_event), &Dispatcher::disconnect_event},
   };
 }
 
@@ -349,6 +351,18 @@ Message Dispatcher::manager_status(Session&, const Message& request, Outbox&) {
       .set("topics", static_cast<std::int64_t>(registry_.topics().size()))
       .set("services", static_cast<std::int64_t>(registry_.services().size()))
       .set("message_definition_dirs", definitions_.search_dirs());
+}
+
+Message Dispatcher::connect_event(Session& session, const Message& request, Outbox& out) {
+  const EventConnection& connection =
+      registry_.connect_event(*session.client, request.get_string("name"), request.get_string("signature"),
+                              request.get_string("connect_data"), request.get_string("handler"), out);
+  return Message::response_to(request).set("event_connection_id", connection.id);
+}
+
+Message Dispatcher::disconnect_event(Session& session, const Message& request, Outbox&) {
+  registry_.disconnect_event(*session.client, get_id(request, "event_connection_id"));
+  return Message::response_to(request);
 }
 
 }  // namespace ln::manager

@@ -62,6 +62,8 @@ class Dispatcher {
   protocol::Message list_topics(Session&, const protocol::Message&, Outbox&);
   protocol::Message list_services(Session&, const protocol::Message&, Outbox&);
   protocol::Message manager_status(Session&, const protocol::Message&, Outbox&);
+  protocol::Message connect_event(Session&, const protocol::Message&, Outbox&);
+  protocol::Message disconnect_event(Session&, const protocol::Message&, Outbox&);
 
   Registry& registry_;
   DefinitionStore& definitions_;

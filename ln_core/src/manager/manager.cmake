@@ -9,6 +9,7 @@ add_library(ln_manager_core STATIC
   ${LN_MANAGER_SOURCE_DIR}/config.cpp
   ${LN_MANAGER_SOURCE_DIR}/definitions.cpp
   ${LN_MANAGER_SOURCE_DIR}/dispatch.cpp
+  ${LN_MANAGER_SOURCE_DIR}/events.cpp
   ${LN_MANAGER_SOURCE_DIR}/manager.cpp
   ${LN_MANAGER_SOURCE_DIR}/names.cpp
   ${LN_MANAGER_SOURCE_DIR}/registry.cpp
@@ -33,6 +34,7 @@ if(BUILD_TESTING)
     ${LN_MANAGER_SOURCE_DIR}/introspection_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/robustness_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/binary_test.cpp
+    ${LN_MANAGER_SOURCE_DIR}/events_test.cpp
   )
   target_link_libraries(manager_tests PRIVATE ln_manager_core GTest::gtest GTest::gtest_main)
   # The binary test starts the real daemon.

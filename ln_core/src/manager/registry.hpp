@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "manager/events.hpp"
 #include "protocol/wire.hpp"
 
 namespace ln::manager {
@@ -87,6 +88,15 @@ struct Service {
   Id provider = 0;
 };
 
+/// A client's connection to ln.resource_event (events.hpp).
+struct EventConnection {
+  Id id = 0;
+  Id client = 0;
+  std::string handler;    ///< the client's service that receives the events
+  std::string interface;  ///< the definition named in the connect signature
+  ResourceFilter filter;
+};
+
 struct SubscribeRequest {
   std::string topic;
   std::string definition;  ///< may carry "|hash"; "" = whatever the topic uses
@@ -155,6 +165,14 @@ class Registry {
   const Service& service_named(const std::string& name) const;
   std::vector<std::string> services_with_interface(const std::string& interface) const;
 
+  // -------------------------------------------------------------- events
+  /// Connects `client` to ln.resource_event (the only event there is;
+  /// others: LNE_REQUEST_FAILED) and queues the initial sync.
+  /// `signature` is "<definition>: <connect signature>".
+  const EventConnection& connect_event(Id client, const std::string& name, const std::string& signature,
+                                       const std::string& connect_data, const std::string& handler, Outbox& out);
+  void disconnect_event(Id client, Id connection);
+
   // ------------------------------------------------------- introspection
   const std::map<Id, Client>& clients() const { return clients_; }
   const std::map<Id, Topic>& topics() const { return topics_; }
@@ -175,6 +193,9 @@ class Registry {
   static void restart_packet_count(Topic& topic, std::int64_t packets);
   void erase_topic_if_unused(Id topic);
   void notify_all_clients(const protocol::Message& message, Outbox& out) const;
+  /// `event` to every event connection whose filter accepts it.
+  void emit(const ResourceEvent& event, Outbox& out) const;
+  void send_event(const EventConnection& connection, const ResourceEvent& event, Outbox& out) const;
 
   DefinitionStore& definitions_;
   Id last_id_ = 0;
@@ -185,6 +206,7 @@ class Registry {
   std::map<Id, Subscription> subscriptions_;
   std::map<Id, Service> services_;
   std::map<std::string, Id> service_names_;
+  std::map<Id, EventConnection> event_connections_;
 };
 
 }  // namespace ln::manager

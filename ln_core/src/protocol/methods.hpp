@@ -109,6 +109,18 @@
 //   (..._for_service).
 // find_services_with_interface     interface (str) -> services (list, sorted)
 //
+// connect_event    name (str: "ln.resource_event", the only event there is),
+//                  signature (str: "<definition>: <connect signature>"),
+//                  connect_data (str: the flat connect section: four
+//                  fnmatch patterns), handler (str: the client's service,
+//                  interface ln/event/call, that receives the events)
+//   -> event_connection_id (int). Then the initial sync arrives as `event`
+//   notifications (manager/events.hpp). Other names -> LNE_REQUEST_FAILED;
+//   a signature that is not ln/resource_event's -> LNE_INVALID_SIGNATURE.
+//   Events other than ln.resource_event are not the manager's: their
+//   clients only register the handler service (the client library).
+// disconnect_event event_connection_id (int) -> ok
+//
 // list_clients / list_topics / list_services (no fields) -> introspection
 //   tables as parallel lists of strings, one entry per row (numbers in
 //   decimal, name lists comma-joined):
@@ -167,6 +179,11 @@
 //   The publisher remembers, per local subscription id, its newest packet
 //   when the id first appeared (before the new count is visible to the
 //   program); open_segment answers with it.
+// event                event_connection_id (int), handler (str: the service
+//                      named at connect_event), data (str: the flat call
+//                      section of the event), signature (str: "<definition>:
+//                      <call signature>"). The client calls its handler
+//                      service with {data, signature}, one event at a time.
 // service_available    name (str), provider (str)   [for availability callbacks]
 // service_gone         name (str)
 //   Both go to every registered client (the provider too), for changes after
@@ -238,10 +255,13 @@ inline constexpr std::string_view list_topics = "list_topics";
 inline constexpr std::string_view list_services = "list_services";
 inline constexpr std::string_view manager_status = "manager_status";
 inline constexpr std::string_view topic_stats = "topic_stats";
+inline constexpr std::string_view connect_event = "connect_event";
+inline constexpr std::string_view disconnect_event = "disconnect_event";
 
 inline constexpr std::string_view publisher_available = "publisher_available";
 inline constexpr std::string_view publisher_gone = "publisher_gone";
 inline constexpr std::string_view subscribers_changed = "subscribers_changed";
+inline constexpr std::string_view event = "event";
 inline constexpr std::string_view service_available = "service_available";
 inline constexpr std::string_view service_gone = "service_gone";
 inline constexpr std::string_view topic_publisher_available = "topic_publisher_available";
