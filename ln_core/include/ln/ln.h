@@ -842,9 +842,22 @@ LN_API int ln_logger_data_get_topic(ln_logger_data logger_data, unsigned int top
 /* ======================================================================== */
 /**@{*/
 
+/* Events, as LN 2.9 has them. Connecting to event NAME registers the
+   handler service "NAME.<client name>" (interface ln/event/call) in the
+   client's default service group; whoever emits the event calls that
+   service with the flat call data and "<definition>: <call signature>", so
+   the handler runs in the thread that handles the default group
+   (ln_wait_and_handle_service_group_requests() or a thread pool), one event
+   at a time. The ln_manager emits "ln.resource_event" (definition
+   ln/resource_event): connect with four fnmatch patterns (event, name, md,
+   client) to hear of service providers, topic publishers and subscribers
+   coming and going, after an initial sync ending with "initial_sync_done".
+   Other "ln.*" names fail with -LNE_REQUEST_FAILED; events with other names
+   need no manager: a program emits them by calling the handler service. */
+
 /** Subscription to an event source. */
 typedef void* ln_event_connection;
-/** One event being delivered. */
+/** One event being delivered (valid during the handler). */
 typedef void* ln_event_call;
 
 /** Receives an event; runs in the thread that handles the client's default
@@ -852,8 +865,11 @@ typedef void* ln_event_call;
 typedef void (*ln_event_handler)(ln_client clnt, ln_event_call call, void* user_data);
 
 /** Connects to an event source.
-    @param connect_signature the generated *_CONNECT_SIGNATURE.
-    @param connect_data the generated *_connect_t struct (filters). */
+    @param connect_signature the generated *_CONNECT_SIGNATURE
+           ("<definition>: <signature>"; else -LNE_INVALID_SIGNATURE).
+    @param connect_data the generated *_connect_t struct (filters).
+    @return 0, -LNE_REQUEST_FAILED when this client is connected to the
+            event already or the manager refuses (ln_get_error_message()). */
 LN_API int ln_event_connect(ln_client clnt, ln_event_connection* conn, const char* event_name,
                             const char* connect_signature, void* connect_data,
                             ln_event_handler handler, void* user_data);
@@ -862,14 +878,18 @@ LN_API int ln_event_connect_flat(ln_client clnt, ln_event_connection* conn, cons
                                  const char* connect_signature, void* connect_data_flat,
                                  uint32_t connect_data_flat_len, ln_event_handler handler,
                                  void* user_data);
-/** Disconnects and releases; sets *conn to NULL. */
+/** Disconnects (no event reaches the handler afterwards) and releases; sets
+    *conn to NULL. */
 LN_API int ln_event_connection_deinit(ln_event_connection* conn);
-/** Client-unique id of a connection. */
+/** The connection's id, unique per client from 1 (LN 2.9 gives 0 to every
+    connection to an event that is not "ln.*"). */
 LN_API unsigned int ln_event_connection_get_id(ln_event_connection conn);
 /** Unpacks an event into @p call_data (the generated *_call_t struct);
-    @p call_signature is the generated *_CALL_SIGNATURE. */
+    @p call_signature is the generated *_CALL_SIGNATURE and must be the one
+    the event came with (else -LNE_SVC_REQ_SET_DATA_WRONG); malformed event
+    data: -LNE_SVC_RECV_REQ. Dynamic fields point into the call's memory. */
 LN_API int ln_event_call_set_data(ln_event_call call, const char* call_signature, void* call_data);
-/** Raw event bytes (belong to the call). */
+/** The event's flat call data (belongs to the call). */
 LN_API int ln_event_call_get_buffer(ln_event_call call, void** ptr, uint32_t* len);
 
 /**@}*/

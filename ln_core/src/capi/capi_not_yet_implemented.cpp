@@ -24,12 +24,6 @@ int ln_logger_data_load(ln_logger_data* logger_data, const char* filename) { ret
 int ln_logger_data_deinit(ln_logger_data* logger_data) { return -LNE_NOT_YET_IMPLEMENTED; }
 int ln_logger_data_get_info(ln_logger_data logger_data, unsigned int* n_topics) { return -LNE_NOT_YET_IMPLEMENTED; }
 int ln_logger_data_get_topic(ln_logger_data logger_data, unsigned int topic_id, logger_topic** topic) { return -LNE_NOT_YET_IMPLEMENTED; }
-int ln_event_connect(ln_client clnt, ln_event_connection* conn, const char* event_name, const char* connect_signature, void* connect_data, ln_event_handler handler, void* user_data) { return -LNE_NOT_YET_IMPLEMENTED; }
-int ln_event_connect_flat(ln_client clnt, ln_event_connection* conn, const char* event_name, const char* connect_signature, void* connect_data_flat, uint32_t connect_data_flat_len, ln_event_handler handler, void* user_data) { return -LNE_NOT_YET_IMPLEMENTED; }
-int ln_event_connection_deinit(ln_event_connection* conn) { return -LNE_NOT_YET_IMPLEMENTED; }
-unsigned int ln_event_connection_get_id(ln_event_connection conn) { return 0; }
-int ln_event_call_set_data(ln_event_call call, const char* call_signature, void* call_data) { return -LNE_NOT_YET_IMPLEMENTED; }
-int ln_event_call_get_buffer(ln_event_call call, void** ptr, uint32_t* len) { return -LNE_NOT_YET_IMPLEMENTED; }
 int ln_client_set_float_parameter(ln_client clnt, const char* name, float value) { return -LNE_NOT_YET_IMPLEMENTED; }
 
 }  // extern "C"

@@ -22,6 +22,7 @@ add_library(ln_client_objects OBJECT
   ${LN_CLIENT_DIR}/client.cpp
   ${LN_CLIENT_DIR}/definitions.cpp
   ${LN_CLIENT_DIR}/event_loop.cpp
+  ${LN_CLIENT_DIR}/events.cpp
   ${LN_CLIENT_DIR}/failure.cpp
   ${LN_CLIENT_DIR}/launch_options.cpp
   ${LN_CLIENT_DIR}/manager_link.cpp
@@ -35,6 +36,7 @@ add_library(ln_client_objects OBJECT
   ${LN_CLIENT_SRC_DIR}/capi/capi_client.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_definitions.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_dsa.cpp
+  ${LN_CLIENT_SRC_DIR}/capi/capi_events.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_introspection.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_topics.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_services.cpp
@@ -90,6 +92,7 @@ if(BUILD_TESTING)
     # The public API of libln.so against an in-process manager.
     add_executable(ln_client_tests
       ${LN_CLIENT_DIR}/client_test.cpp
+      ${LN_CLIENT_DIR}/events_test.cpp
       ${LN_CLIENT_DIR}/topics_test.cpp)
     target_link_libraries(ln_client_tests PRIVATE ln ln_manager_core GTest::gtest GTest::gtest_main)
     target_include_directories(ln_client_tests PRIVATE ${LN_CLIENT_SRC_DIR})

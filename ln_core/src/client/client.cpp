@@ -196,11 +196,13 @@ Client::~Client() {
   peer_server_.stop();
   link_.detach("the client was closed");
   connecting_.reset();
-  std::shared_ptr<void> services;
+  std::shared_ptr<void> events, services;
   {
     std::lock_guard<std::mutex> lock(services_mutex_);
+    events.swap(events_);
     services.swap(services_);
   }
+  events.reset();    // ends event delivery, which calls services
   services.reset();  // stops its threads; handlers may still use the client
   std::lock_guard<std::mutex> lock(registry_mutex_);
   waiters_.clear();   // before the ports they look at
@@ -279,6 +281,12 @@ std::shared_ptr<void> Client::services_state(const std::function<std::shared_ptr
   std::lock_guard<std::mutex> lock(services_mutex_);
   if (!services_) services_ = make();
   return services_;
+}
+
+std::shared_ptr<void> Client::events_state(const std::function<std::shared_ptr<void>()>& make) {
+  std::lock_guard<std::mutex> lock(services_mutex_);
+  if (!events_) events_ = make();
+  return events_;
 }
 
 // ------------------------------------------------------------------ topics

@@ -123,6 +123,9 @@ class Client {
   /// (services_glue.hpp): `make`s it on first use. Released in ~Client once
   /// the I/O thread stopped and the manager link is closed.
   std::shared_ptr<void> services_state(const std::function<std::shared_ptr<void>()>& make);
+  /// The same for the events part (events.hpp); released before the
+  /// services state, which it uses.
+  std::shared_ptr<void> events_state(const std::function<std::shared_ptr<void>()>& make);
 
  private:
   struct Settings {
@@ -246,6 +249,7 @@ class Client {
   std::vector<std::unique_ptr<MultiWaiter>> waiters_;
   std::mutex services_mutex_;
   std::shared_ptr<void> services_;
+  std::shared_ptr<void> events_;  // services_mutex_
   // Receives topic data from publishers on other hosts; made with the first
   // subscription (it must be named in the subscribe request).
   std::unique_ptr<RemoteReceiver> receiver_;
