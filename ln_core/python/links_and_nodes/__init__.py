@@ -12,7 +12,7 @@ port.sample_info, service_wrapper.call_future(), request.respond_error(),
 client.wait_for_service(), client.set_*_availability_handler(),
 client.list_topics()/list_clients()/list_services()/get_manager_status()
 (introspection: topic_info, client_info, service_info, manager_status),
-client.close() and typed errors (LNError with .code, FieldError).
+event_connection_wrapper.id/disconnect(), client.close() and typed errors (LNError with .code, FieldError).
 """
 
 from . import _ln
@@ -22,6 +22,7 @@ from ._errors import ERROR_CODES, LNError, error_name  # noqa: F401
 from ._packets import FieldError, FieldTypeError, FieldValueError, Part as ln_packet_part  # noqa: F401
 from ._client import client, port_wrapper, multi_waiter, borrowed_packet  # noqa: F401
 from ._services import service_wrapper, request_wrapper, ServiceFuture, SVC_RESP_LATER  # noqa: F401
+from ._events import event_connection_wrapper  # noqa: F401
 from ._introspection import topic_info, client_info, service_info, manager_status  # noqa: F401
 from ._wrapped import (  # noqa: F401
     ServiceErrorResponse, service_provider, services_wrapper, wrapped_service, wrapped_service_provider)
