@@ -64,6 +64,7 @@ class Dispatcher {
   protocol::Message manager_status(Session&, const protocol::Message&, Outbox&);
   protocol::Message connect_event(Session&, const protocol::Message&, Outbox&);
   protocol::Message disconnect_event(Session&, const protocol::Message&, Outbox&);
+  protocol::Message register_as_service_logger(Session&, const protocol::Message&, Outbox&);
 
   Registry& registry_;
   DefinitionStore& definitions_;

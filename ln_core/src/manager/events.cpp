@@ -42,11 +42,15 @@ ResourceFilter parse_resource_filter(std::string_view flat) {
   return filter;
 }
 
+bool glob_match(const std::string& pattern, const std::string& text) {
+  return ::fnmatch(pattern.c_str(), text.c_str(), FNM_NOESCAPE) == 0;
+}
+
 bool filter_accepts(const ResourceFilter& filter, const ResourceEvent& event) {
   if (event.event == kInitialSyncDone) return true;
   const std::string_view values[] = {event.event, event.name, event.md, event.client};
   for (std::size_t i = 0; i < filter.size(); ++i)
-    if (::fnmatch(filter[i].c_str(), std::string(values[i]).c_str(), FNM_NOESCAPE) != 0) return false;
+    if (!glob_match(filter[i], std::string(values[i]))) return false;
   return true;
 }
 

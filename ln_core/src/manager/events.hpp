@@ -26,6 +26,11 @@ inline constexpr std::string_view kResourceEventSignature =
     "uint32_t 4 1,char* 1 1,uint32_t 4 1,char* 1 1,uint32_t 4 1,char* 1 1,uint32_t 4 1,char* 1 1";
 inline constexpr std::string_view kInitialSyncDone = "initial_sync_done";
 
+/// Python's fnmatch.fnmatch (what LN 2.9's manager uses for event filters
+/// and service logger patterns): *, ?, [seq], [!seq], case-sensitive, no
+/// escapes.
+bool glob_match(const std::string& pattern, const std::string& text);
+
 /// event_pattern, name_pattern, md_pattern, client_pattern.
 using ResourceFilter = std::array<std::string, 4>;
 

@@ -35,6 +35,7 @@ if(BUILD_TESTING)
     ${LN_MANAGER_SOURCE_DIR}/robustness_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/binary_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/events_test.cpp
+    ${LN_MANAGER_SOURCE_DIR}/service_loggers_test.cpp
   )
   target_link_libraries(manager_tests PRIVATE ln_manager_core GTest::gtest GTest::gtest_main)
   # The binary test starts the real daemon.

@@ -82,6 +82,7 @@ void Registry::remove_client(Id id, Outbox& out) {
   if (!clients_.count(id)) return;
   for (auto it = event_connections_.begin(); it != event_connections_.end();)
     it = it->second.client == id ? event_connections_.erase(it) : std::next(it);
+  called_services_.erase(id);
   std::vector<Id> published, subscribed, provided;
   for (const auto& [topic_id, topic] : topics_)
     if (topic.publisher == id) published.push_back(topic_id);
@@ -391,6 +392,11 @@ void Registry::unregister_service(Id client, Id id, Outbox& out) {
   auto message = protocol::Message::notification(method::service_gone);
   message.set("name", name);
   notify_all_clients(message, out);
+  if (service_loggers_.erase(name) > 0) {
+    auto gone = protocol::Message::notification(method::del_service_logger);
+    gone.set("logger_service", name);
+    notify_all_clients(gone, out);
+  }
 }
 
 const Service& Registry::service_named(const std::string& name) const {
@@ -481,6 +487,61 @@ void Registry::send_event(const EventConnection& connection, const ResourceEvent
       .set("data", flatten_resource_event(event))
       .set("signature", connection.interface + ": " + std::string(kResourceEventSignature));
   out.push_back({connection.client, std::move(message)});
+}
+
+// --------------------------------------------------------- service logging
+
+void Registry::register_service_logger(Id client, const std::string& logger_service, const std::string& patterns,
+                                       Outbox& out) {
+  const auto found = service_names_.find(logger_service);
+  require(found != service_names_.end() && services_.at(found->second).provider == client, LNE_SVC_NOT_REGISTERED,
+          "'" + logger_service + "' is not a service of yours: register it before making it a service logger");
+  const std::string interface = split_name_and_hash(services_.at(found->second).interface).first;
+  require(interface == "ln/log_service", LNE_INVALID_PARAMETER,
+          "service logger '" + logger_service + "' has interface '" + interface + "', not ln/log_service");
+  require(patterns.size() <= max_signature_size, LNE_INVALID_PARAMETER, "the logger's patterns are too long");
+  ServiceLogger logger{client, {}};
+  for (std::size_t start = 0; start <= patterns.size();) {
+    const std::size_t comma = std::min(patterns.find(',', start), patterns.size());
+    logger.patterns.push_back(patterns.substr(start, comma - start));
+    start = comma + 1;
+  }
+  if (service_loggers_.count(logger_service) > 0) {  // new patterns: the clients start over
+    auto gone = protocol::Message::notification(method::del_service_logger);
+    gone.set("logger_service", logger_service);
+    notify_all_clients(gone, out);
+  }
+  service_loggers_[logger_service] = std::move(logger);
+  auto tell = [&](Id other, const std::string& service) {
+    const std::vector<std::string> loggers = loggers_of(service, other);
+    if (std::find(loggers.begin(), loggers.end(), logger_service) == loggers.end()) return;
+    auto message = protocol::Message::notification(method::add_service_logger);
+    message.set("service", service).set("logger_service", logger_service);
+    out.push_back({other, std::move(message)});
+  };
+  for (const auto& entry : services_) tell(entry.second.provider, entry.second.name);
+  for (const auto& [caller, services] : called_services_)
+    for (const std::string& service : services) tell(caller, service);
+}
+
+std::vector<std::string> Registry::loggers_of(const std::string& service, Id client) const {
+  std::vector<std::string> loggers;
+  for (const auto& [name, logger] : service_loggers_) {
+    if (logger.client == client || name == service) continue;  // LN 2.9: no logging of one's own calls
+    bool excluded = false, included = false;
+    for (const std::string& pattern : logger.patterns) {
+      if (!pattern.empty() && pattern[0] == '!')
+        excluded = excluded || glob_match(pattern.substr(1), service);
+      else
+        included = included || glob_match(pattern, service);
+    }
+    if (included && !excluded) loggers.push_back(name);
+  }
+  return loggers;
+}
+
+void Registry::note_caller(Id client, const std::string& service) {
+  if (clients_.count(client) > 0) called_services_[client].insert(service);
 }
 
 }  // namespace ln::manager

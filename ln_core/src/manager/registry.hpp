@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -97,6 +98,14 @@ struct EventConnection {
   ResourceFilter filter;
 };
 
+/// A service logger: a service of `client` (interface ln/log_service) that
+/// callers and providers of the services its patterns match send copies of
+/// requests and responses to.
+struct ServiceLogger {
+  Id client = 0;
+  std::vector<std::string> patterns;  ///< fnmatch patterns; "!pattern" excludes
+};
+
 struct SubscribeRequest {
   std::string topic;
   std::string definition;  ///< may carry "|hash"; "" = whatever the topic uses
@@ -173,6 +182,19 @@ class Registry {
                                        const std::string& connect_data, const std::string& handler, Outbox& out);
   void disconnect_event(Id client, Id connection);
 
+  // ----------------------------------------------------- service logging
+  /// ln_register_as_service_logger(): `logger_service` must be a service of
+  /// `client` (LNE_SVC_NOT_REGISTERED) with interface ln/log_service.
+  /// Patterns are comma-separated (LN 2.9). Tells the other clients about
+  /// the services they provide or call that it logs (add_service_logger).
+  void register_service_logger(Id client, const std::string& logger_service, const std::string& patterns,
+                               Outbox& out);
+  /// The loggers that get copies of `service`'s calls from `client`: every
+  /// logger of another client whose patterns match (never the logger itself).
+  std::vector<std::string> loggers_of(const std::string& service, Id client) const;
+  /// `client` calls `service` (lookup_service): it hears of loggers added later.
+  void note_caller(Id client, const std::string& service);
+
   // ------------------------------------------------------- introspection
   const std::map<Id, Client>& clients() const { return clients_; }
   const std::map<Id, Topic>& topics() const { return topics_; }
@@ -207,6 +229,8 @@ class Registry {
   std::map<Id, Service> services_;
   std::map<std::string, Id> service_names_;
   std::map<Id, EventConnection> event_connections_;
+  std::map<std::string, ServiceLogger> service_loggers_;  // by logger service name
+  std::map<Id, std::set<std::string>> called_services_;   // by client
 };
 
 }  // namespace ln::manager
