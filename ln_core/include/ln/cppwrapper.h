@@ -402,8 +402,9 @@ class client {
   /// Allows set-up calls from several threads (see ln_client_set_thread_safe()).
   void set_thread_safe(bool enable);
 
-  /// Forwards calls of services matching the comma-separated patterns to
-  /// a logger service this client provides.
+  /// Makes a service this client provides (ln/log_service) the logger of
+  /// the services matching the comma-separated patterns (see
+  /// ln_register_as_service_logger()).
   void register_as_service_logger(std::string logger_service_name,
                                   std::string service_name_patterns_to_log);
   /// Sets a tuning parameter of the client library.

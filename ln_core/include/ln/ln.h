@@ -753,10 +753,17 @@ LN_API int ln_get_service_signature_for_service(ln_client clnt, const char* serv
 /** Names of the registered services with the given interface, separated
     by newlines ("" if none), as one malloc()ed string (the caller frees). */
 LN_API int ln_client_find_services_with_interface(ln_client clnt, const char* interface_name, char** services);
-/** Makes the manager forward every call of services matching the
-    comma-separated name patterns to the logger service
-    @p logger_service_name (interface ln/log_service), which must be a
-    service this client provides. */
+/** Makes @p logger_service_name, a service this client provides with
+    interface ln/log_service (else -LNE_SVC_NOT_REGISTERED /
+    -LNE_INVALID_PARAMETER), a service logger: callers and providers in
+    other clients of every service whose name matches the comma-separated
+    fnmatch patterns ("!pattern" excludes; the logger itself never) send it
+    an ln/log_service item for each request sent (item_type 0) and each
+    response sent (item_type 1), filled as LN 2.9 fills them (data: the
+    request or response as LN 2.9 puts it on the wire; client_id and
+    request_id pair the two items of a call). Unlike LN 2.9 the logged calls
+    never wait for the logger: items are queued (at most 10000 per client)
+    and sent by a library thread. Kept across manager restarts. */
 LN_API int ln_register_as_service_logger(ln_client clnt, const char* logger_service_name,
                                          const char* service_name_patterns_to_log);
 

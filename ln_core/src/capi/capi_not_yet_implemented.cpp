@@ -8,7 +8,6 @@
 
 extern "C" {
 
-int ln_register_as_service_logger(ln_client clnt, const char* logger_service_name, const char* service_name_patterns_to_log) { return -LNE_NOT_YET_IMPLEMENTED; }
 int ln_client_get_logger(ln_client clnt, ln_logger* logger, const char* logger_name) { return -LNE_NOT_YET_IMPLEMENTED; }
 int ln_logger_add_topic(ln_logger logger, const char* topic_name, unsigned int log_size, unsigned int divisor) { return -LNE_NOT_YET_IMPLEMENTED; }
 int ln_logger_add_topic64(ln_logger logger, const char* topic_name, uint64_t log_size, unsigned int divisor) { return -LNE_NOT_YET_IMPLEMENTED; }

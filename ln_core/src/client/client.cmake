@@ -32,6 +32,7 @@ add_library(ln_client_objects OBJECT
   ${LN_CLIENT_DIR}/peer.cpp
   ${LN_CLIENT_DIR}/ports.cpp
   ${LN_CLIENT_DIR}/remote.cpp
+  ${LN_CLIENT_DIR}/service_logging.cpp
   ${LN_CLIENT_DIR}/services_glue.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_client.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_definitions.cpp
@@ -93,6 +94,7 @@ if(BUILD_TESTING)
     add_executable(ln_client_tests
       ${LN_CLIENT_DIR}/client_test.cpp
       ${LN_CLIENT_DIR}/events_test.cpp
+      ${LN_CLIENT_DIR}/service_logging_test.cpp
       ${LN_CLIENT_DIR}/topics_test.cpp)
     target_link_libraries(ln_client_tests PRIVATE ln ln_manager_core GTest::gtest GTest::gtest_main)
     target_include_directories(ln_client_tests PRIVATE ${LN_CLIENT_SRC_DIR})

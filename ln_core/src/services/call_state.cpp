@@ -42,11 +42,19 @@ struct CallerConnection {
   // once (EPIPE) instead of vanishing, as it can over TCP.
   const bool local;
   frames::FrameAssembler assembler;  // used by the one call in flight
-  std::uint32_t next_request_id = 1;
   std::atomic<bool> broken{false};
 };
 
 namespace {
+
+// Request ids are unique per process, not only per connection: with the
+// caller's client id they name a call in service logs (as LN 2.9's do).
+std::uint32_t new_request_id() {
+  static std::atomic<std::uint32_t> last{0};
+  std::uint32_t id = last.fetch_add(1, std::memory_order_relaxed) + 1;
+  if (id == 0) id = last.fetch_add(1, std::memory_order_relaxed) + 1;  // 0 is never an id
+  return id;
+}
 
 std::string describe(const io::Result& r, const char* while_doing) {
   switch (r.outcome) {
@@ -507,13 +515,14 @@ int ServiceCaller::run_call(void* data, std::string_view flat_request, double ti
   std::shared_ptr<CallerConnection> connection;
   std::uint32_t request_id = 0;
   io::Result r;
-  const bool logging = log_ && log_->enabled();
+  bool logging = false;
   double started = 0;
   for (bool first_attempt = true;; first_attempt = false) {
     bool fresh = false;
     rc = ensure_connection(connection, first_attempt, fresh);
     if (rc != 0) return rc;
-    request_id = connection->next_request_id++;
+    logging = log_ && log_->enabled();  // a new connection's lookup may have just named the loggers
+    request_id = new_request_id();
     frames::write_request_head(frame_.data(), head_for(*connection, request_id),
                                frame_.size() - frames::request_overhead);
     if (logging) started = wall_clock_seconds();
@@ -604,7 +613,7 @@ int ServiceCaller::start_async(void* data, std::string_view flat_request, AsyncC
   bool fresh = false;
   rc = ensure_connection(connection, false, fresh);
   if (rc != 0) return rc;
-  const std::uint32_t request_id = connection->next_request_id++;
+  const std::uint32_t request_id = new_request_id();
   frames::write_request_head(async_->frame_.data(), head_for(*connection, request_id),
                              async_->frame_.size() - frames::request_overhead);
   // Logged when started: the reactor may still be sending the tail of a big one.
