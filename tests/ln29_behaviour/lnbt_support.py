@@ -32,8 +32,8 @@ REPO_ROOT = HERE.parent.parent
 PROGRAMS_DIR = HERE / "programs"
 MSGDEFS_DIR = HERE / "msgdefs"
 OUR_SOURCE_INCLUDE_DIR = REPO_ROOT / "ln_core" / "include"
-PROGRAMS = ("lnbt_probe", "lnbt_publisher", "lnbt_subscriber", "lnbt_services", "lnbt_dsa", "lnbt_shm", "lnbt_events")
-MESSAGES = ("lnbt/counter", "lnbt/other", "lnbt/echo", "ln/resource_event", "ln/event/call")
+PROGRAMS = ("lnbt_probe", "lnbt_publisher", "lnbt_subscriber", "lnbt_services", "lnbt_dsa", "lnbt_shm", "lnbt_events", "lnbt_service_logger")
+MESSAGES = ("lnbt/counter", "lnbt/other", "lnbt/echo", "ln/resource_event", "ln/event/call", "ln/log_service")
 
 IN_CI = bool(os.environ.get("CI"))
 #: Marks the environment of every process of this run, so that the LN 2.9
