@@ -33,8 +33,10 @@ REPO_ROOT = HERE.parent.parent
 PROGRAMS_DIR = HERE / "programs"
 MSGDEFS_DIR = HERE / "msgdefs"
 OUR_SOURCE_INCLUDE_DIR = REPO_ROOT / "ln_core" / "include"
-PROGRAMS = ("lnbt_probe", "lnbt_publisher", "lnbt_subscriber", "lnbt_services", "lnbt_parameters", "lnbt_logger")
-MESSAGES = ("lnbt/counter", "lnbt/other", "lnbt/echo", "ln/parameters/query", "ln/parameters/query_dict")
+PROGRAMS = ("lnbt_probe", "lnbt_publisher", "lnbt_subscriber", "lnbt_services", "lnbt_parameters", "lnbt_logger",
+            "lnbt_dsa", "lnbt_shm", "lnbt_events", "lnbt_service_logger")
+MESSAGES = ("lnbt/counter", "lnbt/other", "lnbt/echo", "ln/parameters/query", "ln/parameters/query_dict",
+            "ln/resource_event", "ln/event/call", "ln/log_service")
 
 IN_CI = bool(os.environ.get("CI"))
 #: Marks the environment of every process of this run, so that the LN 2.9

@@ -402,8 +402,9 @@ class client {
   /// Allows set-up calls from several threads (see ln_client_set_thread_safe()).
   void set_thread_safe(bool enable);
 
-  /// Forwards calls of services matching the comma-separated patterns to
-  /// a logger service this client provides.
+  /// Makes a service this client provides (ln/log_service) the logger of
+  /// the services matching the comma-separated patterns (see
+  /// ln_register_as_service_logger()).
   void register_as_service_logger(std::string logger_service_name,
                                   std::string service_name_patterns_to_log);
   /// Sets a client setting (see ln_client_set_float_parameter()); throws
@@ -891,7 +892,8 @@ class logger_data {
 /// signature. Throws std::runtime_error on failure.
 std::string dsa_dss1_sign_message(const std::string& pem_private_key_filename, const std::string& message);
 /// True if @p signature is valid for @p message and the OpenSSH public key
-/// file; throws std::runtime_error on other failures.
+/// file, false if it is not (LN 2.9 throws then); throws std::runtime_error
+/// when the key cannot be read.
 bool dsa_dss1_verify_message_signature(const std::string& openssh_public_key_filename,
                                        const std::string& message, const std::string& signature);
 /// As dsa_dss1_verify_message_signature() with the key given as text.

@@ -1209,7 +1209,9 @@ namespace detail {
 
 inline bool verify_dsa_signature(int ret, const char* function) {
   if (ret == 0) return true;
-  if (ret == -LNE_INVALID_SIGNATURE) return false;
+  // ln_dsa_dss1_verify_*() answer -LNE_INVALID_DSA_SIGNATURE (LN 2.9's
+  // wrapper expects -LNE_INVALID_SIGNATURE and so throws for a wrong one).
+  if (ret == -LNE_INVALID_DSA_SIGNATURE || ret == -LNE_INVALID_SIGNATURE) return false;
   throw_dsa_failure(function, ret);
 }
 

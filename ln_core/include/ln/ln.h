@@ -759,10 +759,17 @@ LN_API int ln_get_service_signature_for_service(ln_client clnt, const char* serv
 /** Names of the registered services with the given interface, separated
     by newlines ("" if none), as one malloc()ed string (the caller frees). */
 LN_API int ln_client_find_services_with_interface(ln_client clnt, const char* interface_name, char** services);
-/** Makes the manager forward every call of services matching the
-    comma-separated name patterns to the logger service
-    @p logger_service_name (interface ln/log_service), which must be a
-    service this client provides. */
+/** Makes @p logger_service_name, a service this client provides with
+    interface ln/log_service (else -LNE_SVC_NOT_REGISTERED /
+    -LNE_INVALID_PARAMETER), a service logger: callers and providers in
+    other clients of every service whose name matches the comma-separated
+    fnmatch patterns ("!pattern" excludes; the logger itself never) send it
+    an ln/log_service item for each request sent (item_type 0) and each
+    response sent (item_type 1), filled as LN 2.9 fills them (data: the
+    request or response as LN 2.9 puts it on the wire; client_id and
+    request_id pair the two items of a call). Unlike LN 2.9 the logged calls
+    never wait for the logger: items are queued (at most 10000 per client)
+    and sent by a library thread. Kept across manager restarts. */
 LN_API int ln_register_as_service_logger(ln_client clnt, const char* logger_service_name,
                                          const char* service_name_patterns_to_log);
 
@@ -880,9 +887,22 @@ LN_API int ln_logger_data_get_topic(ln_logger_data logger_data, unsigned int top
 /* ======================================================================== */
 /**@{*/
 
+/* Events, as LN 2.9 has them. Connecting to event NAME registers the
+   handler service "NAME.<client name>" (interface ln/event/call) in the
+   client's default service group; whoever emits the event calls that
+   service with the flat call data and "<definition>: <call signature>", so
+   the handler runs in the thread that handles the default group
+   (ln_wait_and_handle_service_group_requests() or a thread pool), one event
+   at a time. The ln_manager emits "ln.resource_event" (definition
+   ln/resource_event): connect with four fnmatch patterns (event, name, md,
+   client) to hear of service providers, topic publishers and subscribers
+   coming and going, after an initial sync ending with "initial_sync_done".
+   Other "ln.*" names fail with -LNE_REQUEST_FAILED; events with other names
+   need no manager: a program emits them by calling the handler service. */
+
 /** Subscription to an event source. */
 typedef void* ln_event_connection;
-/** One event being delivered. */
+/** One event being delivered (valid during the handler). */
 typedef void* ln_event_call;
 
 /** Receives an event; runs in the thread that handles the client's default
@@ -890,8 +910,11 @@ typedef void* ln_event_call;
 typedef void (*ln_event_handler)(ln_client clnt, ln_event_call call, void* user_data);
 
 /** Connects to an event source.
-    @param connect_signature the generated *_CONNECT_SIGNATURE.
-    @param connect_data the generated *_connect_t struct (filters). */
+    @param connect_signature the generated *_CONNECT_SIGNATURE
+           ("<definition>: <signature>"; else -LNE_INVALID_SIGNATURE).
+    @param connect_data the generated *_connect_t struct (filters).
+    @return 0, -LNE_REQUEST_FAILED when this client is connected to the
+            event already or the manager refuses (ln_get_error_message()). */
 LN_API int ln_event_connect(ln_client clnt, ln_event_connection* conn, const char* event_name,
                             const char* connect_signature, void* connect_data,
                             ln_event_handler handler, void* user_data);
@@ -900,14 +923,18 @@ LN_API int ln_event_connect_flat(ln_client clnt, ln_event_connection* conn, cons
                                  const char* connect_signature, void* connect_data_flat,
                                  uint32_t connect_data_flat_len, ln_event_handler handler,
                                  void* user_data);
-/** Disconnects and releases; sets *conn to NULL. */
+/** Disconnects (no event reaches the handler afterwards) and releases; sets
+    *conn to NULL. */
 LN_API int ln_event_connection_deinit(ln_event_connection* conn);
-/** Client-unique id of a connection. */
+/** The connection's id, unique per client from 1 (LN 2.9 gives 0 to every
+    connection to an event that is not "ln.*"). */
 LN_API unsigned int ln_event_connection_get_id(ln_event_connection conn);
 /** Unpacks an event into @p call_data (the generated *_call_t struct);
-    @p call_signature is the generated *_CALL_SIGNATURE. */
+    @p call_signature is the generated *_CALL_SIGNATURE and must be the one
+    the event came with (else -LNE_SVC_REQ_SET_DATA_WRONG); malformed event
+    data: -LNE_SVC_RECV_REQ. Dynamic fields point into the call's memory. */
 LN_API int ln_event_call_set_data(ln_event_call call, const char* call_signature, void* call_data);
-/** Raw event bytes (belong to the call). */
+/** The event's flat call data (belongs to the call). */
 LN_API int ln_event_call_get_buffer(ln_event_call call, void** ptr, uint32_t* len);
 
 /**@}*/
@@ -928,27 +955,37 @@ LN_API int ln_event_call_get_buffer(ln_event_call call, void** ptr, uint32_t* le
             expose to others are a different thing: ln/parameters_c.h.) */
 LN_API int ln_client_set_float_parameter(ln_client clnt, const char* name, float value);
 
-/** Build features of the shared-memory implementation (LN 2.9 diagnostics);
-    each output is 0 or 1. */
+/** Features of the shared-memory implementation (LN 2.9 diagnostics), each
+    0 or 1: blocking reads sleep in futex(2) (1 on Linux), and the library
+    was built against glibc 2.25 or later. NULL outputs are skipped. */
 LN_API void ln_get_v16_features(unsigned int* is_with_sys_futex, unsigned int* is_glibc_atleast_2_25);
 
-/** Signs a message with a DSA private key (PEM file), as used to
-    authenticate with daemons. @p *signature_out is malloc()ed; the caller
-    frees it. */
+/** DSA signatures with SHA-1 ("DSS1"; OpenSSL's libcrypto does the work),
+    interchangeable with LN 2.9's: keys in its files (a traditional PEM
+    "BEGIN DSA PRIVATE KEY" file, an OpenSSH "ssh-dss ..." public key line),
+    signatures DER-encoded. These functions return 0 on success, else
+    -LNE_CHECK_ERRNO when a file cannot be read or written (errno says why;
+    EINVAL: not a DSA key in the expected format), -LNE_INVALID_PARAMETER for
+    a NULL argument.
+    Signs @p message with the private key; @p *signature_out is malloc()ed,
+    the caller frees it. */
 LN_API int ln_dsa_dss1_sign_message(const char* pem_private_key_filename, const uint8_t* message,
                                     unsigned int message_len, uint8_t** signature_out,
                                     unsigned int* signature_out_len);
 /** Verifies a signature against an OpenSSH public key file.
-    @return 0 valid, -LNE_INVALID_SIGNATURE invalid, other < 0 on error. */
+    @return 0 valid, -LNE_INVALID_DSA_SIGNATURE when it does not verify (also
+    when it is no DER signature at all), other < 0 on error. */
 LN_API int ln_dsa_dss1_verify_message_signature(const char* openssh_public_key_filename,
                                                 const uint8_t* message, unsigned int message_len,
                                                 const uint8_t* signature, unsigned int signature_len);
-/** As ln_dsa_dss1_verify_message_signature() with the key given as text. */
+/** As ln_dsa_dss1_verify_message_signature() with the key line given as text
+    (a trailing comment is allowed). */
 LN_API int ln_dsa_dss1_verify_message_signature_memkey(const char* openssh_public_key_contents,
                                                        const uint8_t* message, unsigned int message_len,
                                                        const uint8_t* signature,
                                                        unsigned int signature_len);
-/** Writes a new DSA key pair: PEM private key and OpenSSH public key. */
+/** Writes a new 1024-bit DSA key pair: the PEM private key (mode 0600) and
+    the OpenSSH public key; existing files are replaced atomically. */
 LN_API int ln_dsa_dss1_generate_key_pair(const char* pem_private_key_filename,
                                          const char* openssh_public_key_filename);
 
@@ -956,8 +993,26 @@ LN_API int ln_dsa_dss1_generate_key_pair(const char* pem_private_key_filename,
 
 /* ======================================================================== */
 /** @name Low-level shared-memory rings
-    Used by the daemons and tools; programs use ports instead. These return 0
-    on success; on failure see errno. */
+    Named segments (/dev/shm/NAME) in LN 2.9's byte layout, shared by name
+    between processes; topics do not use them (ports do that for you).
+    Either side creates the segment (create_*: replaces one of that name;
+    version 0..3, n_elements >= 1), the other opens it (open_*); close_*
+    detaches, destroy_* also removes the name. A target writes packets of up
+    to element_size bytes (get_next_buffer_from_shm_target() + a write with
+    data NULL writes in place); a source reads them in order, each once,
+    only those written after it attached; a reader that fell n_elements or
+    more behind continues with the oldest packet still in the ring.
+    read_last_from_shm_source() returns the newest packet again and again.
+    Reads return 1 (a packet: the timestamp, the packet's number in
+    *packet_counter and min(len, element_size) bytes), 0 (none; after a wait
+    that timed out errno is ETIMEDOUT), -2 when unblock_shm_source() ended
+    the wait. Version-3 segments interoperate with LN 2.9 processes in both
+    directions (versions 0..2 only among ln_core processes). Other failures
+    are < 0 with errno set: -1 (-LNE_CHECK_ERRNO) for system errors (ENOENT
+    ...), -LNE_INVALID_SHM_MAGIC, -LNE_SHM_VERSION_TOO_NEW,
+    -LNE_WRONG_SHM_SIZE, -LNE_SHM_NAME_TOO_LONG, -LNE_PACKET_TOO_LARGE,
+    -LNE_INVALID_PARAMETER (NULL or stale handles, no elements). One writer
+    at a time; the packet counter passed to reads is only written. */
 /* ======================================================================== */
 /**@{*/
 
@@ -975,6 +1030,8 @@ LN_API int create_shm_source(shm_source_t*, const char* name, unsigned int eleme
                              unsigned int version);
 LN_API int destroy_shm_source(shm_source_t*);
 LN_API int open_shm_source(shm_source_t*, const char* name);
+/** The newest packet's number (0: none yet). Takes the handle or, as LN
+    2.9's library does, the handle itself cast to shm_source_t*. */
 LN_API int shm_source_get_last_counter(shm_source_t* source_, uint32_t* counter);
 LN_API int close_shm_source(shm_source_t*);
 LN_API int read_from_shm_source(shm_source_t, double* ts, uint32_t* packet_counter, void* data, unsigned int len,
@@ -983,6 +1040,9 @@ LN_API int read_from_shm_source_timeout(shm_source_t, double* ts, uint32_t* pack
                                         unsigned int len, double timeout);
 LN_API int read_last_from_shm_source(shm_source_t, double* ts, uint32_t* packet_counter, void* data,
                                      unsigned int len);
+/** Waits until the segment's newest packet number differs from
+    *packet_counter (timeout < 0: no limit), stores it there and counts it as
+    read: 1, 0 (timeout, errno ETIMEDOUT) or -2 (unblocked). */
 LN_API int block_only_on_shm_source(shm_source_t source_, uint32_t* packet_counter, double timeout);
 LN_API int unblock_shm_source(shm_source_t source_);
 

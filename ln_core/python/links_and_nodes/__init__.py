@@ -13,7 +13,8 @@ client.wait_for_service(), client.set_*_availability_handler(),
 client.list_topics()/list_clients()/list_services()/get_manager_status()
 (introspection: topic_info, client_info, service_info, manager_status),
 client.list_processes()/control_process()/get_process_output() (the
-manager's processes: process_info, process_output), client.close() and typed errors (LNError with .code, FieldError).
+manager's processes: process_info, process_output),
+event_connection_wrapper.id/disconnect(), client.close() and typed errors (LNError with .code, FieldError).
 """
 
 from . import _ln
@@ -23,6 +24,7 @@ from ._errors import ERROR_CODES, LNError, error_name  # noqa: F401
 from ._packets import FieldError, FieldTypeError, FieldValueError, Part as ln_packet_part  # noqa: F401
 from ._client import client, port_wrapper, multi_waiter, borrowed_packet  # noqa: F401
 from ._services import service_wrapper, request_wrapper, ServiceFuture, SVC_RESP_LATER  # noqa: F401
+from ._events import event_connection_wrapper  # noqa: F401
 from ._introspection import topic_info, client_info, service_info, manager_status  # noqa: F401
 from ._loggers import logger, logger_data, logger_topic_, logger_data_wrapper, topic_cursor_wrapper  # noqa: F401
 from ._parameters import parameters_proxy, ParameterBlock, ParameterSignal, ParameterOutputs  # noqa: F401
@@ -39,6 +41,8 @@ LN_MANAGER_CLIENT_ID = 0xFFFFFFFF
 RATE_ON_REQUEST_NEXT = -3
 
 get_time = _ln.get_time
+dsa_dss1_sign_message = _ln.dsa_dss1_sign_message
+dsa_dss1_generate_key_pair = _ln.dsa_dss1_generate_key_pair
 get_monotonic_time = _ln.get_monotonic_time
 format_error = _ln.format_error
 from ._packets import ctor_name as get_packet_ctor_name  # noqa: E402,F401

@@ -43,6 +43,7 @@ class client:
         self._compiler = Compiler()
         self._models = {}
         self._services = set()
+        self._event_connections = set()
         self._availability = {}
         _live_clients.add(self)
 
@@ -52,6 +53,8 @@ class client:
         for svc in list(self._services):
             svc._native.release()
         self._services.clear()
+        for connection in list(self._event_connections):
+            connection.disconnect()
         self._native.close()
 
     def __enter__(self):
@@ -289,8 +292,14 @@ class client:
         from ._parameters import ParameterBlock
         return ParameterBlock(self, parameter_group_name, always_publish, topic_name)
 
-    def connect_to_event(self, *args, **kwargs):
-        self._unsupported("client.connect_to_event()")
+    def connect_to_event(self, event_name, event_md, callback, **connect_args):
+        """Connects `callback(event)` to event `event_name` of definition
+        `event_md` ("": the interface of the service named `event_name`);
+        `connect_args` set the connect fields (for ln.resource_event: the
+        fnmatch patterns event_pattern, name_pattern, md_pattern and
+        client_pattern). See links_and_nodes._events."""
+        from ._events import event_connection_wrapper
+        return event_connection_wrapper(self, event_name, event_md, callback, connect_args)
 
 
 class port_wrapper:

@@ -1201,6 +1201,53 @@ class Service {
   static inline bool interruptible_ = true;
 };
 
+// ---------------------------------------------------------------- events
+
+// An event connection (ln_event_connect_flat): `callback(data)` gets each
+// event's flat call data in the thread that handles the client's default
+// service group, with the GIL; links_and_nodes/_events.py unpacks it.
+class EventConnection {
+ public:
+  EventConnection(Client& client, const std::string& name, const std::string& connect_signature,
+                  nb::bytes connect_flat, nb::object callback)
+      : state_(client.state()), callback_(std::move(callback)) {
+    Use use(*state_);
+    int ret;
+    {
+      nb::gil_scoped_release release;
+      ret = ln_event_connect_flat(state_->handle, &connection_, name.c_str(), connect_signature.c_str(),
+                                  const_cast<char*>(connect_flat.c_str()), static_cast<uint32_t>(connect_flat.size()),
+                                  &EventConnection::deliver, this);
+    }
+    if (ret < 0) fail(ret, "connect_to_event('" + name + "')", state_->handle);
+  }
+  ~EventConnection() { disconnect(); }
+
+  void disconnect() {
+    if (connection_ == nullptr) return;
+    nb::gil_scoped_release release;  // waits for a running handler, which needs the GIL
+    ln_event_connection_deinit(&connection_);
+  }
+  unsigned int id() const { return connection_ != nullptr ? ln_event_connection_get_id(connection_) : 0; }
+
+ private:
+  static void deliver(ln_client, ln_event_call call, void* self) {
+    void* data = nullptr;
+    uint32_t len = 0;
+    if (_Py_IsFinalizing() || ln_event_call_get_buffer(call, &data, &len) != 0) return;
+    nb::gil_scoped_acquire acquire;
+    try {
+      static_cast<EventConnection*>(self)->callback_(nb::bytes(static_cast<const char*>(data), len));
+    } catch (nb::python_error& error) {
+      error.discard_as_unraisable("links_and_nodes event callback");
+    }
+  }
+
+  StatePtr state_;
+  ln_event_connection connection_ = nullptr;
+  nb::object callback_;
+};
+
 }  // namespace
 }  // namespace lnpy
 
@@ -1240,6 +1287,33 @@ NB_MODULE(_ln, m) {
         "Whether Ctrl-C (SIGINT) aborts blocking service calls of the main thread (default True: SIGINT is "
         "chained to abort the call, then Python's handler runs).");
   m.def("interruptible_calls", &Service::interruptible);
+
+  // DSA helpers (LN 2.9's Python has these two): a failure names the file
+  // and, for file errors, errno's reason.
+  auto check_dsa = [](int ret, const std::string& what) {
+    if (ret == -LNE_CHECK_ERRNO) fail(ret, what + " (" + std::strerror(errno) + ")");
+    if (ret < 0) fail(ret, what);
+  };
+  m.def("dsa_dss1_sign_message",
+        [check_dsa](const std::string& key_file, nb::handle message) {
+          if (!PyBytes_Check(message.ptr())) throw nb::value_error("dsa_dss1_sign_message: message is not a bytes object");
+          uint8_t* signature = nullptr;
+          unsigned int length = 0;
+          check_dsa(ln_dsa_dss1_sign_message(key_file.c_str(), reinterpret_cast<const uint8_t*>(PyBytes_AS_STRING(message.ptr())),
+                                             static_cast<unsigned int>(PyBytes_GET_SIZE(message.ptr())), &signature, &length),
+                    "dsa_dss1_sign_message('" + key_file + "')");
+          nb::bytes out(reinterpret_cast<const char*>(signature), length);
+          std::free(signature);
+          return out;
+        },
+        "pem_private_key_file"_a, "message"_a, "The DSA/SHA-1 signature (DER) of `message` (bytes).");
+  m.def("dsa_dss1_generate_key_pair",
+        [check_dsa](const std::string& private_file, const std::string& public_file) {
+          check_dsa(ln_dsa_dss1_generate_key_pair(private_file.c_str(), public_file.c_str()),
+                    "dsa_dss1_generate_key_pair('" + private_file + "', '" + public_file + "')");
+        },
+        "pem_private_key_file"_a, "openssh_public_key_file"_a,
+        "Writes a new DSA key pair: PEM private key (mode 0600), OpenSSH public key.");
 
   m.def("model_from_sources",
         [](const std::string& name, const std::map<std::string, std::string>& sources) {
@@ -1291,6 +1365,12 @@ NB_MODULE(_ln, m) {
       .def("register_as_service_logger", &Client::register_as_service_logger)
       .def("set_availability_handler", &Client::set_availability_handler, "service"_a, "name"_a,
            "callback"_a.none());
+
+  nb::class_<EventConnection>(m, "EventConnection")
+      .def(nb::init<Client&, const std::string&, const std::string&, nb::bytes, nb::object>(), "client"_a,
+           "name"_a, "connect_signature"_a, "connect_flat"_a, "callback"_a)
+      .def("disconnect", &EventConnection::disconnect)
+      .def_prop_ro("id", &EventConnection::id);
 
   nb::class_<OutPort>(m, "OutPort")
       .def(nb::init<Client&, const std::string&, const std::string&, unsigned int>())

@@ -159,6 +159,7 @@ int ln_service_init(ln_client clnt, ln_service* svc, const char* service_name, c
     service->caller = std::make_unique<services::ServiceCaller>(
         service->signature, service->glue->connector(service->name, service->interface, signature),
         service->glue->reactor(), service->glue->limits(), service->glue->wait_policy(), service->name);
+    service->caller->set_call_log(service->glue->call_log(), service->interface);
     {
       std::lock_guard<std::mutex> lock(live_services_mutex());
       live_services().insert(service.get());
@@ -467,6 +468,19 @@ int ln_client_find_services_with_interface(ln_client clnt, const char* interface
       joined += name;
     }
     *services_out = malloc_copy(joined);
+    return 0;
+  });
+}
+
+int ln_register_as_service_logger(ln_client clnt, const char* logger_service_name,
+                                  const char* service_name_patterns_to_log) {
+  Client* client = client_from(clnt);
+  if (client == nullptr) return -LNE_CLIENT_NOT_INITIALIZED;
+  return guarded(client, [&] {
+    require(logger_service_name != nullptr, "logger_service_name");
+    require(service_name_patterns_to_log != nullptr, "service_name_patterns_to_log");
+    ServicesGlue::of(*client)->logging().register_logger(client->service_mapping().apply(logger_service_name),
+                                                         service_name_patterns_to_log);
     return 0;
   });
 }

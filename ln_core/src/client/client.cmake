@@ -22,6 +22,7 @@ add_library(ln_client_objects OBJECT
   ${LN_CLIENT_DIR}/client.cpp
   ${LN_CLIENT_DIR}/definitions.cpp
   ${LN_CLIENT_DIR}/event_loop.cpp
+  ${LN_CLIENT_DIR}/events.cpp
   ${LN_CLIENT_DIR}/failure.cpp
   ${LN_CLIENT_DIR}/launch_options.cpp
   ${LN_CLIENT_DIR}/logger_data.cpp
@@ -33,21 +34,24 @@ add_library(ln_client_objects OBJECT
   ${LN_CLIENT_DIR}/peer.cpp
   ${LN_CLIENT_DIR}/ports.cpp
   ${LN_CLIENT_DIR}/remote.cpp
+  ${LN_CLIENT_DIR}/service_logging.cpp
   ${LN_CLIENT_DIR}/services_glue.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_client.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_definitions.cpp
+  ${LN_CLIENT_SRC_DIR}/capi/capi_dsa.cpp
+  ${LN_CLIENT_SRC_DIR}/capi/capi_events.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_introspection.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_loggers.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_topics.cpp
   ${LN_CLIENT_SRC_DIR}/capi/capi_services.cpp
-  ${LN_CLIENT_SRC_DIR}/capi/capi_not_yet_implemented.cpp
+  ${LN_CLIENT_SRC_DIR}/capi/capi_shm.cpp
 )
 set_target_properties(ln_client_objects PROPERTIES
   POSITION_INDEPENDENT_CODE ON
   CXX_VISIBILITY_PRESET hidden
   VISIBILITY_INLINES_HIDDEN ON)
 target_include_directories(ln_client_objects PUBLIC ${LN_CLIENT_SRC_DIR} ${LN_CLIENT_ROOT_DIR}/include)
-target_link_libraries(ln_client_objects PUBLIC ln_md ln_protocol ln_transport ln_services Threads::Threads)
+target_link_libraries(ln_client_objects PUBLIC ln_md ln_protocol ln_transport ln_services ln_crypto Threads::Threads)
 ln_target_warnings(ln_client_objects)
 if(BUILD_TESTING)
   # Fault injection for the multi-host tests (remote.cpp, inert unless
@@ -63,7 +67,7 @@ set_target_properties(ln PROPERTIES
 target_include_directories(ln PUBLIC
   $<BUILD_INTERFACE:${LN_CLIENT_ROOT_DIR}/include>
   $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
-target_link_libraries(ln PRIVATE ln_md ln_protocol ln_transport ln_services Threads::Threads)
+target_link_libraries(ln PRIVATE ln_md ln_protocol ln_transport ln_services ln_crypto Threads::Threads)
 # Only ln.h's LN_API functions leave the library (libln.map; our code is also
 # compiled with hidden visibility), and anything unresolved is an error at
 # link time, not at a user's load time.
@@ -94,7 +98,9 @@ if(BUILD_TESTING)
     # The public API of libln.so against an in-process manager.
     add_executable(ln_client_tests
       ${LN_CLIENT_DIR}/client_test.cpp
+      ${LN_CLIENT_DIR}/events_test.cpp
       ${LN_CLIENT_DIR}/loggers_test.cpp
+      ${LN_CLIENT_DIR}/service_logging_test.cpp
       ${LN_CLIENT_DIR}/topics_test.cpp)
     target_link_libraries(ln_client_tests PRIVATE ln ln_manager_core GTest::gtest GTest::gtest_main)
     target_include_directories(ln_client_tests PRIVATE ${LN_CLIENT_SRC_DIR})

@@ -234,8 +234,8 @@ Client::~Client() {
     services.swap(services_);
     parts.swap(parts_);
   }
+  parts.clear();     // first: event delivery calls services
   services.reset();  // stops its threads; handlers may still use the client
-  parts.clear();
   std::lock_guard<std::mutex> lock(registry_mutex_);
   waiters_.clear();   // before the ports they look at
   outports_.clear();  // closes the segments: local subscribers see the publisher leave at once

@@ -128,7 +128,8 @@ class Client {
   /// (services_glue.hpp): `make`s it on first use. Released in ~Client once
   /// the I/O thread stopped and the manager link is closed.
   std::shared_ptr<void> services_state(const std::function<std::shared_ptr<void>()>& make);
-  /// The same for other parts of the library, by name (loggers: "loggers").
+  /// The same for other parts of the library, by name ("loggers", "events");
+  /// released before the services state, which they may use.
   std::shared_ptr<void> part_state(const std::string& part, const std::function<std::shared_ptr<void>()>& make);
 
  private:

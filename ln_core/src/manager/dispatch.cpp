@@ -68,6 +68,9 @@ Dispatcher::Dispatcher(Registry& registry, DefinitionStore& definitions, std::st
       {std::string(method::process_control), &Dispatcher::process_control},
       {std::string(method::process_output), &Dispatcher::process_output},
       {std::string(method::needs_provider), &Dispatcher::needs_provider},
+      {std::string(method::connect_event), &Dispatcher::connect_event},
+      {std::string(method::disconnect_event), &Dispatcher::disconnect_event},
+      {std::string(method::register_as_service_logger), &Dispatcher::register_as_service_logger},
   };
 }
 
@@ -232,7 +235,9 @@ Message Dispatcher::register_service(Session& session, const Message& request, O
   const Service& service =
       registry_.register_service(*session.client, request.get_string("name"), request.get_string("interface"),
                                  request.get_string("signature"), request.get_string_or("group", ""), out);
-  return Message::response_to(request).set("service_id", service.id);
+  return Message::response_to(request)
+      .set("service_id", service.id)
+      .set("log_services", registry_.loggers_of(service.name, *session.client));
 }
 
 Message Dispatcher::unregister_service(Session& session, const Message& request, Outbox& out) {
@@ -240,9 +245,10 @@ Message Dispatcher::unregister_service(Session& session, const Message& request,
   return Message::response_to(request);
 }
 
-Message Dispatcher::lookup_service(Session&, const Message& request, Outbox&) {
+Message Dispatcher::lookup_service(Session& session, const Message& request, Outbox&) {
   const Service& service = registry_.lookup_service(
       request.get_string("name"), request.get_string_or("interface", ""), request.get_string_or("signature", ""));
+  registry_.note_caller(*session.client, service.name);
   const Client& provider = registry_.client(service.provider);
   return Message::response_to(request)
       .set("interface", service.interface)
@@ -251,7 +257,8 @@ Message Dispatcher::lookup_service(Session&, const Message& request, Outbox&) {
       .set("host_id", provider.hello.host_id)
       .set("peer_socket", provider.hello.peer_socket)
       .set("peer_address", provider.hello.peer_address)
-      .set("service_id", service.id);
+      .set("service_id", service.id)
+      .set("log_services", registry_.loggers_of(service.name, *session.client));
 }
 
 Message Dispatcher::get_service_signature(Session&, const Message& request, Outbox&) {
@@ -366,6 +373,24 @@ Message Dispatcher::manager_status(Session&, const Message& request, Outbox&) {
       .set("topics", static_cast<std::int64_t>(registry_.topics().size()))
       .set("services", static_cast<std::int64_t>(registry_.services().size()))
       .set("message_definition_dirs", definitions_.search_dirs());
+}
+
+Message Dispatcher::connect_event(Session& session, const Message& request, Outbox& out) {
+  const EventConnection& connection =
+      registry_.connect_event(*session.client, request.get_string("name"), request.get_string("signature"),
+                              request.get_string("connect_data"), request.get_string("handler"), out);
+  return Message::response_to(request).set("event_connection_id", connection.id);
+}
+
+Message Dispatcher::disconnect_event(Session& session, const Message& request, Outbox&) {
+  registry_.disconnect_event(*session.client, get_id(request, "event_connection_id"));
+  return Message::response_to(request);
+}
+
+Message Dispatcher::register_as_service_logger(Session& session, const Message& request, Outbox& out) {
+  registry_.register_service_logger(*session.client, request.get_string("logger_service"),
+                                    request.get_string("patterns"), out);
+  return Message::response_to(request);
 }
 
 }  // namespace ln::manager

@@ -77,6 +77,9 @@ class Dispatcher {
   protocol::Message process_control(Session&, const protocol::Message&, Outbox&);
   protocol::Message process_output(Session&, const protocol::Message&, Outbox&);
   protocol::Message needs_provider(Session&, const protocol::Message&, Outbox&);
+  protocol::Message connect_event(Session&, const protocol::Message&, Outbox&);
+  protocol::Message disconnect_event(Session&, const protocol::Message&, Outbox&);
+  protocol::Message register_as_service_logger(Session&, const protocol::Message&, Outbox&);
 
   Registry& registry_;
   DefinitionStore& definitions_;

@@ -11,6 +11,7 @@ add_library(ln_manager_core STATIC
   ${LN_MANAGER_SOURCE_DIR}/config_objects.cpp
   ${LN_MANAGER_SOURCE_DIR}/definitions.cpp
   ${LN_MANAGER_SOURCE_DIR}/dispatch.cpp
+  ${LN_MANAGER_SOURCE_DIR}/events.cpp
   ${LN_MANAGER_SOURCE_DIR}/line_regex.cpp
   ${LN_MANAGER_SOURCE_DIR}/lnc_eval.cpp
   ${LN_MANAGER_SOURCE_DIR}/log_files.cpp
@@ -62,10 +63,12 @@ if(BUILD_TESTING)
     ${LN_MANAGER_SOURCE_DIR}/introspection_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/robustness_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/binary_test.cpp
-    ${LN_MANAGER_SOURCE_DIR}/sample_log_test.cpp
+    ${LN_MANAGER_SOURCE_DIR}/events_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/log_files_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/loggers_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/recorder_test.cpp
+    ${LN_MANAGER_SOURCE_DIR}/sample_log_test.cpp
+    ${LN_MANAGER_SOURCE_DIR}/service_loggers_test.cpp
   )
   target_link_libraries(manager_tests PRIVATE ln_manager_core GTest::gtest GTest::gtest_main)
   if(MATIO_FOUND)  # the MATLAB files are read back with libmatio

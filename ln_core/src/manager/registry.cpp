@@ -80,6 +80,9 @@ const Client& Registry::add_client(ClientHello hello) {
 
 void Registry::remove_client(Id id, Outbox& out) {
   if (!clients_.count(id)) return;
+  for (auto it = event_connections_.begin(); it != event_connections_.end();)
+    it = it->second.client == id ? event_connections_.erase(it) : std::next(it);
+  called_services_.erase(id);
   std::vector<Id> published, subscribed, provided;
   for (const auto& [topic_id, topic] : topics_)
     if (topic.publisher == id) published.push_back(topic_id);
@@ -162,6 +165,7 @@ const Topic& Registry::publish(Id client, const std::string& name, const std::st
   topic.segment_generation = 0;
   restart_packet_count(topic, 0);
   notify_publisher(topic, out);  // the publisher always learns the current subscribers first-hand
+  emit({"topic_new_publisher", topic.name, topic.definition, clients_.at(client).name}, out);
   return topic;
 }
 
@@ -190,6 +194,7 @@ void Registry::publisher_ready(Id client, Id id, std::int64_t segment_generation
 
 void Registry::unpublish(Id client, Id id, Outbox& out) {
   Topic& topic = owned_topic(client, id);
+  emit({"topic_del_publisher", topic.name, topic.definition, clients_.at(client).name}, out);
   const bool was_announced = topic.publisher_ready;
   topic.publisher.reset();
   topic.publisher_ready = false;
@@ -261,6 +266,7 @@ const Subscription& Registry::subscribe(Id client, const SubscribeRequest& reque
   subscription.receive_address = request.receive_address;
   topic->subscriptions.push_back(id);
   notify_publisher(*topic, out);
+  emit({"topic_new_subscriber", topic->name, topic->definition, clients_.at(client).name}, out);
   return subscription;
 }
 
@@ -274,6 +280,7 @@ void Registry::unsubscribe(Id client, Id id, Outbox& out) {
   topic.subscriptions.erase(std::remove(topic.subscriptions.begin(), topic.subscriptions.end(), id),
                             topic.subscriptions.end());
   notify_publisher(topic, out);
+  emit({"topic_del_subscriber", topic.name, topic.definition, clients_.at(client).name}, out);
   erase_topic_if_unused(topic_id);
 }
 
@@ -402,6 +409,7 @@ const Service& Registry::register_service(Id client, const std::string& name, co
   auto message = protocol::Message::notification(method::service_available);
   message.set("name", name).set("provider", clients_.at(client).name);
   notify_all_clients(message, out);
+  emit({"service_new_provider", name, split_name_and_hash(interface).first, clients_.at(client).name}, out);
   return service;
 }
 
@@ -410,11 +418,18 @@ void Registry::unregister_service(Id client, Id id, Outbox& out) {
   require(it != services_.end() && it->second.provider == client, LNE_SVC_NOT_REGISTERED,
           "you provide no service with id " + std::to_string(id));
   const std::string name = it->second.name;
+  emit({"service_del_provider", name, split_name_and_hash(it->second.interface).first, clients_.at(client).name},
+       out);
   service_names_.erase(name);
   services_.erase(it);
   auto message = protocol::Message::notification(method::service_gone);
   message.set("name", name);
   notify_all_clients(message, out);
+  if (service_loggers_.erase(name) > 0) {
+    auto gone = protocol::Message::notification(method::del_service_logger);
+    gone.set("logger_service", name);
+    notify_all_clients(gone, out);
+  }
 }
 
 const Service& Registry::service_named(const std::string& name) const {
@@ -448,6 +463,118 @@ std::vector<std::string> Registry::services_with_interface(const std::string& in
   for (const auto& [name, id] : service_names_)
     if (split_name_and_hash(services_.at(id).interface).first == wanted) names.push_back(name);
   return names;
+}
+
+// ------------------------------------------------------------------ events
+
+const EventConnection& Registry::connect_event(Id client, const std::string& name, const std::string& signature,
+                                               const std::string& connect_data, const std::string& handler,
+                                               Outbox& out) {
+  require(name == kResourceEventName, LNE_REQUEST_FAILED,
+          "unknown event '" + name + "': this manager provides '" + std::string(kResourceEventName) + "'");
+  const std::size_t colon = signature.find(": ");
+  require(colon != std::string::npos && colon > 0, LNE_INVALID_SIGNATURE,
+          "the connect signature must read '<definition>: <signature>', not '" + signature + "'");
+  const std::string interface = signature.substr(0, colon);
+  require(signature.compare(colon + 2, std::string::npos, kResourceEventSignature) == 0, LNE_INVALID_SIGNATURE,
+          "event '" + name + "' is connected with the four strings of ln/resource_event, not with '" +
+              signature.substr(colon + 2) + "'");
+  check_name(definition_name_problem(interface));
+  check_name(service_name_problem(handler));
+  ResourceFilter filter = parse_resource_filter(connect_data);
+  const Id id = ++last_id_;
+  EventConnection& connection = event_connections_[id];
+  connection = {id, client, handler, interface, std::move(filter)};
+  // What exists already, client by client: services, then published topics.
+  for (const auto& [client_id, provider] : clients_) {
+    for (const auto& entry : services_)
+      if (entry.second.provider == client_id)
+        send_event(connection, {"service_new_provider", entry.second.name,
+                                split_name_and_hash(entry.second.interface).first, provider.name},
+                   out);
+    for (const auto& entry : topics_)
+      if (entry.second.publisher == client_id)
+        send_event(connection, {"topic_new_publisher", entry.second.name, entry.second.definition, provider.name},
+                   out);
+  }
+  send_event(connection, {kInitialSyncDone, "", "", ""}, out);
+  return connection;
+}
+
+void Registry::disconnect_event(Id client, Id id) {
+  const auto it = event_connections_.find(id);
+  require(it != event_connections_.end() && it->second.client == client, LNE_INVALID_PARAMETER,
+          "you have no event connection with id " + std::to_string(id));
+  event_connections_.erase(it);
+}
+
+void Registry::emit(const ResourceEvent& event, Outbox& out) const {
+  for (const auto& entry : event_connections_) send_event(entry.second, event, out);
+}
+
+void Registry::send_event(const EventConnection& connection, const ResourceEvent& event, Outbox& out) const {
+  if (!filter_accepts(connection.filter, event)) return;
+  auto message = protocol::Message::notification(method::event);
+  message.set("event_connection_id", connection.id)
+      .set("handler", connection.handler)
+      .set("data", flatten_resource_event(event))
+      .set("signature", connection.interface + ": " + std::string(kResourceEventSignature));
+  out.push_back({connection.client, std::move(message)});
+}
+
+// --------------------------------------------------------- service logging
+
+void Registry::register_service_logger(Id client, const std::string& logger_service, const std::string& patterns,
+                                       Outbox& out) {
+  const auto found = service_names_.find(logger_service);
+  require(found != service_names_.end() && services_.at(found->second).provider == client, LNE_SVC_NOT_REGISTERED,
+          "'" + logger_service + "' is not a service of yours: register it before making it a service logger");
+  const std::string interface = split_name_and_hash(services_.at(found->second).interface).first;
+  require(interface == "ln/log_service", LNE_INVALID_PARAMETER,
+          "service logger '" + logger_service + "' has interface '" + interface + "', not ln/log_service");
+  require(patterns.size() <= max_signature_size, LNE_INVALID_PARAMETER, "the logger's patterns are too long");
+  ServiceLogger logger{client, {}};
+  for (std::size_t start = 0; start <= patterns.size();) {
+    const std::size_t comma = std::min(patterns.find(',', start), patterns.size());
+    logger.patterns.push_back(patterns.substr(start, comma - start));
+    start = comma + 1;
+  }
+  if (service_loggers_.count(logger_service) > 0) {  // new patterns: the clients start over
+    auto gone = protocol::Message::notification(method::del_service_logger);
+    gone.set("logger_service", logger_service);
+    notify_all_clients(gone, out);
+  }
+  service_loggers_[logger_service] = std::move(logger);
+  auto tell = [&](Id other, const std::string& service) {
+    const std::vector<std::string> loggers = loggers_of(service, other);
+    if (std::find(loggers.begin(), loggers.end(), logger_service) == loggers.end()) return;
+    auto message = protocol::Message::notification(method::add_service_logger);
+    message.set("service", service).set("logger_service", logger_service);
+    out.push_back({other, std::move(message)});
+  };
+  for (const auto& entry : services_) tell(entry.second.provider, entry.second.name);
+  for (const auto& [caller, services] : called_services_)
+    for (const std::string& service : services) tell(caller, service);
+}
+
+std::vector<std::string> Registry::loggers_of(const std::string& service, Id client) const {
+  std::vector<std::string> loggers;
+  for (const auto& [name, logger] : service_loggers_) {
+    if (logger.client == client || name == service) continue;  // LN 2.9: no logging of one's own calls
+    bool excluded = false, included = false;
+    for (const std::string& pattern : logger.patterns) {
+      if (!pattern.empty() && pattern[0] == '!')
+        excluded = excluded || glob_match(pattern.substr(1), service);
+      else
+        included = included || glob_match(pattern, service);
+    }
+    if (included && !excluded) loggers.push_back(name);
+  }
+  return loggers;
+}
+
+void Registry::note_caller(Id client, const std::string& service) {
+  if (clients_.count(client) > 0) called_services_[client].insert(service);
 }
 
 }  // namespace ln::manager

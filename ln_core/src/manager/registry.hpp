@@ -7,9 +7,11 @@
 #include <cstdint>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
+#include "manager/events.hpp"
 #include "protocol/wire.hpp"
 
 namespace ln::manager {
@@ -85,6 +87,23 @@ struct Service {
   std::string signature;
   std::string group;
   Id provider = 0;
+};
+
+/// A client's connection to ln.resource_event (events.hpp).
+struct EventConnection {
+  Id id = 0;
+  Id client = 0;
+  std::string handler;    ///< the client's service that receives the events
+  std::string interface;  ///< the definition named in the connect signature
+  ResourceFilter filter;
+};
+
+/// A service logger: a service of `client` (interface ln/log_service) that
+/// callers and providers of the services its patterns match send copies of
+/// requests and responses to.
+struct ServiceLogger {
+  Id client = 0;
+  std::vector<std::string> patterns;  ///< fnmatch patterns; "!pattern" excludes
 };
 
 struct SubscribeRequest {
@@ -165,6 +184,27 @@ class Registry {
   const Service& service_named(const std::string& name) const;
   std::vector<std::string> services_with_interface(const std::string& interface) const;
 
+  // -------------------------------------------------------------- events
+  /// Connects `client` to ln.resource_event (the only event there is;
+  /// others: LNE_REQUEST_FAILED) and queues the initial sync.
+  /// `signature` is "<definition>: <connect signature>".
+  const EventConnection& connect_event(Id client, const std::string& name, const std::string& signature,
+                                       const std::string& connect_data, const std::string& handler, Outbox& out);
+  void disconnect_event(Id client, Id connection);
+
+  // ----------------------------------------------------- service logging
+  /// ln_register_as_service_logger(): `logger_service` must be a service of
+  /// `client` (LNE_SVC_NOT_REGISTERED) with interface ln/log_service.
+  /// Patterns are comma-separated (LN 2.9). Tells the other clients about
+  /// the services they provide or call that it logs (add_service_logger).
+  void register_service_logger(Id client, const std::string& logger_service, const std::string& patterns,
+                               Outbox& out);
+  /// The loggers that get copies of `service`'s calls from `client`: every
+  /// logger of another client whose patterns match (never the logger itself).
+  std::vector<std::string> loggers_of(const std::string& service, Id client) const;
+  /// `client` calls `service` (lookup_service): it hears of loggers added later.
+  void note_caller(Id client, const std::string& service);
+
   // ------------------------------------------------------- introspection
   const std::map<Id, Client>& clients() const { return clients_; }
   const std::map<Id, Topic>& topics() const { return topics_; }
@@ -185,6 +225,9 @@ class Registry {
   static void restart_packet_count(Topic& topic, std::int64_t packets);
   void erase_topic_if_unused(Id topic);
   void notify_all_clients(const protocol::Message& message, Outbox& out) const;
+  /// `event` to every event connection whose filter accepts it.
+  void emit(const ResourceEvent& event, Outbox& out) const;
+  void send_event(const EventConnection& connection, const ResourceEvent& event, Outbox& out) const;
 
   DefinitionStore& definitions_;
   Id last_id_ = 0;
@@ -201,6 +244,9 @@ class Registry {
   };
   std::map<Id, Tap> taps_;
   void notify_publisher_of(const std::string& topic, Outbox& out) const;
+  std::map<Id, EventConnection> event_connections_;
+  std::map<std::string, ServiceLogger> service_loggers_;  // by logger service name
+  std::map<Id, std::set<std::string>> called_services_;   // by client
 };
 
 }  // namespace ln::manager

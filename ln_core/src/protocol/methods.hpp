@@ -91,13 +91,15 @@
 // unsubscribe      subscription_id (int) -> ok
 //
 // register_service     name, interface, signature (str), group (str)
-//   -> service_id (int)
+//   -> service_id (int), log_services (list: the service loggers that get
+//      copies of its responses, see register_as_service_logger)
 //   group is optional. The interface must be a valid definition name (may
 //   carry |hash); it is not resolved. A taken name -> LNE_SVC_ALREADY_REGISTERED.
 // unregister_service   service_id (int) -> ok  (not yours: LNE_SVC_NOT_REGISTERED)
 // lookup_service       name, interface (str, "" = any), signature (str)
 //   -> interface, signature, provider (str: client name), host_id,
-//      peer_socket, peer_address, service_id
+//      peer_socket, peer_address, service_id, log_services (list: the
+//      service loggers that get copies of the caller's requests)
 //   Unknown name -> LNE_NO_PROVIDER_FOUND. Interfaces are compared by name
 //   (hashes too when both carry one: LNE_WRONG_MD_HASH); signatures as
 //   strings, "" = not checked; mismatches -> LNE_REQUEST_FAILED.
@@ -108,6 +110,26 @@
 //   definition (get_service_signature) or the provider's registered one
 //   (..._for_service).
 // find_services_with_interface     interface (str) -> services (list, sorted)
+//
+// connect_event    name (str: "ln.resource_event", the only event there is),
+//                  signature (str: "<definition>: <connect signature>"),
+//                  connect_data (str: the flat connect section: four
+//                  fnmatch patterns), handler (str: the client's service,
+//                  interface ln/event/call, that receives the events)
+//   -> event_connection_id (int). Then the initial sync arrives as `event`
+//   notifications (manager/events.hpp). Other names -> LNE_REQUEST_FAILED;
+//   a signature that is not ln/resource_event's -> LNE_INVALID_SIGNATURE.
+//   Events other than ln.resource_event are not the manager's: their
+//   clients only register the handler service (the client library).
+// disconnect_event event_connection_id (int) -> ok
+//
+// register_as_service_logger  logger_service (str: a service of the client,
+//                  interface ln/log_service), patterns (str: comma-separated
+//                  fnmatch patterns of service names, "!pattern" excludes)
+//   -> ok. Callers and providers of matching services (of other clients;
+//   never the logger service itself) send it a copy of every request and
+//   response (ln/log_service; client/service_logging.hpp). Not a service
+//   of the client -> LNE_SVC_NOT_REGISTERED.
 //
 // list_clients / list_topics / list_services (no fields) -> introspection
 //   tables as parallel lists of strings, one entry per row (numbers in
@@ -227,6 +249,15 @@
 //   The publisher remembers, per local subscription id, its newest packet
 //   when the id first appeared (before the new count is visible to the
 //   program); open_segment answers with it.
+// event                event_connection_id (int), handler (str: the service
+//                      named at connect_event), data (str: the flat call
+//                      section of the event), signature (str: "<definition>:
+//                      <call signature>"). The client calls its handler
+//                      service with {data, signature}, one event at a time.
+// add_service_logger   service (str), logger_service (str): from now on
+//                      send copies of `service`'s calls (as caller or
+//                      provider) to logger_service
+// del_service_logger   logger_service (str): it is gone (or re-registered)
 // service_available    name (str), provider (str)   [for availability callbacks]
 // service_gone         name (str)
 //   Both go to every registered client (the provider too), for changes after
@@ -307,10 +338,16 @@ inline constexpr std::string_view process_list = "process_list";
 inline constexpr std::string_view process_control = "process_control";
 inline constexpr std::string_view process_output = "process_output";
 inline constexpr std::string_view needs_provider = "needs_provider";
+inline constexpr std::string_view connect_event = "connect_event";
+inline constexpr std::string_view disconnect_event = "disconnect_event";
+inline constexpr std::string_view register_as_service_logger = "register_as_service_logger";
 
 inline constexpr std::string_view publisher_available = "publisher_available";
 inline constexpr std::string_view publisher_gone = "publisher_gone";
 inline constexpr std::string_view subscribers_changed = "subscribers_changed";
+inline constexpr std::string_view event = "event";
+inline constexpr std::string_view add_service_logger = "add_service_logger";
+inline constexpr std::string_view del_service_logger = "del_service_logger";
 inline constexpr std::string_view service_available = "service_available";
 inline constexpr std::string_view service_gone = "service_gone";
 inline constexpr std::string_view topic_publisher_available = "topic_publisher_available";

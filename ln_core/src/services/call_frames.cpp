@@ -63,7 +63,7 @@ void write_request_head(char* out, const RequestHead& head, std::size_t body_siz
   write_prefix_and_kind(out, request_kind, header_size + body_size);
   store_le32(out + size_prefix + 4, head.service_id);
   store_le32(out + size_prefix + 8, head.request_id);
-  store_le32(out + size_prefix + 12, 0);
+  store_le32(out + size_prefix + 12, head.client_id);
 }
 
 std::size_t response_overhead(std::string_view text) {
@@ -84,6 +84,7 @@ Status parse_request(const Payload& payload, RequestHead& head) {
   if (!s.ok()) return s;
   head.service_id = load_le32(payload.data() + 4);
   head.request_id = load_le32(payload.data() + 8);
+  head.client_id = load_le32(payload.data() + 12);
   return {};
 }
 

@@ -8,7 +8,7 @@
 //
 //   frame    = u32 payload_size | payload         (the envelope of wire.hpp)
 //   request  = u8 0x10 | u8 version 1 | u16 0 | u32 service_id | u32 request_id
-//              | u32 0 | flat request                                     (caller -> provider)
+//              | u32 client_id | flat request                            (caller -> provider)
 //   response = u8 0x11 | u8 version 1 | u16 0 | u32 request_id | i32 result
 //              | u32 text_size | text | flat response                      (provider -> caller)
 //
@@ -16,7 +16,9 @@
 // 0: success, the flat response follows and text is empty; < 0: an LN error
 // (-LNE_*, e.g. -LNE_SVC_HANDLER_NO_RESP, -LNE_SVC_HANDLER_EXC); > 0: the
 // error code the provider's handler returned. `text` explains a failure
-// (may be empty). request_id counts per connection; a response answers the
+// (may be empty). client_id is the caller's id at the manager (0 if it does
+// not know it; service logging reports it). request_id counts per
+// connection; a response answers the
 // request with the same id. A caller that gives up on a call (timeout,
 // abort) closes the connection, which is how the provider learns that the
 // request was aborted; so there is no abort frame and never a late
@@ -99,6 +101,7 @@ class FrameBuffer {
 struct RequestHead {
   std::uint32_t service_id = 0;
   std::uint32_t request_id = 0;
+  std::uint32_t client_id = 0;
 };
 
 struct ResponseHead {

@@ -247,13 +247,17 @@ Request* provider_request(void* handle) {
 }
 
 Request::Request(std::shared_ptr<Provider> provider, std::shared_ptr<ProviderConnection> connection,
-                 std::uint32_t request_id, frames::Payload payload, const Limits& limits)
+                 const frames::RequestHead& head, frames::Payload payload, const Limits& limits,
+                 std::shared_ptr<CallLog> log)
     : RequestHandle(Side::Provider),
       provider_(std::move(provider)),
       connection_(std::move(connection)),
-      request_id_(request_id),
+      request_id_(head.request_id),
+      caller_id_(head.client_id),
       payload_(std::move(payload)),
-      limits_(limits) {}
+      limits_(limits),
+      log_(log && log->enabled() ? std::move(log) : nullptr),
+      arrived_(log_ ? wall_clock_seconds() : 0) {}
 
 std::string_view Request::request_data() const {
   return {payload_.data() + frames::header_size, payload_.size() - frames::header_size};
@@ -331,8 +335,30 @@ Status Request::send_frame(int result, std::string_view text, const void* host, 
     Status s = send_response(*connection_, request_id_, invalid_response.code(), reason, {}, nullptr, nullptr, 0);
     return s.ok() ? invalid_response : s;
   }
-  return send_response(*connection_, request_id_, result, text, flat, result == 0 && host ? &layout : nullptr, host,
-                       body_size);
+  if (!log_)
+    return send_response(*connection_, request_id_, result, text, flat, result == 0 && host ? &layout : nullptr, host,
+                         body_size);
+  // Logged: the flat response is made once, sent and reported.
+  std::string flattened;
+  if (result == 0 && host != nullptr) {
+    flattened.resize(body_size);
+    write_flat(layout, host, flattened.data());
+    flat = flattened;
+  }
+  CallLog::Item item;
+  item.service = provider_->name;
+  item.response = true;
+  item.caller_id = caller_id_;
+  item.request_id = request_id_;
+  item.result = result;
+  item.flat = result == 0 ? flat : std::string_view();
+  item.request_time = arrived_;
+  item.completion_time = wall_clock_seconds();
+  item.fd = connection_->fd;
+  const Status sent = send_response(*connection_, request_id_, result, text, flat, nullptr, nullptr, flat.size());
+  item.transfer_time = wall_clock_seconds() - item.completion_time;
+  if (sent.ok()) log_->record(item);
+  return sent;
 }
 
 void Request::handler_returned(int ret) {
@@ -642,7 +668,7 @@ void Dispatcher::handle_payload(const std::shared_ptr<ProviderConnection>& conne
                   0);
     return;
   }
-  run_handler(new Request(connection->provider, connection, head.request_id, std::move(payload), limits_));
+  run_handler(new Request(connection->provider, connection, head, std::move(payload), limits_, log_));
 }
 
 void Dispatcher::run_handler(Request* request) {

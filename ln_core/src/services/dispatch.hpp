@@ -54,6 +54,7 @@
 #include <vector>
 
 #include "services/call_frames.hpp"
+#include "services/call_log.hpp"
 #include "services/marshal.hpp"
 #include "services/request_handle.hpp"
 #include "services/signature.hpp"
@@ -110,7 +111,8 @@ class Request : public RequestHandle {
  private:
   friend class Dispatcher;
   Request(std::shared_ptr<Provider> provider, std::shared_ptr<ProviderConnection> connection,
-          std::uint32_t request_id, frames::Payload payload, const Limits& limits);
+          const frames::RequestHead& head, frames::Payload payload, const Limits& limits,
+          std::shared_ptr<CallLog> log);
   ~Request() = default;
   // Sends the one answer: `result` 0 with the flat form of `host` (or of
   // `flat` if host is null), else an error with `text`.
@@ -121,8 +123,11 @@ class Request : public RequestHandle {
   const std::shared_ptr<Provider> provider_;
   const std::shared_ptr<ProviderConnection> connection_;
   const std::uint32_t request_id_;
+  const std::uint32_t caller_id_;
   frames::Payload payload_;
   const Limits limits_;
+  const std::shared_ptr<CallLog> log_;  // set while service logging is on
+  double arrived_ = 0;                  // wall clock, when logging
   Arena arena_;
   void* data_ = nullptr;
 
@@ -146,6 +151,10 @@ class Dispatcher {
   Dispatcher& operator=(const Dispatcher&) = delete;
 
   // ---------------------------------------------------------------- providers
+
+  /// Service logging: providers report every response they send to `log`.
+  /// Set before the first provider is added.
+  void set_call_log(std::shared_ptr<CallLog> log) { log_ = std::move(log); }
 
   /// Makes `service_id` (the manager's id for the registered service)
   /// callable; `group_name` nullptr is the default group.
@@ -221,6 +230,7 @@ class Dispatcher {
   void pool_thread_main(ThreadPool* pool, PoolThread* self);
 
   void* const client_;
+  std::shared_ptr<CallLog> log_;
   const Limits limits_;
   const WaitPolicy wait_;
   mutable std::mutex mutex_;

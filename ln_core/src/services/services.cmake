@@ -18,7 +18,8 @@ add_library(ln_services STATIC
   ${LN_SERVICES_SOURCE_DIR}/call_frames.cpp
   ${LN_SERVICES_SOURCE_DIR}/socket_io.cpp
   ${LN_SERVICES_SOURCE_DIR}/dispatch.cpp
-  ${LN_SERVICES_SOURCE_DIR}/call_state.cpp)
+  ${LN_SERVICES_SOURCE_DIR}/call_state.cpp
+  ${LN_SERVICES_SOURCE_DIR}/call_log.cpp)
 set_target_properties(ln_services PROPERTIES POSITION_INDEPENDENT_CODE ON)
 target_compile_features(ln_services PUBLIC cxx_std_17)
 target_include_directories(ln_services PUBLIC $<BUILD_INTERFACE:${LN_SERVICES_INCLUDE_DIR}>)
