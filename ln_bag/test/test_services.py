@@ -5,8 +5,6 @@ import struct
 import time
 import types
 
-import pytest
-
 import links_and_nodes as ln
 from bag_readers import mcap_messages
 from cli_helpers import Providers, ok
@@ -63,24 +61,7 @@ def test_service_calls_go_to_request_and_response_channels(manager, unique, tmp_
     assert calls.counts == {service: 6}
 
 
-def _service_logging_or_skip():
-    """ln_core's manager-side service logging (ln_register_as_service_logger and the ln/log_service
-    definition, issue 14) is being written on another branch; until it is there, the end-to-end test
-    cannot run (the part of --services that is ln_bag's is tested above)."""
-    with ln.client("bag_service_logging_probe") as clnt:
-        try:
-            provider = clnt.get_service_provider("bag_probe.log_service", "ln/log_service")
-            provider.set_handler(lambda request, req, resp: 0)
-            provider.do_register("bag_probe")
-            clnt.register_as_service_logger("bag_probe.log_service", "*")
-        except ln.LNError as error:
-            if error.code == ln.LNE_NOT_YET_IMPLEMENTED or "ln/log_service' not found" in str(error):
-                pytest.skip("ln_core has no service logging yet: %s" % str(error).splitlines()[0])
-            raise
-
-
 def test_ln_record_services_records_every_call(manager, unique, tmp_path):
-    _service_logging_or_skip()
     service = "bag.%s.svc" % unique
     providers = Providers("bag_add_provider")
 
