@@ -5,7 +5,7 @@
 # fallback dependency scan. Checks that the generated headers exist, that the
 # consumer compiles and runs, that an unchanged build does not run
 # ln_generate again, and that touching a message definition regenerates
-# exactly the headers that depend on it. Also checks the argument errors of
+# exactly the headers that depend on it (ln_generate's depfile). Also checks the argument errors of
 # generate_ln_message_headers() and the package's variables, version files
 # and relocatability.
 #
@@ -64,9 +64,10 @@ build() {
   run ninja -C "$1/build" >"$log" 2>&1
 }
 
-# check_variant <name> <package> <precise|glob> [cmake args]: with a glob
-# dependency scan every definition in the directory is a dependency of every
-# header, so touching one regenerates all of them.
+# check_variant <name> <package> <precise|glob> [cmake args]: precise =
+# ln_generate's depfile names each header's definitions; glob = a generator
+# without --depfile, so every definition in the directory is a dependency of
+# every header and touching one regenerates all of them.
 check_variant() {
   local variant=$1 package=$2 scan=$3
   shift 3
@@ -171,7 +172,12 @@ $out_c"
 
 check_variant ln ln precise
 check_variant liblinks_and_nodes liblinks_and_nodes precise
-check_variant ln_glob_scan ln glob -DLN_GENERATE_DEPENDENCY_SCAN=GLOB
+# A generator that writes no depfile (as LN 2.9's): its --help does not name
+# --depfile, so the function falls back to the glob.
+no_depfile_generator="$work/ln_generate_without_depfile"
+printf '#!/bin/sh\n[ "$1" = --help ] && exit 0\nexec "%s" "$@"\n' "$prefix/bin/ln_generate" >"$no_depfile_generator"
+chmod +x "$no_depfile_generator"
+check_variant ln_glob_scan ln glob -Dliblinks_and_nodes_LN_GENERATE_EXECUTABLE="$no_depfile_generator"
 
 # --- argument errors and package variables -------------------------------------
 # probe <name> <expected regex> [cmake -D args]: configures a small C
