@@ -355,44 +355,14 @@ class LnCore(System):
 
     @staticmethod
     def python_interpreter() -> str:
-        venv = Path("/root/.cache/ln_core/venv-ros/bin/python")  # the project venv (numpy, nanobind)
-        return os.environ.get("LN_CORE_PYTHON") or (str(venv) if venv.exists() else sys.executable)
+        # env.sh exports LN_BENCH_PYTHON: the project venv's (numpy, nanobind)
+        return os.environ.get("LN_CORE_PYTHON") or os.environ.get("LN_BENCH_PYTHON") or sys.executable
 
     def _build_ln_core(self, ctx) -> Path:
         given = os.environ.get("LN_BENCH_LN_CORE_BUILD")
         if given:
             return Path(given).resolve()
-        top = (LN_CORE_SRC / "CMakeLists.txt").read_text()
-        fragments = [("transport.cmake", LN_CORE_SRC / "src" / "transport" / "transport.cmake"),
-                     ("services.cmake", LN_CORE_SRC / "src" / "services" / "services.cmake"),
-                     ("client.cmake", LN_CORE_SRC / "src" / "client" / "client.cmake"),
-                     ("python.cmake", LN_CORE_SRC / "python" / "python.cmake")]
-        if not fragments[2][1].exists():
-            raise Unavailable("ln_core has no client library (src/client/client.cmake) yet")
-        missing = [(name, path) for name, path in fragments if path.exists() and name not in top]
-        if not missing:
-            src, build = LN_CORE_SRC, ctx.build_dir / "ln_core-direct"
-        else:
-            # ln_core's CMakeLists does not include every component yet: a scratch top level
-            # that adds ln_core and includes the missing fragments (the Python module only when
-            # nanobind is there, so that it cannot break the C++ build).
-            src, build = ctx.build_dir / "ln_core-scratch-src", ctx.build_dir / "ln_core-scratch"
-            src.mkdir(parents=True, exist_ok=True)
-            text = ("cmake_minimum_required(VERSION 3.16)\nproject(lnbench_ln_core LANGUAGES C CXX)\n"
-                    "set(CMAKE_CXX_STANDARD 17)\ninclude(GNUInstallDirs)\n"
-                    f"add_subdirectory({LN_CORE_SRC} ln_core)\nset(LN_LIBRARY_VERSION 32)\n")
-            for name, path in missing:
-                if name == "python.cmake":
-                    py = self.python_interpreter()
-                    text += (f'set(LN_PYTHON_EXECUTABLE "{py}" CACHE FILEPATH "")\n'
-                             f'execute_process(COMMAND "{py}" -m nanobind --cmake_dir RESULT_VARIABLE _lnb_nb '
-                             "OUTPUT_QUIET ERROR_QUIET)\n"
-                             f"if(_lnb_nb EQUAL 0)\n  include({path})\nendif()\n")
-                else:
-                    text += f"include({path})\n"
-            cm = src / "CMakeLists.txt"
-            if not cm.exists() or cm.read_text() != text:
-                cm.write_text(text)
+        src, build = LN_CORE_SRC, ctx.build_dir / "ln_core-direct"
         key = str(build)
         if key in LnCore._built:
             if isinstance(LnCore._built[key], str):
@@ -402,7 +372,8 @@ class LnCore(System):
             if not (build / "build.ninja").exists():
                 ctx.log(f"ln bench: configuring ln_core in {build}")
                 proc = _run(["cmake", "-G", "Ninja", "-S", src, "-B", build, "-DCMAKE_BUILD_TYPE=Release",
-                             "-DBUILD_TESTING=OFF", "-DLN_WERROR=OFF"], ctx, 300)
+                             "-DBUILD_TESTING=OFF", "-DLN_WERROR=OFF",
+                             f"-DLN_PYTHON_EXECUTABLE={self.python_interpreter()}"], ctx, 300)
                 if proc.returncode != 0:
                     raise Unavailable(f"ln_core does not configure: {_first_error(proc.stdout + proc.stderr)}")
             ctx.log("ln bench: building ln_core (ln, ln_manager, ln_generate)")
@@ -421,7 +392,7 @@ class LnCore(System):
                 LnCore._python_build_error = f"ln_core's Python module does not build: {_first_error(proc.stdout + proc.stderr)}"
         else:
             LnCore._python_build_error = (f"ln_core's Python module is not part of the build "
-                                          f"(python.cmake missing, or no nanobind for {self.python_interpreter()})")
+                                          f"(no nanobind for {self.python_interpreter()}?)")
         LnCore._built[key] = build
         return build
 
