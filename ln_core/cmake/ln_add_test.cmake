@@ -2,9 +2,9 @@
 # next to the code it tests (each component's CMakeLists.txt, if BUILD_TESTING).
 #
 #   ln_add_test(<name> SOURCES <file>... [LIBRARIES <target>...] [TIMEOUT <s>])
-#     A GoogleTest program <name> (gtest_main linked, our warnings); every test
-#     case becomes its own ctest entry. Give it further definitions, include
-#     directories or dependencies with target_*() afterwards.
+#     A GoogleTest program <name> (gtest_main and ln_testing linked, our
+#     warnings); every test case becomes its own ctest entry. Give it further
+#     definitions, include directories or dependencies with target_*() afterwards.
 #   ln_add_test(<name> COMMAND <program> <arg>... [TIMEOUT <s>] [LABELS <label>...]
 #               [ENVIRONMENT <VAR=value>...] [RUN_SERIAL])
 #     One ctest entry that runs a program or script; exit code 77 means skipped
@@ -20,7 +20,7 @@ function(ln_add_test name)
   endif()
   if(ARG_SOURCES)
     add_executable(${name} ${ARG_SOURCES})
-    target_link_libraries(${name} PRIVATE ${ARG_LIBRARIES} GTest::gtest GTest::gtest_main)
+    target_link_libraries(${name} PRIVATE ${ARG_LIBRARIES} ln_testing GTest::gtest GTest::gtest_main)
     ln_target_warnings(${name})
     gtest_discover_tests(${name} PROPERTIES TIMEOUT ${ARG_TIMEOUT})
     return()

@@ -10,24 +10,14 @@
 #include <random>
 
 #include "client/failure.hpp"
+#include "testing/temp_dir.hpp"
 
 namespace ln::clientlib {
 namespace {
 
 class LoggerDataTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    char pattern[] = "/tmp/ln_logger_data_test_XXXXXX";
-    ASSERT_NE(::mkdtemp(pattern), nullptr);
-    dir = pattern;
-  }
-  void TearDown() override { (void)!::system(("rm -rf '" + dir + "'").c_str()); }
-
-  std::string write(const std::string& name, const std::string& bytes) const {
-    const std::string path = dir + "/" + name;
-    std::ofstream(path, std::ios::binary) << bytes;
-    return path;
-  }
+  std::string write(const std::string& name, const std::string& bytes) const { return temp.write(name, bytes); }
   std::string read(const std::string& path) const {
     std::ifstream in(path, std::ios::binary);
     return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -42,7 +32,8 @@ class LoggerDataTest : public ::testing::Test {
     return 0;
   }
 
-  std::string dir;
+  test::TempDir temp{"ln_logger_data_test"};
+  const std::string dir = temp.path();
 };
 
 /// Two topics: one with samples (36 bytes each), one never published.

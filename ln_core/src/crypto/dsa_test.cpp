@@ -14,6 +14,8 @@
 #define NO_CPP_WRAPPER
 #include <ln/ln.h>
 
+#include "testing/temp_dir.hpp"
+
 namespace ln::crypto {
 namespace {
 
@@ -58,16 +60,10 @@ std::string read_text(const std::string& path) {
 
 class DsaTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    char pattern[] = "/tmp/ln_dsa_test_XXXXXX";
-    ASSERT_NE(::mkdtemp(pattern), nullptr);
-    dir_ = pattern;
-  }
-  void TearDown() override { std::system(("rm -rf '" + dir_ + "'").c_str()); }
-  std::string path(const std::string& name) const { return dir_ + "/" + name; }
-  void write(const std::string& name, const std::string& text) const { std::ofstream(path(name)) << text; }
+  std::string path(const std::string& name) const { return dir_.path() + "/" + name; }
+  void write(const std::string& name, const std::string& text) const { dir_.write(name, text); }
 
-  std::string dir_;
+  test::TempDir dir_{"ln_dsa_test"};
 };
 
 TEST_F(DsaTest, VerifiesWhatLn29Signed) {
