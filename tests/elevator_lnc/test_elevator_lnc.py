@@ -1,4 +1,4 @@
-"""The demo's config, launchless_scripts/elevator/elevator.lnc, run by ln_core's
+"""The demo's config, ln_core/examples/elevator/elevator.lnc, run by ln_core's
 manager: every command it names exists (`ln_manager --check`), and its LN part
 (the `elevator` group: simulator, then controller) comes up in order and
 serves the floor-request service; the manager stops it all on SIGTERM. (The
@@ -22,7 +22,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-CONFIG = ROOT / "launchless_scripts" / "elevator" / "elevator.lnc"
+CONFIG = ROOT / "ln_core" / "examples" / "elevator" / "elevator.lnc"
 TIMEOUT = 30
 
 

@@ -18,11 +18,11 @@ import tempfile
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-ROOT = HERE.parent.parent
+ROOT = HERE.parent.parent.parent
 sys.path.insert(0, str(ROOT / "ln_ros2_bridge"))
 from ln_ros2_bridge import support  # noqa: E402
 
-MSGDEFS = ROOT / "ln_core" / "examples" / "elevator" / "msgdefs"
+MSGDEFS = HERE / "msgdefs"
 
 
 def main():

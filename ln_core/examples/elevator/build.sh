@@ -3,13 +3,13 @@
 #   build.sh ln29|ln_core OUT_DIR
 # ln29: LN 2.9's ln_generate, headers and libln.so from $LN_CORE_LN29_VENV;
 # ln_core: ln_core's ln_generate, headers and libln.so (colcon install, or LN_CORE_PREFIX=<dir
-# with bin/ include/ lib/>). The header comes from ln_core/examples/elevator/msgdefs.
+# with bin/ include/ lib/>). The header comes from msgdefs/ beside this script.
 set -euo pipefail
 HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
-ROOT=$(cd "$HERE/../.." && pwd)
+ROOT=$(cd "$HERE/../../.." && pwd)
 KIND=${1:?usage: build.sh ln29|ln_core OUT_DIR}
 OUT=${2:?usage: build.sh ln29|ln_core OUT_DIR}
-MSGDEFS=$ROOT/ln_core/examples/elevator/msgdefs
+MSGDEFS=$HERE/msgdefs
 MESSAGES="elevator/sensors/floor_count elevator/actors/motor_control elevator/request/elevator_call"
 mkdir -p "$OUT"
 case $KIND in
