@@ -16,6 +16,7 @@
 #include <tuple>
 
 #include "client/c_api.hpp"
+#include "client/datagram_faults.hpp"
 #include "client/failure.hpp"
 #include "client/ports.hpp"
 
@@ -146,43 +147,10 @@ const unsigned char* PacketAssembler::add(std::uint64_t sequence, std::uint32_t 
 
 // -------------------------------------------------------------- RemoteSender
 
-#ifdef LN_TEST_HOOKS
-// Test builds only: LN_CORE_TEST_UDP_FAULTS="drop=K,duplicate=M,reorder=N"
-// makes every K-th UDP datagram vanish, every M-th go out twice, and every
-// N-th go out after the one following it -- the network faults the veth test
-// needs where the kernel has no netem.
-struct RemoteSender::Faults {
-  std::uint64_t drop = 0, duplicate = 0, reorder = 0;
-  std::uint64_t count = 0;
-  std::vector<unsigned char> delayed;
-
-  static std::shared_ptr<Faults> from_environment() {
-    const char* text = std::getenv("LN_CORE_TEST_UDP_FAULTS");
-    if (text == nullptr || *text == '\0') return nullptr;
-    auto faults = std::make_shared<Faults>();
-    std::istringstream in(text);
-    std::string item;
-    while (std::getline(in, item, ',')) {
-      const auto equals = item.find('=');
-      if (equals == std::string::npos) continue;
-      const std::uint64_t every = std::strtoull(item.c_str() + equals + 1, nullptr, 10);
-      const std::string name = item.substr(0, equals);
-      if (name == "drop") faults->drop = every;
-      else if (name == "duplicate") faults->duplicate = every;
-      else if (name == "reorder") faults->reorder = every;
-    }
-    return faults;
-  }
-};
-#else
-struct RemoteSender::Faults {
-  static std::shared_ptr<Faults> from_environment() { return nullptr; }
-};
-#endif
 
 
 RemoteSender::RemoteSender(OutPort& port, RemoteTarget target)
-    : port_(port), target_(std::move(target)), faults_(Faults::from_environment()) {
+    : port_(port), target_(std::move(target)), faults_(datagram_faults_from_environment()) {
   thread_ = std::thread([this] { run(); });
 }
 
@@ -245,25 +213,7 @@ bool RemoteSender::send_datagram(const unsigned char* header, const unsigned cha
     // A full socket buffer drops the datagram (the subscriber counts it lost).
     return ::sendmsg(socket_.get(), &message, MSG_NOSIGNAL | MSG_DONTWAIT) >= 0 || errno == ECONNREFUSED;
   };
-#ifdef LN_TEST_HOOKS
-  if (faults_) {
-    Faults& faults = *faults_;
-    const std::uint64_t n = ++faults.count;
-    if (faults.drop != 0 && n % faults.drop == 0) return true;
-    if (faults.reorder != 0 && n % faults.reorder == 0 && faults.delayed.empty()) {
-      faults.delayed.assign(header, header + kHeaderSize);
-      faults.delayed.insert(faults.delayed.end(), payload, payload + length);
-      return true;
-    }
-    const bool sent = send(header, payload, length);
-    if (faults.duplicate != 0 && n % faults.duplicate == 0) send(header, payload, length);
-    if (!faults.delayed.empty()) {
-      send(faults.delayed.data(), faults.delayed.data() + kHeaderSize, faults.delayed.size() - kHeaderSize);
-      faults.delayed.clear();
-    }
-    return sent;
-  }
-#endif
+  if (faults_) return faults_->send(header, kHeaderSize, payload, length, send);
   return send(header, payload, length);
 }
 

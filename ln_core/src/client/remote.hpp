@@ -68,6 +68,7 @@
 namespace ln::clientlib {
 
 class OutPort;
+class DatagramFaults;
 
 /// UDP fragments carry at most this many payload bytes: below the 64 KiB
 /// UDP limit, and well below it for IPv4 reassembly buffers on the way.
@@ -127,8 +128,6 @@ class RemoteSender {
   RemoteSender& operator=(const RemoteSender&) = delete;
 
  private:
-  struct Faults;  // test builds: datagrams dropped, duplicated, reordered on purpose
-
   void run();
   bool attach(std::optional<std::uint64_t> resume_after);
   bool connect_target();
@@ -145,7 +144,7 @@ class RemoteSender {
   double last_sent_timestamp_ = 0;
   bool sent_any_ = false;
   std::vector<unsigned char> buffer_;
-  std::shared_ptr<Faults> faults_;
+  std::unique_ptr<DatagramFaults> faults_;  // test builds only: see datagram_faults.hpp
   std::thread thread_;
 };
 
