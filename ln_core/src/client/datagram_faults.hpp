@@ -1,8 +1,9 @@
 // Deliberate network faults for the multi-host tests, where the kernel has no
 // netem: UDP datagrams dropped, duplicated and reordered on the sender's side.
-// libln itself never injects any (datagram_faults_none.cpp); the test copy of
-// the library that the remote test programs link (tests/remote) has
-// datagram_faults.cpp, driven by LN_CORE_TEST_UDP_FAULTS.
+// libln itself never injects any (datagram_faults_none.cpp, part of
+// ln_client_objects); the test copy of the library that the remote test
+// programs link (tests/remote) adds datagram_faults.cpp, driven by
+// LN_CORE_TEST_UDP_FAULTS, whose definition replaces the weak one.
 #pragma once
 
 #include <cstddef>
