@@ -30,6 +30,7 @@
 #include <vector>
 
 #include "transport/shm_ring.hpp"
+#include "testing/wait.hpp"
 
 namespace ln::transport {
 namespace {
@@ -65,14 +66,7 @@ bool pattern_intact(const void* source, std::size_t size, std::uint64_t sequence
   return true;
 }
 
-bool wait_until(const std::function<bool()>& condition, std::chrono::milliseconds timeout) {
-  const auto deadline = Clock::now() + timeout;
-  while (!condition()) {
-    if (Clock::now() >= deadline) return false;
-    std::this_thread::sleep_for(200us);  // polling interval of a bounded condition wait
-  }
-  return true;
-}
+using ln::test::wait_until;
 
 struct SocketPair {
   UniqueFd parent;
