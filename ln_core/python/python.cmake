@@ -62,8 +62,10 @@ set_target_properties(ln_python PROPERTIES
 
 # The pure-Python part (with its sub-packages, e.g. cli/) is copied next to
 # the module in the build tree.
+# (_ln.pyi: the native module's stub; py.typed: the package ships its types.)
 file(GLOB_RECURSE LN_PYTHON_SOURCES CONFIGURE_DEPENDS RELATIVE ${LN_PYTHON_DIR}/links_and_nodes
-  ${LN_PYTHON_DIR}/links_and_nodes/*.py)
+  ${LN_PYTHON_DIR}/links_and_nodes/*.py ${LN_PYTHON_DIR}/links_and_nodes/*.pyi
+  ${LN_PYTHON_DIR}/links_and_nodes/py.typed)
 set(_ln_python_copies)
 foreach(_name ${LN_PYTHON_SOURCES})
   add_custom_command(OUTPUT ${LN_PYTHON_PACKAGE_BUILD_DIR}/${_name}
