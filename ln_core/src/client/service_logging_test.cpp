@@ -134,6 +134,8 @@ class ServiceLoggingTest : public ::testing::Test {
   ScopedEnv no_manager_env_{"LN_MANAGER", std::nullopt};
   ScopedEnv no_map_{"LN_MAP_SERVICES", std::nullopt};
   InProcessManager manager_;
+  // Outlives the clients: their pool threads may still log into it until TearDown's ln_deinit.
+  LogBook book_;
   std::vector<ln_client> clients_;
   std::vector<ln_service> services_;
 };
@@ -152,7 +154,7 @@ TEST_F(ServiceLoggingTest, ExistingProvidersAndCallersLogToANewLogger) {
   services_.push_back(echo);
   ASSERT_EQ(call(echo, "before"), 0);
 
-  LogBook book;
+  LogBook& book = book_;
   provide(logger, "svc.log", "ln/log_service", kLogSignature, log_handler, &book);
   ASSERT_EQ(ln_register_as_service_logger(logger, "svc.log", "svc.*"), 0) << ln_get_error_message(logger);
   // The add_service_logger notifications travel asynchronously: call until
@@ -171,7 +173,7 @@ TEST_F(ServiceLoggingTest, ALoggerNeverHoldsUpTheCallsItLogs) {
   ln_client caller = connect_client("caller");
   serve(logger);
   serve(provider);
-  LogBook book;
+  LogBook& book = book_;
   provide(logger, "svc.log", "ln/log_service", kLogSignature, log_handler, &book);
   ASSERT_EQ(ln_register_as_service_logger(logger, "svc.log", "svc.*"), 0);
   provide(provider, "svc.echo", "test/echo", kEchoSignature, echo_handler, nullptr);
@@ -223,7 +225,7 @@ TEST_F(ServiceLoggingTest, LoggingResumesAfterAManagerRestart) {
   ln_client provider = connect_client("provider");
   serve(logger);
   serve(provider);
-  LogBook book;
+  LogBook& book = book_;
   provide(logger, "svc.log", "ln/log_service", kLogSignature, log_handler, &book);
   ASSERT_EQ(ln_register_as_service_logger(logger, "svc.log", "svc.*"), 0);
   provide(provider, "svc.echo", "test/echo", kEchoSignature, echo_handler, nullptr);

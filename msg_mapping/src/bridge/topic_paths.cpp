@@ -36,6 +36,9 @@ constexpr double read_slice = 0.5;      // seconds a blocked LN read waits befor
 constexpr double group_slice = 0.05;    // seconds the shared LN reader sleeps before taking new ports
 constexpr double held_wake = 0.05;      // seconds between graph look-ups while messages wait for one
 constexpr double refresh_period = 1.0;  // seconds between graph look-ups that forget departed publishers
+// Packets one pump() forwards at most before it returns: a port that always has a packet (LN 2.9
+// re-reads its ring after its manager restarted) must not keep close() and new ports waiting.
+constexpr int pump_batch = 256;
 
 }  // namespace
 
@@ -184,7 +187,7 @@ void LnToRosPath::run() {
 
 bool LnToRosPath::pump(double timeout) {
   rcl_serialized_message_t message{};  // (zero-initialized: no library call)
-  for (;; timeout = 0) {
+  for (int batch = 0; batch < pump_batch; ++batch, timeout = 0) {
     const void* data = packet_.data();
     unsigned int size = static_cast<unsigned int>(size_);
     ln_sample_info info{};
@@ -215,6 +218,7 @@ bool LnToRosPath::pump(double timeout) {
     if (published == RCL_RET_OK) ++state_.forwarded;
     else state_.error(rcl_.error("publish", published));
   }
+  return true;
 }
 
 // ------------------------------------------------------------------ shared LN reader

@@ -102,6 +102,8 @@ def register(groups, common):
 # ROS's per-node infrastructure services, left out of 'service list' unless --all.
 _NODE_SERVICES = ("/describe_parameters", "/get_parameter_types", "/get_parameters", "/list_parameters",
                   "/set_parameters", "/set_parameters_atomically", "/get_type_description")
+# rmw's name for a node whose participant is discovered but whose node names have not arrived yet.
+_UNKNOWN_NODE = "_NODE_NAME_UNKNOWN_"
 
 
 class RosGraph:
@@ -134,6 +136,17 @@ class RosGraph:
         deadline = time.monotonic() + seconds
         while time.monotonic() < deadline:
             self.executor.spin_once(timeout_sec=min(0.05, max(0.0, deadline - time.monotonic())))
+
+    def named(self, fetch, node_name):
+        """fetch() again until every entry's node has its name, within --spin-time: discovery shows
+        a participant before its node names arrive (as rmw's _NODE_NAME_UNKNOWN_). Entries still
+        unnamed then are left out."""
+        deadline = time.monotonic() + self.spin_time
+        entries = fetch()
+        while any(node_name(e) == _UNKNOWN_NODE for e in entries) and time.monotonic() < deadline:
+            self.spin(0.1)
+            entries = fetch()
+        return [e for e in entries if node_name(e) != _UNKNOWN_NODE]
 
     def own(self, fq_name):
         return fq_name == self.fq_name(self.node.get_namespace(), self.node.get_name())
@@ -323,7 +336,8 @@ def _message_class(slot):
 def cmd_node_list(session):
     graph = _graph(session)
     graph.settle()
-    nodes = sorted(graph.fq_name(ns, name) for name, ns in graph.node.get_node_names_and_namespaces())
+    nodes = sorted(graph.fq_name(ns, name)
+                   for name, ns in graph.named(graph.node.get_node_names_and_namespaces, lambda entry: entry[0]))
     nodes = [n for n in nodes if not graph.own(n) and (session.args.all or not n.rsplit("/", 1)[-1].startswith("_"))]
     if session.json:
         session.out.json(nodes)
@@ -331,9 +345,9 @@ def cmd_node_list(session):
     session.out.table(("NODE",), [(n,) for n in nodes], empty="no nodes")
 
 
-def _endpoints(infos, graph):
+def _endpoints(fetch, name, graph):
     out = []
-    for i in infos:
+    for i in graph.named(lambda: fetch(name), lambda info: info.node_name):
         node = graph.fq_name(i.node_namespace, i.node_name)
         if graph.own(node):
             continue
@@ -348,8 +362,8 @@ def cmd_topic_list(session):
     graph.settle()
     rows = []
     for name, types in sorted(graph.node.get_topic_names_and_types()):
-        publishers = _endpoints(graph.node.get_publishers_info_by_topic(name), graph)
-        subscribers = _endpoints(graph.node.get_subscriptions_info_by_topic(name), graph)
+        publishers = _endpoints(graph.node.get_publishers_info_by_topic, name, graph)
+        subscribers = _endpoints(graph.node.get_subscriptions_info_by_topic, name, graph)
         rows.append({"name": name, "types": types, "publishers": len(publishers), "subscribers": len(subscribers)})
     if session.json:
         session.out.json(rows)
@@ -367,8 +381,8 @@ def cmd_topic_info(session):
     if not types:
         raise CliError("unknown ROS topic '%s'" % name, "see 'ln ros topic list'")
     info = {"name": name, "types": types,
-            "publishers": _endpoints(graph.node.get_publishers_info_by_topic(name), graph),
-            "subscribers": _endpoints(graph.node.get_subscriptions_info_by_topic(name), graph)}
+            "publishers": _endpoints(graph.node.get_publishers_info_by_topic, name, graph),
+            "subscribers": _endpoints(graph.node.get_subscriptions_info_by_topic, name, graph)}
     out = session.out
     if session.json:
         out.json(info)
@@ -462,7 +476,7 @@ def cmd_service_list(session):
     graph = _graph(session)
     graph.settle()
     servers = {}
-    for node_name, namespace in graph.node.get_node_names_and_namespaces():
+    for node_name, namespace in graph.named(graph.node.get_node_names_and_namespaces, lambda entry: entry[0]):
         fq = graph.fq_name(namespace, node_name)
         if graph.own(fq):
             continue
