@@ -16,8 +16,8 @@ Environment:
 
 LN 2.9's manager runs with --isolated-test (random port, private ln_daemon that exits with the
 manager) and a temporary HOME/TMPDIR, so its DSA keys, generated files and daemon log stay out of
-the real home. After stopping it, any process still running the venv's binaries with that HOME
-is killed by PID, and /dev/shm segments named after PIDs started here are removed (README P2-P4).
+the real home. Both managers are started and stopped by tests/support/ln_testing.py (which ends
+LN 2.9's daemons by PID); /dev/shm segments named after PIDs started here are removed (README P2-P4).
 """
 from __future__ import annotations
 
@@ -38,6 +38,8 @@ from pathlib import Path
 
 LN_DIR = Path(__file__).resolve().parent
 REPO_ROOT = LN_DIR.parent.parent
+sys.path.insert(0, str(REPO_ROOT / "tests" / "support"))
+import ln_testing  # noqa: E402
 LN_CORE_SRC = REPO_ROOT / "ln_core"
 MSGDEFS = LN_DIR / "msgdefs"
 MESSAGES = ["lnbench/p64", "lnbench/p4k", "lnbench/p1m", "lnbench/small_srv", "lnbench/blob_srv"]
@@ -126,7 +128,7 @@ class System:
 
     def __init__(self) -> None:
         self.tmp: Path | None = None
-        self.manager: subprocess.Popen | None = None
+        self.manager: ln_testing.LnSystem | None = None
         self.address = ""
         self.bin_dir: Path | None = None
         self.started_pids: set[int] = set()
@@ -142,7 +144,8 @@ class System:
     def _include_digest(self) -> str:
         return ""
 
-    def _start_manager(self, ctx, config: Path, log: Path) -> None:
+    def _manager(self, work: Path) -> ln_testing.LnSystem:
+        """This system's manager (not started) working in `work`."""
         raise NotImplementedError
 
     def python(self) -> tuple[list[str], dict]:
@@ -209,68 +212,32 @@ class System:
         if self.manager is not None:
             return
         self.tmp = Path(tempfile.mkdtemp(prefix=f"lnbench-{self.key}-"))
-        (self.tmp / "home").mkdir()
-        config = self.tmp / "lnbench.lnc"
-        config.write_text(f"instance\nname: lnbench_{self.key}_{os.getpid()}\nmanager: :0\n"
-                          f"add_message_definition_dir: {MSGDEFS}\n")
-        self._start_manager(ctx, config, self.tmp / "manager.log")
+        self.manager = self._manager(self.tmp)
+        try:
+            self.manager.start([MSGDEFS], args=self._manager_args())
+        except (RuntimeError, TimeoutError) as e:
+            raise MeasureError(f"{self.label} manager did not start: {e}: {_tail(self.manager.log_tail())}") from e
+        finally:
+            if self.manager.process is not None:
+                self.started_pids.add(self.manager.process.pid)
+        self.address = self.manager.address
         ctx.log(f"ln bench: {self.label} manager at {self.address}")
 
-    def _spawn_manager(self, cmd, log: Path, env: dict) -> None:
-        self.manager = subprocess.Popen([str(c) for c in cmd], stdin=subprocess.DEVNULL,
-                                        stdout=log.open("w"), stderr=subprocess.STDOUT,
-                                        env={**_measured_environ(), **env}, process_group=0)
-
-    def _wait_log(self, log: Path, pattern: str, timeout: float) -> re.Match:
-        """Waits (polling the manager's log file) until `pattern` appears."""
-        deadline = time.monotonic() + timeout
-        rx = re.compile(pattern)
-        while time.monotonic() < deadline:
-            m = rx.search(log.read_text(errors="replace"))
-            if m:
-                return m
-            if self.manager.poll() is not None:
-                break
-            time.sleep(0.05)  # polling interval of the start-up condition
-        raise MeasureError(f"{self.label} manager did not start: {_tail(log.read_text(errors='replace'))}")
+    def _manager_args(self) -> list[str]:
+        return []
 
     def stop(self, ctx) -> None:
         if self.manager is not None:
-            if self.manager.poll() is None:
-                try:
-                    os.killpg(self.manager.pid, signal.SIGTERM)
-                except ProcessLookupError:
-                    pass
-                try:
-                    self.manager.wait(timeout=10)
-                except subprocess.TimeoutExpired:
-                    _kill_group(self.manager)
-                    self.manager.wait(timeout=10)
-            self.started_pids.add(self.manager.pid)
+            self.manager.stop()
+            log = self.manager.log_path
+            ctx.log_text(f"--- {self.label} manager log (tail) ---\n{ln_testing.tail(log, 30)}\n")
             self.manager = None
-        self._cleanup_leftovers(ctx)
+        for name in ln_testing.remove_ln_segments(self.started_pids):
+            ctx.log_text(f"removed leftover /dev/shm/{name}\n")
+        self.started_pids.clear()
         if self.tmp is not None:
-            log = self.tmp / "manager.log"
-            if log.exists():
-                ctx.log_text(f"--- {self.label} manager log (tail) ---\n"
-                             + "\n".join(log.read_text(errors="replace").splitlines()[-30:]) + "\n")
             shutil.rmtree(self.tmp, ignore_errors=True)
             self.tmp = None
-
-    def _cleanup_leftovers(self, ctx) -> None:
-        """/dev/shm segments named after processes started here (LN 2.9: <pid>_..._src)."""
-        shm = Path("/dev/shm")
-        if not self.started_pids or not shm.is_dir():
-            return
-        for f in shm.iterdir():
-            pid = f.name.split("_", 1)[0]
-            if pid.isdigit() and int(pid) in self.started_pids and f.name.endswith("_src"):
-                try:
-                    f.unlink()
-                    ctx.log_text(f"removed leftover {f}\n")
-                except OSError:
-                    pass
-        self.started_pids.clear()
 
 
 class LN29(System):
@@ -284,7 +251,6 @@ class LN29(System):
             if cand and (Path(cand) / "bin" / "ln_manager").exists():
                 self.venv = Path(cand).resolve()
                 break
-        self.daemons: set[int] = set()
 
     @property
     def lib_root(self) -> Path:
@@ -300,39 +266,13 @@ class LN29(System):
                 [f"-I{root / 'include'}", f"-L{root / 'lib'}", f"-Wl,-rpath,{root / 'lib'}", "-lln", "-lpthread"],
                 {"HOME": str(gen_home)})
 
-    def _start_manager(self, ctx, config, log):
-        self._spawn_manager([self.venv / "bin" / "ln_manager", "-c", config, "--without-gui", "--isolated-test",
-                             "--log-level", "info"], log, {"HOME": str(self.tmp / "home"), "TMPDIR": str(self.tmp)})
-        port = self._wait_log(log, r"isolated-test mode on manager port (\d+)", 60).group(1)
-        self._wait_log(log, r"listening on .* for ln-clients", 60)
-        self.address = f"127.0.0.1:{port}"
+    def _manager(self, work):
+        return ln_testing.Ln29(work, base_env=_measured_environ(), venv=self.venv)
 
     def python(self):
         if self.venv is None:
             raise Unavailable("LN 2.9 venv not found")
         return [str(self.venv / "bin" / "python")], {}
-
-    def _cleanup_leftovers(self, ctx):
-        # The private daemon exits with an --isolated-test manager; anything still running the
-        # venv's native binaries with our HOME is ours and is ended by PID.
-        if self.venv is not None and self.tmp is not None:
-            home = f"HOME={self.tmp / 'home'}".encode()
-            venv = str(self.venv)
-            for d in Path("/proc").iterdir():
-                if not d.name.isdigit():
-                    continue
-                try:
-                    exe = os.readlink(d / "exe")
-                    if not exe.startswith(venv):
-                        continue
-                    if home not in (d / "environ").read_bytes().split(b"\0"):
-                        continue
-                    os.kill(int(d.name), signal.SIGKILL)
-                    self.started_pids.add(int(d.name))
-                    ctx.log_text(f"killed leftover LN 2.9 process {d.name} ({exe})\n")
-                except (OSError, ValueError):
-                    continue
-        super()._cleanup_leftovers(ctx)
 
 
 class LnCore(System):
@@ -412,10 +352,11 @@ class LnCore(System):
     def _include_digest(self) -> str:
         return _digest(*[p.read_bytes() for p in sorted((LN_CORE_SRC / "include" / "ln").rglob("*.h"))])
 
-    def _start_manager(self, ctx, config, log):
-        self._spawn_manager([self.manager_exe, "-c", config, "--listen", "127.0.0.1:0", "--log-level", "warning"],
-                            log, {"HOME": str(self.tmp / "home")})
-        self.address = self._wait_log(log, r"ln_manager: listening on (\S+)", 30).group(1)
+    def _manager(self, work):
+        return ln_testing.LnCore(work, base_env=_measured_environ(), manager_exe=self.manager_exe)
+
+    def _manager_args(self):
+        return ["--log-level", "warning"]
 
     def python(self):
         if self._py_unavailable:

@@ -29,6 +29,8 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parents[1] / "tests" / "support"))
+import ln_testing  # noqa: E402
 MSGDEFS = HERE / "msgdefs"
 SCENARIOS = {"topics": ("lnbagbench/sample64", 50, 1000.0), "images": ("lnbagbench/image1m", 1, 30.0)}
 
@@ -107,16 +109,11 @@ def pyrecord(args):
 
 # --------------------------------------------------------------------- driver
 
-def find_manager():
-    for directory in os.environ.get("PATH", "").split(os.pathsep):
-        candidate = Path(directory or ".") / "ln_manager"
-        try:
-            with open(candidate, "rb") as f:
-                if f.read(4) == b"\x7fELF":  # ln_core's (LN 2.9's is a Python script)
-                    return str(candidate)
-        except OSError:
-            continue
-    sys.exit("ln_core's ln_manager is not on PATH (. launchless_scripts/env.sh)")
+def ln_core_manager():
+    try:
+        return ln_testing.ln_core_manager()
+    except ln_testing.Unavailable as error:
+        sys.exit(str(error))
 
 
 def cpu_seconds(pid):
@@ -177,11 +174,8 @@ def plain_write_seconds(directory, size, seconds):
 def run(args):
     directory = Path(args.dir)
     directory.mkdir(parents=True, exist_ok=True)
-    home = directory / "home"
-    home.mkdir(exist_ok=True)
-    config = directory / "bench.lnc"
-    config.write_text("instance\nname: lnbagbench_%d\nmanager: 127.0.0.1:0\nadd_message_definition_dir: %s\n"
-                      % (os.getpid(), MSGDEFS))
+    server = ln_testing.LnCore(directory, manager_exe=ln_core_manager())
+    home = server.home
     env = dict(os.environ, HOME=str(home))
     env.pop("LN_CLI_DEBUG", None)
     started = []
@@ -192,12 +186,8 @@ def run(args):
         started.append(p)
         return p
 
-    manager_log = open(directory / "manager.log", "w")
-    manager = spawn([find_manager(), "-c", config], stderr=manager_log)
-    line = manager.stdout.readline()
-    if "listening on" not in line:
-        raise RuntimeError("the manager did not start: %s" % line)
-    env["LN_MANAGER"] = line.split()[-1]
+    server.start([MSGDEFS])
+    env["LN_MANAGER"] = server.address
     output = directory / ("%s_%s.mcap" % (args.scenario, args.recorder))
     if output.exists():
         output.unlink()
@@ -250,7 +240,7 @@ def run(args):
                 except subprocess.TimeoutExpired:
                     p.kill()
                     p.wait()
-        manager_log.close()
+        server.stop()
         if output.exists():
             output.unlink()
         shutil.rmtree(home, ignore_errors=True)

@@ -41,6 +41,9 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 PACKAGE_ROOT = HERE.parent
 sys.path.insert(0, str(PACKAGE_ROOT))
+sys.path.insert(0, str(PACKAGE_ROOT.parent / "tests" / "support"))
+import ln_testing  # noqa: E402
+import ros_testing  # noqa: E402
 
 MSGDEFS = HERE / "msgdefs"
 KINDS = {"stamped": ("bridgebench/stamped", "bridgebench_ln_msgs/msg/Stamped", 64),
@@ -209,12 +212,10 @@ class Run:
     """Starts the processes of one measurement; stops them all (by PID) at the end."""
 
     def __init__(self, ln_kind):
-        from ln_ros2_bridge import support
-        self.support = support
         self.work = Path(tempfile.mkdtemp(prefix="bridge-bench-"))
-        install = support.build_interfaces([MSGDEFS], "bench", log=str(self.work / "interfaces.log"))
-        self.env = support.interface_env(install)
-        self.env.update(support.loopback_dds_env())
+        install = ros_testing.build_interfaces([MSGDEFS], "bench", log=str(self.work / "interfaces.log"))
+        self.env = ros_testing.interface_env(install)
+        self.env.update(ros_testing.loopback_dds_env())
         self.env["PYTHONPATH"] = os.pathsep.join([str(PACKAGE_ROOT), self.env.get("PYTHONPATH", "")])
         self.ln_kind = ln_kind
         self.system = None
@@ -222,12 +223,12 @@ class Run:
 
     def ln(self):
         if self.system is None:
-            self.system = self.support.ln_system(self.ln_kind, self.work / self.ln_kind)
+            self.system = ln_testing.ln_system(self.ln_kind, self.work / self.ln_kind)
             self.system.start([str(MSGDEFS)])
         return self.system
 
     def start(self, name, cmd, env):
-        proc = self.support.start(cmd, self.work / (name + ".log"), env=env)
+        proc = ln_testing.start(cmd, self.work / (name + ".log"), env=env)
         self.processes.append((name, proc))
         return proc
 
@@ -248,18 +249,18 @@ class Run:
 
         def found():
             proc = dict(self.processes)[name]
-            for item in self.support.json_events(path):
+            for item in ln_testing.json_events(path):
                 if item.get("event") == event:
                     return item
             if proc.poll() is not None:
-                raise RuntimeError("%s exited before '%s':\n%s" % (name, event, self.support.tail(path)))
+                raise RuntimeError("%s exited before '%s':\n%s" % (name, event, ln_testing.tail(path)))
             return None
-        return self.support.wait_for(found, timeout, "%s: %s" % (name, event), interval=0.01)
+        return ln_testing.wait_for(found, timeout, "%s: %s" % (name, event), interval=0.01)
 
     def close(self):
         for _, proc in reversed(self.processes):
-            self.support.stop(proc)
-        self.support.remove_ln_segments(proc.pid for _, proc in self.processes)
+            ln_testing.stop(proc)
+        ln_testing.remove_ln_segments(proc.pid for _, proc in self.processes)
         if self.system is not None:
             self.system.stop()
         import shutil

@@ -30,8 +30,11 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
+sys.path.insert(0, str(HERE.parents[1] / "tests" / "support"))
 
 from benchlib import Row, median, spread_note  # noqa: E402  (bench/ is on sys.path under bench/run)
+import ln_testing  # noqa: E402
+import ros_testing  # noqa: E402
 
 TITLE = "ln_ros2_bridge vs a direct ROS 2 hop and its targets: latency, 1 MiB images, CPU, ROS 2 -> LN"
 ORDER = 300
@@ -41,21 +44,19 @@ LABEL = {"ln29": "LN 2.9", "ln_core": "ln_core"}
 
 def _systems():
     """The LN systems installed here ("ln29", "ln_core")."""
-    from ln_ros2_bridge import support
     found = []
     probe_dir = tempfile.mkdtemp(prefix="ln_ros2_bridge_probe-")
     for kind in ("ln29", "ln_core"):
         try:
-            support.ln_system(kind, probe_dir)   # raises Unavailable when not installed
+            ln_testing.ln_system(kind, probe_dir)   # raises Unavailable when not installed
             found.append(kind)
-        except support.Unavailable as error:
+        except ln_testing.Unavailable as error:
             print("ros2 bridge bench: no %s: %s" % (kind, error), file=sys.stderr)
     shutil.rmtree(probe_dir, ignore_errors=True)
     return found
 
 
 def run(ctx):
-    from ln_ros2_bridge import support
     try:
         import msg_mapping  # noqa: F401
         import rclpy  # noqa: F401
@@ -64,9 +65,9 @@ def run(ctx):
     systems = _systems()
     if not systems:
         ctx.skip("no LN system installed (LN 2.9 venv or ln_core's manager and Python package)")
-    netns = support.netns_run()
-    prefix = [netns] if netns and not support.network_is_isolated() else []
-    env = dict(support.loopback_dds_env())
+    netns = ros_testing.netns_run()
+    prefix = [netns] if netns and not ros_testing.network_is_isolated() else []
+    env = dict(ros_testing.loopback_dds_env())
     python = sys.executable
 
     def measure(*args, timeout=240):

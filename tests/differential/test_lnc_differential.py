@@ -12,26 +12,21 @@ LN_MESSAGE_DEFINITION_DIRS, LN_MANAGER) are left out of the comparison.
 
 from __future__ import annotations
 
-import os
 import random
 import re
 import shutil
-import signal
 import subprocess
-import time
 import uuid
 from pathlib import Path
 
 import pytest
 
 import ln_diff_support as support
+import ln_testing  # tests/support, on sys.path through conftest.py
 
 SEEDS = (1, 2, 3, 4, 5)
 PROCESSES_PER_CONFIG = 30
 INSTALLATION_DEPENDENT = {"LD_LIBRARY_PATH", "LN_MESSAGE_DEFINITION_DIRS", "LN_MANAGER"}
-MARK = "LN_CORE_DIFF_REFERENCE_MARK"
-
-
 # ------------------------------------------------------------- generating
 
 
@@ -195,32 +190,16 @@ def our_startup(ln_manager: Path, config: Path, env) -> dict[str, dict]:
 
 def ln29_startup(ln_manager: Path, config: Path, names: list[str], env) -> dict[str, dict]:
     """name -> {"command": ..., "env": {...}} from LN 2.9's console."""
-    marked = dict(env, **{MARK: uuid.uuid4().hex})
-    log_path = config.with_suffix(".ln29.log")
-    with open(log_path, "wb") as log:
-        manager = subprocess.Popen([str(ln_manager), "-c", str(config), "--without-gui", "--isolated-test",
-                                    "--log-level", "info"], env=marked, stdout=log, stderr=subprocess.STDOUT,
-                                   stdin=subprocess.DEVNULL, cwd=config.parent)
+    server = ln_testing.Ln29(config.parent, base_env=env, home=Path(env["HOME"]), venv=ln_manager.parent.parent)
+    server.log_path = config.with_suffix(".ln29.log")
     try:
-        port = None
-        deadline = time.monotonic() + 60
-        while port is None and time.monotonic() < deadline and manager.poll() is None:
-            found = re.search(r"listening on '[^']*:(\d+)' for ln-clients", log_path.read_text(errors="replace"))
-            port = found.group(1) if found else None
-            time.sleep(0.05)  # the reference manager's log is the only thing to watch
-        assert port, "LN 2.9's manager did not start:\n" + log_path.read_text(errors="replace")[-3000:]
+        server.start(config=config)
         commands = "".join("dump_startup_commands %s\n" % name for name in names[1:]) + "quit\n"
-        console = subprocess.run([str(ln_manager), "--connect", "127.0.0.1:%s" % port, "--console-exec",
+        console = subprocess.run([str(ln_manager), "--connect", server.address, "--console-exec",
                                   "dump_startup_commands %s" % names[0]], input=commands, env=env,
                                  capture_output=True, text=True, timeout=120)
     finally:
-        manager.send_signal(signal.SIGTERM)
-        try:
-            manager.wait(20)
-        except subprocess.TimeoutExpired:
-            manager.kill()
-            manager.wait()
-        stop_marked(ln_manager.parent.parent, marked[MARK])
+        server.stop()
     return parse_dumps(console.stdout)
 
 
@@ -239,23 +218,6 @@ def parse_dumps(text: str) -> dict[str, dict]:
                 command = line
         processes[name] = {"command": command, "env": env}
     return processes
-
-
-def stop_marked(venv: Path, mark: str):
-    """The --isolated-test daemon of the reference ends with its manager;
-    make sure, by PID, for this run's processes only."""
-    prefix = str(venv.resolve())
-    for entry in os.listdir("/proc"):
-        if not entry.isdigit():
-            continue
-        try:
-            if not os.readlink("/proc/%s/exe" % entry).startswith(prefix):
-                continue
-            with open("/proc/%s/environ" % entry, "rb") as f:
-                if ("%s=%s" % (MARK, mark)).encode() in f.read().split(b"\0"):
-                    os.kill(int(entry), signal.SIGKILL)
-        except OSError:
-            continue
 
 
 # ------------------------------------------------------------------ tests

@@ -11,17 +11,17 @@ Needs ln_core on PATH and its links_and_nodes importable, as after
 
 import json
 import os
-import re
 import shutil
-import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
 
-import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT / "tests" / "support"))
+import ln_testing  # noqa: E402
+
 CONFIG = ROOT / "ln_core" / "examples" / "elevator" / "elevator.lnc"
 TIMEOUT = 30
 
@@ -29,9 +29,7 @@ TIMEOUT = 30
 def ln_core(tool):
     found = shutil.which(tool)
     if not found:
-        if os.environ.get("CI"):
-            pytest.fail("ln_core's %s is not on PATH (. launchless_scripts/env.sh)" % tool)
-        pytest.skip("ln_core's %s is not on PATH (. launchless_scripts/env.sh)" % tool)
+        ln_testing.skip("ln_core's %s is not on PATH (. launchless_scripts/env.sh)" % tool)
     return found
 
 
@@ -50,14 +48,9 @@ def test_every_command_of_the_demo_exists():
 
 
 def test_the_elevator_group_comes_up_in_order_and_stops_with_the_manager(tmp_path):
-    manager = subprocess.Popen([ln_core("ln_manager"), "-c", str(CONFIG), "-p", "0", "--start", "elevator"],
-                               stdout=subprocess.PIPE, stderr=open(tmp_path / "manager.log", "w"), text=True,
-                               env=dict(os.environ, HOME=str(tmp_path)))
+    manager = ln_testing.LnCore(tmp_path, home=tmp_path, manager_exe=ln_core("ln_manager"))
     try:
-        line = manager.stdout.readline()
-        match = re.match(r"ln_manager: listening on (\S+)", line)
-        assert match, line + (tmp_path / "manager.log").read_text()
-        address = match.group(1)
+        address = manager.start(config=CONFIG, args=["--start", "elevator"]).address
         deadline = time.monotonic() + TIMEOUT
         states = {}
         while time.monotonic() < deadline:
@@ -67,20 +60,15 @@ def test_the_elevator_group_comes_up_in_order_and_stops_with_the_manager(tmp_pat
                 break
             time.sleep(0.05)  # the manager's account of its processes is what there is to watch
         assert states["elevator_sim"]["state"] == "ready", states
-        assert states["elevator_control"]["state"] == "ready", (tmp_path / "manager.log").read_text()
+        assert states["elevator_control"]["state"] == "ready", manager.log_path.read_text()
         assert states["ros_listener"]["state"] == "stopped", "only the group was asked for"
         call = ln(address, "service", "call", "elevator03.prompt", "target_floor: 2", "--timeout", "20", "--json")
         assert call.returncode == 0, call.stderr
         assert json.loads(call.stdout)["reached_floor"] == 2
         pids = [states[name]["pid"] for name in ("elevator_sim", "elevator_control")]
     finally:
-        manager.send_signal(signal.SIGTERM)
-        try:
-            code = manager.wait(TIMEOUT)
-        except subprocess.TimeoutExpired:
-            manager.kill()
-            code = manager.wait()
-    log = (tmp_path / "manager.log").read_text()
+        code = manager.stop(timeout=TIMEOUT)
+    log = manager.log_path.read_text()
     assert code == 0, log
     assert log.index("stopped 'elevator_control'") < log.index("stopped 'elevator_sim'"), "dependents first"
     for pid in pids:

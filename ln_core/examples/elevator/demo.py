@@ -19,8 +19,9 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent.parent.parent
-sys.path.insert(0, str(ROOT / "ln_ros2_bridge"))
-from ln_ros2_bridge import support  # noqa: E402
+sys.path.insert(0, str(ROOT / "tests" / "support"))
+import ln_testing  # noqa: E402
+import ros_testing  # noqa: E402
 
 MSGDEFS = HERE / "msgdefs"
 
@@ -36,25 +37,25 @@ def main():
     args = parser.parse_args()
 
     work = Path(tempfile.mkdtemp(prefix="elevator-demo-"))
-    print("demo: network %s; logs in %s" % ("isolated (netns)" if support.network_is_isolated()
+    print("demo: network %s; logs in %s" % ("isolated (netns)" if ros_testing.network_is_isolated()
                                             else "NOT isolated (LOCALHOST DDS settings)", work))
     print("demo: ROS 2 interfaces for the elevator definitions (ln_ros2_gen + colcon, cached)")
-    install = support.build_interfaces([MSGDEFS], "elevator", log=str(work / "interfaces.log"))
-    ros_env = support.interface_env(install)
-    ros_env.update(support.loopback_dds_env())
+    install = ros_testing.build_interfaces([MSGDEFS], "elevator", log=str(work / "interfaces.log"))
+    ros_env = ros_testing.interface_env(install)
+    ros_env.update(ros_testing.loopback_dds_env())
     # the bridge from this source tree (the colcon install has the same code once built)
     ros_env["PYTHONPATH"] = os.pathsep.join([str(ROOT / "ln_ros2_bridge"), ros_env.get("PYTHONPATH", "")])
 
     if args.ln == "ln_core":
         return run_with_lnc(args, work, ros_env)
-    system = support.ln_system(args.ln, work / args.ln)
+    system = ln_testing.ln_system(args.ln, work / args.ln)
     processes = []
 
     def launch(name, cmd, env, ready=None):
-        proc = support.start(cmd, work / ("%s.log" % name), env=env)
+        proc = ln_testing.start(cmd, work / ("%s.log" % name), env=env)
         processes.append((name, proc))
         if ready:
-            support.wait_for_log(work / ("%s.log" % name), ready, 60, proc)
+            ln_testing.wait_for_log(work / ("%s.log" % name), ready, 60, proc)
         print("demo: started %-16s pid %d" % (name, proc.pid))
         return proc
 
@@ -81,17 +82,17 @@ def main():
             status = listener.wait(timeout=120)
         except Exception:
             print("demo: the listener did not finish within 120 s")
-        print(support.tail(work / "ros_listener.log", 12))
+        print(ln_testing.tail(work / "ros_listener.log", 12))
     finally:
         for name, proc in reversed(processes):
-            code = support.stop(proc)
+            code = ln_testing.stop(proc)
             print("demo: stopped %-16s exit %s" % (name, code))
-        support.remove_ln_segments(proc.pid for _, proc in processes)
+        ln_testing.remove_ln_segments(proc.pid for _, proc in processes)
         system.stop()
         print("demo: stopped the %s manager" % args.ln)
         if status != 0:
             for name, _ in processes:
-                print("---- %s (tail) ----\n%s" % (name, support.tail(work / ("%s.log" % name), 15)))
+                print("---- %s (tail) ----\n%s" % (name, ln_testing.tail(work / ("%s.log" % name), 15)))
         if not args.keep and status == 0:
             import shutil
             shutil.rmtree(work, ignore_errors=True)
@@ -106,7 +107,7 @@ def run_with_lnc(args, work, ros_env):
     stops the manager, which stops them all in reverse order."""
     import signal
     import time
-    manager_exe, package = support.LnCore.locate()
+    manager_exe, package = ln_testing.LnCore.locate()
     env = dict(ros_env, ELEVATOR_SIM=args.sim, ELEVATOR_CONTROL=args.control, ELEVATOR_FLOOR=str(args.floor))
     env["PYTHONPATH"] = os.pathsep.join(p for p in [package, env.get("PYTHONPATH", "")] if p)
     if args.cpp_dir:
@@ -114,10 +115,10 @@ def run_with_lnc(args, work, ros_env):
     log = work / "manager.log"
     command = [manager_exe, "-c", HERE / "elevator.lnc", "-p", "0", "--start", "ros_listener"]
     print("demo: $ %s" % " ".join(str(c) for c in command))
-    manager = support.start(command, log, env=env)
+    manager = ln_testing.start(command, log, env=env)
     status = 1
     try:
-        found = support.wait_for_log(log, r"ln_manager: listening on (\S+)", 30, manager)
+        found = ln_testing.wait_for_log(log, r"ln_manager: listening on (\S+)", 30, manager)
         address = found.group(1)
         os.environ["PYTHONPATH"] = env["PYTHONPATH"]
         sys.path.insert(0, package)
@@ -152,13 +153,13 @@ def run_with_lnc(args, work, ros_env):
         finally:
             clnt.close()
     finally:
-        code = support.stop(manager, sig=signal.SIGTERM, timeout=60)
+        code = ln_testing.stop(manager, sig=signal.SIGTERM, timeout=60)
         print("demo: the manager stopped its processes, dependents first, and exited (%s)" % code)
-        stopped = [line.split(": ", 2)[-1] for line in support.tail(log, 40).splitlines() if "stopped '" in line]
+        stopped = [line.split(": ", 2)[-1] for line in ln_testing.tail(log, 40).splitlines() if "stopped '" in line]
         for line in stopped:
             print("demo:   " + line)
         if status != 0:
-            print("---- manager log (tail) ----\n%s" % support.tail(log, 40))
+            print("---- manager log (tail) ----\n%s" % ln_testing.tail(log, 40))
     print("demo: %s" % ("PASSED" if status == 0 else "FAILED"))
     if status == 0 and not args.keep:
         import shutil
