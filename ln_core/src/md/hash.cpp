@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <map>
+#include <set>
 #include <vector>
 
 #include "md/sha256.hpp"
@@ -74,16 +75,22 @@ std::string fields_repr(const std::vector<Field>& fields) {
 // define name, depth first; a nested define of the same local name replaces
 // an outer one. Definitions already on the stack are not entered again
 // (LN 2.9 handles only direct self-recursion; longer cycles are our own).
-void collect_defines(const Definition& definition,
-                     std::map<std::string, const std::vector<Field>*>& into,
-                     std::vector<const Definition*>& stack) {
+// Imports shared by several importers are entered once per path, as LN
+// does: `budget` bounds that walk (a few small files that import each
+// other twice per level would otherwise take forever).
+constexpr std::size_t max_import_visits = 100'000;
+
+void collect_defines(const Definition& definition, std::map<std::string, const std::vector<Field>*>& into,
+                     std::set<const Definition*>& on_stack, std::size_t& budget, const Definition& root) {
   for (const Define& define : definition.defines) {
     const Definition* sub = define.definition;
+    if (budget-- == 0)
+      throw Error(root.path, 0, "the definition imports more than " + std::to_string(max_import_visits) +
+                                    " types when its imports are followed (imports shared too often)");
     into[define.local_name] = &sub->fields;
-    if (std::find(stack.begin(), stack.end(), sub) != stack.end()) continue;
-    stack.push_back(sub);
-    collect_defines(*sub, into, stack);
-    stack.pop_back();
+    if (!on_stack.insert(sub).second) continue;
+    collect_defines(*sub, into, on_stack, budget, root);
+    on_stack.erase(sub);
   }
 }
 
@@ -91,8 +98,9 @@ void collect_defines(const Definition& definition,
 
 std::string compute_definition_hash(const Definition& definition) {
   std::map<std::string, const std::vector<Field>*> defines;
-  std::vector<const Definition*> stack{&definition};
-  collect_defines(definition, defines, stack);
+  std::set<const Definition*> on_stack{&definition};
+  std::size_t budget = max_import_visits;
+  collect_defines(definition, defines, on_stack, budget, definition);
 
   std::string sorted_defines = "[";
   bool first = true;
