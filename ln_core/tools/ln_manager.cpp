@@ -4,6 +4,7 @@
 #include <signal.h>
 #include <sys/resource.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstdio>
 #include <cstring>
@@ -11,8 +12,11 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <utility>
+#include <vector>
 
 #include "manager/config.hpp"
+#include "manager/limits.hpp"
 #include "manager/manager.hpp"
 
 namespace {
@@ -22,7 +26,7 @@ using namespace ln::manager;
 constexpr std::uint16_t default_port = 54414;  // the port of LN's quickstart examples
 
 const char* const usage_text = R"(usage: ln_manager [-c FILE.lnc] [--listen HOST:PORT | -p PORT] [-i NAME]
-                  [--log-level debug|info|warning|error] [--without-gui] [-h]
+                  [--log-level debug|info|warning|error] [--without-gui] [--LIMIT VALUE ...] [-h]
 
 The ln_core manager: the rendezvous of an LN instance. Clients find it
 through LN_MANAGER=HOST:PORT or --ln-manager HOST:PORT.
@@ -46,6 +50,9 @@ through LN_MANAGER=HOST:PORT or --ln-manager HOST:PORT.
   --without-gui       accepted for LN compatibility; there is no GUI
   -h, --help          this text
 
+Limits (also keys of the config's instance section, e.g. "max_topic_shm: 64M";
+an option overrides the config). BYTES take K, M or G (powers of 1024):
+%LIMITS%
 Message definitions are searched in the config's add_message_definition_dir
 directories, then the built-in ones, ~/ln_message_definitions and
 $LN_MESSAGE_DEFINITION_DIRS. On start-up the manager prints
@@ -56,6 +63,25 @@ $LN_MESSAGE_DEFINITION_DIRS. On start-up the manager prints
 [[noreturn]] void usage_error(const std::string& problem) {
   std::cerr << "ln_manager: " << problem << "\n(ln_manager -h shows the options)\n";
   std::exit(2);
+}
+
+std::string option_of(const std::string& key) {
+  std::string option = "--" + key;
+  for (char& c : option)
+    if (c == '_') c = '-';
+  return option;
+}
+
+std::string usage() {
+  std::string limits;
+  for (const LimitInfo& limit : limit_table()) {
+    std::string head = "  " + option_of(limit.key) + " " + limit.value_text;
+    head.resize(std::max<std::size_t>(head.size() + 1, 40), ' ');
+    limits += head + limit.description + " (default " + limit.default_text + ")\n";
+  }
+  std::string text = usage_text;
+  text.replace(text.find("%LIMITS%\n"), 9, limits);
+  return text;
 }
 
 std::optional<LogLevel> parse_level(const std::string& text) {
@@ -88,6 +114,7 @@ void raise_file_limit() {
 int main(int argc, char** argv) {
   std::string config_file, instance_name, listen;
   std::optional<std::uint16_t> port_override;
+  std::vector<std::pair<std::string, std::string>> limit_options;  // applied over the config's
   LogLevel threshold = LogLevel::Info;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
@@ -96,7 +123,7 @@ int main(int argc, char** argv) {
       return argv[++i];
     };
     if (arg == "-h" || arg == "--help") {
-      std::cout << usage_text;
+      std::cout << usage();
       return 0;
     } else if (arg == "-c") {
       config_file = value();
@@ -113,6 +140,10 @@ int main(int argc, char** argv) {
       threshold = *level;
     } else if (arg == "--without-gui") {
       // LN's manager needs it to run headless; this one always is.
+    } else if (const auto limit = std::find_if(limit_table().begin(), limit_table().end(),
+                                               [&](const LimitInfo& l) { return option_of(l.key) == arg; });
+               limit != limit_table().end()) {
+      limit_options.emplace_back(limit->key, value());
     } else {
       usage_error("unknown or unsupported option '" + arg + "'");
     }
@@ -134,9 +165,17 @@ int main(int argc, char** argv) {
       if (settings.manager_port) options.port = *settings.manager_port;
       options.message_definition_dirs = settings.message_definition_dirs;
       options.generated_definition_dir = settings.generated_definition_dir;
+      options.limits = settings.limits;
     } catch (const ConfigError& e) {
       std::cerr << "ln_manager: " << e.what() << "\n";
       return 2;
+    }
+  }
+  for (const auto& [key, text] : limit_options) {
+    try {
+      set_limit(options.limits, key, text);
+    } catch (const std::invalid_argument& e) {
+      usage_error(e.what());
     }
   }
   if (!instance_name.empty()) options.instance_name = instance_name;

@@ -13,6 +13,8 @@
 #include <set>
 #include <sstream>
 
+#include "manager/limits.hpp"
+
 namespace ln::manager {
 namespace {
 
@@ -266,6 +268,12 @@ class LncReader {
       }
     } else if (key == "gen_message_definition_path") {
       settings_.generated_definition_dir = absolute_path(expand_home(evaluate(raw_value, line)));
+    } else if (is_limit_key(key)) {
+      try {
+        set_limit(settings_.limits, key, evaluate(raw_value, line));
+      } catch (const std::invalid_argument& e) {
+        fail(line, e.what());
+      }
     } else {
       report_unsupported_once("the instance key '" + key + "'", line);
     }

@@ -1,8 +1,9 @@
 // Reading LN's .lnc configuration files (ln_spec §6.3) as far as a manager
 // without process control needs them: the `instance` section (name, manager,
-// gen_message_definition_path), `defines`, and the directives `include`,
-// `optional_include`, `add_message_definition_dir`, `undef`, `warning` and
-// the `ifdef`/`ifndef` line prefixes. Values may use %(DEFINE), CURDIR,
+// gen_message_definition_path, the manager's limits of limits.hpp),
+// `defines`, and the directives `include`, `optional_include`,
+// `add_message_definition_dir`, `undef`, `warning` and the `ifdef`/`ifndef`
+// line prefixes. Values may use %(DEFINE), CURDIR,
 // CURRENT, instance_name, hostname, manager and the functions env,
 // get_port_from_string, dirname, basename, realpath and strip. Everything
 // else (process, state, group, hosts ... sections, other instance keys and
@@ -17,6 +18,7 @@
 #include <vector>
 
 #include "manager/log.hpp"
+#include "manager/manager.hpp"
 
 namespace ln::manager {
 
@@ -39,6 +41,8 @@ struct LncSettings {
   std::optional<std::uint16_t> manager_port;
   std::vector<std::string> message_definition_dirs;  ///< absolute, in config order
   std::string generated_definition_dir;             ///< "" = the default
+  /// The manager's limits (limits.hpp), defaults unless the instance section sets them.
+  ManagerLimits limits;
 };
 
 /// Reads `path` and what it includes. `instance_name` (from -i) takes the

@@ -9,12 +9,14 @@ add_library(ln_manager_core STATIC
   ${LN_MANAGER_SOURCE_DIR}/config.cpp
   ${LN_MANAGER_SOURCE_DIR}/definitions.cpp
   ${LN_MANAGER_SOURCE_DIR}/dispatch.cpp
+  ${LN_MANAGER_SOURCE_DIR}/limits.cpp
   ${LN_MANAGER_SOURCE_DIR}/manager.cpp
   ${LN_MANAGER_SOURCE_DIR}/names.cpp
   ${LN_MANAGER_SOURCE_DIR}/registry.cpp
 )
 target_include_directories(ln_manager_core PUBLIC ${LN_MANAGER_SOURCE_DIR}/..)
-target_link_libraries(ln_manager_core PUBLIC ln_md ln_protocol Threads::Threads)
+# ln_transport: the size of a topic's segment, which the shared-memory limits count.
+target_link_libraries(ln_manager_core PUBLIC ln_md ln_protocol ln_transport Threads::Threads)
 target_compile_definitions(ln_manager_core PRIVATE LN_MANAGER_VERSION="${PROJECT_VERSION}")
 ln_target_warnings(ln_manager_core)
 
@@ -32,6 +34,7 @@ if(BUILD_TESTING)
     ${LN_MANAGER_SOURCE_DIR}/manager_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/introspection_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/robustness_test.cpp
+    ${LN_MANAGER_SOURCE_DIR}/limits_test.cpp
     ${LN_MANAGER_SOURCE_DIR}/binary_test.cpp
   )
   target_link_libraries(manager_tests PRIVATE ln_manager_core GTest::gtest GTest::gtest_main)
