@@ -343,6 +343,51 @@ TEST(Dispatch, GarbageOnOneConnectionDoesNotDisturbOthers) {
   EXPECT_EQ(sum, 42);
 }
 
+// True once the provider closed its end (without reading what it sent).
+bool peer_hung_up(int fd, double seconds) {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  while (std::chrono::steady_clock::now() < until) {
+    pollfd p{fd, POLLRDHUP, 0};
+    if (::poll(&p, 1, 100) > 0 && (p.revents & (POLLRDHUP | POLLHUP)) != 0) return true;
+  }
+  return false;
+}
+
+TEST(Dispatch, ACallerThatDoesNotReadLosesOnlyItsOwnConnection) {
+  Limits limits;
+  limits.response_timeout_ms = 300;
+  Harness h(limits);
+  HandlerBox add{add_numbers};
+  ASSERT_OK(h.dispatcher.add_provider(1, "add", signature(svc_test_add_signature), &HandlerBox::call, &add, nullptr));
+  GroupServer server(h.dispatcher, nullptr);
+  auto caller = h.caller(1, signature(svc_test_add_signature));
+  ASSERT_EQ(call_add(*caller, 1, 1), 0);
+
+  // Requests as long as the socket takes them; the answers are never read.
+  const int stalled = raw_connection(h, 1);
+  std::string request(frames::request_overhead + 8, '\0');
+  frames::write_request_head(request.data(), {1, 7}, 8);
+  std::string requests;
+  for (int i = 0; i < 4096; ++i) requests += request;
+  std::size_t sent = 0;
+  for (int round = 0; round < 200; ++round) {
+    const ssize_t n = ::send(stalled, requests.data(), requests.size(), MSG_DONTWAIT | MSG_NOSIGNAL);
+    if (n <= 0) break;
+    sent += static_cast<std::size_t>(n);
+  }
+  EXPECT_GT(sent, 100000u);
+  // Everyone else is served meanwhile (before, the provider blocked on the
+  // stalled caller's full socket and the others timed out one after another).
+  for (int i = 0; i < 20; ++i) {
+    int sum = 0;
+    ASSERT_EQ(call_add(*caller, i, 1, &sum, 5), 0) << caller->last_error();
+    EXPECT_EQ(sum, i + 1);
+  }
+  EXPECT_TRUE(peer_hung_up(stalled, 10)) << "the caller that does not read loses its connection";
+  ::close(stalled);
+  EXPECT_EQ(call_add(*caller, 2, 3), 0);
+}
+
 TEST(Dispatch, MalformedRequestDataIsAnsweredNotHandled) {
   Harness h;
   std::atomic<int> handled{0};
