@@ -15,6 +15,7 @@
 #include <cstring>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -70,6 +71,10 @@ class InProcessManager {
     options.port = port;
     options.message_definition_dirs = md_dirs_;
     options.generated_definition_dir = generated_.path();
+    options.log = [this](manager::LogLevel, const std::string& text) {
+      std::lock_guard<std::mutex> lock(log_mutex_);
+      log_.push_back(text);
+    };
     manager_ = std::make_unique<manager::Manager>(options);
     // A restart on the same port may briefly race the old socket's teardown.
     for (int attempt = 0;; ++attempt) {
@@ -93,8 +98,21 @@ class InProcessManager {
 
   std::uint16_t port() const { return port_; }
   std::string address() const { return "127.0.0.1:" + std::to_string(port_); }
+  /// True once a line of the manager's log contains `text` (bounded wait).
+  bool wait_for_log(const std::string& text, std::chrono::milliseconds timeout = 5s) {
+    return wait_until(
+        [&] {
+          std::lock_guard<std::mutex> lock(log_mutex_);
+          for (const std::string& line : log_)
+            if (line.find(text) != std::string::npos) return true;
+          return false;
+        },
+        timeout);
+  }
 
  private:
+  std::mutex log_mutex_;
+  std::vector<std::string> log_;
   std::vector<std::string> md_dirs_;
   TempDir generated_;
   std::unique_ptr<manager::Manager> manager_;

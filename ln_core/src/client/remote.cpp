@@ -32,6 +32,11 @@ constexpr std::uint32_t kBigEndianPayload = 1u << 0;  // header flag
 constexpr bool kHostIsBigEndian = __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__;
 constexpr std::size_t kRetiredStreams = 4;  // per inbox
 constexpr std::size_t kEndedIds = 64;       // per receiver
+// TCP senders (reliable subscriptions): how many connections at once, and
+// how many bytes of partly received packets all of them may hold; beyond,
+// the oldest connection, or the one holding the most, is dropped.
+constexpr std::size_t kMaxStreamConnections = 256;
+constexpr std::size_t kMaxStreamBytes = 64u << 20;
 
 void put_le(unsigned char* out, std::uint64_t value, int bytes) {
   for (int i = 0; i < bytes; ++i) out[i] = static_cast<unsigned char>(value >> (8 * i));
@@ -531,19 +536,36 @@ void RemoteReceiver::on_packet(const unsigned char* data, std::size_t size) {
 }
 
 void RemoteReceiver::on_stream(Connection& connection) {
+  std::size_t done = 0;
   for (;;) {
-    if (connection.buffered.size() < 4) return;
-    const auto* bytes = reinterpret_cast<const unsigned char*>(connection.buffered.data());
+    const std::size_t left = connection.buffered.size() - done;
+    if (left < 4) break;
+    const auto* bytes = reinterpret_cast<const unsigned char*>(connection.buffered.data()) + done;
     const std::uint32_t frame = static_cast<std::uint32_t>(get_le(bytes, 4));
     if (frame < kHeaderSize || frame > kMaxPacketSize + kHeaderSize) {
       connection.socket.reset();  // not our protocol
       return;
     }
-    if (connection.buffered.size() < 4u + frame) return;
+    if (left < 4u + frame) break;
     Header header;
     if (decode_header(bytes + 4, frame, header) && header.offset == 0 && header.packet_size == frame - kHeaderSize)
       on_packet(bytes + 4, frame);
-    connection.buffered.erase(0, 4u + frame);
+    done += 4u + frame;
+  }
+  connection.buffered.erase(0, done);
+}
+
+void RemoteReceiver::drop_largest_streams_over_budget() {
+  for (;;) {
+    std::size_t total = 0;
+    Connection* largest = nullptr;
+    for (Connection& connection : connections_) {
+      if (!connection.socket.valid()) continue;
+      total += connection.buffered.size();
+      if (!largest || connection.buffered.size() > largest->buffered.size()) largest = &connection;
+    }
+    if (total <= kMaxStreamBytes || largest == nullptr) return;
+    largest->socket.reset();
   }
 }
 
@@ -562,7 +584,10 @@ void RemoteReceiver::run() {
     }
     if (fds[2].revents != 0) {
       UniqueFd accepted(::accept4(listener_.get(), nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC));
-      if (accepted.valid()) connections_.push_back(Connection{std::move(accepted), {}});
+      if (accepted.valid()) {
+        if (connections_.size() >= kMaxStreamConnections) connections_.front().socket.reset();
+        connections_.push_back(Connection{std::move(accepted), {}});
+      }
     }
     for (std::size_t i = 3; i < fds.size(); ++i) {
       if (fds[i].revents == 0) continue;
@@ -576,6 +601,7 @@ void RemoteReceiver::run() {
       connection.buffered.append(chunk, static_cast<std::size_t>(n));
       on_stream(connection);
     }
+    drop_largest_streams_over_budget();
     connections_.erase(std::remove_if(connections_.begin(), connections_.end(),
                                       [](const Connection& c) { return !c.socket.valid(); }),
                        connections_.end());

@@ -276,8 +276,14 @@ Status ServicesGlue::release_provider(std::uint32_t local_id) {
 }
 
 void ServicesGlue::on_call(PeerRequest& request) {
-  // No uid check: over TCP there is none to make, and LN does not restrict
-  // services by user either.
+  // On this host the rule of shared-memory segments: same user unless
+  // LN_PEER_ALLOW_UIDS says otherwise. Over TCP there is no uid to check
+  // (the peer server listens on the address used towards the manager).
+  if (!request.connection->over_tcp() && !request.connection->local_user_allowed()) {
+    request.fail(LNE_REQUEST_FAILED, "services are only offered to processes of the same user on this host "
+                                     "(or of users LN_PEER_ALLOW_UIDS lists)");
+    return;
+  }
   const std::int64_t manager_id = request.message.get_int_or("service_id", -1);
   std::uint32_t local_id = 0;
   {
