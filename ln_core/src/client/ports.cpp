@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <random>
 
@@ -369,6 +370,10 @@ void InPort::adopt_pending_segment() {
   transport::ReaderOptions options;
   options.buffers = std::min(buffers_, std::max<std::uint32_t>(segment.slots, 1));
   options.max_borrows = 1;
+  // A subscriber that may write where it must not (while debugging one)
+  // faults at the write instead of corrupting the publisher's packets.
+  const char* protect = std::getenv("LN_SHM_WRITE_PROTECT");
+  options.write_protect = protect != nullptr && *protect != '\0' && std::string(protect) != "0";
   const bool continues = !resume_socket_.empty() && resume_socket_ == segment.identity.publisher_socket;
   options.resume_after = continues ? std::optional<std::uint64_t>(resume_after_) : segment.written_before;
   resume_after_ = 0;

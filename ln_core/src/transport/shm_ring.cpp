@@ -1087,12 +1087,13 @@ ShmReader ShmReader::attach(int segment_fd, const ReaderOptions& options) {
     throw ShmError(ShmErrc::invalid_argument, "spin policy needs 0 <= min_spin <= max_spin");
   }
 
-  // The publisher's part read-only, the reader area writable: a stray write
-  // of this process can then only disturb sleeping and borrowing (which the
-  // publisher survives, see ShmWriter), never the packets. With pages larger
-  // than the reader area's alignment, one writable mapping of everything.
+  // Write-protected: the publisher's part read-only, the reader area
+  // writable: a stray write of this process can then only disturb sleeping
+  // and borrowing (which the publisher survives, see ShmWriter), never the
+  // packets. With pages larger than the reader area's alignment, one
+  // writable mapping of everything.
   std::byte* shared = nullptr;
-  if (geometry.shared_offset % page_size() == 0) {
+  if (options.write_protect && geometry.shared_offset % page_size() == 0) {
     core->mapping = Mapping::map_shared(core->fd.get(), 0, geometry.shared_offset, false);
     core->shared_mapping = Mapping::map_shared(core->fd.get(), geometry.shared_offset,
                                                geometry.total_size - geometry.shared_offset, true);

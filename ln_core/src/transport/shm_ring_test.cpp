@@ -620,7 +620,7 @@ TEST(ShmRingSemantics, CorruptSharedStateGivesErrorsNotCrashes) {
   ::munmap(raw, size);
 }
 
-TEST(ShmRingSemantics, ReadersCannotWriteThePublishersPart) {
+TEST(ShmRingSemantics, WriteProtectedReadersCannotWriteThePublishersPart) {
   ShmWriter writer = ShmWriter::create(config(64, 2));
   ASSERT_EQ(writer.write(packet(64, 1).data(), 64), WriteStatus::ok);
   // A subscriber that writes into a packet it may only read dies of it
@@ -631,6 +631,7 @@ TEST(ShmRingSemantics, ReadersCannotWriteThePublishersPart) {
     ReaderOptions options;
     options.buffers = 2;
     options.resume_after = 0;
+    options.write_protect = true;
     ShmReader reader = ShmReader::attach(writer.fd(), options);
     BorrowedSample sample;
     if (reader.borrow(sample) != ReadStatus::ok) return 3;
