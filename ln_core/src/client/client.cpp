@@ -811,6 +811,9 @@ void Client::report_packet_counts() {
     const std::uint64_t session = link_.session();
     const auto now = PacketCountReports::Clock::now();
     for (const auto& port : outports_) {
+      // A segment written over by a subscriber is replaced (and announced
+      // through the recovery handler).
+      port->check_segment();
       Registration& registration = registrations_.at(port.get());
       if (registration.manager_id < 0 || registration.session != session) continue;
       const std::uint64_t packets = port->packets_written();

@@ -202,7 +202,18 @@ std::int64_t OutPort::generation() const {
   return generation_;
 }
 
-std::uint64_t OutPort::packets_written() const noexcept { return writer_ ? writer_->published_sequence() : 0; }
+std::uint64_t OutPort::packets_written() const noexcept {
+  // write() may replace the writer (a corrupted segment) from any thread.
+  std::unique_lock<std::mutex> lock(write_mutex_, std::try_to_lock);
+  if (lock.owns_lock() && writer_) last_packets_written_.store(writer_->published_sequence(), std::memory_order_relaxed);
+  return last_packets_written_.load(std::memory_order_relaxed);
+}
+
+bool OutPort::check_segment() noexcept {
+  std::unique_lock<std::mutex> lock(write_mutex_, std::try_to_lock);
+  if (!lock.owns_lock() || !writer_ || writer_->shared_state_intact()) return false;
+  return recover_segment_locked();
+}
 
 std::uint64_t OutPort::newest_sequence() const {
   std::lock_guard<std::mutex> lock(write_mutex_);

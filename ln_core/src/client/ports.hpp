@@ -118,11 +118,15 @@ class OutPort : public PortBase {
   std::uint64_t segment_recoveries() const noexcept { return recoveries_.load(std::memory_order_relaxed); }
   std::int64_t generation() const;
   /// Packets written since the port was created (sequence numbers continue
-  /// across segments). Reads the segment's counter without the write lock,
-  /// so that counting never delays a writer. Only from the I/O thread and
-  /// once publish() listed the port in its client: from then on only that
-  /// thread replaces the segment.
+  /// across segments). Only tries the write lock, so that counting never
+  /// waits for a writer: while one writes, the previous count is returned.
   std::uint64_t packets_written() const noexcept;
+  /// Replaces the segment if its shared state was written over (by a
+  /// subscriber with a writable mapping; readers then fail): what write()
+  /// does when it finds no free slot, for damage write() cannot notice. Only
+  /// tries the write lock (the I/O thread calls it about once a second).
+  /// True if it replaced the segment.
+  bool check_segment() noexcept;
   void set_subscribers(int count) noexcept { subscribers_.store(count, std::memory_order_relaxed); }
   /// The newest packet's sequence number (0 before any). Taken under the
   /// write lock, so that whatever the program writes once it sees a
@@ -163,6 +167,7 @@ class OutPort : public PortBase {
   bool recover_segment_locked() noexcept;
 
   std::uint64_t segment_limit_ = 0;
+  mutable std::atomic<std::uint64_t> last_packets_written_{0};
   std::atomic<std::uint64_t> recoveries_{0};
   std::function<void()> recovery_handler_;
   mutable std::mutex write_mutex_;  // the writer, its loan and the generation

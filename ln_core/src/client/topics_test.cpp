@@ -153,6 +153,12 @@ struct WritableSegment {
   ~WritableSegment() {
     if (base != nullptr && base != MAP_FAILED) ::munmap(base, size);
   }
+  // The ring names slots that do not exist: readers fail with corrupt_segment.
+  void scribble_over_ring() {
+    std::uint64_t ring_offset = 0;
+    std::memcpy(&ring_offset, base + 24, sizeof ring_offset);  // SegmentInfo::ring_offset
+    std::memset(base + ring_offset, 0xff, 16);
+  }
   // Everything readers may write set to ones: every spare slot looks pinned.
   void scribble_over_reader_area() {
     std::uint64_t shared_offset = 0;
@@ -190,6 +196,32 @@ TEST_F(TopicTest, ACorruptedSegmentIsReplacedAndSubscribersFollow) {
   }
   EXPECT_TRUE(manager_.wait_for_log("found the shared-memory segment of topic 't.corrupt' corrupted and replaced it "
                                     "(1 times so far)"));
+}
+
+TEST_F(TopicTest, AnOverwrittenRingIsNoticedByThePublisherAndReplaced) {
+  ln_outport out = publish("t.ring", 4);
+  ln_inport in = subscribe("t.ring", 4);
+  ASSERT_TRUE(out && in);
+  EXPECT_TRUE(wait_until([&] { return ln_has_publisher(in) == 1 && ln_has_subscriber(out) == 1; }));
+  handshake(out, in);
+  {
+    WritableSegment segment("t.ring");
+    ASSERT_NE(segment.base, nullptr);
+    ASSERT_NE(segment.base, MAP_FAILED);
+    segment.scribble_over_ring();
+  }
+  // Readers of the damaged segment fail; the publisher notices within about
+  // a second, replaces it, and the subscriber reads the new one.
+  bool read_after_replacement = false;
+  const auto deadline = Clock::now() + 10s;
+  for (uint32_t seq = 1; !read_after_replacement && Clock::now() < deadline; ++seq) {
+    P64 p = packet(seq);
+    ASSERT_EQ(ln_write(out, &p, sizeof p, nullptr), 0);
+    P64 received{};
+    read_after_replacement = ln_read_timeout(in, &received, sizeof received, nullptr, 0.02) == 1;
+  }
+  EXPECT_TRUE(read_after_replacement);
+  EXPECT_TRUE(manager_.wait_for_log("found the shared-memory segment of topic 't.ring' corrupted and replaced it"));
 }
 
 TEST_F(TopicTest, BuffersMustBeAtLeastOneAndWithinTheLimit) {

@@ -468,6 +468,24 @@ std::uint64_t ShmWriter::published_sequence() const noexcept {
   return core_->view.header->head_sequence.load(std::memory_order_relaxed);
 }
 
+bool ShmWriter::shared_state_intact() const noexcept {
+  const detail::WriterCore& core = *core_;
+  const SegmentHeader& header = *core.view.header;
+  const layout::Geometry& g = core.view.geometry;
+  const layout::SegmentInfo& info = header.info;
+  if (layout::checksum(info) != info.checksum || info.total_size != g.total_size ||
+      info.ring_offset != g.ring_offset || info.slots_offset != g.slots_offset || info.slot_stride != g.slot_stride ||
+      info.shared_offset != g.shared_offset || info.message_size != g.message_size || info.history != g.history ||
+      info.slot_count != g.slot_count || info.borrow_slots != g.borrow_slots)
+    return false;
+  const std::uint32_t expected_state = static_cast<std::uint32_t>(core.closed ? SegmentState::closed : SegmentState::open);
+  if (!core.closed && header.state.load(std::memory_order_relaxed) != expected_state) return false;
+  if (!core.loan_open && header.head_sequence.load(std::memory_order_relaxed) != core.last_sequence) return false;
+  for (std::uint32_t i = 0; i < g.history; ++i)
+    if (core.view.ring[i].load(std::memory_order_relaxed) != core.ring_slots[i]) return false;
+  return true;
+}
+
 std::uint32_t ShmWriter::sleeping_readers() const noexcept {
   return core_->view.readers->sleeping_readers.load(std::memory_order_acquire);
 }

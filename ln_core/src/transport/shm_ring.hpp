@@ -343,6 +343,11 @@ class ShmWriter {
   std::uint64_t published_sequence() const noexcept;
   /// Readers currently asleep in a blocking read (for tests and diagnostics).
   std::uint32_t sleeping_readers() const noexcept;
+  /// False if the segment's shared state no longer is what this writer
+  /// made it (a reader with a writable mapping wrote over the header or the
+  /// ring): readers may then fail with ReadStatus::corrupt_segment, and the
+  /// owner replaces the segment. Reads O(history); not during a write.
+  bool shared_state_intact() const noexcept;
 
   /// Marks the segment closed and wakes all readers; they drain what is left
   /// and then get publisher_gone. Idempotent.

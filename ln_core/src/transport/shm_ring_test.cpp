@@ -608,7 +608,9 @@ TEST(ShmRingSemantics, CorruptSharedStateGivesErrorsNotCrashes) {
   std::uint32_t saved = 0;
   std::memcpy(&saved, base + ring_offset + 4, sizeof(saved));  // ring[1] names packet 1's slot
   const std::uint32_t bogus = 0xffffffffu;
+  EXPECT_TRUE(writer.shared_state_intact());
   std::memcpy(base + ring_offset + 4, &bogus, sizeof(bogus));
+  EXPECT_FALSE(writer.shared_state_intact()) << "the writer notices (its owner then replaces the segment)";
 
   std::vector<std::byte> buffer(64);
   SampleInfo info;
@@ -616,7 +618,15 @@ TEST(ShmRingSemantics, CorruptSharedStateGivesErrorsNotCrashes) {
   BorrowedSample sample;
   EXPECT_EQ(reader.borrow(sample), ReadStatus::corrupt_segment);
   std::memcpy(base + ring_offset + 4, &saved, sizeof(saved));
+  EXPECT_TRUE(writer.shared_state_intact());
   EXPECT_EQ(reader.read(buffer.data(), buffer.size(), info), ReadStatus::ok);
+  std::uint64_t head = 0;
+  std::memcpy(&head, base + 128, sizeof head);  // SegmentHeader::head_sequence (its own cache line)
+  EXPECT_EQ(head, 1u);
+  const std::uint64_t wrong = 77;
+  std::memcpy(base + 128, &wrong, sizeof wrong);
+  EXPECT_FALSE(writer.shared_state_intact());
+  std::memcpy(base + 128, &head, sizeof head);
   ::munmap(raw, size);
 }
 
