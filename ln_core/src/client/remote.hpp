@@ -203,6 +203,8 @@ class RemoteReceiver {
     std::vector<std::uint64_t> retired_streams;  // stragglers of these are dropped
     PacketAssembler assembler;
     bool failed = false;
+    std::chrono::steady_clock::time_point new_streams_since{};  // rings made for new streams lately
+    int new_streams = 0;
   };
   struct Connection {
     UniqueFd socket;
