@@ -169,18 +169,27 @@ struct WritableSegment {
   std::size_t size = 0;
 };
 
-TEST_F(TopicTest, ACorruptedSegmentIsReplacedAndSubscribersFollow) {
-  ln_outport out = publish("t.corrupt", 4);
-  ln_inport in = subscribe("t.corrupt", 4);
-  ASSERT_TRUE(out && in);
-  EXPECT_TRUE(wait_until([&] { return ln_has_publisher(in) == 1 && ln_has_subscriber(out) == 1; }));
-  handshake(out, in);
-  {
-    WritableSegment segment("t.corrupt");
+// A publisher and a subscriber of `topic` that exchanged packets; then
+// `damage` plays a subscriber that writes where it must not.
+class DamagedSegmentTest : public TopicTest {
+ protected:
+  void exchange_then_damage(const char* topic, void (WritableSegment::*damage)()) {
+    out = publish(topic, 4);
+    in = subscribe(topic, 4);
+    ASSERT_TRUE(out && in);
+    EXPECT_TRUE(wait_until([&] { return ln_has_publisher(in) == 1 && ln_has_subscriber(out) == 1; }));
+    handshake(out, in);
+    WritableSegment segment(topic);
     ASSERT_NE(segment.base, nullptr);
     ASSERT_NE(segment.base, MAP_FAILED);
-    segment.scribble_over_reader_area();
+    (segment.*damage)();
   }
+  ln_outport out = nullptr;
+  ln_inport in = nullptr;
+};
+
+TEST_F(DamagedSegmentTest, ACorruptedSegmentIsReplacedAndSubscribersFollow) {
+  ASSERT_NO_FATAL_FAILURE(exchange_then_damage("t.corrupt", &WritableSegment::scribble_over_reader_area));
   // The publisher's writes succeed (into a new segment) and the subscriber
   // gets every one of them.
   for (uint32_t seq = 1; seq <= 3; ++seq) {
@@ -198,18 +207,8 @@ TEST_F(TopicTest, ACorruptedSegmentIsReplacedAndSubscribersFollow) {
                                     "(1 times so far)"));
 }
 
-TEST_F(TopicTest, AnOverwrittenRingIsNoticedByThePublisherAndReplaced) {
-  ln_outport out = publish("t.ring", 4);
-  ln_inport in = subscribe("t.ring", 4);
-  ASSERT_TRUE(out && in);
-  EXPECT_TRUE(wait_until([&] { return ln_has_publisher(in) == 1 && ln_has_subscriber(out) == 1; }));
-  handshake(out, in);
-  {
-    WritableSegment segment("t.ring");
-    ASSERT_NE(segment.base, nullptr);
-    ASSERT_NE(segment.base, MAP_FAILED);
-    segment.scribble_over_ring();
-  }
+TEST_F(DamagedSegmentTest, AnOverwrittenRingIsNoticedByThePublisherAndReplaced) {
+  ASSERT_NO_FATAL_FAILURE(exchange_then_damage("t.ring", &WritableSegment::scribble_over_ring));
   // Readers of the damaged segment fail; the publisher notices within about
   // a second, replaces it, and the subscriber reads the new one.
   bool read_after_replacement = false;

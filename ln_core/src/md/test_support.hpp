@@ -9,6 +9,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "ln/md/message_definition.hpp"
+
 namespace ln::md::testing {
 
 class DefinitionTree {
@@ -40,5 +42,16 @@ class DefinitionTree {
  private:
   std::string root_;
 };
+
+/// Loads `name` from `tree` and returns the Error it throws ("" if none).
+inline std::string load_error(const DefinitionTree& tree, const std::string& name) {
+  Library library(SearchPath::exactly({tree.root()}));
+  try {
+    library.load(name);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
 
 }  // namespace ln::md::testing

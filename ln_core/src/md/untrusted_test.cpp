@@ -16,6 +16,7 @@ namespace ln::md {
 namespace {
 
 using testing::DefinitionTree;
+using testing::load_error;
 using Clock = std::chrono::steady_clock;
 
 // Fails with the error's text if loading `name` throws.
@@ -26,16 +27,6 @@ const Definition& load(Library& library, const std::string& name) {
     ADD_FAILURE() << e.what();
     throw;
   }
-}
-
-std::string load_error(const DefinitionTree& tree, const std::string& name) {
-  Library library(SearchPath::exactly({tree.root()}));
-  try {
-    library.load(name);
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
 }
 
 double seconds_since(Clock::time_point start) {
