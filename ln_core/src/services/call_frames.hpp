@@ -140,6 +140,8 @@ class FrameAssembler {
   bool next(Payload& out);
   /// Whether part of a frame has arrived but not all of it.
   bool in_frame() const { return large_active_ || end_ > begin_; }
+  /// Whether next() has a payload to give.
+  bool has_ready() const { return !ready_.empty(); }
 
  private:
   Status split_scratch();

@@ -152,6 +152,10 @@ std::uint32_t set_events(bool shared, bool output_queued) {
 // The key of an event set's timer (connection keys count up from 1, 0 is
 // the wake-up descriptor).
 constexpr std::uint64_t timer_key = ~std::uint64_t{0};
+// Requests of one connection handled in a row; the rest wait for the
+// connection's next turn, after the other connections': a caller that
+// floods the provider delays the others by this many requests only.
+constexpr int requests_per_turn = 4;
 
 thread_local const Provider* handling_provider = nullptr;
 
@@ -233,6 +237,9 @@ struct EventSet {
   int timer_fd = -1;
   bool timer_armed = false;  // guarded by the dispatcher's mutex
   std::int64_t timer_at_ns = 0;
+  // Connections whose turn ended with requests left (received already, so
+  // epoll will not report them), in turn order; guarded by the mutex.
+  std::deque<std::uint64_t> backlog;
 };
 
 struct PendingEvent {
@@ -771,7 +778,10 @@ int Dispatcher::serve_claimed(const std::shared_ptr<ProviderConnection>& connect
     if (!empty) return 0;  // release() waits for room again
   }
   Status malformed;
-  const io::Result r = io::receive_available(connection->fd, connection->assembler, malformed);
+  // Requests left from the last turn come first; more are read after them.
+  const io::Result r = connection->assembler.has_ready()
+                           ? io::Result{}
+                           : io::receive_available(connection->fd, connection->assembler, malformed);
   if (r.outcome != io::Outcome::Done) {
     // The caller left (or broke the stream): its unstarted requests go too.
     close_connection(connection);
@@ -782,10 +792,29 @@ int Dispatcher::serve_claimed(const std::shared_ptr<ProviderConnection>& connect
   // reads or its connection times out.
   int handled = 0;
   frames::Payload payload;
-  while (!connection->closed && !connection->has_queued && connection->assembler.next(payload)) {
+  while (!connection->closed && !connection->has_queued && handled < requests_per_turn &&
+         connection->assembler.next(payload)) {
     handle_payload(connection, std::move(payload));
     ++handled;
   }
+  if (!connection->closed && !connection->has_queued && connection->assembler.has_ready()) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ServiceGroup& group = *connection->provider->group;
+    EventSet& set = group.pool ? group.pool->events : group.events;
+    set.backlog.push_back(connection->key);
+    set.wake();
+  }
+  return handled;
+}
+
+int Dispatcher::serve_backlog(EventSet& set) {
+  std::deque<std::uint64_t> keys;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    keys.swap(set.backlog);
+  }
+  int handled = 0;
+  for (std::uint64_t key : keys) handled += serve(key);
   return handled;
 }
 
@@ -926,11 +955,19 @@ Status Dispatcher::wait_and_handle(const char* group_name, double timeout, int* 
       }
     }
     if (count > 0) break;
-    const int n = wait_for_events(group->events.epoll_fd, events, 8, deadline, wait_.spin_us, yield_first);
+    // Connections with requests left from their last turn do not wait for
+    // epoll; the others' new requests are looked at first, without waiting.
+    bool backlogged;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      backlogged = !group->events.backlog.empty();
+    }
+    const int n = wait_for_events(group->events.epoll_fd, events, 8,
+                                  backlogged ? io::Deadline::at(io::Clock::now()) : deadline,
+                                  backlogged ? 0 : wait_.spin_us, yield_first);
     yield_first = false;
     if (n < 0 && errno == EINTR) continue;
     if (n < 0) return errno_failure("epoll_wait", errno);
-    if (n == 0) break;
     for (int i = 0; i < n; ++i) {
       if (events[i].data.u64 == 0)
         group->events.consume();
@@ -939,6 +976,8 @@ Status Dispatcher::wait_and_handle(const char* group_name, double timeout, int* 
       else
         count += serve(events[i].data.u64);
     }
+    if (backlogged) count += serve_backlog(group->events);
+    if (n == 0 && !backlogged) break;
   }
   if (handled) *handled = count;
   return {};
@@ -1081,12 +1120,14 @@ void Dispatcher::pool_thread_main(ThreadPool* pool, PoolThread* self) {
       if (key != 0) rearm(key);  // its event goes to a thread that stays
       break;
     }
-    if (key == 0)
+    if (key == 0) {
       deliver_events(nullptr, pool);
-    else if (key == timer_key)
+      serve_backlog(pool->events);
+    } else if (key == timer_key) {
       expire_queued_responses(pool->events);
-    else
+    } else {
       serve(key);
+    }
   }
   std::lock_guard<std::mutex> lock(mutex_);
   self->finished = true;

@@ -218,6 +218,8 @@ class Dispatcher {
                        const void* host, std::size_t body_size);
   /// Closes the connections of `set` whose queued responses made no progress for response_timeout_ms.
   void expire_queued_responses(EventSet& set);
+  /// Gives the connections whose last turn left requests their next turn.
+  int serve_backlog(EventSet& set);
   Status group_locked(const char* name, ServiceGroup*& out);
   ServiceGroup* find_group_locked(const char* name);
   Status pool_locked(const char* name, ThreadPool*& out);

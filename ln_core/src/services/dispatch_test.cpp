@@ -10,6 +10,7 @@
 #include <cstring>
 #include <future>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "services/socket_io.hpp"
@@ -386,6 +387,58 @@ TEST(Dispatch, ACallerThatDoesNotReadLosesOnlyItsOwnConnection) {
   EXPECT_TRUE(peer_hung_up(stalled, 10)) << "the caller that does not read loses its connection";
   ::close(stalled);
   EXPECT_EQ(call_add(*caller, 2, 3), 0);
+}
+
+TEST(Dispatch, AFloodingCallerDelaysOthersByAFewRequestsOnly) {
+  Harness h;
+  std::atomic<int> flood_handled{0};
+  std::atomic<int> flood_handled_when_normal_came{-1};
+  HandlerBox add{[&](Request& r) {
+    svc_test_add_t d;
+    Status s = r.set_data(&d, svc_test_add_signature);
+    if (!s.ok()) return s.code();
+    if (d.req.a == -1) flood_handled_when_normal_came = flood_handled.load();
+    else ++flood_handled;
+    d.resp.sum = d.req.a + d.req.b;
+    return r.respond().code();
+  }};
+  ASSERT_OK(h.dispatcher.add_provider(1, "add", signature(svc_test_add_signature), &HandlerBox::call, &add, nullptr));
+  GroupServer server(h.dispatcher, nullptr);
+  auto caller = h.caller(1, signature(svc_test_add_signature));
+  ASSERT_EQ(call_add(*caller, 1, 1), 0);
+
+  // A caller that sends requests as fast as the provider takes them (and
+  // reads the answers, so only the volume is wrong).
+  const int flooder = raw_connection(h, 1);
+  std::atomic<bool> stop{false};
+  std::thread sender([&] {
+    std::string request(frames::request_overhead + 8, '\0');
+    frames::write_request_head(request.data(), {1, 7}, 8);
+    std::string batch;
+    for (int i = 0; i < 512; ++i) batch += request;
+    while (!stop && ::send(flooder, batch.data(), batch.size(), MSG_NOSIGNAL) > 0) {
+    }
+  });
+  std::thread reader([&] {
+    char sink[65536];
+    while (!stop && ::recv(flooder, sink, sizeof sink, 0) > 0) {
+    }
+  });
+  const auto flooding = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (flood_handled.load() < 10000 && std::chrono::steady_clock::now() < flooding) std::this_thread::yield();
+  ASSERT_GE(flood_handled.load(), 10000);
+  const int before = flood_handled.load();
+  int sum = 0;
+  ASSERT_EQ(call_add(*caller, -1, 43, &sum, 10), 0) << caller->last_error();
+  EXPECT_EQ(sum, 42);
+  // The normal request waited for a turn of the flooder's at most (plus
+  // what the provider had read before it came), not for its whole backlog.
+  EXPECT_LT(flood_handled_when_normal_came.load() - before, 1000);
+  stop = true;
+  ::shutdown(flooder, SHUT_RDWR);
+  sender.join();
+  reader.join();
+  ::close(flooder);
 }
 
 TEST(Dispatch, MalformedRequestDataIsAnsweredNotHandled) {
