@@ -162,7 +162,7 @@ std::optional<DefinitionStore::Stored> DefinitionStore::cached_put(const std::st
                         static_cast<std::int64_t>(st->st_mtim.tv_sec) * 1000000000 + st->st_mtim.tv_nsec};
     if (!(now == known)) return std::nullopt;
   }
-  return Stored{name, it->second.hash, false};
+  return Stored{name, it->second.hash};
 }
 
 void DefinitionStore::remember_put(const std::string& name, const std::string& digest, const md::Definition& stored) {
@@ -231,13 +231,22 @@ DefinitionBundle DefinitionStore::bundle(const md::Definition& definition) const
 }
 
 DefinitionStore::Stored DefinitionStore::put(std::string_view name, std::string_view text,
-                                             const std::function<bool(const std::string&)>& in_use, bool may_write) {
+                                             const std::function<bool(const std::string&)>& in_use,
+                                             std::size_t& client_parses) {
   const std::string wanted(name);
   if (auto problem = definition_name_problem(wanted)) throw RequestError(LNE_INVALID_PARAMETER, *problem);
   if (text.size() > max_definition_text_size)
     throw RequestError(LNE_INVALID_PARAMETER, "message definition '" + wanted + "' is larger than 1 MiB");
   const std::string digest = md::sha256_hex(text);
   if (auto known = cached_put(wanted, digest)) return *known;
+  // Parsing a large text takes a while of the manager's only thread (about
+  // 0.1 s for 1 MiB), and so does a text that fails late: each client has
+  // its count of them.
+  if (client_parses >= limits_.max_definitions_per_client)
+    throw RequestError(LNE_REQUEST_FAILED, "this client has put " + std::to_string(client_parses) +
+                                               " new message definitions, as many as the manager allows per client "
+                                               "(max_definitions_per_client)");
+  ++client_parses;
 
   reload();  // look at the directories as they are now, not as they were
 
@@ -273,10 +282,6 @@ DefinitionStore::Stored DefinitionStore::put(std::string_view name, std::string_
                                                  "replaced until that topic is gone");
   }
   const std::string path = generated_dir_ + "/" + wanted;
-  if (!may_write)
-    throw RequestError(LNE_REQUEST_FAILED, "this client has stored " + std::to_string(limits_.max_definitions_per_client) +
-                                               " message definitions, as many as the manager allows per client "
-                                               "(max_definitions_per_client)");
   check_quota(path, text.size());
   write_file_atomically(path, text);
   count_stored();
@@ -286,7 +291,7 @@ DefinitionStore::Stored DefinitionStore::put(std::string_view name, std::string_
     throw RequestError(LNE_REQUEST_FAILED, "message definition '" + wanted + "' was stored, but the name resolves to '" +
                                                stored.path + "' with different content");
   remember_put(wanted, digest, stored);
-  return {stored.name, stored.hash, true};
+  return {stored.name, stored.hash};
 }
 
 }  // namespace ln::manager

@@ -49,7 +49,6 @@ class DefinitionStore {
   struct Stored {
     std::string name;
     std::string hash;
-    bool written = false;  ///< a file was written (not the same content again)
   };
   /// Validates `text` by parsing it and stores it as `name` in the generated
   /// directory. Storing the same content again is a no-op (answered from a
@@ -57,11 +56,12 @@ class DefinitionStore {
   /// replacing a stored definition is refused while `in_use(name)` says a
   /// topic uses it, and a definition found outside the generated directory
   /// is never shadowed. A write that would exceed the directory's quota
-  /// (max_stored_definitions, max_stored_definition_bytes), or any write
-  /// when `may_write` is false (the client's own quota is used up), is
-  /// refused with a message naming the limit.
+  /// (max_stored_definitions, max_stored_definition_bytes) is refused with a
+  /// message naming the limit; so is a text that needs parsing when
+  /// `client_parses` (the putting client's count of them, counted here)
+  /// reached max_definitions_per_client.
   Stored put(std::string_view name, std::string_view text, const std::function<bool(const std::string&)>& in_use,
-             bool may_write = true);
+             std::size_t& client_parses);
 
   std::vector<std::string> search_dirs() const;
   const std::string& generated_dir() const { return generated_dir_; }

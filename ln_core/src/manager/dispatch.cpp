@@ -159,8 +159,7 @@ Message Dispatcher::get_message_definition_for_topic(Session&, const Message& re
 Message Dispatcher::put_message_definition(Session& session, const Message& request, Outbox&) {
   const auto stored = definitions_.put(request.get_string("name"), request.get_string("text"),
                                        [this](const std::string& name) { return registry_.definition_in_use(name); },
-                                       session.definitions_stored < registry_.limits().max_definitions_per_client);
-  if (stored.written) ++session.definitions_stored;
+                                       session.definitions_put);
   return Message::response_to(request).set("name", stored.name).set("hash", stored.hash);
 }
 

@@ -21,8 +21,9 @@ struct Session {
   std::optional<Id> client;  ///< set by hello, cleared by goodbye
   /// Set by goodbye: close once the response is out.
   bool close_after_response = false;
-  /// put_message_definition requests that wrote a file (max_definitions_per_client).
-  std::size_t definitions_stored = 0;
+  /// put_message_definition requests whose text had to be parsed
+  /// (max_definitions_per_client).
+  std::size_t definitions_put = 0;
 };
 
 class Dispatcher {

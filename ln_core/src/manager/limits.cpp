@@ -41,7 +41,7 @@ const Entry entries[] = {
      &ManagerLimits::max_stored_definitions},
     {"max_stored_definition_bytes", Unit::Bytes, "bytes in the generated-definitions directory", nullptr,
      &ManagerLimits::max_stored_definition_bytes},
-    {"max_definitions_per_client", Unit::Count, "definitions one client may store",
+    {"max_definitions_per_client", Unit::Count, "new definition texts one client may put",
      &ManagerLimits::max_definitions_per_client},
 };
 

@@ -215,20 +215,25 @@ TEST_F(LimitsTest, StoredDefinitionsHaveAQuota) {
   };
   auto first = registered("first");
   EXPECT_FALSE(put(*first, "q/a", "double a\n").is_error());
-  EXPECT_FALSE(put(*first, "q/b", "double b\n").is_error());
-  EXPECT_FALSE(put(*first, "q/a", "double a\n").is_error()) << "the same content again stores nothing";
+  EXPECT_FALSE(put(*first, "q/a", "double a\n").is_error()) << "the same text again is answered from the cache";
+  EXPECT_EQ(put(*first, "q/bad", "no_such_type x\n").error_code(), LNE_INVALID_PARAMETER);  // parsed: counts
   const Message third = put(*first, "q/c", "double c\n");
   EXPECT_EQ(third.error_code(), LNE_REQUEST_FAILED);
-  EXPECT_NE(third.error_text().find("(max_definitions_per_client)"), std::string::npos) << third.error_text();
+  EXPECT_NE(third.error_text().find("this client has put 2 new message definitions, as many as the manager allows per "
+                                    "client (max_definitions_per_client)"),
+            std::string::npos)
+      << third.error_text();
   auto second = registered("second");
+  EXPECT_FALSE(put(*second, "q/b", "double b\n").is_error());
   EXPECT_FALSE(put(*second, "q/c", "double c\n").is_error());
-  const Message fourth = put(*second, "q/d", "double d\n");
+  auto third_client = registered("third");
+  const Message fourth = put(*third_client, "q/d", "double d\n");
   EXPECT_NE(fourth.error_text().find("3 stored definitions, as many as the manager allows (max_stored_definitions)"),
             std::string::npos)
       << fourth.error_text();
   EXPECT_FALSE(dir.exists("gen/q/d"));
   // Replacing a stored file takes no more room.
-  EXPECT_FALSE(put(*second, "q/c", "float c\n").is_error());
+  EXPECT_FALSE(put(*third_client, "q/c", "float c\n").is_error());
   expect_served();
 }
 

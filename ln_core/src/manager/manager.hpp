@@ -54,8 +54,9 @@ struct ManagerLimits {
   /// most this many files and bytes (counted at start and on every put).
   std::size_t max_stored_definitions = 1000;
   std::uint64_t max_stored_definition_bytes = 64ull * 1024 * 1024;
-  /// Definitions one client may store (new or replaced files) per
-  /// registration.
+  /// New definition texts (ones that must be parsed; the same text again
+  /// is free) one client may put per registration: parsing 1 MiB takes
+  /// about 0.1 s of the manager's thread.
   std::size_t max_definitions_per_client = 100;
 };
 

@@ -61,7 +61,7 @@
 //   is a no-op; different content is refused when `name` exists outside the
 //   generated dir or a topic uses it. Refused (LNE_REQUEST_FAILED) beyond
 //   the quota: max_stored_definitions / _bytes in the dir, and
-//   max_definitions_per_client written per registration.
+//   max_definitions_per_client new texts (parsed) per registration.
 //
 // publish          topic (str), message_definition (str, may carry |hash),
 //                  buffers (int >= 1)
