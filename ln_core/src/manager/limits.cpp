@@ -33,6 +33,8 @@ const Entry entries[] = {
     {"max_pending", Unit::Count, "unregistered connections", &ManagerLimits::max_pending},
     {"max_pending_per_peer", Unit::Count, "unregistered connections from one IP address",
      &ManagerLimits::max_pending_per_peer},
+    {"max_ports_per_client", Unit::Count, "topics one client publishes, its subscriptions and services",
+     &ManagerLimits::max_ports_per_client},
     {"max_topic_shm", Unit::Bytes, "shared memory of one topic (buffers x packet size)", nullptr,
      &ManagerLimits::max_topic_shm},
     {"max_client_shm", Unit::Bytes, "shared memory of all topics one client publishes", nullptr,

@@ -203,6 +203,36 @@ TEST_F(LimitsTest, APublishersTopicsShareOneLimit) {
   expect_served();
 }
 
+TEST_F(LimitsTest, TopicsSubscriptionsAndServicesOfAClientAreLimited) {
+  start([](ManagerLimits& l) { l.max_ports_per_client = 3; });
+  auto c = registered("collector");
+  auto subscribe = [&](const std::string& topic) {
+    return c->call("subscribe", [&](Message& m) {
+      m.set("topic", topic).set("message_definition", "mt/point").set("buffers", 1).set("rate", -1.0);
+      m.set("reliable", false);
+    });
+  };
+  ASSERT_FALSE(c->call("publish", [](Message& m) {
+                  m.set("topic", "p.a").set("message_definition", "mt/point").set("buffers", 1);
+                }).is_error());
+  const Message first = subscribe("s.a");
+  ASSERT_FALSE(first.is_error()) << first.error_text();
+  ASSERT_FALSE(c->call("register_service", [](Message& m) {
+                  m.set("name", "svc.a").set("interface", "mt/add").set("signature", "");
+                }).is_error());
+  const Message fourth = subscribe("s.b");
+  EXPECT_EQ(fourth.error_code(), LNE_REQUEST_FAILED);
+  EXPECT_NE(fourth.error_text().find("client 'collector' has 3 topics it publishes, subscriptions and services, as "
+                                     "many as the manager allows per client (max_ports_per_client)"),
+            std::string::npos)
+      << fourth.error_text();
+  ASSERT_FALSE(c->call("unsubscribe", [&](Message& m) {
+                  m.set("subscription_id", first.get_int("subscription_id"));
+                }).is_error());
+  EXPECT_FALSE(subscribe("s.b").is_error());
+  expect_served();
+}
+
 // -------------------------------------------------------------- definitions
 
 TEST_F(LimitsTest, StoredDefinitionsHaveAQuota) {

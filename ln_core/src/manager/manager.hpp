@@ -44,6 +44,9 @@ struct ManagerLimits {
   /// Unregistered connections from one IP address; a new one beyond
   /// closes the oldest of that address.
   std::size_t max_pending_per_peer = 64;
+  /// Topics one client publishes, its subscriptions and its services
+  /// together (every one of them is state the manager keeps and reports).
+  std::size_t max_ports_per_client = 4096;
   /// The shared-memory segment of one topic (its buffers times its packet
   /// size, as transport::topic_segment_size counts): publish and subscribe
   /// requests that would need more are refused.

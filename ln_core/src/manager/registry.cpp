@@ -172,6 +172,14 @@ void Registry::check_shared_memory(const std::string& name, std::int64_t message
                                                "(max_client_shm " + byte_text(limits_.max_client_shm) + ")");
 }
 
+void Registry::check_port_quota(Id client) const {
+  const Client& owner = clients_.at(client);
+  require(owner.ports < limits_.max_ports_per_client, LNE_REQUEST_FAILED,
+          "client '" + owner.name + "' has " + std::to_string(owner.ports) +
+              " topics it publishes, subscriptions and services, as many as the manager allows per client "
+              "(max_ports_per_client)");
+}
+
 Topic& Registry::create_topic(const std::string& name, const ResolvedDefinition& definition) {
   const Id id = ++last_id_;
   Topic& topic = topics_[id];
@@ -211,7 +219,9 @@ const Topic& Registry::publish(Id client, const std::string& name, const std::st
                         subscribers > buffers ? " (its subscribers ask for " + std::to_string(subscribers) + ")" : "");
   }
 
+  check_port_quota(client);
   Topic& topic = existing != topic_names_.end() ? topics_.at(existing->second) : create_topic(name, wanted);
+  ++clients_.at(client).ports;
   topic.publisher = client;
   topic.publisher_buffers = buffers;
   topic.publisher_ready = false;
@@ -247,6 +257,7 @@ void Registry::publisher_ready(Id client, Id id, std::int64_t segment_generation
 void Registry::unpublish(Id client, Id id, Outbox& out) {
   Topic& topic = owned_topic(client, id);
   const bool was_announced = topic.publisher_ready;
+  --clients_.at(client).ports;
   topic.publisher.reset();
   topic.publisher_ready = false;
   topic.publisher_buffers = 0;
@@ -304,6 +315,7 @@ const Subscription& Registry::subscribe(Id client, const SubscribeRequest& reque
     wanted = resolve_for_topic(request.topic, request.definition);
     if (topic) check_topic_definition(*topic, *wanted);
   }
+  check_port_quota(client);
   if (!topic || request.buffers > segment_history(*topic))
     check_shared_memory(request.topic, topic ? topic->message_size : wanted->message_size, request.buffers,
                         topic ? topic->publisher : std::nullopt, topic ? topic->id : 0, " (asked for by this subscriber)");
@@ -312,6 +324,7 @@ const Subscription& Registry::subscribe(Id client, const SubscribeRequest& reque
   Subscription& subscription = subscriptions_[id];
   subscription.id = id;
   subscription.client = client;
+  ++clients_.at(client).ports;
   subscription.topic = topic->id;
   subscription.buffers = request.buffers;
   subscription.rate = request.rate;
@@ -328,6 +341,7 @@ void Registry::unsubscribe(Id client, Id id, Outbox& out) {
           "you have no subscription with id " + std::to_string(id));
   const Id topic_id = it->second.topic;
   subscriptions_.erase(it);
+  --clients_.at(client).ports;
   Topic& topic = topics_.at(topic_id);
   topic.subscriptions.erase(std::remove(topic.subscriptions.begin(), topic.subscriptions.end(), id),
                             topic.subscriptions.end());
@@ -415,6 +429,7 @@ const Service& Registry::register_service(Id client, const std::string& name, co
     throw RequestError(LNE_SVC_ALREADY_REGISTERED,
                        "service '" + name + "' is already provided by client '" +
                            clients_.at(services_.at(existing->second).provider).name + "'");
+  check_port_quota(client);
   const Id id = ++last_id_;
   Service& service = services_[id];
   service.id = id;
@@ -423,6 +438,7 @@ const Service& Registry::register_service(Id client, const std::string& name, co
   service.signature = signature;
   service.group = group;
   service.provider = client;
+  ++clients_.at(client).ports;
   service_names_[name] = id;
   auto message = protocol::Message::notification(method::service_available);
   message.set("name", name).set("provider", clients_.at(client).name);
@@ -437,6 +453,7 @@ void Registry::unregister_service(Id client, Id id, Outbox& out) {
   const std::string name = it->second.name;
   service_names_.erase(name);
   services_.erase(it);
+  --clients_.at(client).ports;
   auto message = protocol::Message::notification(method::service_gone);
   message.set("name", name);
   notify_all_clients(message, out);

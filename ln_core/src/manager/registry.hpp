@@ -4,6 +4,7 @@
 #pragma once
 
 #include <chrono>
+#include <cstddef>
 #include <cstdint>
 #include <map>
 #include <optional>
@@ -44,6 +45,7 @@ struct Client {
   Id id = 0;
   std::string name;
   ClientHello hello;
+  std::size_t ports = 0;  ///< topics it publishes, subscriptions and services (max_ports_per_client)
 };
 
 struct Subscription {
@@ -181,6 +183,8 @@ class Registry {
   void check_shared_memory(const std::string& name, std::int64_t message_size, std::int64_t history,
                            std::optional<Id> publisher, Id topic_id, const std::string& asked_by) const;
   Topic& create_topic(const std::string& name, const ResolvedDefinition& definition);
+  /// Refuses (RequestError) one more topic, subscription or service of a client at max_ports_per_client.
+  void check_port_quota(Id client) const;
   Topic& owned_topic(Id client, Id topic);
   void notify_publisher(const Topic& topic, Outbox& out) const;
   static void restart_packet_count(Topic& topic, std::int64_t packets);
