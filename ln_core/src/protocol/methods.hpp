@@ -20,7 +20,9 @@
 // are more than 64 from one address or 256 in all; when all connections'
 // partly received requests exceed 64 MiB (unsent messages: 256 MiB) the one
 // holding the most is closed. A connection's requests are handled at most
-// 16 in a row before other connections get their turn.
+// 16 in a row before other connections get their turn. A client may hold
+// 4096 topics it publishes, subscriptions and services together
+// (max_ports_per_client; beyond: LNE_REQUEST_FAILED).
 //
 // ---------------------------------------------------------------------------
 // Client -> manager requests (over the client's TCP connection)
