@@ -34,6 +34,16 @@ services::Limits limits_from_environment() {
     const unsigned long long value = std::strtoull(text, &end, 10);
     if (end != text && value > 0) limits.max_data_size = static_cast<std::size_t>(value);
   }
+  if (const char* text = std::getenv("LN_SERVICE_RESPONSE_TIMEOUT_MS")) {
+    char* end = nullptr;
+    const unsigned long value = std::strtoul(text, &end, 10);
+    if (end != text && value > 0) limits.response_timeout_ms = static_cast<unsigned>(std::min(value, 3600000UL));
+  }
+  if (const char* text = std::getenv("LN_SERVICE_MAX_UNREAD_RESPONSES")) {
+    char* end = nullptr;
+    const unsigned long long value = std::strtoull(text, &end, 10);
+    if (end != text && value > 0) limits.max_unread_responses = static_cast<std::size_t>(value);
+  }
   return limits;
 }
 
