@@ -53,6 +53,7 @@ through LN_MANAGER=HOST:PORT or --ln-manager HOST:PORT.
 Limits (also keys of the config's instance section, e.g. "max_topic_shm: 64M";
 an option overrides the config). BYTES take K, M or G (powers of 1024):
 %LIMITS%
+
 Message definitions are searched in the config's add_message_definition_dir
 directories, then the built-in ones, ~/ln_message_definitions and
 $LN_MESSAGE_DEFINITION_DIRS. On start-up the manager prints
