@@ -779,9 +779,11 @@ int Dispatcher::serve_claimed(const std::shared_ptr<ProviderConnection>& connect
   }
   Status malformed;
   // Requests left from the last turn come first; more are read after them.
-  const io::Result r = connection->assembler.has_ready()
-                           ? io::Result{}
-                           : io::receive_available(connection->fd, connection->assembler, malformed);
+  // A caller that left meanwhile takes its unstarted requests with it.
+  const bool backlog = connection->assembler.has_ready();
+  const io::Result r = !backlog ? io::receive_available(connection->fd, connection->assembler, malformed)
+                       : io::peer_closed(connection->fd) ? io::Result{io::Outcome::Closed, 0}
+                                                         : io::Result{};
   if (r.outcome != io::Outcome::Done) {
     // The caller left (or broke the stream): its unstarted requests go too.
     close_connection(connection);
