@@ -1,6 +1,7 @@
 // ln_manager: the headless LN manager daemon of ln_core. Serves the client
 // protocol until SIGTERM or SIGINT; the logic lives in the ln_manager_core
 // library (src/manager), this file only reads the command line.
+#include <pthread.h>
 #include <signal.h>
 #include <sys/resource.h>
 
@@ -10,8 +11,8 @@
 #include <cstring>
 #include <iostream>
 #include <optional>
+#include <stdexcept>
 #include <string>
-#include <thread>
 #include <utility>
 #include <vector>
 
@@ -110,6 +111,24 @@ void raise_file_limit() {
   }
 }
 
+// Waits for SIGTERM/SIGINT (blocked in every thread) and stops the manager.
+struct SignalWaiter {
+  const sigset_t* signals;
+  Manager* manager;
+  const LogFunction* log;
+  std::atomic<bool> stopped_by_signal{false};
+
+  static void* main(void* self_pointer) {
+    auto& self = *static_cast<SignalWaiter*>(self_pointer);
+    int received = 0;
+    sigwait(self.signals, &received);
+    if (!self.stopped_by_signal.exchange(true) && received != 0)
+      (*self.log)(LogLevel::Info, std::string("received ") + (received == SIGINT ? "SIGINT" : "SIGTERM"));
+    self.manager->stop();
+    return nullptr;
+  }
+};
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -206,19 +225,18 @@ int main(int argc, char** argv) {
     manager.start();
     std::printf("ln_manager: listening on %s:%u\n", options.listen_host.c_str(), static_cast<unsigned>(manager.port()));
     std::fflush(stdout);
-    std::atomic<bool> stopped_by_signal{false};
-    std::thread signal_waiter([&] {
-      int received = 0;
-      sigwait(&stop_signals, &received);
-      if (!stopped_by_signal.exchange(true) && received != 0)
-        log(LogLevel::Info, std::string("received ") + (received == SIGINT ? "SIGINT" : "SIGTERM"));
-      manager.stop();
-    });
+    SignalWaiter waiter{&stop_signals, &manager, &log};
+    // A plain POSIX thread: the sanitizer build's vptr check of a
+    // std::thread's state, run while the thread ends, raced with the
+    // manager's own shutdown and reported objects that were intact.
+    pthread_t signal_thread;
+    if (pthread_create(&signal_thread, nullptr, &SignalWaiter::main, &waiter) != 0)
+      throw std::runtime_error("cannot start the signal-waiting thread");
     manager.run();
     // run() also ends on a fatal loop error: then wake the waiter ourselves.
-    const bool clean = stopped_by_signal.exchange(true);
-    pthread_kill(signal_waiter.native_handle(), SIGTERM);
-    signal_waiter.join();
+    const bool clean = waiter.stopped_by_signal.exchange(true);
+    pthread_kill(signal_thread, SIGTERM);
+    pthread_join(signal_thread, nullptr);
     return clean ? 0 : 1;
   } catch (const std::exception& e) {
     std::cerr << "ln_manager: " << e.what() << "\n";
