@@ -395,6 +395,18 @@ def _reader(stream, q: queue.Queue) -> None:
     q.put(None)
 
 
+def _drain(q: queue.Queue, sink) -> None:
+    """Hands the lines a _reader thread still delivers to sink(line), until its EOF (or 5 s)."""
+    while True:
+        try:
+            line = q.get(timeout=5)
+        except queue.Empty:
+            return
+        if line is None:
+            return
+        sink(line)
+
+
 def _check_results(system: System, what: str, results: list[dict], rc: int | None, text: str) -> list[dict]:
     for r in results:
         if r.get("ok") is False:
@@ -407,10 +419,12 @@ def _check_results(system: System, what: str, results: list[dict], rc: int | Non
 
 
 def run_pair(ctx, system: System, server: list, client: list, *, cpus: tuple[int, int], timeout: float,
-             what: str, python: bool = False) -> tuple[dict, list[dict]]:
+             what: str, python: bool = False, alongside: list | None = None) -> tuple[dict, list[dict]]:
     """Starts `server` pinned to cpus[1], waits for its ready line, runs `client` pinned to
     cpus[0]; returns (the client's result, the server's result lines). Both bounded by `timeout`;
-    a failure reported by either side raises."""
+    a failure reported by either side raises. `alongside` (a command, not pinned) starts once the
+    server is ready and runs until the client is done (SIGTERM); the client starts after it
+    printed {"attacking": true}."""
     env = {**_measured_environ(), **system.env()}
     prefix: list[str] = []
     if python:
@@ -428,6 +442,7 @@ def run_pair(ctx, system: System, server: list, client: list, *, cpus: tuple[int
     threading.Thread(target=_reader, args=(srv.stdout, q), daemon=True).start()
     srv_lines: list[str] = []
     cli = None
+    other = None
     cli_results: list[dict] = []
     srv_done = False
     try:
@@ -450,6 +465,8 @@ def run_pair(ctx, system: System, server: list, client: list, *, cpus: tuple[int
                 raise MeasureError(f"{system.label} {what}: server exited before it was ready: {_tail(text)}")
             srv_lines.append(line)
             ready = '"ready": true' in line
+        if alongside is not None:
+            other = _start_alongside(ctx, system, alongside, env, deadline, what)
         ctx.log_text(f"$ [{system.label}] {shlex.join(cli_cmd)}\n")
         cli = subprocess.Popen(cli_cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                text=True, env=env, process_group=0)
@@ -471,23 +488,52 @@ def run_pair(ctx, system: System, server: list, client: list, *, cpus: tuple[int
         except subprocess.TimeoutExpired:
             pass
     finally:
+        if other is not None:
+            _stop_alongside(ctx, other)
         if srv.poll() is None:
             _kill_group(srv)
             srv.wait(timeout=10)
         if cli is not None and cli.poll() is None:
             _kill_group(cli)
-        while not srv_done:  # the reader thread ends at EOF, which follows the exit
-            try:
-                line = q.get(timeout=5)
-            except queue.Empty:
-                break
-            if line is None:
-                break
-            srv_lines.append(line)
+        if not srv_done:  # the reader thread ends at EOF, which follows the exit
+            _drain(q, srv_lines.append)
         ctx.log_text("".join(srv_lines))
     srv_text = "".join(srv_lines)
     srv_results = _check_results(system, what + " (server)", _json_lines(srv_text), None, srv_text)
     return cli_results[-1], srv_results
+
+
+def _start_alongside(ctx, system: System, cmd: list, env: dict, deadline: float, what: str):
+    full = [str(c) for c in cmd]
+    ctx.log_text(f"$ [{system.label}] {shlex.join(full)} &\n")
+    proc = subprocess.Popen(full, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True, env=env, process_group=0)
+    system.started_pids.add(proc.pid)
+    q: queue.Queue = queue.Queue()
+    threading.Thread(target=_reader, args=(proc.stdout, q), daemon=True).start()
+    while True:
+        left = deadline - time.monotonic()
+        try:
+            line = q.get(timeout=max(0.0, left))
+        except queue.Empty:
+            line = None
+        if line is None:
+            _kill_group(proc)
+            raise MeasureError(f"{system.label} {what}: {shlex.join(full[:2])} did not start its attack in time")
+        ctx.log_text(line)
+        if '"attacking": true' in line:
+            return proc, q
+
+
+def _stop_alongside(ctx, started) -> None:
+    proc, q = started
+    try:
+        os.killpg(proc.pid, signal.SIGTERM)
+        proc.wait(timeout=10)
+    except (ProcessLookupError, subprocess.TimeoutExpired):
+        _kill_group(proc)
+        proc.wait(timeout=10)
+    _drain(q, ctx.log_text)
 
 
 def run_single(ctx, system: System, cmd: list, *, cpu: int, timeout: float, what: str) -> dict:

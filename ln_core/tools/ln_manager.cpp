@@ -3,6 +3,7 @@
 // library (src/manager), this file only reads the command line.
 #include <dirent.h>
 #include <limits.h>
+#include <pthread.h>
 #include <signal.h>
 #include <sys/resource.h>
 #include <unistd.h>
@@ -15,11 +16,14 @@
 #include <memory>
 #include <optional>
 #include <random>
+#include <stdexcept>
 #include <string>
-#include <thread>
+#include <utility>
+#include <vector>
 
 #include "manager/config.hpp"
 #include "manager/definitions.hpp"
+#include "manager/limits.hpp"
 #include "manager/manager.hpp"
 #include "manager/process_keeper.hpp"
 #include "manager/process_launch.hpp"
@@ -32,7 +36,7 @@ constexpr std::uint16_t default_port = 54414;  // the port of LN's quickstart ex
 
 const char* const usage_text = R"(usage: ln_manager [-c FILE.lnc] [--listen HOST:PORT | -p PORT] [-i NAME]
                   [--start NAME]... [--isolated-test] [--keep-processes]
-                  [--log-level debug|info|warning|error] [--without-gui] [-h]
+                  [--log-level debug|info|warning|error] [--without-gui] [--LIMIT VALUE ...] [-h]
 
 The ln_core manager: the rendezvous of an LN instance, and the supervisor
 of its processes. Clients find it through LN_MANAGER=HOST:PORT or
@@ -72,6 +76,10 @@ of its processes. Clients find it through LN_MANAGER=HOST:PORT or
   --without-gui       accepted for LN compatibility; there is no GUI
   -h, --help          this text
 
+Limits (also keys of the config's instance section, e.g. "max_topic_shm: 64M";
+an option overrides the config). BYTES take K, M or G (powers of 1024):
+%LIMITS%
+
 Message definitions are searched in the config's add_message_definition_dir
 directories, then the built-in ones, ~/ln_message_definitions and
 $LN_MESSAGE_DEFINITION_DIRS. On start-up the manager prints
@@ -85,6 +93,25 @@ listen.
 [[noreturn]] void usage_error(const std::string& problem) {
   std::cerr << "ln_manager: " << problem << "\n(ln_manager -h shows the options)\n";
   std::exit(2);
+}
+
+std::string option_of(const std::string& key) {
+  std::string option = "--" + key;
+  for (char& c : option)
+    if (c == '_') c = '-';
+  return option;
+}
+
+std::string usage() {
+  std::string limits;
+  for (const LimitInfo& limit : limit_table()) {
+    std::string head = "  " + option_of(limit.key) + " " + limit.value_text;
+    head.resize(std::max<std::size_t>(head.size() + 1, 40), ' ');
+    limits += head + limit.description + " (default " + limit.default_text + ")\n";
+  }
+  std::string text = usage_text;
+  text.replace(text.find("%LIMITS%\n"), 9, limits);
+  return text;
 }
 
 std::optional<LogLevel> parse_level(const std::string& text) {
@@ -178,7 +205,8 @@ int print_check(const ManagerOptions& options) {
   const DefinitionStore definitions(options.message_definition_dirs,
                                     !options.generated_definition_dir.empty()
                                         ? options.generated_definition_dir
-                                        : std::string(home && *home ? home : "/tmp") + "/ln_message_definitions/gen");
+                                        : std::string(home && *home ? home : "/tmp") + "/ln_message_definitions/gen",
+                                    options.limits);
   const std::string host = options.listen_host == "0.0.0.0" ? "127.0.0.1" : options.listen_host;
   const LaunchContext context{host + ":" + std::to_string(options.port), definitions.search_dirs(),
                               options.process_options.library_dir};
@@ -217,6 +245,29 @@ int print_check(const ManagerOptions& options) {
   return status;
 }
 
+// Waits for SIGTERM/SIGINT (blocked in every thread) and stops the
+// manager; a second signal stops it again (which kills the processes).
+struct SignalWaiter {
+  const sigset_t* signals;
+  Manager* manager;
+  const LogFunction* log;
+  std::atomic<bool> finished{false};
+  std::atomic<int> received_count{0};
+
+  static void* main(void* self_pointer) {
+    auto& self = *static_cast<SignalWaiter*>(self_pointer);
+    for (;;) {
+      int received = 0;
+      sigwait(self.signals, &received);
+      if (self.finished.load()) return nullptr;
+      const std::string name = received == SIGINT ? "SIGINT" : "SIGTERM";
+      if (self.received_count.fetch_add(1) == 0) (*self.log)(LogLevel::Info, "received " + name);
+      else (*self.log)(LogLevel::Warning, "received " + name + " again");
+      self.manager->stop();
+    }
+  }
+};
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -231,6 +282,7 @@ int main(int argc, char** argv) {
   std::optional<std::uint16_t> port_override;
   std::vector<std::string> start;
   bool isolated_test = false, keep_processes = false, check = false;
+  std::vector<std::pair<std::string, std::string>> limit_options;  // applied over the config's
   LogLevel threshold = LogLevel::Info;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
@@ -239,7 +291,7 @@ int main(int argc, char** argv) {
       return argv[++i];
     };
     if (arg == "-h" || arg == "--help") {
-      std::cout << usage_text;
+      std::cout << usage();
       return 0;
     } else if (arg == "-c") {
       config_file = value();
@@ -264,6 +316,10 @@ int main(int argc, char** argv) {
       threshold = *level;
     } else if (arg == "--without-gui") {
       // LN's manager needs it to run headless; this one always is.
+    } else if (const auto limit = std::find_if(limit_table().begin(), limit_table().end(),
+                                               [&](const LimitInfo& l) { return option_of(l.key) == arg; });
+               limit != limit_table().end()) {
+      limit_options.emplace_back(limit->key, value());
     } else {
       usage_error("unknown or unsupported option '" + arg + "'");
     }
@@ -293,6 +349,7 @@ int main(int argc, char** argv) {
       options.message_definition_dirs = settings->message_definition_dirs;
       options.generated_definition_dir = settings->generated_definition_dir;
       options.system = settings;
+      options.limits = settings->limits;
     } catch (const ConfigError& e) {
       std::cerr << "ln_manager: " << e.what() << "\n";
       return 2;
@@ -307,6 +364,13 @@ int main(int argc, char** argv) {
       usage_error("--start " + name + ": the config has no process, state or group of that name");
   }
   options.start = start;
+  for (const auto& [key, text] : limit_options) {
+    try {
+      set_limit(options.limits, key, text);
+    } catch (const std::invalid_argument& e) {
+      usage_error(e.what());
+    }
+  }
   if (!instance_name.empty()) options.instance_name = instance_name;
   if (port_override) options.port = *port_override;
   if (isolated_test) options.port = 0;
@@ -344,25 +408,19 @@ int main(int argc, char** argv) {
     manager.start();
     std::printf("ln_manager: listening on %s:%u\n", options.listen_host.c_str(), static_cast<unsigned>(manager.port()));
     std::fflush(stdout);
-    std::atomic<bool> finished{false};
-    std::atomic<int> signals{0};
-    std::thread signal_waiter([&] {
-      for (;;) {
-        int received = 0;
-        sigwait(&stop_signals, &received);
-        if (finished.load()) return;
-        const char* name = received == SIGINT ? "SIGINT" : "SIGTERM";
-        if (signals.fetch_add(1) == 0) log(LogLevel::Info, std::string("received ") + name);
-        else log(LogLevel::Warning, std::string("received ") + name + " again");
-        manager.stop();
-      }
-    });
+    SignalWaiter waiter{&stop_signals, &manager, &log};
+    // A plain POSIX thread: the sanitizer build's vptr check of a
+    // std::thread's state, run while the thread ends, raced with the
+    // manager's own shutdown and reported objects that were intact.
+    pthread_t signal_thread;
+    if (pthread_create(&signal_thread, nullptr, &SignalWaiter::main, &waiter) != 0)
+      throw std::runtime_error("cannot start the signal-waiting thread");
     manager.run();
     // run() also ends on a fatal loop error: then wake the waiter ourselves.
-    finished.store(true);
-    pthread_kill(signal_waiter.native_handle(), SIGTERM);
-    signal_waiter.join();
-    return signals.load() > 0 ? 0 : 1;
+    waiter.finished.store(true);
+    pthread_kill(signal_thread, SIGTERM);
+    pthread_join(signal_thread, nullptr);
+    return waiter.received_count.load() > 0 ? 0 : 1;
   } catch (const std::exception& e) {
     std::cerr << "ln_manager: " << e.what() << "\n";
     return 1;

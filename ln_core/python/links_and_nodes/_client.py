@@ -20,6 +20,13 @@ def _close_all():
             pass
 
 
+def _checked_buffers(buffers):
+    count = int(buffers)
+    if count < 1:
+        raise ValueError("buffers must be at least 1, not %r" % (buffers,))
+    return count
+
+
 class client:
     """A connection to the ln_manager.
 
@@ -127,9 +134,10 @@ class client:
 
     def publish(self, topic_name, message_definition_name="", buffers=1):
         """Becomes the publisher of a topic; returns its port."""
+        buffers = _checked_buffers(buffers)
         md_name = message_definition_name.split("|")[0]
         model, cls = self._topic_model(md_name)
-        native = _ln.OutPort(self._native, topic_name, message_definition_name, int(buffers))
+        native = _ln.OutPort(self._native, topic_name, message_definition_name, buffers)
         return port_wrapper(md_name, cls, native, self, topic_name)
 
     def subscribe(self, topic_name, message_definition_name=None, rate=-1, buffers=1,
@@ -140,9 +148,10 @@ class client:
         elif not isinstance(message_definition_name, str):
             raise TypeError("subscribe: message_definition_name must be None or a str, not %r"
                             % (message_definition_name,))
+        buffers = _checked_buffers(buffers)
         md_name = message_definition_name.split("|")[0]
         model, cls = self._topic_model(md_name)
-        native = _ln.InPort(self._native, topic_name, message_definition_name, float(rate), int(buffers),
+        native = _ln.InPort(self._native, topic_name, message_definition_name, float(rate), buffers,
                             bool(need_reliable_transport))
         return port_wrapper(md_name, cls, native, self, topic_name, need_reliable_transport)
 
@@ -311,12 +320,34 @@ class port_wrapper:
         self.msg_def_name = md_name
         self.msg_def_hash = port.msg_def_hash
         self.port = port
-        self.packet = packet_class(name=md_name)
         self._packet_class = packet_class
+        self._packet = packet_class(name=md_name)
         self.need_reliable_transport = need_reliable_transport
         self.timestamp = 0
         self.sequence = 0
         self.lost = 0
+
+    @property
+    def packet(self):
+        """The message read() fills and write() sends."""
+        return self._packet
+
+    @packet.setter
+    def packet(self, value):
+        # Another packet of this port's definition, or exactly one message's
+        # bytes (copied in): anything else would only fail in write().
+        if isinstance(value, self._packet_class):
+            self._packet = value
+            return
+        size = self._packet._size
+        try:
+            data = memoryview(value).cast("B")
+        except TypeError:
+            raise TypeError("port.packet takes a packet of '%s' or a bytes-like object of its %d bytes, not %s"
+                            % (self.msg_def_name, size, type(value).__name__)) from None
+        if data.nbytes != size:
+            raise ValueError("port.packet: '%s' messages are %d bytes, got %d" % (self.msg_def_name, size, data.nbytes))
+        self._packet._decode(data)
 
     def read(self, blocking_or_timeout=True):
         """Returns `packet` updated with the next message, or None if there was

@@ -61,6 +61,18 @@ struct Failure {
   throw Failure{ret < 0 ? -ret : ret, message};
 }
 
+// Names and texts go to the C API as C strings, where a NUL byte would cut
+// them: "a.b\0x" would silently publish "a.b".
+void require_no_nul(const std::string& value, const char* what) {
+  if (value.find('\0') != std::string::npos)
+    throw nb::value_error((std::string(what) + " must not contain NUL bytes: " +
+                           std::string(nb::repr(nb::str(value.data(), value.size())).c_str()))
+                              .c_str());
+}
+void require_no_nul(const std::optional<std::string>& value, const char* what) {
+  if (value) require_no_nul(*value, what);
+}
+
 [[noreturn]] void throw_closed() { throw Failure{LNE_CLIENT_NOT_INITIALIZED, "the client was closed"}; }
 
 double now() {
@@ -202,6 +214,8 @@ class Client {
  public:
   Client(const std::string& name, std::optional<std::string> manager, std::optional<std::vector<std::string>> argv)
       : state_(std::make_shared<ClientState>()) {
+    require_no_nul(name, "the client name");
+    require_no_nul(manager, "the manager address");
     int ret;
     ln_client handle = nullptr;
     if (argv) {
@@ -289,6 +303,7 @@ class Client {
   }
 
   nb::tuple get_message_definition(const std::string& name) {
+    require_no_nul(name, "the message definition name");
     Use use(*state_);
     char *md = nullptr, *hash = nullptr, *flat = nullptr;
     unsigned int size = 0;
@@ -305,6 +320,7 @@ class Client {
   }
 
   nb::tuple get_message_definition_for_topic(const std::string& topic) {
+    require_no_nul(topic, "the topic name");
     Use use(*state_);
     char *md_name = nullptr, *md = nullptr, *hash = nullptr;
     unsigned int size = 0;
@@ -321,6 +337,7 @@ class Client {
   }
 
   std::string describe_message_definition(const std::string& name) {
+    require_no_nul(name, "the message definition name");
     Use use(*state_);
     char* text = nullptr;
     check(ln_describe_message_definition(state_->handle, name.c_str(), &text), "describe_message_definition");
@@ -328,6 +345,8 @@ class Client {
   }
 
   std::string put_message_definition(const std::string& name, const std::string& text) {
+    require_no_nul(name, "the message definition name");
+    require_no_nul(text, "the message definition text");
     Use use(*state_);
     char* real = nullptr;
     check(ln_put_message_definition(state_->handle, name.c_str(), text.c_str(), &real), "put_message_definition");
@@ -335,6 +354,8 @@ class Client {
   }
 
   nb::tuple locate_member(const std::string& md_name, const std::string& member) {
+    require_no_nul(md_name, "the message definition name");
+    require_no_nul(member, "the member");
     Use use(*state_);
     unsigned int offset = 0, length = 0;
     check(ln_locate_member_in_message_definition(state_->handle, md_name.c_str(), member.c_str(), &offset, &length),
@@ -344,6 +365,8 @@ class Client {
 
   // The model of a definition as the manager knows it (or of `text`).
   nb::dict model(const std::string& name, std::optional<std::string> text) {
+    require_no_nul(name, "the message definition name");
+    require_no_nul(text, "the message definition text");
     Use use(*state_);
     ln_client handle = state_->handle;
     return build_model(name, text, [handle](const std::string& wanted) -> std::optional<std::string> {
@@ -355,6 +378,7 @@ class Client {
   }
 
   nb::tuple get_service_signature(const std::string& interface) {
+    require_no_nul(interface, "the service interface");
     Use use(*state_);
     char *definition = nullptr, *signature = nullptr;
     int ret;
@@ -369,6 +393,7 @@ class Client {
   }
 
   nb::tuple get_service_signature_for_service(const std::string& service) {
+    require_no_nul(service, "the service name");
     Use use(*state_);
     char *interface = nullptr, *definition = nullptr, *signature = nullptr;
     int ret;
@@ -384,6 +409,7 @@ class Client {
   }
 
   std::vector<std::string> find_services_with_interface(const std::string& interface) {
+    require_no_nul(interface, "the service interface");
     Use use(*state_);
     char* services = nullptr;
     check(ln_client_find_services_with_interface(state_->handle, interface.c_str(), &services),
@@ -401,6 +427,7 @@ class Client {
   }
 
   void needs_provider(const std::string& name, double timeout) {
+    require_no_nul(name, "the service or topic name");
     Use use(*state_);
     int ret;
     {
@@ -411,6 +438,7 @@ class Client {
   }
 
   bool wait_for_service(const std::string& name, double timeout) {
+    require_no_nul(name, "the service name");
     Use use(*state_);
     const int ret = wait_in_slices(timeout, state_.get(), [&](double slice) {
       const int r = ln_wait_for_service(state_->handle, name.c_str(), slice);
@@ -421,6 +449,7 @@ class Client {
   }
 
   void wait_and_handle_service_group_requests(std::optional<std::string> group, double timeout) {
+    require_no_nul(group, "the service group name");
     Use use(*state_);
     const char* group_name = group ? group->c_str() : nullptr;
     {
@@ -461,34 +490,43 @@ class Client {
   }
 
   void handle_service_group_in_thread_pool(std::optional<std::string> group, const std::string& pool) {
+    require_no_nul(group, "the service group name");
+    require_no_nul(pool, "the thread pool name");
     Use use(*state_);
     check(ln_handle_service_group_in_thread_pool(state_->handle, group ? group->c_str() : nullptr, pool.c_str()),
           "handle_service_group_in_thread_pool");
   }
   void remove_service_group_from_thread_pool(std::optional<std::string> group) {
+    require_no_nul(group, "the service group name");
     Use use(*state_);
     nb::gil_scoped_release release;  // waits for running handlers, which need the GIL
     check_nogil(ln_remove_service_group_from_thread_pool(state_->handle, group ? group->c_str() : nullptr),
                 "remove_service_group_from_thread_pool");
   }
   void unblock_service_group(std::optional<std::string> group) {
+    require_no_nul(group, "the service group name");
     Use use(*state_);
     check(ln_unblock_service_group(state_->handle, group ? group->c_str() : nullptr), "unblock_service_group");
   }
   void set_max_threads(const std::string& pool, unsigned int n) {
+    require_no_nul(pool, "the thread pool name");
     Use use(*state_);
     check(ln_set_max_threads(state_->handle, pool.c_str(), n), "set_max_threads");
   }
   void thread_pool_setschedparam(const std::string& pool, int policy, int priority, unsigned int affinity) {
+    require_no_nul(pool, "the thread pool name");
     Use use(*state_);
     check(ln_thread_pool_setschedparam(state_->handle, pool.c_str(), policy, priority, affinity),
           "thread_pool_setschedparam");
   }
   void set_float_parameter(const std::string& name, float value) {
+    require_no_nul(name, "the parameter name");
     Use use(*state_);
     check(ln_client_set_float_parameter(state_->handle, name.c_str(), value), "set_float_parameter");
   }
   void register_as_service_logger(const std::string& service, const std::string& patterns) {
+    require_no_nul(service, "the service name");
+    require_no_nul(patterns, "the service name patterns");
     Use use(*state_);
     check(ln_register_as_service_logger(state_->handle, service.c_str(), patterns.c_str()),
           "register_as_service_logger");
@@ -499,6 +537,7 @@ class Client {
   }
 
   void set_availability_handler(bool service, const std::string& name, nb::object callback) {
+    require_no_nul(name, service ? "the service name" : "the topic name");
     Use use(*state_);
     AvailabilityHandler* handler = callback.is_none() ? nullptr : new AvailabilityHandler{callback};
     int ret;
@@ -546,6 +585,8 @@ class OutPort {
  public:
   OutPort(Client& client, const std::string& topic, const std::string& md_name, unsigned int buffers)
       : state_(client.state()) {
+    require_no_nul(topic, "the topic name");
+    require_no_nul(md_name, "the message definition name");
     Use use(*state_);
     int ret;
     {
@@ -635,6 +676,8 @@ class InPort {
   InPort(Client& client, const std::string& topic, const std::string& md_name, double rate, unsigned int buffers,
          bool reliable)
       : state_(client.state()) {
+    require_no_nul(topic, "the topic name");
+    require_no_nul(md_name, "the message definition name");
     Use use(*state_);
     int ret;
     {
@@ -956,6 +999,7 @@ class Request {
     responded = true;
   }
   void respond_error(int code, const std::string& message) {
+    require_no_nul(message, "the error message");
     check(ln_service_request_respond_error(get(), code, message.c_str()), "respond_error");
     responded = true;
   }
@@ -987,6 +1031,9 @@ class Service {
  public:
   Service(Client& client, const std::string& name, const std::string& interface, const std::string& signature)
       : state_(client.state()), name_(name) {
+    require_no_nul(name, "the service name");
+    require_no_nul(interface, "the service interface");
+    require_no_nul(signature, "the service signature");
     Use use(*state_);
     int ret;
     {
@@ -1102,6 +1149,7 @@ class Service {
   }
 
   void register_in_group(std::optional<std::string> group) {
+    require_no_nul(group, "the service group name");
     Use use(*state_);
     int ret;
     ln_service svc = get();

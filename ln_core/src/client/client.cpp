@@ -347,7 +347,7 @@ InPort* Client::find_inport_locked(std::int64_t subscription_id) const {
 OutPort* Client::publish(const std::string& topic_name, const std::string& md_name, unsigned buffers) {
   require_registered();
   if (md_name.empty()) throw Failure(LNE_INVALID_PARAMETER, "publishing '" + topic_name + "' needs a message definition name");
-  buffers = std::max(buffers, 1u);
+  if (buffers < 1) throw Failure(LNE_INVALID_PARAMETER, "publishing '" + topic_name + "': buffers must be at least 1, not 0");
   const std::string topic = topic_mapping_.apply(topic_name);
   auto owned = std::make_unique<OutPort>(errors_, topic, without_hash(md_name), buffers);
   OutPort* port = owned.get();
@@ -376,6 +376,7 @@ OutPort* Client::publish(const std::string& topic_name, const std::string& md_na
       topic_id = answer.get_int("topic_id");
       message_size = static_cast<std::uint32_t>(answer.get_int("message_size", 0, transport::layout::kMaxMessageSize));
       hash = answer.get_string("hash");
+      port->set_segment_limit(static_cast<std::uint64_t>(std::max<std::int64_t>(answer.get_int_or("segment_limit", 0), 0)));
       port->want_history(static_cast<std::uint32_t>(answer.get_int_or("subscriber_buffers", 1)));
       std::lock_guard<std::mutex> lock(registry_mutex_);
       Registration& registration = registrations_.at(port);
@@ -385,6 +386,7 @@ OutPort* Client::publish(const std::string& topic_name, const std::string& md_na
       registration.packet_reports.restart(0, PacketCountReports::Clock::now());
       outports_by_topic_id_[topic_id] = port;
     });
+    port->set_recovery_handler([this, port] { loop_.post([this, port] { send_publisher_ready(port, true); }); });
     port->create_segment(message_size, hash, std::max(buffers, port->wanted_history()));
     port->ensure_history(port->wanted_history());  // a subscriber may have asked for more meanwhile
   } catch (...) {
@@ -463,7 +465,8 @@ InPort* Client::subscribe(const std::string& topic_name, const std::string& md_n
     throw Failure(LNE_NOT_YET_IMPLEMENTED, "RATE_ON_REQUEST_NEXT is not implemented (neither in LN 2.9)");
   if (std::isnan(rate) || (rate < 0 && rate != RATE_AS_PUBLISHED && rate != RATE_ON_REQUEST_LAST))
     throw Failure(LNE_INVALID_PARAMETER, "invalid subscription rate " + std::to_string(rate));
-  buffers = std::max(buffers, 1u);
+  if (buffers < 1)
+    throw Failure(LNE_INVALID_PARAMETER, "subscribing to '" + topic_name + "': buffers must be at least 1, not 0");
   const std::string topic = topic_mapping_.apply(topic_name);
   auto owned = std::make_unique<InPort>(errors_, topic, without_hash(md_name), rate, buffers, reliable);
   InPort* port = owned.get();
@@ -747,8 +750,9 @@ void Client::serve_listed_opens() {
 void Client::serve_open_segment(PeerRequest& request, bool may_wait) {
   if (request.connection->over_tcp())
     return request.fail(LNE_REQUEST_FAILED, "shared-memory segments cannot be handed over TCP (peer on another host)");
-  if (request.connection->peer_uid() != static_cast<long>(::getuid()))
-    return request.fail(LNE_REQUEST_FAILED, "shared-memory segments are only handed to processes of the same user");
+  if (!request.connection->local_user_allowed())
+    return request.fail(LNE_REQUEST_FAILED, "shared-memory segments are only handed to processes of the same user "
+                                            "(or of users LN_PEER_ALLOW_UIDS lists)");
   const std::int64_t topic_id = request.message.get_int_or("topic_id", -1);
   const std::int64_t subscription_id = request.message.get_int_or("subscription_id", -1);
   const std::string topic = request.message.get_string_or("topic", "");
@@ -809,7 +813,7 @@ void Client::serve_open_segment(PeerRequest& request, bool may_wait) {
   request.connection->send(answer, offer.fd.get());
 }
 
-void Client::send_publisher_ready(OutPort* port) {
+void Client::send_publisher_ready(OutPort* port, bool recovered) {
   std::int64_t topic_id;
   std::uint64_t packets;
   {
@@ -828,6 +832,11 @@ void Client::send_publisher_ready(OutPort* port) {
   ready.set("topic_id", topic_id)
       .set("segment_generation", port->generation())
       .set("packets", static_cast<std::int64_t>(packets));
+  if (recovered) {
+    ready.set("recovered", static_cast<std::int64_t>(port->segment_recoveries()));
+    debug("topic '%s': re-created the shared-memory segment, which was corrupted (%llu times so far)",
+          port->topic().c_str(), static_cast<unsigned long long>(port->segment_recoveries()));
+  }
   const std::string topic = port->topic();
   link_.send_request(std::move(ready), [this, topic](Reply& reply) {
     if (reply.error != 0) debug("announcing the segment of '%s' failed: %s", topic.c_str(), reply.error_text.c_str());
@@ -843,6 +852,9 @@ void Client::report_packet_counts() {
     const std::uint64_t session = link_.session();
     const auto now = PacketCountReports::Clock::now();
     for (const auto& port : outports_) {
+      // A segment written over by a subscriber is replaced (and announced
+      // through the recovery handler).
+      port->check_segment();
       Registration& registration = registrations_.at(port.get());
       if (registration.manager_id < 0 || registration.session != session) continue;
       const std::uint64_t packets = port->packets_written();

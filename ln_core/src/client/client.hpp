@@ -162,7 +162,8 @@ class Client {
   void resubscribe(InPort* port);
   bool handle_subscribe_answer(InPort* port, const protocol::Message& answer);
   void open_publisher_segment(InPort* port, std::uint64_t serial, const protocol::Message& publisher);
-  void send_publisher_ready(OutPort* port);
+  /// `recovered`: the port replaced a corrupted segment (the manager logs it).
+  void send_publisher_ready(OutPort* port, bool recovered = false);
   /// topic_stats for the outports whose count is due (topic_stats.hpp);
   /// re-arms itself every PacketCountReports::kPeriod.
   void report_packet_counts();

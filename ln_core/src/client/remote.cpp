@@ -33,6 +33,14 @@ constexpr std::uint32_t kBigEndianPayload = 1u << 0;  // header flag
 constexpr bool kHostIsBigEndian = __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__;
 constexpr std::size_t kRetiredStreams = 4;  // per inbox
 constexpr std::size_t kEndedIds = 64;       // per receiver
+// TCP senders (reliable subscriptions): how many connections at once, and
+// how many bytes of partly received packets all of them may hold; beyond,
+// the oldest connection, or the one holding the most, is dropped.
+constexpr std::size_t kMaxStreamConnections = 256;
+constexpr std::size_t kMaxStreamBytes = 64u << 20;
+// New publisher streams (a ring each) one inbox takes per period.
+constexpr auto kNewStreamPeriod = std::chrono::seconds(1);
+constexpr int kNewStreamsPerPeriod = 8;
 
 void put_le(unsigned char* out, std::uint64_t value, int bytes) {
   for (int i = 0; i < bytes; ++i) out[i] = static_cast<unsigned char>(value >> (8 * i));
@@ -321,7 +329,7 @@ RemoteReceiver::RemoteReceiver(const std::string& local_ip) {
     address.sin_port = 0;
     socklen_t length = sizeof address;
     if (!listener.valid() || ::bind(listener.get(), reinterpret_cast<sockaddr*>(&address), sizeof address) != 0 ||
-        ::listen(listener.get(), 16) != 0 ||
+        ::listen(listener.get(), 128) != 0 ||
         ::getsockname(listener.get(), reinterpret_cast<sockaddr*>(&address), &length) != 0)
       throw errno_failure(errno, "opening the TCP receiver for remote topic data on " + local_ip);
     UniqueFd udp(::socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0));
@@ -438,6 +446,15 @@ void RemoteReceiver::deliver_locked(const unsigned char* data, std::size_t size,
     const auto& retired = inbox.retired_streams;
     if (std::find(retired.begin(), retired.end(), header.stream) != retired.end()) return;  // a straggler
     if (header.sequence <= header.joined_after) return;
+    // A new publisher is rare; datagrams that claim a new one all the time
+    // (anyone can send them) must not make a ring each (a memory file
+    // each): a few per second, the rest are dropped.
+    const auto now = std::chrono::steady_clock::now();
+    if (now - inbox.new_streams_since > kNewStreamPeriod) {
+      inbox.new_streams_since = now;
+      inbox.new_streams = 0;
+    }
+    if (++inbox.new_streams > kNewStreamsPerPeriod) return;
     transport::RingConfig config;
     config.message_size = inbox.message_size;
     config.history = inbox.history;
@@ -481,19 +498,36 @@ void RemoteReceiver::on_packet(const unsigned char* data, std::size_t size) {
 }
 
 void RemoteReceiver::on_stream(Connection& connection) {
+  std::size_t done = 0;
   for (;;) {
-    if (connection.buffered.size() < 4) return;
-    const auto* bytes = reinterpret_cast<const unsigned char*>(connection.buffered.data());
+    const std::size_t left = connection.buffered.size() - done;
+    if (left < 4) break;
+    const auto* bytes = reinterpret_cast<const unsigned char*>(connection.buffered.data()) + done;
     const std::uint32_t frame = static_cast<std::uint32_t>(get_le(bytes, 4));
     if (frame < kHeaderSize || frame > kMaxPacketSize + kHeaderSize) {
       connection.socket.reset();  // not our protocol
       return;
     }
-    if (connection.buffered.size() < 4u + frame) return;
+    if (left < 4u + frame) break;
     Header header;
     if (decode_header(bytes + 4, frame, header) && header.offset == 0 && header.packet_size == frame - kHeaderSize)
       on_packet(bytes + 4, frame);
-    connection.buffered.erase(0, 4u + frame);
+    done += 4u + frame;
+  }
+  connection.buffered.erase(0, done);
+}
+
+void RemoteReceiver::drop_largest_streams_over_budget() {
+  for (;;) {
+    std::size_t total = 0;
+    Connection* largest = nullptr;
+    for (Connection& connection : connections_) {
+      if (!connection.socket.valid()) continue;
+      total += connection.buffered.size();
+      if (!largest || connection.buffered.size() > largest->buffered.size()) largest = &connection;
+    }
+    if (total <= kMaxStreamBytes || largest == nullptr) return;
+    largest->socket.reset();
   }
 }
 
@@ -510,13 +544,21 @@ void RemoteReceiver::run() {
         on_packet(datagram.data(), static_cast<std::size_t>(n));
       }
     }
-    if (fds[2].revents != 0) {
+    for (int i = 0; fds[2].revents != 0 && i < 64; ++i) {
       UniqueFd accepted(::accept4(listener_.get(), nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC));
-      if (accepted.valid()) connections_.push_back(Connection{std::move(accepted), {}});
+      if (!accepted.valid()) break;
+      if (connections_.size() >= kMaxStreamConnections) {  // the oldest goes (erased below)
+        for (Connection& oldest : connections_) {
+          if (!oldest.socket.valid()) continue;
+          oldest.socket.reset();
+          break;
+        }
+      }
+      connections_.push_back(Connection{std::move(accepted), {}});
     }
     for (std::size_t i = 3; i < fds.size(); ++i) {
-      if (fds[i].revents == 0) continue;
       Connection& connection = connections_[i - 3];
+      if (fds[i].revents == 0 || !connection.socket.valid()) continue;
       char chunk[65536];
       const ssize_t n = ::recv(connection.socket.get(), chunk, sizeof chunk, 0);
       if (n <= 0) {
@@ -526,6 +568,7 @@ void RemoteReceiver::run() {
       connection.buffered.append(chunk, static_cast<std::size_t>(n));
       on_stream(connection);
     }
+    drop_largest_streams_over_budget();
     connections_.erase(std::remove_if(connections_.begin(), connections_.end(),
                                       [](const Connection& c) { return !c.socket.valid(); }),
                        connections_.end());

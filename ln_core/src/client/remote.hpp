@@ -202,6 +202,8 @@ class RemoteReceiver {
     std::vector<std::uint64_t> retired_streams;  // stragglers of these are dropped
     PacketAssembler assembler;
     bool failed = false;
+    std::chrono::steady_clock::time_point new_streams_since{};  // rings made for new streams lately
+    int new_streams = 0;
   };
   struct Connection {
     UniqueFd socket;
@@ -217,6 +219,8 @@ class RemoteReceiver {
   // A datagram, or a TCP frame without its length: header + fragment.
   void on_packet(const unsigned char* data, std::size_t size);
   void on_stream(Connection& connection);
+  /// Keeps what TCP connections hold of unfinished packets within a budget.
+  void drop_largest_streams_over_budget();
   void deliver_locked(const unsigned char* data, std::size_t size, bool may_hold);
   void forget_id_locked(std::int64_t subscription_id);
 

@@ -34,6 +34,16 @@ services::Limits limits_from_environment() {
     const unsigned long long value = std::strtoull(text, &end, 10);
     if (end != text && value > 0) limits.max_data_size = static_cast<std::size_t>(value);
   }
+  if (const char* text = std::getenv("LN_SERVICE_RESPONSE_TIMEOUT_MS")) {
+    char* end = nullptr;
+    const unsigned long value = std::strtoul(text, &end, 10);
+    if (end != text && value > 0) limits.response_timeout_ms = static_cast<unsigned>(std::min(value, 3600000UL));
+  }
+  if (const char* text = std::getenv("LN_SERVICE_MAX_UNREAD_RESPONSES")) {
+    char* end = nullptr;
+    const unsigned long long value = std::strtoull(text, &end, 10);
+    if (end != text && value > 0) limits.max_unread_responses = static_cast<std::size_t>(value);
+  }
   return limits;
 }
 
@@ -290,8 +300,14 @@ Status ServicesGlue::release_provider(std::uint32_t local_id) {
 }
 
 void ServicesGlue::on_call(PeerRequest& request) {
-  // No uid check: over TCP there is none to make, and LN does not restrict
-  // services by user either.
+  // On this host the rule of shared-memory segments: same user unless
+  // LN_PEER_ALLOW_UIDS says otherwise. Over TCP there is no uid to check
+  // (the peer server listens on the address used towards the manager).
+  if (!request.connection->over_tcp() && !request.connection->local_user_allowed()) {
+    request.fail(LNE_REQUEST_FAILED, "services are only offered to processes of the same user on this host "
+                                     "(or of users LN_PEER_ALLOW_UIDS lists)");
+    return;
+  }
   const std::int64_t manager_id = request.message.get_int_or("service_id", -1);
   std::uint32_t local_id = 0;
   {

@@ -198,7 +198,7 @@ TEST_F(BinaryTest, RunningOutOfDescriptorsRefusesOnlyNewConnections) {
   }
   EXPECT_TRUE(served) << manager.stderr_text();
   manager.signal(SIGTERM);
-  EXPECT_EQ(manager.wait_exit(), 0);
+  EXPECT_EQ(manager.wait_exit(), 0) << manager.stderr_text();
 }
 
 

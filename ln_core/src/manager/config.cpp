@@ -18,6 +18,7 @@
 #include <sstream>
 
 #include "manager/config_drafts.hpp"
+#include "manager/limits.hpp"
 #include "manager/lnc_eval.hpp"
 
 namespace ln::manager {
@@ -650,6 +651,12 @@ class LncReader {
       settings_.generated_definition_dir = absolute_path(expand_home(value));
     } else if (key == "enable_auto_groups") {
       drafts_.auto_groups = value == "1" || value == "true" || value == "True" || value == "yes" || value == "on";
+    } else if (is_limit_key(key)) {
+      try {
+        set_limit(settings_.limits, key, value);
+      } catch (const std::invalid_argument& e) {
+        fail(e.what());
+      }
     } else if (instance_keys_ignored.count(key)) {
       report_once("the instance key '" + key + "'");
     } else {

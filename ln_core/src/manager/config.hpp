@@ -1,10 +1,11 @@
 // Reading LN's .lnc configuration files (ln_spec §6.3): the whole language
 // (defines and %( ) evaluation with built-in and user functions, the global
 // directives, ifdef/ifndef lines, list modifiers, templates) and the
-// sections a single-host manager acts on: instance, defines, process,
-// state, group, node_map. What LN 2.9 knows but ln_core does not implement
-// (hosts, networks, GUI plugins, X11 forwarding, ...) is reported once in
-// the log and otherwise ignored; docs/lnc.md lists both.
+// sections a single-host manager acts on: instance (with the manager's
+// limits of limits.hpp), defines, process, state, group, node_map. What
+// LN 2.9 knows but ln_core does not implement (hosts, networks, GUI
+// plugins, X11 forwarding, ...) is reported once in the log and otherwise
+// ignored; docs/lnc.md lists both.
 //
 // The result is a plain model (LncSettings): processes, states and groups
 // with every value evaluated, checked and their references resolved, so
@@ -21,6 +22,7 @@
 #include <utility>
 #include <vector>
 
+#include "manager/limits.hpp"
 #include "manager/log.hpp"
 
 namespace ln::manager {
@@ -130,6 +132,8 @@ struct LncSettings {
   std::vector<StateConfig> states;
   std::vector<GroupConfig> groups;
   std::vector<std::string> files;  ///< every file read, the config first
+  /// The manager's limits (limits.hpp), defaults unless the instance section sets them.
+  ManagerLimits limits;
 };
 
 /// What the reader may know beyond the config itself.

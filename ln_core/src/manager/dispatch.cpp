@@ -40,8 +40,8 @@ std::string join(const std::set<std::string>& items) {
 
 }  // namespace
 
-Dispatcher::Dispatcher(Registry& registry, DefinitionStore& definitions, std::string manager_version)
-    : registry_(registry), definitions_(definitions), manager_version_(std::move(manager_version)) {
+Dispatcher::Dispatcher(Registry& registry, DefinitionStore& definitions, std::string manager_version, LogFunction log)
+    : registry_(registry), definitions_(definitions), manager_version_(std::move(manager_version)), log_(std::move(log)) {
   handlers_ = {
       {std::string(method::hello), &Dispatcher::hello},
       {std::string(method::goodbye), &Dispatcher::goodbye},
@@ -175,9 +175,10 @@ Message Dispatcher::get_message_definition_for_topic(Session&, const Message& re
   return response;
 }
 
-Message Dispatcher::put_message_definition(Session&, const Message& request, Outbox&) {
+Message Dispatcher::put_message_definition(Session& session, const Message& request, Outbox&) {
   const auto stored = definitions_.put(request.get_string("name"), request.get_string("text"),
-                                       [this](const std::string& name) { return registry_.definition_in_use(name); });
+                                       [this](const std::string& name) { return registry_.definition_in_use(name); },
+                                       session.definitions_put);
   return Message::response_to(request).set("name", stored.name).set("hash", stored.hash);
 }
 
@@ -188,16 +189,22 @@ Message Dispatcher::publish(Session& session, const Message& request, Outbox& ou
       .set("topic_id", topic.id)
       .set("message_size", topic.message_size)
       .set("hash", topic.hash)
-      .set("subscriber_buffers", registry_.subscriber_buffers(topic));
+      .set("subscriber_buffers", registry_.subscriber_buffers(topic))
+      .set("segment_limit", static_cast<std::int64_t>(registry_.limits().max_topic_shm));
 }
 
 Message Dispatcher::publisher_ready(Session& session, const Message& request, Outbox& out) {
   constexpr std::int64_t max = std::numeric_limits<std::int64_t>::max();
   std::optional<std::int64_t> packets;
   if (request.has("packets")) packets = request.get_int("packets", 0, max);
-  const Id topic = get_id(request, "topic_id");
-  registry_.publisher_ready(*session.client, topic, request.get_int("segment_generation", 0, max), packets, out);
-  if (loggers_ != nullptr) loggers_->publisher_ready(registry_.topic(topic), out);
+  const Id topic_id = get_id(request, "topic_id");
+  registry_.publisher_ready(*session.client, topic_id, request.get_int("segment_generation", 0, max), packets, out);
+  if (loggers_ != nullptr) loggers_->publisher_ready(registry_.topic(topic_id), out);
+  if (request.has("recovered") && log_)
+    log_(LogLevel::Warning, "client '" + registry_.client(*session.client).name + "' found the shared-memory segment of topic '" +
+                                registry_.topic(topic_id).name + "' corrupted and replaced it (" +
+                                std::to_string(request.get_int("recovered", 0, max)) +
+                                " times so far); a subscriber process of that topic writes where it must not");
   return Message::response_to(request);
 }
 

@@ -23,11 +23,15 @@ struct Session {
   std::optional<Id> client;  ///< set by hello, cleared by goodbye
   /// Set by goodbye: close once the response is out.
   bool close_after_response = false;
+  /// put_message_definition requests whose text had to be parsed
+  /// (max_definitions_per_client).
+  std::size_t definitions_put = 0;
 };
 
 class Dispatcher {
  public:
-  Dispatcher(Registry& registry, DefinitionStore& definitions, std::string manager_version);
+  /// `log` receives what handlers report beyond their responses.
+  Dispatcher(Registry& registry, DefinitionStore& definitions, std::string manager_version, LogFunction log = {});
 
   /// The response to `request`; notifications for other clients go to
   /// `out`. Never throws: every failure becomes an error response.
@@ -84,6 +88,7 @@ class Dispatcher {
   Registry& registry_;
   DefinitionStore& definitions_;
   std::string manager_version_;
+  LogFunction log_;
   std::string listen_address_;
   std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
   std::map<std::string, Handler, std::less<>> handlers_;

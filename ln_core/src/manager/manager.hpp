@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "manager/config.hpp"
+#include "manager/limits.hpp"
 #include "manager/log.hpp"
 #include "manager/process_control.hpp"
 
@@ -25,14 +26,7 @@ struct ManagerOptions {
   std::vector<std::string> message_definition_dirs;
   /// Where put_message_definition stores; "" = ~/ln_message_definitions/gen.
   std::string generated_definition_dir;
-  /// A client whose unsent messages exceed this is disconnected.
-  std::size_t max_output_queue = 16u * 1024 * 1024;
-  /// A request may be this large (the wire allows 64 MiB; no request needs
-  /// more than a 1 MiB definition text), so a client cannot make the
-  /// manager buffer more.
-  std::size_t max_request_size = 4u * 1024 * 1024;
-  /// Further connections are accepted and closed at once.
-  std::size_t max_clients = 4096;
+  ManagerLimits limits;
   LogFunction log;
   /// The processes, states and groups to supervise (process_control.hpp);
   /// none by default.

@@ -6,9 +6,11 @@
 
 #include "ln/md/message_definition.hpp"
 #include "manager/definitions.hpp"
+#include "manager/limits.hpp"
 #include "manager/names.hpp"
 #include "manager/request_error.hpp"
 #include "protocol/methods.hpp"
+#include "transport/shm_ring.hpp"
 
 namespace ln::manager {
 namespace {
@@ -125,6 +127,62 @@ void Registry::check_topic_definition(const Topic& topic, const ResolvedDefiniti
               "' was set up with hash " + topic.hash + " (the definition changed meanwhile)");
 }
 
+std::int64_t Registry::segment_history(const Topic& topic) const {
+  return std::max(topic.publisher ? topic.publisher_buffers : 0, subscriber_buffers(topic));
+}
+
+namespace {
+
+std::uint64_t segment_bytes(std::int64_t message_size, std::int64_t history) {
+  const std::uint64_t size = transport::topic_segment_size(static_cast<std::uint32_t>(message_size),
+                                                           static_cast<std::uint32_t>(history));
+  return size != 0 ? size : ~std::uint64_t{0};  // beyond what the transport can make: over every limit
+}
+
+// The most buffers whose segment stays within `limit` (0 if not even one).
+std::int64_t buffers_within(std::int64_t message_size, std::uint64_t limit) {
+  std::int64_t fits = 0, too_many = max_topic_buffers + 1;
+  while (too_many - fits > 1) {
+    const std::int64_t middle = fits + (too_many - fits) / 2;
+    (segment_bytes(message_size, middle) <= limit ? fits : too_many) = middle;
+  }
+  return fits;
+}
+
+}  // namespace
+
+void Registry::check_shared_memory(const std::string& name, std::int64_t message_size, std::int64_t history,
+                                   std::optional<Id> publisher, Id topic_id, const std::string& asked_by) const {
+  const std::uint64_t needed = segment_bytes(message_size, history);
+  const std::string what = "topic '" + name + "': " + std::to_string(history) + " buffers of " +
+                           byte_text(static_cast<std::uint64_t>(message_size)) + " packets" + asked_by +
+                           " need a shared-memory segment of " + byte_text(needed);
+  if (needed > limits_.max_topic_shm) {
+    const std::int64_t most = buffers_within(message_size, limits_.max_topic_shm);
+    throw RequestError(LNE_SHM_IS_TOO_BIG, what + ", more than the manager allows per topic (max_topic_shm " +
+                                               byte_text(limits_.max_topic_shm) + "); at most " +
+                                               std::to_string(most) + " buffers fit");
+  }
+  if (!publisher) return;
+  std::uint64_t others = 0;
+  for (const auto& [id, topic] : topics_)
+    if (id != topic_id && topic.publisher == publisher)
+      others += segment_bytes(topic.message_size, segment_history(topic));
+  if (others + needed > limits_.max_client_shm)
+    throw RequestError(LNE_SHM_IS_TOO_BIG, what + "; with the " + byte_text(others) + " of the other topics client '" +
+                                               clients_.at(*publisher).name +
+                                               "' publishes, that is more than the manager allows per client "
+                                               "(max_client_shm " + byte_text(limits_.max_client_shm) + ")");
+}
+
+void Registry::check_port_quota(Id client) const {
+  const Client& owner = clients_.at(client);
+  require(owner.ports < limits_.max_ports_per_client, LNE_REQUEST_FAILED,
+          "client '" + owner.name + "' has " + std::to_string(owner.ports) +
+              " topics it publishes, subscriptions and services, as many as the manager allows per client "
+              "(max_ports_per_client)");
+}
+
 Topic& Registry::create_topic(const std::string& name, const ResolvedDefinition& definition) {
   const Id id = ++last_id_;
   Topic& topic = topics_[id];
@@ -157,8 +215,16 @@ const Topic& Registry::publish(Id client, const std::string& name, const std::st
   }
   const ResolvedDefinition wanted = resolve_for_topic(name, definition);
   if (existing != topic_names_.end()) check_topic_definition(topics_.at(existing->second), wanted);
+  {
+    const Topic* known = existing != topic_names_.end() ? &topics_.at(existing->second) : nullptr;
+    const std::int64_t subscribers = known ? subscriber_buffers(*known) : 0;
+    check_shared_memory(name, wanted.message_size, std::max(buffers, subscribers), client, known ? known->id : 0,
+                        subscribers > buffers ? " (its subscribers ask for " + std::to_string(subscribers) + ")" : "");
+  }
 
+  check_port_quota(client);
   Topic& topic = existing != topic_names_.end() ? topics_.at(existing->second) : create_topic(name, wanted);
+  ++clients_.at(client).ports;
   topic.publisher = client;
   topic.publisher_buffers = buffers;
   topic.publisher_ready = false;
@@ -196,6 +262,7 @@ void Registry::unpublish(Id client, Id id, Outbox& out) {
   Topic& topic = owned_topic(client, id);
   emit({"topic_del_publisher", topic.name, topic.definition, clients_.at(client).name}, out);
   const bool was_announced = topic.publisher_ready;
+  --clients_.at(client).ports;
   topic.publisher.reset();
   topic.publisher_ready = false;
   topic.publisher_buffers = 0;
@@ -244,21 +311,25 @@ const Subscription& Registry::subscribe(Id client, const SubscribeRequest& reque
           "receive_address is longer than 255 bytes");
   const auto existing = topic_names_.find(request.topic);
   Topic* topic = existing != topic_names_.end() ? &topics_.at(existing->second) : nullptr;
+  std::optional<ResolvedDefinition> wanted;
   if (request.definition.empty()) {
     require(topic != nullptr, LNE_PORT_NOT_FOUND,
             "topic '" + request.topic + "' is not known yet; name its message definition to subscribe before it "
             "is published");
   } else {
-    const ResolvedDefinition wanted = resolve_for_topic(request.topic, request.definition);
-    if (topic)
-      check_topic_definition(*topic, wanted);
-    else
-      topic = &create_topic(request.topic, wanted);
+    wanted = resolve_for_topic(request.topic, request.definition);
+    if (topic) check_topic_definition(*topic, *wanted);
   }
+  check_port_quota(client);
+  if (!topic || request.buffers > segment_history(*topic))
+    check_shared_memory(request.topic, topic ? topic->message_size : wanted->message_size, request.buffers,
+                        topic ? topic->publisher : std::nullopt, topic ? topic->id : 0, " (asked for by this subscriber)");
+  if (!topic) topic = &create_topic(request.topic, *wanted);
   const Id id = ++last_id_;
   Subscription& subscription = subscriptions_[id];
   subscription.id = id;
   subscription.client = client;
+  ++clients_.at(client).ports;
   subscription.topic = topic->id;
   subscription.buffers = request.buffers;
   subscription.rate = request.rate;
@@ -276,6 +347,7 @@ void Registry::unsubscribe(Id client, Id id, Outbox& out) {
           "you have no subscription with id " + std::to_string(id));
   const Id topic_id = it->second.topic;
   subscriptions_.erase(it);
+  --clients_.at(client).ports;
   Topic& topic = topics_.at(topic_id);
   topic.subscriptions.erase(std::remove(topic.subscriptions.begin(), topic.subscriptions.end(), id),
                             topic.subscriptions.end());
@@ -397,6 +469,7 @@ const Service& Registry::register_service(Id client, const std::string& name, co
     throw RequestError(LNE_SVC_ALREADY_REGISTERED,
                        "service '" + name + "' is already provided by client '" +
                            clients_.at(services_.at(existing->second).provider).name + "'");
+  check_port_quota(client);
   const Id id = ++last_id_;
   Service& service = services_[id];
   service.id = id;
@@ -405,6 +478,7 @@ const Service& Registry::register_service(Id client, const std::string& name, co
   service.signature = signature;
   service.group = group;
   service.provider = client;
+  ++clients_.at(client).ports;
   service_names_[name] = id;
   auto message = protocol::Message::notification(method::service_available);
   message.set("name", name).set("provider", clients_.at(client).name);
@@ -422,6 +496,7 @@ void Registry::unregister_service(Id client, Id id, Outbox& out) {
        out);
   service_names_.erase(name);
   services_.erase(it);
+  --clients_.at(client).ports;
   auto message = protocol::Message::notification(method::service_gone);
   message.set("name", name);
   notify_all_clients(message, out);

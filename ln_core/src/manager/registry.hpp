@@ -4,6 +4,7 @@
 #pragma once
 
 #include <chrono>
+#include <cstddef>
 #include <cstdint>
 #include <map>
 #include <optional>
@@ -12,6 +13,7 @@
 #include <vector>
 
 #include "manager/events.hpp"
+#include "manager/manager.hpp"
 #include "protocol/wire.hpp"
 
 namespace ln::manager {
@@ -45,6 +47,7 @@ struct Client {
   Id id = 0;
   std::string name;
   ClientHello hello;
+  std::size_t ports = 0;  ///< topics it publishes, subscriptions and services (max_ports_per_client)
 };
 
 struct Subscription {
@@ -129,7 +132,9 @@ std::string shortest_text(double value);
 /// All operations throw RequestError and change nothing when they refuse.
 class Registry {
  public:
-  explicit Registry(DefinitionStore& definitions) : definitions_(definitions) {}
+  /// `limits` (max_topic_shm, max_client_shm) must outlive the registry.
+  Registry(DefinitionStore& definitions, const ManagerLimits& limits) : definitions_(definitions), limits_(limits) {}
+  const ManagerLimits& limits() const { return limits_; }
 
   // ------------------------------------------------------------- clients
   const Client& add_client(ClientHello hello);
@@ -219,7 +224,17 @@ class Registry {
   };
   ResolvedDefinition resolve_for_topic(const std::string& topic, const std::string& definition);
   void check_topic_definition(const Topic& topic, const ResolvedDefinition& wanted) const;
+  /// The buffers the topic's segment has now: its publisher's and its subscribers' largest.
+  std::int64_t segment_history(const Topic& topic) const;
+  /// Refuses (RequestError naming the limit) a segment of `history` buffers
+  /// for topic `name` with packets of `message_size` bytes, if it exceeds
+  /// max_topic_shm or makes `publisher`'s topics exceed max_client_shm.
+  /// `topic_id`: the topic's current segment, not counted twice (0: new).
+  void check_shared_memory(const std::string& name, std::int64_t message_size, std::int64_t history,
+                           std::optional<Id> publisher, Id topic_id, const std::string& asked_by) const;
   Topic& create_topic(const std::string& name, const ResolvedDefinition& definition);
+  /// Refuses (RequestError) one more topic, subscription or service of a client at max_ports_per_client.
+  void check_port_quota(Id client) const;
   Topic& owned_topic(Id client, Id topic);
   void notify_publisher(const Topic& topic, Outbox& out) const;
   static void restart_packet_count(Topic& topic, std::int64_t packets);
@@ -230,6 +245,7 @@ class Registry {
   void send_event(const EventConnection& connection, const ResourceEvent& event, Outbox& out) const;
 
   DefinitionStore& definitions_;
+  const ManagerLimits& limits_;
   Id last_id_ = 0;
   std::map<Id, Client> clients_;
   std::map<std::string, Id> client_names_;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <map>
+#include <set>
 #include <vector>
 
 #include "md/sha256.hpp"
@@ -93,13 +94,22 @@ class DefineFields {
 // define name, depth first; a nested define of the same local name replaces
 // an outer one. Definitions already on the stack are not entered again
 // (LN 2.9 handles only direct self-recursion; longer cycles are our own).
-void collect_defines(const Definition& definition, DefineFields& into, std::vector<const Definition*>& stack) {
+// Imports shared by several importers are entered once per path, as LN
+// does: `budget` bounds that walk (a few small files that import each
+// other twice per level would otherwise take forever).
+constexpr std::size_t max_import_visits = 100'000;
+
+void collect_defines(const Definition& definition, DefineFields& into, std::vector<const Definition*>& stack,
+                     std::size_t& budget, const Definition& root) {
   for (const Define& define : definition.defines) {
     const Definition* sub = define.definition;
+    if (budget-- == 0)
+      throw Error(root.path, 0, "the definition imports more than " + std::to_string(max_import_visits) +
+                                    " types when its imports are followed (imports shared too often)");
     into.set(define.local_name, &sub->fields);
     if (std::find(stack.begin(), stack.end(), sub) != stack.end()) continue;
     stack.push_back(sub);
-    collect_defines(*sub, into, stack);
+    collect_defines(*sub, into, stack, budget, root);
     stack.pop_back();
   }
 }
@@ -107,7 +117,8 @@ void collect_defines(const Definition& definition, DefineFields& into, std::vect
 DefineFields imported_fields(const Definition& definition) {
   DefineFields defines;
   std::vector<const Definition*> stack{&definition};
-  collect_defines(definition, defines, stack);
+  std::size_t budget = max_import_visits;
+  collect_defines(definition, defines, stack, budget, definition);
   return defines;
 }
 

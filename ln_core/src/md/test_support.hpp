@@ -3,6 +3,7 @@
 
 #include <string>
 
+#include "ln/md/message_definition.hpp"
 #include "testing/temp_dir.hpp"
 
 namespace ln::md::testing {
@@ -12,5 +13,16 @@ class DefinitionTree : public ln::test::TempDir {
   DefinitionTree() : TempDir("ln_md_test") {}
   const std::string& root() const { return path(); }
 };
+
+/// Loads `name` from `tree` and returns the Error it throws ("" if none).
+inline std::string load_error(const DefinitionTree& tree, const std::string& name) {
+  Library library(SearchPath::exactly({tree.root()}));
+  try {
+    library.load(name);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
 
 }  // namespace ln::md::testing

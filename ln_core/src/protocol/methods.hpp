@@ -13,7 +13,16 @@
 // notifications other than topic_stats sent to the manager are ignored.
 // A malformed frame, a request larger than 4 MiB, or more than 16 MiB of
 // unsent messages (a client that does not read) closes the connection,
-// which releases the client.
+// which releases the client. So do the manager's other limits
+// (manager.hpp ManagerLimits, all configurable): a connection must say hello
+// within 10 s and send something every 2 s until then, may send 64 KiB
+// before it, and the oldest unregistered connection is closed when there
+// are more than 64 from one address or 256 in all; when all connections'
+// partly received requests exceed 64 MiB (unsent messages: 256 MiB) the one
+// holding the most is closed. A connection's requests are handled at most
+// 16 in a row before other connections get their turn. A client may hold
+// 4096 topics it publishes, subscriptions and services together
+// (max_ports_per_client; beyond: LNE_REQUEST_FAILED).
 //
 // ---------------------------------------------------------------------------
 // Client -> manager requests (over the client's TCP connection)
@@ -52,12 +61,16 @@
 //   stored in the generated-definitions dir, which is searched right after
 //   the config's dirs, so the real name is `name`. The same content again
 //   is a no-op; different content is refused when `name` exists outside the
-//   generated dir or a topic uses it.
+//   generated dir or a topic uses it. Refused (LNE_REQUEST_FAILED) beyond
+//   the quota: max_stored_definitions / _bytes in the dir, and
+//   max_definitions_per_client new texts (parsed) per registration.
 //
 // publish          topic (str), message_definition (str, may carry |hash),
 //                  buffers (int >= 1)
 //   -> topic_id (int), message_size (int), hash (str),
-//      subscriber_buffers (int: the largest buffers any subscriber asked for)
+//      subscriber_buffers (int: the largest buffers any subscriber asked for),
+//      segment_limit (int: the largest segment the publisher may make for
+//      the topic, max_topic_shm; it grows no bigger for any subscriber)
 //   The publisher then creates its shared-memory segment and sends
 //   publisher_ready; only then are subscribers told. buffers 1..65536.
 //   subscriber_buffers is 0 without subscribers. A subscribers_changed
@@ -65,10 +78,16 @@
 //   publisher ("topic 'T' already published by client 'C'"), another
 //   definition than the topic's ("you requested message_definition 'X' but
 //   topic 'T' uses 'Y'"), service/event definitions and definitions with
-//   dynamic fields (LNE_INVALID_PARAMETER), a wrong |hash (LNE_WRONG_MD_HASH).
+//   dynamic fields (LNE_INVALID_PARAMETER), a wrong |hash (LNE_WRONG_MD_HASH),
+//   and (LNE_SHM_IS_TOO_BIG, the message names the limit and how many
+//   buffers fit) buffers whose segment (transport::topic_segment_size with
+//   the subscribers' buffers) exceeds max_topic_shm, or makes the client's
+//   published topics together exceed max_client_shm.
 // publisher_ready  topic_id (int), segment_generation (int >= 0),
 //                  packets (int >= 0, optional: the publisher's packet count
-//                  now, see topic_stats) -> ok
+//                  now, see topic_stats), recovered (int, optional: the
+//                  publisher replaced a segment it found corrupted, this
+//                  many times so far; the manager logs it) -> ok
 //   May be repeated (a new segment): subscribers get publisher_available
 //   again. The first one after a publish is announced to every client as
 //   topic_publisher_available. `packets` starts a new rate interval.
@@ -87,7 +106,9 @@
 //      publisher fields of the publisher_available notification (only once
 //      that publisher sent publisher_ready).
 //   "" for an unknown topic -> LNE_PORT_NOT_FOUND; rate -3 ->
-//   LNE_NOT_YET_IMPLEMENTED; definition checks as for publish.
+//   LNE_NOT_YET_IMPLEMENTED; definition and shared-memory checks as for
+//   publish (buffers beyond the topic's current segment count against the
+//   topic's and its publisher's limits).
 // unsubscribe      subscription_id (int) -> ok
 //
 // register_service     name, interface, signature (str), group (str)
@@ -289,9 +310,13 @@
 //      segment) and
 //      the segment's file descriptor passed with SCM_RIGHTS alongside the
 //      response frame.
-//      Only answered for peers with the same uid (SO_PEERCRED).
+//      Only answered for peers with the same uid (SO_PEERCRED), or a uid
+//      LN_PEER_ALLOW_UIDS lists; `buffers` grows the segment only up to the
+//      publish answer's segment_limit.
 // call             service_id (int), request (str: the flattened request)
 //   -> response (str) or an error response; see the services code.
+//   On this host only for peers of the same uid (or LN_PEER_ALLOW_UIDS), as
+//   open_segment; over TCP for anyone.
 //   As implemented by services/ (call_frames.hpp): the caller opens a
 //   connection of its own per service handle and sends `call` with
 //   service_id only, as the handshake. The peer server answers ok if

@@ -67,6 +67,9 @@ class Payload {
   Payload() = default;
   /// Uninitialised bytes; false if memory is short.
   bool allocate(std::size_t size);
+  /// Resizes keeping the contents (the rest uninitialised); false if
+  /// memory is short (then nothing changed).
+  bool grow(std::size_t size);
   char* data() const { return data_.get(); }
   std::size_t size() const { return size_; }
   bool empty() const { return size_ == 0; }
@@ -143,17 +146,22 @@ class FrameAssembler {
   bool next(Payload& out);
   /// Whether part of a frame has arrived but not all of it.
   bool in_frame() const { return large_active_ || end_ > begin_; }
+  /// Whether next() has a payload to give.
+  bool has_ready() const { return !ready_.empty(); }
 
  private:
   Status split_scratch();
 
   static constexpr std::size_t scratch_capacity = 64 * 1024;
+  /// First allocation for a large frame; it doubles as the frame arrives.
+  static constexpr std::size_t large_start = 4 * 1024 * 1024;
   std::size_t max_payload_;
   std::unique_ptr<char[]> scratch_;
   std::size_t begin_ = 0;
   std::size_t end_ = 0;
   Payload large_;
   std::size_t large_filled_ = 0;
+  std::size_t large_total_ = 0;  // the announced size large_ grows to
   bool large_active_ = false;
   std::deque<Payload> ready_;
 };

@@ -194,8 +194,9 @@ def cmd_echo(session):
 # -------------------------------------------------------------- hz and bw
 
 class RateMeter:
-    """Rate, interval statistics and losses over the last `window` messages,
-    from receive times and the publisher's sequence numbers."""
+    """Rate and interval statistics over the last `window` messages, from
+    receive times and the publisher's sequence numbers; messages received
+    and lost since the start."""
 
     def __init__(self, window):
         self.samples = deque(maxlen=window + 1)  # (receive time, sequence)
@@ -204,11 +205,12 @@ class RateMeter:
         self.lost = 0
 
     def add(self, now, sequence, lost):
+        """One message; `lost`: those skipped since the previous one (sample_info.lost)."""
         if self.samples and sequence == self.samples[-1][1] + 1:
             self.intervals.append(now - self.samples[-1][0])
         self.samples.append((now, sequence))
         self.total += 1
-        self.lost = lost
+        self.lost += lost
 
     def report(self):
         if len(self.samples) < 2:
@@ -240,7 +242,6 @@ def _measure(session, show):
     end = start + args.duration if args.duration else None
     next_report = start + (args.duration if args.duration else args.period)
     reports = 0
-    lost_before = None
     while True:
         now = time.monotonic()
         if now >= next_report:
@@ -259,10 +260,8 @@ def _measure(session, show):
             continue
         packet = port.read(min(0.2, max(0.0, next_report - now)))
         if packet is not None:
-            sequence, lost, _ = port.sample_info
-            if lost_before is None:
-                lost_before = lost  # losses before this command started are not ours
-            meter.add(time.monotonic(), sequence, lost - lost_before)
+            sequence, lost, _ = port.sample_info  # lost: skipped since the previous read
+            meter.add(time.monotonic(), sequence, lost)
 
 
 def cmd_hz(session):
