@@ -243,7 +243,11 @@ def plot(rows: list[Row], path: Path, title: str) -> str:
                         color="tab:gray", alpha=0.6, label="its reference")
                 ax.legend(fontsize=7, loc="lower right")
             values = [v for r in prs for v in (r.value, r.reference_value) if v]
-            ax.set_xlim(min(values) / 3, max(values) * 8)
+            if values:
+                ax.set_xlim(min(values) / 3, max(values) * 8)
+            else:  # every value 0 (e.g. messages lost): nothing to put on a log scale
+                ax.set_xscale("linear")
+                ax.set_xlim(0, 1)
             for y, r in zip(ys, prs):
                 ax.text(r.value, y + off, f" {fmt_num(r.value)} {r.unit}", va="center", fontsize=7)
         ax.set_yticks(ys)

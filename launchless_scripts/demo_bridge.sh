@@ -8,6 +8,7 @@
 #   bash launchless_scripts/demo_bridge.sh [--ln ln29|ln_core] [--lang py|cpp|mixed] [--floor N]
 set -euo pipefail
 HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+ELEVATOR=$(cd "$HERE/../ln_core/examples/elevator" && pwd)
 ROOT=$(dirname "$HERE")
 LN=ln29 LANGS=py FLOOR=3
 while [ $# -gt 0 ]; do
@@ -30,16 +31,16 @@ fi
 CPP_ARGS=()
 if [ "$SIM" = cpp ] || [ "$CONTROL" = cpp ]; then
   CPP_DIR=${LN_CORE_CACHE:-$HOME/.cache/ln_core}/elevator-$LN
-  bash "$HERE/elevator/build.sh" "$LN" "$CPP_DIR"
+  bash "$ELEVATOR/build.sh" "$LN" "$CPP_DIR"
   CPP_ARGS=(--cpp-dir "$CPP_DIR")
 fi
 NETNS=${LN_NETNS_RUN:-/work/shared/tools/netns-run}
 [ -x "$NETNS" ] || NETNS=$(command -v netns-run || true)
 if [ -n "$NETNS" ] && "$NETNS" true 2>/dev/null; then
-  exec timeout 600 "$NETNS" python "$HERE/elevator/demo.py" --ln "$LN" --sim "$SIM" --control "$CONTROL" \
+  exec timeout 600 "$NETNS" python "$ELEVATOR/demo.py" --ln "$LN" --sim "$SIM" --control "$CONTROL" \
     --floor "$FLOOR" "${CPP_ARGS[@]}"
 fi
 echo "demo_bridge.sh: no network namespace possible here; DDS kept on loopback by settings instead" >&2
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
-exec timeout 600 python "$HERE/elevator/demo.py" --ln "$LN" --sim "$SIM" --control "$CONTROL" \
+exec timeout 600 python "$ELEVATOR/demo.py" --ln "$LN" --sim "$SIM" --control "$CONTROL" \
   --floor "$FLOOR" "${CPP_ARGS[@]}"

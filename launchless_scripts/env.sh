@@ -22,7 +22,7 @@ _ln_core_prepend() {
 }
 
 _ln_core_env() {
-  local - here root cache venv prefix
+  local - here root cache venv prefix pyver
   set +eu
   here=$(CDPATH='' cd "$(dirname "${BASH_SOURCE[0]}")" && pwd) || return 1
   root=$(dirname "$here")
@@ -34,6 +34,8 @@ _ln_core_env() {
   fi
   # activate first deactivates an earlier activation, which restores PATH: no growth when sourced twice
   . "$venv/bin/activate" || return 1
+  # site-packages of the venv's Python (python3.X), where colcon installs Python packages
+  pyver=$("$venv/bin/python" -c 'import sys; print("python%d.%d" % sys.version_info[:2])') || return 1
   _ln_core_prepend AMENT_PREFIX_PATH "$venv"
   _ln_core_prepend CMAKE_PREFIX_PATH "$venv"
   if [ -f "$root/install/setup.bash" ]; then
@@ -43,8 +45,9 @@ _ln_core_env() {
       prefix=${prefix%/}
       _ln_core_prepend CMAKE_PREFIX_PATH "$prefix"
       _ln_core_prepend PATH "$prefix/bin"
+      _ln_core_prepend PATH "$prefix/lib/${prefix##*/}"   # ament_python commands (ros2 run's lib/<package>/)
       _ln_core_prepend LD_LIBRARY_PATH "$prefix/lib"
-      _ln_core_prepend PYTHONPATH "$prefix/lib/python3.11/site-packages"
+      _ln_core_prepend PYTHONPATH "$prefix/lib/$pyver/site-packages"
     done
   else
     echo "env.sh: $root/install/ not built yet (bash $here/setup.sh); only the venv is active" >&2

@@ -22,7 +22,7 @@ APT_PACKAGES=(
   iproute2 util-linux procps                                # ip/unshare (shared/tools/netns-run), taskset, flock, ps
   python3-dev python3-venv                                  # Python headers and venv for the fallback interpreter
   libgirepository1.0-dev libcairo2-dev gir1.2-glib-2.0 gir1.2-gtk-3.0  # LN 2.9 reference: builds PyGObject; Gtk typelib
-  libmatio-dev libssl-dev                                   # logger files in MATLAB format; DSA signatures (libcrypto EVP)
+  libmatio-dev libssl-dev libeigen3-dev                     # logger files in MATLAB format; DSA signatures (libcrypto EVP); ln/parameters_eigen.h
   clang-format                                              # the C/C++ format check (.ci/run)
 )
 

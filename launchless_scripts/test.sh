@@ -12,34 +12,46 @@ HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 ROOT=$(dirname "$HERE")
 ASAN_DIR=$ROOT/build-asan
 PASSED=0 FAILED=0 SKIPPED=0
+FAILED_NAMES=()  # repeated at the end, so that the last lines of a CI log name every failure
 start=$SECONDS
 
 step() { printf '\n== test.sh: %s\n' "$*"; }
-fail_step() { echo "test.sh: FAILED: $*" >&2; FAILED=$((FAILED + 1)); }
+fail_step() { echo "test.sh: FAILED: $*" >&2; FAILED=$((FAILED + 1)); FAILED_NAMES+=("step: $*"); }
 finish() {
   step "done in $((SECONDS - start)) s ($SKIPPED skipped)"
+  local name
+  for name in "${FAILED_NAMES[@]}"; do echo "test.sh: failed: $name"; done
   echo "$PASSED passed, $FAILED failed"
   [ "$FAILED" -eq 0 ] && exit 0 || exit 1
 }
 
-# count_junit FILE: prints "passed failed skipped" for the test cases of a JUnit XML file (ctest, pytest)
+# count_junit FILE: prints "passed failed skipped" for the test cases of a JUnit XML file (ctest,
+# pytest), then one line per failed case: "failed CLASS::NAME"
 count_junit() {
   python3 - "$1" <<'EOF'
 import sys, xml.etree.ElementTree as ET
 n = {"passed": 0, "failed": 0, "skipped": 0}
+failed = []
 for case in ET.parse(sys.argv[1]).iter("testcase"):
     tags = {child.tag for child in case}
-    n["failed" if tags & {"failure", "error"} else "skipped" if "skipped" in tags else "passed"] += 1
+    outcome = "failed" if tags & {"failure", "error"} else "skipped" if "skipped" in tags else "passed"
+    n[outcome] += 1
+    if outcome == "failed":
+        failed.append("failed %s::%s" % (case.get("classname", ""), case.get("name", "")))
 print(n["passed"], n["failed"], n["skipped"])
+print("\n".join(failed))
 EOF
 }
 
 # add_results NAME RC JUNIT_FILE: adds the file's counts; a non-zero RC without a failed test is a broken step
 add_results() {
-  local name=$1 rc=$2 file=$3 p f s
-  if [ ! -f "$file" ] || ! read -r p f s < <(count_junit "$file"); then
+  local name=$1 rc=$2 file=$3 p f s counts line
+  if [ ! -f "$file" ] || ! counts=$(count_junit "$file") || ! read -r p f s <<< "$counts"; then
     fail_step "$name: exit $rc and no readable results in $file"; return
   fi
+  while read -r line; do
+    [ -n "$line" ] && FAILED_NAMES+=("$name: ${line#failed }")
+  done < <(printf '%s\n' "$counts" | tail -n +2)
   echo "test.sh: $name: $p passed, $f failed, $s skipped"
   PASSED=$((PASSED + p)) FAILED=$((FAILED + f)) SKIPPED=$((SKIPPED + s))
   if [ "$rc" -ne 0 ] && [ "$f" -eq 0 ]; then fail_step "$name: exit $rc"; fi
@@ -69,6 +81,10 @@ printf '%s\n' "$out"
 read -r t e f s < <(printf '%s\n' "$out" | sed -n 's/^Summary: \([0-9]*\) tests\{0,1\}, \([0-9]*\) errors\{0,1\}, \([0-9]*\) failures\{0,1\}, \([0-9]*\) skipped$/\1 \2 \3 \4/p') \
   || { t=0 e=0 f=0 s=0; echo "test.sh: no colcon test results"; }
 PASSED=$((PASSED + t - e - f - s)) FAILED=$((FAILED + e + f)) SKIPPED=$((SKIPPED + s))
+# colcon test-result --verbose names each failed case on a line "- NAME" after its results file
+while read -r line; do FAILED_NAMES+=("colcon test: $line"); done < <(printf '%s\n' "$out" | awk '
+  /^[^ -].*: [0-9]+ tests?, / { file = $1 }
+  /^- / { sub(/^- /, ""); print file " " $0 }')
 
 step "ln_core with ASan+UBSan in build-asan/"
 mkdir -p "$ASAN_DIR" && touch "$ASAN_DIR/COLCON_IGNORE"

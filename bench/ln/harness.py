@@ -16,8 +16,8 @@ Environment:
 
 LN 2.9's manager runs with --isolated-test (random port, private ln_daemon that exits with the
 manager) and a temporary HOME/TMPDIR, so its DSA keys, generated files and daemon log stay out of
-the real home. After stopping it, any process still running the venv's binaries with that HOME
-is killed by PID, and /dev/shm segments named after PIDs started here are removed (README P2-P4).
+the real home. Both managers are started and stopped by tests/support/ln_testing.py (which ends
+LN 2.9's daemons by PID); /dev/shm segments named after PIDs started here are removed (README P2-P4).
 """
 from __future__ import annotations
 
@@ -38,10 +38,12 @@ from pathlib import Path
 
 LN_DIR = Path(__file__).resolve().parent
 REPO_ROOT = LN_DIR.parent.parent
+sys.path.insert(0, str(REPO_ROOT / "tests" / "support"))
+import ln_testing  # noqa: E402
 LN_CORE_SRC = REPO_ROOT / "ln_core"
 MSGDEFS = LN_DIR / "msgdefs"
 MESSAGES = ["lnbench/p64", "lnbench/p4k", "lnbench/p1m", "lnbench/small_srv", "lnbench/blob_srv"]
-PROGRAMS = ["pingpong", "rate", "setup", "srv"]
+PROGRAMS = ["pingpong", "rate", "setup", "srv", "logger"]
 CXXFLAGS = ["-O2", "-std=c++17", "-Wall", "-Wextra"]
 
 
@@ -126,7 +128,7 @@ class System:
 
     def __init__(self) -> None:
         self.tmp: Path | None = None
-        self.manager: subprocess.Popen | None = None
+        self.manager: ln_testing.LnSystem | None = None
         self.address = ""
         self.bin_dir: Path | None = None
         self.started_pids: set[int] = set()
@@ -142,7 +144,8 @@ class System:
     def _include_digest(self) -> str:
         return ""
 
-    def _start_manager(self, ctx, config: Path, log: Path) -> None:
+    def _manager(self, work: Path) -> ln_testing.LnSystem:
+        """This system's manager (not started) working in `work`."""
         raise NotImplementedError
 
     def python(self) -> tuple[list[str], dict]:
@@ -209,68 +212,32 @@ class System:
         if self.manager is not None:
             return
         self.tmp = Path(tempfile.mkdtemp(prefix=f"lnbench-{self.key}-"))
-        (self.tmp / "home").mkdir()
-        config = self.tmp / "lnbench.lnc"
-        config.write_text(f"instance\nname: lnbench_{self.key}_{os.getpid()}\nmanager: :0\n"
-                          f"add_message_definition_dir: {MSGDEFS}\n")
-        self._start_manager(ctx, config, self.tmp / "manager.log")
+        self.manager = self._manager(self.tmp)
+        try:
+            self.manager.start([MSGDEFS], args=self._manager_args())
+        except (RuntimeError, TimeoutError) as e:
+            raise MeasureError(f"{self.label} manager did not start: {e}: {_tail(self.manager.log_tail())}") from e
+        finally:
+            if self.manager.process is not None:
+                self.started_pids.add(self.manager.process.pid)
+        self.address = self.manager.address
         ctx.log(f"ln bench: {self.label} manager at {self.address}")
 
-    def _spawn_manager(self, cmd, log: Path, env: dict) -> None:
-        self.manager = subprocess.Popen([str(c) for c in cmd], stdin=subprocess.DEVNULL,
-                                        stdout=log.open("w"), stderr=subprocess.STDOUT,
-                                        env={**_measured_environ(), **env}, process_group=0)
-
-    def _wait_log(self, log: Path, pattern: str, timeout: float) -> re.Match:
-        """Waits (polling the manager's log file) until `pattern` appears."""
-        deadline = time.monotonic() + timeout
-        rx = re.compile(pattern)
-        while time.monotonic() < deadline:
-            m = rx.search(log.read_text(errors="replace"))
-            if m:
-                return m
-            if self.manager.poll() is not None:
-                break
-            time.sleep(0.05)  # polling interval of the start-up condition
-        raise MeasureError(f"{self.label} manager did not start: {_tail(log.read_text(errors='replace'))}")
+    def _manager_args(self) -> list[str]:
+        return []
 
     def stop(self, ctx) -> None:
         if self.manager is not None:
-            if self.manager.poll() is None:
-                try:
-                    os.killpg(self.manager.pid, signal.SIGTERM)
-                except ProcessLookupError:
-                    pass
-                try:
-                    self.manager.wait(timeout=10)
-                except subprocess.TimeoutExpired:
-                    _kill_group(self.manager)
-                    self.manager.wait(timeout=10)
-            self.started_pids.add(self.manager.pid)
+            self.manager.stop()
+            log = self.manager.log_path
+            ctx.log_text(f"--- {self.label} manager log (tail) ---\n{ln_testing.tail(log, 30)}\n")
             self.manager = None
-        self._cleanup_leftovers(ctx)
+        for name in ln_testing.remove_ln_segments(self.started_pids):
+            ctx.log_text(f"removed leftover /dev/shm/{name}\n")
+        self.started_pids.clear()
         if self.tmp is not None:
-            log = self.tmp / "manager.log"
-            if log.exists():
-                ctx.log_text(f"--- {self.label} manager log (tail) ---\n"
-                             + "\n".join(log.read_text(errors="replace").splitlines()[-30:]) + "\n")
             shutil.rmtree(self.tmp, ignore_errors=True)
             self.tmp = None
-
-    def _cleanup_leftovers(self, ctx) -> None:
-        """/dev/shm segments named after processes started here (LN 2.9: <pid>_..._src)."""
-        shm = Path("/dev/shm")
-        if not self.started_pids or not shm.is_dir():
-            return
-        for f in shm.iterdir():
-            pid = f.name.split("_", 1)[0]
-            if pid.isdigit() and int(pid) in self.started_pids and f.name.endswith("_src"):
-                try:
-                    f.unlink()
-                    ctx.log_text(f"removed leftover {f}\n")
-                except OSError:
-                    pass
-        self.started_pids.clear()
 
 
 class LN29(System):
@@ -284,7 +251,6 @@ class LN29(System):
             if cand and (Path(cand) / "bin" / "ln_manager").exists():
                 self.venv = Path(cand).resolve()
                 break
-        self.daemons: set[int] = set()
 
     @property
     def lib_root(self) -> Path:
@@ -300,39 +266,13 @@ class LN29(System):
                 [f"-I{root / 'include'}", f"-L{root / 'lib'}", f"-Wl,-rpath,{root / 'lib'}", "-lln", "-lpthread"],
                 {"HOME": str(gen_home)})
 
-    def _start_manager(self, ctx, config, log):
-        self._spawn_manager([self.venv / "bin" / "ln_manager", "-c", config, "--without-gui", "--isolated-test",
-                             "--log-level", "info"], log, {"HOME": str(self.tmp / "home"), "TMPDIR": str(self.tmp)})
-        port = self._wait_log(log, r"isolated-test mode on manager port (\d+)", 60).group(1)
-        self._wait_log(log, r"listening on .* for ln-clients", 60)
-        self.address = f"127.0.0.1:{port}"
+    def _manager(self, work):
+        return ln_testing.Ln29(work, base_env=_measured_environ(), venv=self.venv)
 
     def python(self):
         if self.venv is None:
             raise Unavailable("LN 2.9 venv not found")
         return [str(self.venv / "bin" / "python")], {}
-
-    def _cleanup_leftovers(self, ctx):
-        # The private daemon exits with an --isolated-test manager; anything still running the
-        # venv's native binaries with our HOME is ours and is ended by PID.
-        if self.venv is not None and self.tmp is not None:
-            home = f"HOME={self.tmp / 'home'}".encode()
-            venv = str(self.venv)
-            for d in Path("/proc").iterdir():
-                if not d.name.isdigit():
-                    continue
-                try:
-                    exe = os.readlink(d / "exe")
-                    if not exe.startswith(venv):
-                        continue
-                    if home not in (d / "environ").read_bytes().split(b"\0"):
-                        continue
-                    os.kill(int(d.name), signal.SIGKILL)
-                    self.started_pids.add(int(d.name))
-                    ctx.log_text(f"killed leftover LN 2.9 process {d.name} ({exe})\n")
-                except (OSError, ValueError):
-                    continue
-        super()._cleanup_leftovers(ctx)
 
 
 class LnCore(System):
@@ -355,44 +295,14 @@ class LnCore(System):
 
     @staticmethod
     def python_interpreter() -> str:
-        venv = Path("/root/.cache/ln_core/venv-ros/bin/python")  # the project venv (numpy, nanobind)
-        return os.environ.get("LN_CORE_PYTHON") or (str(venv) if venv.exists() else sys.executable)
+        # env.sh exports LN_BENCH_PYTHON: the project venv's (numpy, nanobind)
+        return os.environ.get("LN_CORE_PYTHON") or os.environ.get("LN_BENCH_PYTHON") or sys.executable
 
     def _build_ln_core(self, ctx) -> Path:
         given = os.environ.get("LN_BENCH_LN_CORE_BUILD")
         if given:
             return Path(given).resolve()
-        top = (LN_CORE_SRC / "CMakeLists.txt").read_text()
-        fragments = [("transport.cmake", LN_CORE_SRC / "src" / "transport" / "transport.cmake"),
-                     ("services.cmake", LN_CORE_SRC / "src" / "services" / "services.cmake"),
-                     ("client.cmake", LN_CORE_SRC / "src" / "client" / "client.cmake"),
-                     ("python.cmake", LN_CORE_SRC / "python" / "python.cmake")]
-        if not fragments[2][1].exists():
-            raise Unavailable("ln_core has no client library (src/client/client.cmake) yet")
-        missing = [(name, path) for name, path in fragments if path.exists() and name not in top]
-        if not missing:
-            src, build = LN_CORE_SRC, ctx.build_dir / "ln_core-direct"
-        else:
-            # ln_core's CMakeLists does not include every component yet: a scratch top level
-            # that adds ln_core and includes the missing fragments (the Python module only when
-            # nanobind is there, so that it cannot break the C++ build).
-            src, build = ctx.build_dir / "ln_core-scratch-src", ctx.build_dir / "ln_core-scratch"
-            src.mkdir(parents=True, exist_ok=True)
-            text = ("cmake_minimum_required(VERSION 3.16)\nproject(lnbench_ln_core LANGUAGES C CXX)\n"
-                    "set(CMAKE_CXX_STANDARD 17)\ninclude(GNUInstallDirs)\n"
-                    f"add_subdirectory({LN_CORE_SRC} ln_core)\nset(LN_LIBRARY_VERSION 32)\n")
-            for name, path in missing:
-                if name == "python.cmake":
-                    py = self.python_interpreter()
-                    text += (f'set(LN_PYTHON_EXECUTABLE "{py}" CACHE FILEPATH "")\n'
-                             f'execute_process(COMMAND "{py}" -m nanobind --cmake_dir RESULT_VARIABLE _lnb_nb '
-                             "OUTPUT_QUIET ERROR_QUIET)\n"
-                             f"if(_lnb_nb EQUAL 0)\n  include({path})\nendif()\n")
-                else:
-                    text += f"include({path})\n"
-            cm = src / "CMakeLists.txt"
-            if not cm.exists() or cm.read_text() != text:
-                cm.write_text(text)
+        src, build = LN_CORE_SRC, ctx.build_dir / "ln_core-direct"
         key = str(build)
         if key in LnCore._built:
             if isinstance(LnCore._built[key], str):
@@ -402,7 +312,8 @@ class LnCore(System):
             if not (build / "build.ninja").exists():
                 ctx.log(f"ln bench: configuring ln_core in {build}")
                 proc = _run(["cmake", "-G", "Ninja", "-S", src, "-B", build, "-DCMAKE_BUILD_TYPE=Release",
-                             "-DBUILD_TESTING=OFF", "-DLN_WERROR=OFF"], ctx, 300)
+                             "-DBUILD_TESTING=OFF", "-DLN_WERROR=OFF",
+                             f"-DLN_PYTHON_EXECUTABLE={self.python_interpreter()}"], ctx, 300)
                 if proc.returncode != 0:
                     raise Unavailable(f"ln_core does not configure: {_first_error(proc.stdout + proc.stderr)}")
             ctx.log("ln bench: building ln_core (ln, ln_manager, ln_generate)")
@@ -421,7 +332,7 @@ class LnCore(System):
                 LnCore._python_build_error = f"ln_core's Python module does not build: {_first_error(proc.stdout + proc.stderr)}"
         else:
             LnCore._python_build_error = (f"ln_core's Python module is not part of the build "
-                                          f"(python.cmake missing, or no nanobind for {self.python_interpreter()})")
+                                          f"(no nanobind for {self.python_interpreter()}?)")
         LnCore._built[key] = build
         return build
 
@@ -441,10 +352,11 @@ class LnCore(System):
     def _include_digest(self) -> str:
         return _digest(*[p.read_bytes() for p in sorted((LN_CORE_SRC / "include" / "ln").rglob("*.h"))])
 
-    def _start_manager(self, ctx, config, log):
-        self._spawn_manager([self.manager_exe, "-c", config, "--listen", "127.0.0.1:0", "--log-level", "warning"],
-                            log, {"HOME": str(self.tmp / "home")})
-        self.address = self._wait_log(log, r"ln_manager: listening on (\S+)", 30).group(1)
+    def _manager(self, work):
+        return ln_testing.LnCore(work, base_env=_measured_environ(), manager_exe=self.manager_exe)
+
+    def _manager_args(self):
+        return ["--log-level", "warning"]
 
     def python(self):
         if self._py_unavailable:
@@ -483,6 +395,18 @@ def _reader(stream, q: queue.Queue) -> None:
     q.put(None)
 
 
+def _drain(q: queue.Queue, sink) -> None:
+    """Hands the lines a _reader thread still delivers to sink(line), until its EOF (or 5 s)."""
+    while True:
+        try:
+            line = q.get(timeout=5)
+        except queue.Empty:
+            return
+        if line is None:
+            return
+        sink(line)
+
+
 def _check_results(system: System, what: str, results: list[dict], rc: int | None, text: str) -> list[dict]:
     for r in results:
         if r.get("ok") is False:
@@ -495,10 +419,12 @@ def _check_results(system: System, what: str, results: list[dict], rc: int | Non
 
 
 def run_pair(ctx, system: System, server: list, client: list, *, cpus: tuple[int, int], timeout: float,
-             what: str, python: bool = False) -> tuple[dict, list[dict]]:
+             what: str, python: bool = False, alongside: list | None = None) -> tuple[dict, list[dict]]:
     """Starts `server` pinned to cpus[1], waits for its ready line, runs `client` pinned to
     cpus[0]; returns (the client's result, the server's result lines). Both bounded by `timeout`;
-    a failure reported by either side raises."""
+    a failure reported by either side raises. `alongside` (a command, not pinned) starts once the
+    server is ready and runs until the client is done (SIGTERM); the client starts after it
+    printed {"attacking": true}."""
     env = {**_measured_environ(), **system.env()}
     prefix: list[str] = []
     if python:
@@ -516,6 +442,7 @@ def run_pair(ctx, system: System, server: list, client: list, *, cpus: tuple[int
     threading.Thread(target=_reader, args=(srv.stdout, q), daemon=True).start()
     srv_lines: list[str] = []
     cli = None
+    other = None
     cli_results: list[dict] = []
     srv_done = False
     try:
@@ -538,6 +465,8 @@ def run_pair(ctx, system: System, server: list, client: list, *, cpus: tuple[int
                 raise MeasureError(f"{system.label} {what}: server exited before it was ready: {_tail(text)}")
             srv_lines.append(line)
             ready = '"ready": true' in line
+        if alongside is not None:
+            other = _start_alongside(ctx, system, alongside, env, deadline, what)
         ctx.log_text(f"$ [{system.label}] {shlex.join(cli_cmd)}\n")
         cli = subprocess.Popen(cli_cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                text=True, env=env, process_group=0)
@@ -559,23 +488,52 @@ def run_pair(ctx, system: System, server: list, client: list, *, cpus: tuple[int
         except subprocess.TimeoutExpired:
             pass
     finally:
+        if other is not None:
+            _stop_alongside(ctx, other)
         if srv.poll() is None:
             _kill_group(srv)
             srv.wait(timeout=10)
         if cli is not None and cli.poll() is None:
             _kill_group(cli)
-        while not srv_done:  # the reader thread ends at EOF, which follows the exit
-            try:
-                line = q.get(timeout=5)
-            except queue.Empty:
-                break
-            if line is None:
-                break
-            srv_lines.append(line)
+        if not srv_done:  # the reader thread ends at EOF, which follows the exit
+            _drain(q, srv_lines.append)
         ctx.log_text("".join(srv_lines))
     srv_text = "".join(srv_lines)
     srv_results = _check_results(system, what + " (server)", _json_lines(srv_text), None, srv_text)
     return cli_results[-1], srv_results
+
+
+def _start_alongside(ctx, system: System, cmd: list, env: dict, deadline: float, what: str):
+    full = [str(c) for c in cmd]
+    ctx.log_text(f"$ [{system.label}] {shlex.join(full)} &\n")
+    proc = subprocess.Popen(full, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True, env=env, process_group=0)
+    system.started_pids.add(proc.pid)
+    q: queue.Queue = queue.Queue()
+    threading.Thread(target=_reader, args=(proc.stdout, q), daemon=True).start()
+    while True:
+        left = deadline - time.monotonic()
+        try:
+            line = q.get(timeout=max(0.0, left))
+        except queue.Empty:
+            line = None
+        if line is None:
+            _kill_group(proc)
+            raise MeasureError(f"{system.label} {what}: {shlex.join(full[:2])} did not start its attack in time")
+        ctx.log_text(line)
+        if '"attacking": true' in line:
+            return proc, q
+
+
+def _stop_alongside(ctx, started) -> None:
+    proc, q = started
+    try:
+        os.killpg(proc.pid, signal.SIGTERM)
+        proc.wait(timeout=10)
+    except (ProcessLookupError, subprocess.TimeoutExpired):
+        _kill_group(proc)
+        proc.wait(timeout=10)
+    _drain(q, ctx.log_text)
 
 
 def run_single(ctx, system: System, cmd: list, *, cpu: int, timeout: float, what: str) -> dict:

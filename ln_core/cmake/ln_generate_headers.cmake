@@ -34,20 +34,19 @@
 #   interface libraries, PUBLIC otherwise; build tree only) and a dependency
 #   on the generation. May be called several times for the same target.
 #
-# Incremental builds: the header is an add_custom_command OUTPUT that DEPENDS
-# on ln_generate and on the files of the requested definitions and of every
-# definition they import (recursively), so it is regenerated only when one of
-# those changes. The files are resolved at configure time by asking ln_md_info
-# -- it links the same search-path and `define` resolution code as
-# ln_generate, so the dependency list cannot disagree with what the generator
-# reads (md.conf expansion, imports relative to the importing file, built-in
-# dirs). Those files are also CMAKE_CONFIGURE_DEPENDS, so editing a
-# definition re-runs CMake and picks up added or removed imports. Without a
-# usable ln_md_info (inside the ln_core build tree, where it is not built yet
-# at configure time, or CMake < 3.19 which lacks string(JSON)) every file below
-# the search directories is a dependency instead (GLOB_RECURSE
-# CONFIGURE_DEPENDS): coarser, but never misses a change in those directories.
-# Setting LN_GENERATE_DEPENDENCY_SCAN to GLOB selects that fallback always.
+# Incremental builds: ln_generate writes a depfile (--depfile) naming every
+# definition file it read -- the requested ones, all they define, the md.conf
+# files of the search path -- and the build tool reruns it when one of those
+# changes (add_custom_command DEPFILE). Nothing is scanned at configure time.
+# Where that is not possible (a generator without --depfile such as LN 2.9's,
+# or CMake < 3.20 with a generator other than Ninja), every file below the
+# search directories is a dependency instead.
+
+# The depfile names absolute paths; the function keeps this setting
+# (include() scopes it) so the caller's policies need not know about DEPFILE.
+if(POLICY CMP0116)
+  cmake_policy(SET CMP0116 NEW)
+endif()
 
 # Splits "a:b" entries (not on Windows), makes entries absolute relative to
 # CMAKE_CURRENT_SOURCE_DIR, drops empty ones and duplicates (first one wins,
@@ -75,91 +74,23 @@ function(_ln_normalize_md_dirs out_var)
   set(${out_var} "${result}" PARENT_SCOPE)
 endfunction()
 
-# The ln_md_info to resolve definition files with, or "" if none is usable.
-function(_ln_find_md_info out_var)
-  set(${out_var} "" PARENT_SCOPE)
-  if(CMAKE_VERSION VERSION_LESS 3.19 OR LN_GENERATE_DEPENDENCY_SCAN STREQUAL "GLOB")
+# Whether `generator` writes depfiles: ln_core's does (a target of this build,
+# or a program whose --help names --depfile); LN 2.9's Python one does not.
+function(_ln_generator_writes_depfile out_var generator)
+  if(TARGET ${generator})
+    set(${out_var} ON PARENT_SCOPE)
     return()
   endif()
-  if(LN_MD_INFO_EXECUTABLE AND EXISTS "${LN_MD_INFO_EXECUTABLE}"
-     AND NOT IS_DIRECTORY "${LN_MD_INFO_EXECUTABLE}")
-    set(${out_var} "${LN_MD_INFO_EXECUTABLE}" PARENT_SCOPE)
+  string(MAKE_C_IDENTIFIER "LN_GENERATE_DEPFILE_${generator}" cache_name)
+  if(NOT DEFINED ${cache_name})
+    execute_process(COMMAND "${generator}" --help OUTPUT_VARIABLE help ERROR_QUIET RESULT_VARIABLE rc)
+    if(rc EQUAL 0 AND help MATCHES "--depfile")
+      set(${cache_name} ON CACHE INTERNAL "")
+    else()
+      set(${cache_name} OFF CACHE INTERNAL "")
+    endif()
   endif()
-endfunction()
-
-# Sets out_var to the files of the definitions `names` and of everything they
-# import, using ln_md_info with --md-dir for each of `dirs`.
-function(_ln_md_files_via_md_info out_var md_info dirs names)
-  set(dir_args "")
-  foreach(dir IN LISTS dirs)
-    list(APPEND dir_args --md-dir "${dir}")
-  endforeach()
-  set(files "")
-  set(seen "")
-  set(pending ${names})
-  while(pending)
-    list(APPEND seen ${pending})
-    execute_process(
-      COMMAND "${md_info}" ${dir_args} ${pending}
-      WORKING_DIRECTORY "${CMAKE_CURRENT_BINARY_DIR}"
-      RESULT_VARIABLE rc
-      OUTPUT_VARIABLE out
-      ERROR_VARIABLE err)
-    if(NOT rc EQUAL 0)
-      string(STRIP "${err}" err)
-      string(REPLACE ";" " " pending_text "${pending}")
-      message(FATAL_ERROR
-        "generate_ln_message_headers: cannot load the LN message definition(s) "
-        "${pending_text}:\n  ${err}")
-    endif()
-    set(pending "")
-    # One JSON object per line. Walk the lines by position rather than turning
-    # the output into a list: JSON brackets would confuse CMake's list syntax.
-    while(NOT out STREQUAL "")
-      string(FIND "${out}" "\n" eol)
-      if(eol EQUAL -1)
-        set(line "${out}")
-        set(out "")
-      else()
-        string(SUBSTRING "${out}" 0 ${eol} line)
-        math(EXPR rest_begin "${eol} + 1")
-        string(SUBSTRING "${out}" ${rest_begin} -1 out)
-      endif()
-      string(STRIP "${line}" line)
-      if(line STREQUAL "")
-        continue()
-      endif()
-      string(JSON path GET "${line}" path)
-      get_filename_component(path "${path}" ABSOLUTE BASE_DIR "${CMAKE_CURRENT_BINARY_DIR}")
-      list(APPEND files "${path}")
-      string(JSON define_count LENGTH "${line}" defines)
-      if(define_count GREATER 0)
-        math(EXPR last "${define_count} - 1")
-        foreach(i RANGE ${last})
-          string(JSON imported GET "${line}" defines ${i} name)
-          if(NOT imported IN_LIST seen AND NOT imported IN_LIST pending)
-            list(APPEND pending "${imported}")
-          endif()
-        endforeach()
-      endif()
-    endwhile()
-  endwhile()
-  list(REMOVE_DUPLICATES files)
-  set(${out_var} "${files}" PARENT_SCOPE)
-endfunction()
-
-# Fallback: every file below the search directories (and ln_generate's
-# built-in directory when known).
-function(_ln_md_files_via_glob out_var dirs)
-  set(files "")
-  foreach(dir IN LISTS dirs LN_BUILTIN_MESSAGE_DEFINITION_DIR)
-    if(IS_DIRECTORY "${dir}")
-      file(GLOB_RECURSE found LIST_DIRECTORIES false CONFIGURE_DEPENDS "${dir}/*")
-      list(APPEND files ${found})
-    endif()
-  endforeach()
-  list(REMOVE_DUPLICATES files)
-  set(${out_var} "${files}" PARENT_SCOPE)
+  set(${out_var} ${${cache_name}} PARENT_SCOPE)
 endfunction()
 
 function(generate_ln_message_headers _ln_target)
@@ -291,23 +222,29 @@ function(generate_ln_message_headers _ln_target)
   foreach(dir IN LISTS md_dirs)
     list(APPEND command --md-dir "${dir}")
   endforeach()
-  list(APPEND command ${ARG_MESSAGES})
 
-  # --- dependencies ----------------------------------------------------------
-  _ln_find_md_info(md_info)
-  if(md_info)
-    _ln_md_files_via_md_info(md_files "${md_info}" "${md_dirs}" "${ARG_MESSAGES}")
-    set_property(DIRECTORY APPEND PROPERTY CMAKE_CONFIGURE_DEPENDS ${md_files})
+  # --- dependencies: the depfile ln_generate writes ----------------------------
+  _ln_generator_writes_depfile(writes_depfile "${generator}")
+  if(writes_depfile AND (CMAKE_GENERATOR MATCHES "Ninja" OR NOT CMAKE_VERSION VERSION_LESS 3.21
+     OR (CMAKE_GENERATOR MATCHES "Makefiles" AND NOT CMAKE_VERSION VERSION_LESS 3.20)))
+    list(APPEND command --depfile "${output}.d")
+    set(depends DEPFILE "${output}.d")
   else()
-    _ln_md_files_via_glob(md_files "${md_dirs}")
+    set(depends DEPENDS)
+    foreach(dir IN LISTS md_dirs)
+      file(GLOB_RECURSE found LIST_DIRECTORIES false CONFIGURE_DEPENDS "${dir}/*")
+      list(APPEND depends ${found})
+    endforeach()
   endif()
+  list(APPEND command ${ARG_MESSAGES})
 
   file(RELATIVE_PATH output_shown "${CMAKE_BINARY_DIR}" "${output}")
   add_custom_command(
     OUTPUT "${output}"
     COMMAND "${CMAKE_COMMAND}" -E make_directory "${output_dir}"
     COMMAND ${command}
-    DEPENDS ${md_files} ${generator_depends}
+    DEPENDS ${generator_depends}
+    ${depends}
     COMMENT "Generating LN message header ${output_shown}"
     VERBATIM)
   set_property(SOURCE "${output}" PROPERTY GENERATED ON)

@@ -5,7 +5,7 @@
 # fallback dependency scan. Checks that the generated headers exist, that the
 # consumer compiles and runs, that an unchanged build does not run
 # ln_generate again, and that touching a message definition regenerates
-# exactly the headers that depend on it. Also checks the argument errors of
+# exactly the headers that depend on it (ln_generate's depfile). Also checks the argument errors of
 # generate_ln_message_headers() and the package's variables, version files
 # and relocatability.
 #
@@ -64,9 +64,10 @@ build() {
   run ninja -C "$1/build" >"$log" 2>&1
 }
 
-# check_variant <name> <package> <precise|glob> [cmake args]: with a glob
-# dependency scan every definition in the directory is a dependency of every
-# header, so touching one regenerates all of them.
+# check_variant <name> <package> <precise|glob> [cmake args]: precise =
+# ln_generate's depfile names each header's definitions; glob = a generator
+# without --depfile, so every definition in the directory is a dependency of
+# every header and touching one regenerates all of them.
 check_variant() {
   local variant=$1 package=$2 scan=$3
   shift 3
@@ -105,6 +106,13 @@ check_variant() {
     [ -s "$h" ] || { fail "$variant: generated header $h missing"; missing=1; }
   done
   [ $missing = 0 ] && pass "$variant: generated ${#headers[@]} headers"
+  if [ "$scan" = precise ] && grep -Eq "msgdefs/consumer/pose( \\\\)?$" "$topics.d" 2>/dev/null; then
+    pass "$variant: ln_generate wrote the depfile $topics.d"
+  elif [ "$scan" = glob ] && [ ! -e "$topics.d" ]; then
+    pass "$variant: no depfile (the generator has no --depfile)"
+  else
+    fail "$variant: depfile $topics.d: $(cat "$topics.d" 2>&1)"
+  fi
   if out=$("$dir/build/consumer_cpp" 2>&1) && grep -q "consumer/pose_stamped|" <<<"$out" &&
      out_c=$("$dir/build/consumer_c" 2>&1) && grep -q "request=36 bytes" <<<"$out_c"; then
     pass "$variant: consumer_cpp and consumer_c compiled and ran"
@@ -171,7 +179,12 @@ $out_c"
 
 check_variant ln ln precise
 check_variant liblinks_and_nodes liblinks_and_nodes precise
-check_variant ln_glob_scan ln glob -DLN_GENERATE_DEPENDENCY_SCAN=GLOB
+# A generator that writes no depfile (as LN 2.9's): its --help does not name
+# --depfile, so the function falls back to the glob.
+no_depfile_generator="$work/ln_generate_without_depfile"
+printf '#!/bin/sh\n[ "$1" = --help ] && exit 0\nexec "%s" "$@"\n' "$prefix/bin/ln_generate" >"$no_depfile_generator"
+chmod +x "$no_depfile_generator"
+check_variant ln_glob_scan ln glob -Dliblinks_and_nodes_LN_GENERATE_EXECUTABLE="$no_depfile_generator"
 
 # --- argument errors and package variables -------------------------------------
 # probe <name> <expected regex> [cmake -D args]: configures a small C
@@ -228,6 +241,8 @@ elseif(CASE STREQUAL "env_dirs")
 endif()
 EOF
 
+# With PROBE_BUILD_TARGET set, the probe also builds that target after
+# configuring (for errors that only the build can know).
 probe() {
   local name=$1 expect=$2 want_rc=$3
   shift 3
@@ -236,6 +251,10 @@ probe() {
   out=$(run cmake -G Ninja -S "$probe_dir/src" -B "$probe_dir/build-$name" -DCMAKE_PREFIX_PATH="$prefix" \
         -DCMAKE_FIND_USE_PACKAGE_REGISTRY=OFF -DCASE="$name" "$@" 2>&1)
   rc=$?
+  if [ $rc = 0 ] && [ -n "${PROBE_BUILD_TARGET:-}" ]; then
+    out=$(run ninja -C "$probe_dir/build-$name" "$PROBE_BUILD_TARGET" 2>&1)
+    rc=$?
+  fi
   probe_out=$out
   if { [ "$want_rc" = 0 ] && [ $rc = 0 ]; } || { [ "$want_rc" != 0 ] && [ $rc != 0 ]; }; then
     # CMake wraps long messages; match on the output as one line.
@@ -257,7 +276,9 @@ probe no_output "OUTPUT <header file> is required" 1
 probe no_messages "MESSAGES .* is required" 1
 probe empty_messages "MESSAGES .* is required" 1
 probe no_target "first argument must be the target name" 1
-probe unknown_md "cannot load the LN message definition\(s\) probe/nonexistent.*not found" 1
+# An unknown definition is ln_generate's error when the header is built (nothing is
+# scanned at configure time).
+PROBE_BUILD_TARGET=t probe unknown_md "ln_generate: error: message definition 'probe/nonexistent' not found" 1
 probe bad_map "MAP_SERVICE_BASE entries have the form" 1
 if ls "$prefix"/lib*/libln.so >/dev/null 2>&1; then
   probe component_ln "probe component ln found" 0

@@ -38,6 +38,8 @@ options:
   --mds-from-file FILE          read definition names from FILE (one per line, # comments)
   -o FILE, --output FILE        output file (default: ln_messages.h; '-' for stdout)
   -f, --force                   write even if the output would not change
+  --depfile FILE                also write a Make-style depfile naming every definition
+                                file (and md.conf) read, for build systems
   --output-format c++           output format (only c++ is supported)
   --map-service-base X=Y        name the C++ base class of definition X "Y_base"
   --wrapping-ns NS              wrap the generated C++ code in namespace NS (repeatable)
@@ -59,6 +61,7 @@ struct Options {
   std::vector<std::string> env_vars;
   std::vector<std::string> name_files;
   std::string output = "ln_messages.h";
+  std::string depfile;
   bool force = false;
   ln::generate::CHeaderOptions header;
 };
@@ -94,6 +97,8 @@ Options parse_arguments(int argc, char** argv) {
       o.name_files.push_back(value());
     } else if (arg == "-o" || arg == "--output") {
       o.output = value();
+    } else if (arg == "--depfile") {
+      o.depfile = value();
     } else if (arg == "-f" || arg == "--force") {
       o.force = true;
     } else if (arg == "--output-format") {
@@ -220,6 +225,49 @@ void write_atomically(const std::string& path, const std::string& content) {
   }
 }
 
+// Every file the header was made from: the requested definitions, all they
+// define (recursively), and the md.conf files that shaped the search path.
+std::vector<std::string> files_read(const std::vector<const ln::md::Definition*>& requested,
+                                    const ln::md::SearchPath& search_path) {
+  std::vector<std::string> files;
+  std::vector<const ln::md::Definition*> pending = requested;
+  std::vector<const ln::md::Definition*> seen;
+  while (!pending.empty()) {
+    const ln::md::Definition* def = pending.back();
+    pending.pop_back();
+    if (std::find(seen.begin(), seen.end(), def) != seen.end()) continue;
+    seen.push_back(def);
+    if (!def->path.empty() && def->path.front() != '<') files.push_back(def->path);  // not put text
+    for (const auto& define : def->defines)
+      if (define.definition) pending.push_back(define.definition);
+  }
+  for (const auto& dir : search_path.dirs()) {
+    const std::string conf = dir + "/md.conf";
+    struct stat st;
+    if (::stat(conf.c_str(), &st) == 0 && S_ISREG(st.st_mode)) files.push_back(conf);
+  }
+  std::sort(files.begin(), files.end());
+  files.erase(std::unique(files.begin(), files.end()), files.end());
+  return files;
+}
+
+// Make's syntax: spaces, '#' and '$' escaped; one prerequisite per line.
+std::string make_escaped(const std::string& path) {
+  std::string out;
+  for (const char c : path) {
+    if (c == ' ' || c == '#') out += '\\';
+    if (c == '$') out += '$';
+    out += c;
+  }
+  return out;
+}
+
+std::string depfile_text(const std::string& target, const std::vector<std::string>& prerequisites) {
+  std::string text = make_escaped(target) + ":";
+  for (const auto& file : prerequisites) text += " \\\n  " + make_escaped(absolute_output_path(file));
+  return text + "\n";
+}
+
 int run(int argc, char** argv) {
   Options o = parse_arguments(argc, argv);
 
@@ -252,6 +300,7 @@ int run(int argc, char** argv) {
   const std::string header = ln::generate::emit_c_header(definitions, o.header);
 
   if (o.output == "-") {
+    if (!o.depfile.empty()) throw UsageError("--depfile needs an output file (-o), not stdout");
     std::cout << header << std::flush;
     return std::cout ? 0 : 1;
   }
@@ -259,9 +308,12 @@ int run(int argc, char** argv) {
   std::string existing;
   if (!o.force && read_whole_file(path, existing) && existing == header) {
     std::cout << argv[0] << ": " << path << " is up to date." << std::endl;
-    return 0;
+  } else {
+    write_atomically(path, header);
   }
-  write_atomically(path, header);
+  if (!o.depfile.empty())
+    write_atomically(absolute_output_path(o.depfile),
+                     depfile_text(path, files_read(definitions, library.search_path())));
   return 0;
 }
 

@@ -3,6 +3,6 @@
 Modules: config (YAML), ln_adapter (the LN Python packages, as bytes),
 ln_introspection (what the LN manager knows), types (LN definitions <-> ROS
 types and codecs, from msg_mapping), topics and services (the data paths),
-ros_senders (who sent a ROS message: loop prevention per publisher), bridge
+diagnostics (/diagnostics), bridge
 (what runs when), main (the command line).
 """

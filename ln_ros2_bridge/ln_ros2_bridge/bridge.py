@@ -4,7 +4,10 @@ the configuration asks for, given what the LN manager and the ROS graph show.
 A reconciler thread does everything that creates or removes endpoints, once
 per `auto.period`, and at once when the LN manager reports a change (a
 publisher or provider of a topic or service it knows came or went; see
-ln_introspection):
+ln_introspection). Topic data never passes through it: each topic is a
+compiled path with a thread of its own (topics.py), which the reconciler
+polls twice a second for what it did (logged, and published on /diagnostics).
+Each pass:
 
 1. (re)connect to the LN manager when there is no connection or it is gone;
 2. read the LN side (topics with publisher, services with provider) and the
@@ -21,7 +24,7 @@ client (loop_prevention.bridge_names) is never bridged to ROS, a ROS topic or
 service whose only publishers/servers are bridge nodes is never bridged to LN,
 and a ROS->LN subscription drops the messages of bridge publishers, telling them
 apart from other publishers on the same topic by the sender of each message (see
-RosToLnTopic, ros_senders). Two bridges on one LN instance and ROS domain therefore
+RosToLnTopic). Two bridges on one LN instance and ROS domain therefore
 never echo; when both could bridge the same thing automatically, a claim registered
 with the LN manager decides who does (see _should_take).
 """
@@ -35,8 +38,9 @@ from .config import BUILTIN_DENY_LN, BUILTIN_DENY_ROS, ServiceEntry, TopicEntry,
 from .ln_adapter import LnConnection
 from .ln_introspection import IntrospectionError, open_introspection
 from .services import LnToRosService, RosToLnService
+from .diagnostics import Diagnostics
 from .topics import LnToRosTopic, RosToLnTopic
-from .types import TypeRegistry, UnknownType
+from .types import RosCapacities, TypeRegistry, UnknownType
 
 log = logging.getLogger("ln_ros2_bridge")
 
@@ -52,12 +56,15 @@ class RosGraph:
 class Bridge:
     SETTLE = 1.5   # seconds: how long ROS discovery is given before automatic decisions (see _should_take)
     RETRY = 5.0    # seconds before an entry that failed to start is tried again
+    POLL = 0.5     # seconds between looks at what the topic paths did
 
     def __init__(self, config, node, connect=None):
         self.config = config
         self.node = node
         self.types = TypeRegistry(config.ln_definition_dirs, config.rule_files,
-                                  fetch_definition=self._fetch_definition)
+                                  fetch_definition=self._fetch_definition,
+                                  capacities=RosCapacities(config.string_capacity, config.sequence_capacity,
+                                                           dict(config.capacities)))
         self._connect = connect or (lambda: LnConnection(config.ln_client_name, config.ln_manager))
         self.ln = None
         self._introspection = None
@@ -77,6 +84,8 @@ class Bridge:
         self._claims = {}          # automatic entry -> the LN service that claims it (see _should_take)
         self._claims_supported = True
         self._claim_type_ready = False
+        self._failed = {}          # desired entry that does not run -> (entry, why), for the diagnostics
+        self.diagnostics = Diagnostics(node)
 
     # -- life cycle -------------------------------------------------------------
     def start(self):
@@ -97,6 +106,7 @@ class Bridge:
         self._wake.set()
 
     def _run(self):
+        polled_at = 0.0
         while not self._stop.is_set():
             try:
                 self.reconcile()
@@ -106,6 +116,12 @@ class Bridge:
             introspection = self._introspection
             deadline = time.monotonic() + period
             while not self._stop.is_set() and time.monotonic() < deadline:
+                if time.monotonic() - polled_at >= self.POLL:
+                    polled_at = time.monotonic()
+                    try:
+                        self.poll()
+                    except Exception:
+                        log.exception("reading the topic paths' reports failed")
                 if self._wake.wait(min(0.05, max(0.0, deadline - time.monotonic()))):
                     self._wake.clear()
                     break
@@ -114,6 +130,20 @@ class Bridge:
                     break
                 if self._broken.is_set():
                     break
+
+    def poll(self):
+        """Reads what each topic path did (logging its drops), notices paths that
+        stopped, and publishes the diagnostics when they are due."""
+        with self._lock:
+            reports = {}
+            for key, bridge in self.active.items():
+                if key[0] != "topic":
+                    continue
+                report = reports[key] = bridge.poll()
+                if report["failed"] and not self._broken.is_set():
+                    log.warning("%s stopped (%s); the bridge will reconnect", bridge.describe(), report["failure"])
+                    self._broken.set()
+            self.diagnostics.update(self, reports)
 
     # -- LN connection ----------------------------------------------------------
     def _ensure_ln(self):
@@ -140,13 +170,16 @@ class Bridge:
             self.ln = self._connect()
             self._introspection = open_introspection(self.ln, [t.ln for t in self.config.topics],
                                                      [s.ln for s in self.config.services])
+            self.ln.data_client()
             self._broken.clear()
             self._ln_retry_delay = 0.2
             log.info("connected to the LN manager at %s as %r (%s)", self.ln.manager_address, self.ln.name,
                      self.ln.flavor)
-            if not self.config.is_bridge_name(self.ln.name):
-                log.error("the LN manager named this client %r, which loop_prevention.bridge_names does not "
-                          "match: other bridges would re-bridge its topics", self.ln.name)
+            for name in sorted(self.ln.own_names):
+                if not self.config.is_bridge_name(name):
+                    log.error("the LN manager named this client %r, which loop_prevention.bridge_names does not "
+                              "match: other bridges would re-bridge its topics (use a pattern such as 'name*')",
+                              name)
             return True
         except Exception as error:
             self._disconnect_ln()
@@ -173,9 +206,7 @@ class Bridge:
         self._retry_at.clear()
         self._claims.clear()          # they ended with the connection
         self._claim_type_ready = False
-
-    def _mark_broken(self, error):
-        self._broken.set()
+        self._failed.clear()
 
     # -- one pass ------------------------------------------------------------------
     def reconcile(self):
@@ -195,10 +226,11 @@ class Bridge:
             for key in [k for k in self._claims if k not in desired]:
                 self._release_claim(key)
             now = time.monotonic()
+            for key in [k for k in self._failed if k not in desired]:
+                del self._failed[key]
             for key, entry in desired.items():
                 if key not in self.active and now >= self._retry_at.get(key, 0.0):
                     self._start_one(key, entry)
-            self._refresh_sources()
 
     def _fetch_definition(self, name):
         """Makes a definition the manager knows available to the codecs (called by
@@ -246,6 +278,11 @@ class Bridge:
 
     def _is_bridge_node(self, fq_name):
         return self.config.is_bridge_name(fq_name)
+
+    def _is_bridge_client(self, name):
+        """An LN client of a bridge: matching bridge_names, or one of ours (LN 2.9
+        may have numbered our data client's name)."""
+        return self.config.is_bridge_name(name) or name in self.ln.own_names
 
     def _should_take(self, key, ros_name, others, graph):
         """Whether this bridge should carry an automatic entry that other bridges on this
@@ -340,7 +377,7 @@ class Bridge:
             direction = entry.direction
             if direction == "both":   # the side that has a (non-bridge) publisher feeds the other
                 publisher = ln_publisher(entry.ln)
-                if publisher and not config.is_bridge_name(publisher):
+                if publisher and not self._is_bridge_client(publisher):
                     direction = "ln_to_ros"
                 elif ros_sources(entry.ros):
                     direction = "ros_to_ln"
@@ -367,7 +404,7 @@ class Bridge:
 
         if "ln_to_ros" in auto.directions:
             for t in ln_topics:
-                if not t.publisher or config.is_bridge_name(t.publisher) or t.name in explicit_ln_topics:
+                if not t.publisher or self._is_bridge_client(t.publisher) or t.name in explicit_ln_topics:
                     continue
                 ros_name = ln_to_ros_name(t.name, auto)
                 if not accepted(auto.topics, t.name, ros_name):
@@ -379,7 +416,7 @@ class Bridge:
                     t.name, ros_name, "ln_to_ros", ln_type=t.md_name, qos=config.qos, ln_port=config.ln_port,
                     origin="auto")
             for s in ln_services:
-                if config.is_bridge_name(s.provider) or s.name in explicit_ln_services:
+                if self._is_bridge_client(s.provider) or s.name in explicit_ln_services:
                     continue
                 ros_name = ln_to_ros_name(s.name, auto)
                 if not accepted(auto.services, s.name, ros_name):
@@ -403,13 +440,13 @@ class Bridge:
                 if not accepted(auto.topics, ln_name, ros_name):
                     continue
                 publisher = ln_publisher(ln_name)
-                if publisher and not (publisher == self.ln.name and
+                if publisher and not (publisher in self.ln.own_names and
                                       ("topic", ln_name, "ros_to_ln") in self.active):
                     continue   # LN has a publisher already (LN allows one)
                 ln_type = self.types.ln_name_for_ros(types[0])
                 if ln_type is None:
-                    self._report(("ros-type", types[0]), "ROS topic %s: type %s has no LN counterpart; not bridged"
-                                 % (ros_name, types[0]), level=logging.INFO)
+                    self._report(("ros-type", types[0]), "ROS topic %s: %s; not bridged"
+                                 % (ros_name, self.types.why_unmapped(types[0])), level=logging.INFO)
                     continue
                 if not self._should_take(("topic", ln_name, "ros_to_ln"), ros_name, [], graph):
                     continue   # another bridge publishes it into LN (LN allows one publisher)
@@ -426,13 +463,13 @@ class Bridge:
                 if not accepted(auto.services, ln_name, ros_name):
                     continue
                 existing = ln_service.get(ln_name)
-                if existing and existing.provider != self.ln.name:
+                if existing and existing.provider not in self.ln.own_names:
                     continue
                 ros_type = servers[0][1]
                 ln_type = self.types.ln_name_for_ros(ros_type)
                 if ln_type is None:
-                    self._report(("ros-type", ros_type), "ROS service %s: type %s has no LN counterpart; "
-                                 "not bridged" % (ros_name, ros_type), level=logging.INFO)
+                    self._report(("ros-type", ros_type), "ROS service %s: %s; not bridged"
+                                 % (ros_name, self.types.why_unmapped(ros_type)), level=logging.INFO)
                     continue
                 if not self._should_take(("service", ln_name, "ros_to_ln"), ros_name, [], graph):
                     continue   # another bridge provides it in LN
@@ -453,32 +490,37 @@ class Bridge:
         try:
             if kind == "topic":
                 topic_type = self._topic_type_for(entry)
+                self.ln.ensure_definitions(topic_type.definitions)
                 if entry.direction == "ln_to_ros":
-                    bridge = LnToRosTopic(self.node, self.ln, entry, topic_type, on_broken=self._mark_broken)
+                    bridge = LnToRosTopic(self.node, self.ln, entry, topic_type)
                 else:
-                    bridge = RosToLnTopic(self.node, self.ln, entry, topic_type, self._is_bridge_node)
+                    bridge = RosToLnTopic(self.node, self.ln, entry, topic_type, self.config.bridge_names)
             else:
                 service_type = self._service_type_for(entry)
+                self.ln.ensure_definitions(service_type.definitions)
                 cls = LnToRosService if entry.direction == "ln_to_ros" else RosToLnService
                 bridge = cls(self.node, self.ln, entry, service_type)
         except UnknownType as error:
-            self._report(key, "%s %s: %s; not bridged" % (kind, entry.ln, error))
-            self._retry_at[key] = time.monotonic() + self.RETRY
-            self._release_claim(key)   # another bridge may know the type
+            self._not_started(key, entry, "%s %s: %s; not bridged" % (kind, entry.ln, error))
             return
         except Exception as error:   # LN refused (name taken, ...), ROS refused (bad name, ...)
-            self._report(key, "%s %s (%s, ROS %s): cannot bridge: %s"
-                         % (kind, entry.ln, entry.direction, entry.ros, " ".join(str(error).split())))
-            self._retry_at[key] = time.monotonic() + self.RETRY
-            self._release_claim(key)
+            self._not_started(key, entry, "%s %s (%s, ROS %s): cannot bridge: %s"
+                              % (kind, entry.ln, entry.direction, entry.ros, " ".join(str(error).split())))
             return
         self.active[key] = bridge
+        self._failed.pop(key, None)
         self._reported.pop(key, None)
         self._waiting_since.pop(key, None)
         type_name = getattr(bridge, "topic_type", None) or getattr(bridge, "service_type", None)
         log.info("bridging %s %s %s %s (%s <-> %s, %s)", kind, entry.ln,
                  "->" if entry.direction == "ln_to_ros" else "<-", entry.ros, type_name.ln_name,
                  type_name.ros_type, entry.origin)
+
+    def _not_started(self, key, entry, why):
+        self._report(key, why)
+        self._failed[key] = (entry, why)
+        self._retry_at[key] = time.monotonic() + self.RETRY
+        self._release_claim(key)   # another bridge may be able to
 
     def _topic_type_for(self, entry):
         ln_type = entry.ln_type
@@ -519,18 +561,15 @@ class Bridge:
         for key in list(self.active):
             self._stop_one(key)
 
-    def _refresh_sources(self):
-        for bridge in self.active.values():
-            if isinstance(bridge, RosToLnTopic):
-                try:
-                    bridge.refresh_sources()
-                except Exception as error:
-                    log.debug("refreshing the publishers of %s: %s", bridge.entry.ros, error)
-
     def _report(self, key, text, level=logging.WARNING):
         if self._reported.get(key) != text:
             self._reported[key] = text
             log.log(level, text)
+
+    def failed_entries(self):
+        """{key: (entry, why)} of the desired entries that do not run."""
+        with self._lock:
+            return dict(self._failed)
 
     # -- status ------------------------------------------------------------------------
     def status(self):

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field, replace
 from typing import Optional
 
 import yaml
+from msg_mapping.names import ln_name_for, ros_name_for
 
 
 class ConfigError(Exception):
@@ -116,6 +117,9 @@ class Config:
     ros_node_name: str = "ln_ros2_bridge"
     ros_namespace: str = ""
     rule_files: tuple = ()
+    string_capacity: int = 255     # LN capacities in definitions derived from ROS types (see types.RosCapacities)
+    sequence_capacity: int = 64
+    capacities: dict = field(default_factory=dict)   # "pkg/msg/Type.field[[]]" -> capacity
     qos: Qos = Qos()
     ln_port: LnPortSettings = LnPortSettings()
     service_timeout: float = 5.0
@@ -155,23 +159,16 @@ def ros_name_problem(name):
     return None
 
 
-def _sanitize_token(token):
-    token = re.sub(r"[^A-Za-z0-9_]", "_", token)
-    if not token or token[0].isdigit():
-        token = "ln_" + token
-    return token
-
-
 def ln_to_ros_name(ln_name, auto):
     """LN topic/service name -> ROS name: remap rules first, else a.b.c -> /a/b/c.
     Characters ROS does not allow become '_' (a leading digit gets 'ln_')."""
     for rule in auto.remap:
         if ln_name.startswith(rule.ln_prefix):
             rest = ln_name[len(rule.ln_prefix):]
-            name = rule.ros_prefix.rstrip("/") + "/" + "/".join(_sanitize_token(t) for t in rest.split(".") if t)
+            name = ros_name_for(rest, rule.ros_prefix)
             break
     else:
-        name = "/" + "/".join(_sanitize_token(t) for t in ln_name.split(".") if t)
+        name = ros_name_for(ln_name)
     if auto.ros_namespace:
         name = auto.ros_namespace.rstrip("/") + name
     return name
@@ -185,8 +182,8 @@ def ros_to_ln_name(ros_name, auto):
     for rule in auto.remap:
         prefix = rule.ros_prefix.rstrip("/") + "/"
         if name.startswith(prefix):
-            return rule.ln_prefix + ".".join(t for t in name[len(prefix):].split("/") if t)
-    return ".".join(t for t in name.split("/") if t)
+            return rule.ln_prefix + ln_name_for(name[len(prefix):])
+    return ln_name_for(name)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -303,6 +300,57 @@ def _type_check(kind):
     return check
 
 
+# A ROS type name: package/msg/Type or package/srv/Type, the type CamelCase (LN definition
+# names are lower case by convention, so `type:` can take either).
+ROS_TYPE_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*/(msg|srv)/[A-Z][A-Za-z0-9_]*$")
+_CAPACITY_KEY = re.compile(r"^(?:[A-Za-z][A-Za-z0-9_]*/msg/[A-Za-z][A-Za-z0-9_]*\.)?[A-Za-z][A-Za-z0-9_]*(\[\])?$")
+MAX_CAPACITY = 1 << 24
+
+
+def _capacity_check(v):
+    return None if 1 <= v <= MAX_CAPACITY else "must be 1..%d" % MAX_CAPACITY
+
+
+def _types_of(r, kind):
+    """(ln_type, ros_type) of an entry: `type` names an LN definition or a ROS type,
+    `ros_type` a ROS type."""
+    ln_type = r.get("type", str)
+    ros_type = r.get("ros_type", str, check=_type_check(kind))
+    match = ROS_TYPE_NAME.match(ln_type or "")
+    if match:
+        if match.group(1) != kind:
+            r.fail("'type' %r is a ROS %s type; a %s needs a %s type (package/%s/Type)"
+                   % (ln_type, "service" if match.group(1) == "srv" else "message",
+                      "topic" if kind == "msg" else "service", "message" if kind == "msg" else "service", kind))
+        if ros_type and ros_type != ln_type:
+            r.fail("'type' %r and 'ros_type' %r name two ROS types" % (ln_type, ros_type))
+        return None, ln_type
+    return ln_type, ros_type
+
+
+def _merge_capacities(r, ros_type, config, owners):
+    """Merges `capacities` of an entry or of `defaults` (field -> capacity; keys
+    "package/msg/Type.field", or in an entry relative to its ROS type) into
+    config.capacities: one LN definition per ROS type, so two entries may not ask
+    for different capacities of one field."""
+    raw = r.get("capacities", dict, {})
+    for key, value in raw.items():
+        if not isinstance(key, str) or not _CAPACITY_KEY.match(key):
+            r.fail("'capacities' key %r must be a field ('name', 'name[]' for each string of a string array) "
+                   "or 'package/msg/Type.field'" % (key,))
+        if "/" not in key and not ros_type:
+            r.fail("'capacities' key %r must name the ROS type: 'package/msg/Type.%s'%s"
+                   % (key, key, "" if r.where == "defaults" else " (or give the entry a ROS type)"))
+        if isinstance(value, bool) or not isinstance(value, int) or _capacity_check(value):
+            r.fail("'capacities' %s must be an integer 1..%d, not %r" % (key, MAX_CAPACITY, value))
+        full = key if "/" in key else "%s.%s" % (ros_type, key)
+        if full in config.capacities and config.capacities[full] != value:
+            r.fail("capacity of %s is %d here but %d in %s (one LN definition per ROS type)"
+                   % (full, value, config.capacities[full], owners[full]))
+        config.capacities[full] = value
+        owners[full] = r.where
+
+
 def parse_config(data, source="<config>"):
     """Config from parsed YAML (a dict). Raises ConfigError."""
     top = _Reader(data, "", source)
@@ -334,6 +382,10 @@ def parse_config(data, source="<config>"):
     config.qos = _qos_value(defaults, "qos", Qos())
     config.ln_port = _ln_port(defaults.sub("ln"), LnPortSettings())
     config.service_timeout = defaults.get("service_timeout", float, 5.0, check=_positive)
+    config.string_capacity = defaults.get("string_capacity", int, 255, check=_capacity_check)
+    config.sequence_capacity = defaults.get("sequence_capacity", int, 64, check=_capacity_check)
+    owners = {}
+    _merge_capacities(defaults, None, config, owners)
     defaults.done()
 
     loops = top.sub("loop_prevention")
@@ -384,14 +436,16 @@ def parse_config(data, source="<config>"):
         if ln_name is None:
             r.fail("needs 'ln' (the LN topic name)")
         r.where = "topic %s" % ln_name
+        ln_type, ros_type = _types_of(r, "msg")
+        _merge_capacities(r, ros_type, config, owners)
         entry = TopicEntry(
             ln=ln_name,
             ros=r.get("ros", str, ln_to_ros_name(ln_name, AutoSettings(ros_namespace=config.auto.ros_namespace,
                                                                         remap=config.auto.remap)),
                       check=_ros_name_check),
             direction=r.get("direction", str, "ln_to_ros", DIRECTIONS_TOPIC),
-            ln_type=r.get("type", str),
-            ros_type=r.get("ros_type", str, check=_type_check("msg")),
+            ln_type=ln_type,
+            ros_type=ros_type,
             qos=_qos_value(r, "qos", config.qos),
             ln_port=_ln_port(r.sub("ln_port"), config.ln_port))
         r.done()
@@ -410,14 +464,15 @@ def parse_config(data, source="<config>"):
         if ln_name is None:
             r.fail("needs 'ln' (the LN service name)")
         r.where = "service %s" % ln_name
+        ln_type, ros_type = _types_of(r, "srv")
         entry = ServiceEntry(
             ln=ln_name,
             ros=r.get("ros", str, ln_to_ros_name(ln_name, AutoSettings(ros_namespace=config.auto.ros_namespace,
                                                                         remap=config.auto.remap)),
                       check=_ros_name_check),
             direction=r.get("direction", str, "ln_to_ros", DIRECTIONS_SERVICE),
-            ln_type=r.get("type", str),
-            ros_type=r.get("ros_type", str, check=_type_check("srv")),
+            ln_type=ln_type,
+            ros_type=ros_type,
             timeout=r.get("timeout", float, config.service_timeout, check=_positive))
         r.done()
         if entry.direction == "ros_to_ln" and not (entry.ln_type or entry.ros_type):

@@ -4,8 +4,11 @@ Both are imported as ``links_and_nodes`` (whichever is on sys.path) and offer
 LN 2.9's API, which moves packets through Python objects field by field. The
 bridge only needs bytes, so this module reaches for the raw buffers:
 
-* topics: the port's packet buffer (a bytearray the native read/write use
-  directly); ln_core's ``read_bytes``/``write_bytes`` when present;
+* topics: not here -- their packets never pass through Python. The compiled
+  data path (msg_mapping._native.bridge) reads and writes them through LN's C
+  API on `data_client`: ln_core's own connection (its ``client.handle``), or
+  on LN 2.9, whose Python API hides its handle, a second client of the same
+  library that the data path opens;
 * services (LN's flat wire format: fields in order, a dynamic field as u32
   count + elements): ln_core's native ``call(flat)`` / ``request.data()`` /
   ``respond(flat)``; on LN 2.9 the wrapper's field list is replaced by one
@@ -70,25 +73,43 @@ class LnConnection:
         self.client = self.ln.client(client_name, manager_address) if manager_address \
             else self.ln.client(client_name)
         self.name = self.client.name
+        self._data_client = None
+        self._defined = {}   # definition name -> hash the manager has (ensure_definitions)
         self._closed = False
 
     def __repr__(self):
         return "<LnConnection %s %r at %s>" % (self.flavor, self.name, self.manager_address)
 
-    # -- topics -------------------------------------------------------------
-    def subscribe(self, topic, md_name, rate=-1, buffers=1, reliable=False):
-        port = self.client.subscribe(topic, md_name, rate=rate, buffers=buffers,
-                                     need_reliable_transport=reliable)
-        return RawInPort(port, self.flavor)
+    # -- topics ---------------------------------------------------------------
+    def data_client(self):
+        """The msg_mapping bridge.LnClient that topic paths use (made at first use)."""
+        if self._data_client is None:
+            from msg_mapping._native import bridge
+            if self.flavor == "ln_core":
+                self._data_client = bridge.LnClient(self._native_module_file(), self.client._native.handle)
+            else:
+                self._data_client = bridge.LnClient(self._native_module_file(), self.name,
+                                                    self.manager_address or "")
+                log.info("LN 2.9: topic data goes through a second LN client, %r", self._data_client.name)
+        return self._data_client
 
-    def publish(self, topic, md_name, buffers=1):
-        return RawOutPort(self.client.publish(topic, md_name, buffers), self.flavor)
+    def _native_module_file(self):
+        """The LN package's native module (ln_core: links_and_nodes._ln, LN 2.9: _ln):
+        the data path uses the libln it links."""
+        import sys
+        for name in ("links_and_nodes._ln", "_ln"):
+            module = sys.modules.get(name)
+            if module is not None and getattr(module, "__file__", None):
+                return module.__file__
+        raise RuntimeError("the native module of %s is not loaded" % self.ln.__name__)
 
-    def unsubscribe(self, port):
-        self.client.unsubscribe(port.port)
-
-    def unpublish(self, port):
-        self.client.unpublish(port.port)
+    @property
+    def own_names(self):
+        """This connection's LN client names (LN 2.9: also the data client's)."""
+        names = {self.name}
+        if self._data_client is not None:
+            names.add(self._data_client.name)
+        return names
 
     # -- services -------------------------------------------------------------
     def service_client(self, name, interface):
@@ -100,6 +121,27 @@ class LnConnection:
     def put_message_definition(self, name, text):
         return self.client.put_message_definition(name, text)
 
+    def ensure_definitions(self, definitions):
+        """Makes the manager know each (name, text, hash) of `definitions` (used ones
+        first) that it does not know yet. One it knows with another hash is an error:
+        LN programs use that version (e.g. derived from a ROS type with other capacities)."""
+        for name, text, md_hash in definitions:
+            if self._defined.get(name) == md_hash:
+                continue
+            try:
+                known = self.client.get_message_definition(name)[2]
+            except Exception:   # LN's error for a definition it does not have
+                known = None
+            if known is None:
+                self.client.put_message_definition(name, text)
+            elif known != md_hash:
+                raise ValueError("the LN manager has another definition of %s (hash %.12s; this bridge derives "
+                                 "%.12s): LN programs use it with other capacities or from another version of "
+                                 "the ROS type (use the same capacities, or remove the manager's copy, e.g. "
+                                 "~/ln_message_definitions/gen/%s of its user, and restart it)"
+                                 % (name, known, md_hash, name))
+            self._defined[name] = md_hash
+
     # -- manager --------------------------------------------------------------
     def ping(self, timeout=1.0):
         """Raises if the manager is unreachable."""
@@ -109,71 +151,13 @@ class LnConnection:
         if self._closed:
             return
         self._closed = True
+        if self._data_client is not None:   # its ports are gone by now (the bridge closes paths first)
+            self._data_client.close()
+            self._data_client = None
         close = getattr(self.client, "close", None)
         if close is not None:  # ln_core; LN 2.9 says goodbye when the object dies
             close()
         self.client = None
-
-
-class RawInPort:
-    """An LN subscription read as bytes."""
-
-    def __init__(self, port, flavor):
-        self.port = port
-        self.flavor = flavor
-        self._native = port.port
-        # The packet's own buffer, which the native read fills in place (no copy, no
-        # allocation per packet); ln_core's read_bytes() when a future package hides it.
-        self._buffer = getattr(port.packet, "_data" if flavor == "ln29" else "_buf", None)
-        self._read_bytes = getattr(port, "read_bytes", None) if self._buffer is None else None
-
-    @property
-    def size(self):
-        return len(self._buffer) if self._buffer is not None else int(self._native.message_size)
-
-    def read(self, timeout):
-        """The next packet's bytes (a buffer valid until the next read), or None.
-        timeout in seconds; the GIL is released while waiting."""
-        if self._buffer is None:
-            return self._read_bytes(timeout)
-        return self._buffer if self._native.read(self._buffer, float(timeout)) else None
-
-    @property
-    def timestamp(self):
-        return self._native.timestamp
-
-    def has_publisher(self):
-        return self.port.has_publisher()
-
-    def unblock(self):
-        self.port.unblock()
-
-
-class RawOutPort:
-    """An LN publication written from bytes. `buffer` is the packet buffer:
-    codecs write into it directly, then write() sends it."""
-
-    def __init__(self, port, flavor):
-        self.port = port
-        self.flavor = flavor
-        self._native = port.port
-        self.buffer = port.packet._data if flavor == "ln29" else port.packet._buf
-
-    def write(self, timestamp=None):
-        if self.flavor == "ln29":
-            if timestamp is None:
-                self._native.write(self.buffer)
-            else:
-                self._native.write_ts(self.buffer, float(timestamp))
-        else:
-            self._native.write(self.buffer, timestamp)
-
-    def write_bytes(self, data, timestamp=None):
-        self.buffer[:] = data
-        self.write(timestamp)
-
-    def has_subscriber(self):
-        return self.port.has_subscriber()
 
 
 class RawServiceClient:

@@ -5,11 +5,13 @@
 Exit status: 0 after SIGINT/SIGTERM, 2 for a bad configuration (the message
 says what and where), 1 for anything else that stops it from starting.
 Which LN package is used (LN 2.9's or ln_core's links_and_nodes) is decided by
-PYTHONPATH; the log says which one was found.
+PYTHONPATH; the log says which one was found. The bridge logs through the ROS
+logger of its node (console and /rosout).
 """
 
 import argparse
 import logging
+import os
 import signal
 import sys
 import threading
@@ -29,14 +31,69 @@ def parse_args(argv):
     return parser.parse_args(argv)
 
 
+class RosLogHandler(logging.Handler):
+    """The bridge's Python log records -> its node's ROS logger (console and
+    /rosout); logger `ln_ros2_bridge.x` becomes the node logger's child `x`."""
+
+    def __init__(self, node_logger):
+        super().__init__()
+        self._root = node_logger
+        self._children = {}
+
+    def emit(self, record):
+        try:
+            from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
+            from rclpy.logging import LoggingSeverity
+            logger = self._root
+            prefix = "ln_ros2_bridge."
+            if record.name.startswith(prefix):
+                child = record.name[len(prefix):]
+                logger = self._children.get(child)
+                if logger is None:   # get_child() also makes /rosout carry the child's records
+                    logger = self._children[child] = self._root.get_child(child)
+            # Python's levels are rcutils' severities (10 debug ... 50 fatal)
+            severity = LoggingSeverity(10 * (min(max(record.levelno, 10), 50) // 10))
+            if logger.is_enabled_for(severity):
+                # what RcutilsLogger.log() ends in, with the location of the Python record
+                # (its own call-site bookkeeping would see one caller for every record)
+                _rclpy.rclpy_logging_rcutils_log(severity, logger.name, self.format(record), record.funcName,
+                                                 record.pathname, record.lineno)
+        except Exception:   # logging must never take the bridge down
+            self.handleError(record)
+
+
+def use_ros_logging(node, level_name):
+    """Routes the `ln_ros2_bridge` Python loggers to the node's ROS logger at `level_name`."""
+    from rclpy.logging import LoggingSeverity
+    node.get_logger().set_level(LoggingSeverity[level_name.upper().replace("WARNING", "WARN")])
+    root = logging.getLogger("ln_ros2_bridge")
+    root.handlers[:] = [RosLogHandler(node.get_logger())]
+    root.setLevel(getattr(logging, level_name.upper()))
+    root.propagate = False
+
+
+FASTDDS_PROFILE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "fastdds_profile.xml")
+
+
+def use_bridge_fastdds_profile():
+    """Gives the bridge's Fast DDS participant the bridge's profile (a 32 MiB shared-memory
+    segment, for large packets) unless the environment names a profile. Returns the profile
+    in use. Must run before rclpy.init()."""
+    for name in ("FASTRTPS_DEFAULT_PROFILES_FILE", "FASTDDS_DEFAULT_PROFILES_FILE"):
+        if os.environ.get(name):
+            return os.environ[name]
+    if os.path.exists(FASTDDS_PROFILE):
+        os.environ["FASTRTPS_DEFAULT_PROFILES_FILE"] = FASTDDS_PROFILE
+        return FASTDDS_PROFILE
+    return None
+
+
 def main(argv=None):
     import rclpy
     from rclpy.utilities import remove_ros_args
 
     argv = list(sys.argv if argv is None else argv)
     args = parse_args(remove_ros_args(argv)[1:])
-    logging.basicConfig(level=getattr(logging, args.log_level.upper()),
-                        format="%(asctime)s %(levelname)s %(name)s: %(message)s", stream=sys.stderr)
     log = logging.getLogger("ln_ros2_bridge")
     try:
         config = with_overrides(load_config(args.config), ln_manager=args.ln_manager,
@@ -56,17 +113,16 @@ def main(argv=None):
               % (config.source, len(config.topics), len(config.services), "on" if config.auto.enabled else "off"))
         return 0
 
-    from rclpy.executors import ExternalShutdownException
+    from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 
     from .bridge import Bridge
-    from .ros_senders import SenderAwareExecutor
     from .types import UnknownType
 
-    # LN reader threads hand packets to rclpy: let a woken thread get the GIL within
-    # 0.5 ms rather than Python's default 5 ms when another thread holds it.
-    sys.setswitchinterval(0.0005)
+    profile = use_bridge_fastdds_profile()
     rclpy.init(args=argv)
     node = rclpy.create_node(config.ros_node_name, namespace=config.ros_namespace or None)
+    use_ros_logging(node, args.log_level)
+    log.debug("Fast DDS profile: %s", profile or "Fast DDS's defaults")
     try:
         bridge = Bridge(config, node)
     except UnknownType as error:   # e.g. a rule file that does not compile
@@ -74,7 +130,7 @@ def main(argv=None):
         node.destroy_node()
         rclpy.shutdown()
         return 2
-    executor = SenderAwareExecutor(num_threads=config.executor_threads)   # loop prevention per publisher
+    executor = MultiThreadedExecutor(num_threads=config.executor_threads)   # services (topics have threads of their own)
     executor.add_node(node)
     stop = threading.Event()
 

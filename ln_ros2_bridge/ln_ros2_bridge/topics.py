@@ -1,14 +1,20 @@
-"""Topic bridges. Data path: packet bytes -> codec -> CDR bytes -> raw publish,
-and the reverse; no message objects and no per-field Python in between."""
+"""Topic bridges. Their messages never pass through Python: each direction is a
+compiled path of msg_mapping (msg_mapping._native.bridge) with a thread of its
+own --
+
+* LN -> ROS: LN read (in place on ln_core) -> codec -> rcl_publish_serialized_message
+  on a publisher made by rclpy;
+* ROS -> LN: rcl_take_serialized_message with the sending publisher's gid ->
+  loop prevention -> codec -> LN write, on an rcl subscription the path makes
+  itself (so that no rclpy executor takes from it).
+
+The classes here make and close the paths and turn their reports into log
+lines and the numbers the diagnostics show."""
 
 import logging
-import threading
 import time
 
-from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-
-from .ros_senders import SenderFilter, endpoint_gid, publisher_gid, want_sender
 
 log = logging.getLogger("ln_ros2_bridge.topics")
 
@@ -31,214 +37,116 @@ def qos_profile(qos, for_publisher):
                       history=_HISTORY[qos.history], depth=qos.depth)
 
 
-class _RateLimitedLog:
-    """Logs a recurring problem at most every `period` seconds, with a count."""
+class _TopicBridge:
+    """What both directions share: the compiled path's report, made readable."""
 
-    def __init__(self, logger, period=5.0):
-        self._logger = logger
-        self._period = period
-        self._last = 0.0
-        self._suppressed = 0
+    REPORT_PERIOD = 5.0   # seconds between log lines about dropped messages of one topic
 
-    def __call__(self, message, *args):
+    def __init__(self, entry, topic_type):
+        self.entry = entry
+        self.topic_type = topic_type
+        self.path = None
+        self.last = {"received": 0, "forwarded": 0, "errors": 0, "lost": 0, "ignored": 0, "held": 0}
+        self._unreported = 0
+        self._last_text = ""
+        self._reported_at = 0.0
+
+    @property
+    def count(self):
+        return self.last["forwarded"]
+
+    @property
+    def errors(self):
+        return self.last["errors"]
+
+    def poll(self):
+        """Reads the path's report: logs dropped messages (at most every REPORT_PERIOD
+        per topic) and publishers without a node; returns the report. A report with
+        "failed" means the path stopped (its LN connection is gone)."""
+        report = self.path.report()
+        self.last = report
+        if report["new_errors"]:
+            self._unreported += report["new_errors"]
+            self._last_text = report["error_text"]
         now = time.monotonic()
-        if now - self._last >= self._period:
-            if self._suppressed:
-                message += " (%d more since the last report)" % self._suppressed
-            self._logger.warning(message, *args)
-            self._last, self._suppressed = now, 0
-        else:
-            self._suppressed += 1
+        if self._unreported and now - self._reported_at >= self.REPORT_PERIOD:
+            log.warning("%s: dropped %d message%s: %s%s", self.describe(), self._unreported,
+                        "s" * (self._unreported != 1), self._last_text, _hint(self._last_text))
+            self._unreported, self._reported_at = 0, now
+        for gid in report["nodeless"]:
+            log.info("ROS topic %s: a publisher without a ROS node (gid %s, e.g. a plain DDS participant) "
+                     "sends on it: forwarding its messages", self.entry.ros, gid)
+        return report
+
+    def close(self):
+        if self.path is not None:
+            self.path.close()
+        self._close_ros()
+
+    def _close_ros(self):
+        pass
 
 
-class LnToRosTopic:
-    """An LN subscription republished on a ROS topic by a reader thread of its own
-    (LN's blocking read releases the GIL; the ROS executor is not involved)."""
+def _hint(text):
+    if "does not fit the LN capacity" in text:
+        return " (raise it with 'capacities' in the bridge configuration)"
+    return ""
+
+
+class LnToRosTopic(_TopicBridge):
+    """An LN subscription republished on a ROS topic."""
 
     direction = "ln_to_ros"
 
-    def __init__(self, node, ln, entry, topic_type, on_broken=None):
-        self.entry = entry
-        self.topic_type = topic_type
-        self.count = 0
-        self.errors = 0
+    def __init__(self, node, ln, entry, topic_type):
+        from msg_mapping._native import bridge
+        super().__init__(entry, topic_type)
         self._node = node
-        self._ln = ln
-        self._on_broken = on_broken
-        self._stop = threading.Event()
-        self._warn = _RateLimitedLog(log)
-        settings = entry.ln_port
-        self.port = ln.subscribe(entry.ln, topic_type.ln_name, rate=settings.rate, buffers=settings.buffers,
-                                 reliable=settings.reliable_transport)
-        if self.port.size != topic_type.ln_size:
-            ln.unsubscribe(self.port)
-            raise ValueError("LN topic %s carries %d-byte packets but %s is %d bytes: the definitions differ"
-                             % (entry.ln, self.port.size, topic_type.ln_name, topic_type.ln_size))
         self.publisher = node.create_publisher(topic_type.msg_class, entry.ros, qos_profile(entry.qos, True))
-        self._thread = threading.Thread(target=self._run, name="ln->ros " + entry.ln, daemon=True)
-        self._thread.start()
-
-    def _run(self):
-        read, to_cdr, publish = self.port.read, self.topic_type.codec.ln_to_cdr, self.publisher.publish
-        while not self._stop.is_set():
-            try:
-                data = read(0.25)   # bounded, so that close() is noticed
-            except Exception as error:
-                if self._stop.is_set():
-                    break
-                log.warning("LN topic %s: read failed (%s); the bridge will reconnect", self.entry.ln, error)
-                if self._on_broken:
-                    self._on_broken(error)
-                break
-            if data is None:
-                continue
-            try:
-                publish(to_cdr(data))
-                self.count += 1
-            except Exception as error:   # a packet the codec rejects must not stop the topic
-                self.errors += 1
-                self._warn("LN topic %s -> %s: dropped a packet: %s", self.entry.ln, self.entry.ros, error)
-
-    def close(self):
-        self._stop.set()
+        settings = entry.ln_port
         try:
-            self.port.unblock()
+            self.path = bridge.LnToRosPath(ln.data_client(), entry.ln, topic_type.ln_name, settings.rate,
+                                           settings.buffers, settings.reliable_transport, topic_type.codec,
+                                           self.publisher.handle.pointer)
         except Exception:
-            pass
-        self._thread.join(timeout=2.0)
+            self._close_ros()
+            raise
+
+    def describe(self):
+        return "LN topic %s -> ROS %s" % (self.entry.ln, self.entry.ros)
+
+    def _close_ros(self):
         try:
             self._node.destroy_publisher(self.publisher)
         except Exception:
             pass
-        try:
-            self._ln.unsubscribe(self.port)
-        except Exception:
-            pass
 
 
-class RosToLnTopic:
-    """A raw ROS subscription written into an LN topic this bridge publishes.
+class RosToLnTopic(_TopicBridge):
+    """A ROS subscription written into an LN topic this bridge publishes.
 
-    Loop prevention: messages from bridge publishers (this bridge's and other
-    bridges', is_bridge_node on the publisher's node) came from LN and must not go
-    back. Per publisher where the message says who sent it (SenderAwareExecutor,
-    see ros_senders): a bridge's messages are dropped, everybody else's forwarded,
-    on the same topic.
-
-    Without the sender (rclpy's plain take) the decision is per topic, from the
-    ROS graph: while every publisher on the topic is a bridge, messages are
-    dropped; a publisher whose node is not known yet counts as a bridge for up to
-    PENDING seconds; the graph is looked at again whenever the subscription's
-    publisher count changes, so a bridge publisher that appears is caught before
-    its first message is forwarded. If bridges and others share the topic, all of
-    it goes to LN, and a warning says so."""
+    Loop prevention per publisher: messages from bridge publishers (this bridge's
+    and other bridges', loop_prevention.bridge_names on the publisher's node) came
+    from LN and are dropped; every other publisher's are forwarded, on the same
+    topic. A publisher the ROS graph does not place yet is held (up to the QoS
+    depth) until it does, for at most 2 s; one that never gets a node (a plain DDS
+    participant) then counts as a non-bridge."""
 
     direction = "ros_to_ln"
-    PENDING = SenderFilter.PENDING
-    UNKNOWN_NODE = "_NODE_NAME_UNKNOWN_"
 
-    def __init__(self, node, ln, entry, topic_type, is_bridge_node):
-        self.entry = entry
-        self.topic_type = topic_type
-        self.count = 0
-        self.errors = 0
-        self._ignored = 0   # messages dropped by the per-topic decision
-        self._node = node
-        self._ln = ln
-        self._is_bridge_node = is_bridge_node
-        self._warn = _RateLimitedLog(log)
-        self._write_lock = threading.Lock()   # the packet buffer: executor thread and reconciler
-        self._senders = SenderFilter(entry.ros, self._publisher_nodes, is_bridge_node, hold=entry.qos.depth)
-        self._per_publisher = False
-        self._publisher_count = -1
-        self._forward = False
-        self._pending_since = None
-        self._mixed = None   # (bridges, others) publishing the topic, when both do
-        self._mixed_reported = False
-        self.port = ln.publish(entry.ln, topic_type.ln_name, entry.ln_port.buffers)
-        if len(self.port.buffer) != topic_type.ln_size:
-            ln.unpublish(self.port)
-            raise ValueError("LN topic %s carries %d-byte packets but %s is %d bytes: the definitions differ"
-                             % (entry.ln, len(self.port.buffer), topic_type.ln_name, topic_type.ln_size))
-        # One callback at a time per topic (the packet buffer is shared), topics in parallel.
-        self.subscription = want_sender(node.create_subscription(
-            topic_type.msg_class, entry.ros, self._on_message, qos_profile(entry.qos, False),
-            callback_group=MutuallyExclusiveCallbackGroup(), raw=True))
+    def __init__(self, node, ln, entry, topic_type, bridge_names):
+        from msg_mapping._native import bridge
+        super().__init__(entry, topic_type)
+        msg_class = topic_type.msg_class
+        qos = entry.qos
+        self.path = bridge.RosToLnPath(ln.data_client(), entry.ln, topic_type.ln_name, entry.ln_port.buffers,
+                                       topic_type.codec, node.handle.pointer, msg_class._TYPE_SUPPORT, entry.ros,
+                                       qos.reliability, qos.durability, qos.history, qos.depth, list(bridge_names))
+
+    def describe(self):
+        return "ROS topic %s -> LN %s" % (self.entry.ros, self.entry.ln)
 
     @property
     def ignored(self):
         """Messages not forwarded because a bridge sent them."""
-        return self._senders.dropped + self._ignored
-
-    def _publisher_nodes(self):
-        """{gid: fully qualified node name, "" when not known yet} of the topic's publishers."""
-        nodes = {}
-        for i in self._node.get_publishers_info_by_topic(self.entry.ros):
-            known = i.node_name and i.node_name != self.UNKNOWN_NODE
-            nodes[endpoint_gid(i)] = ((i.node_namespace.rstrip("/") + "/" + i.node_name) if known else "")
-        return nodes
-
-    def refresh_sources(self):
-        """Re-reads who publishes the topic (called by the bridge every pass): held
-        messages whose publisher is known now are forwarded or dropped."""
-        with self._write_lock:
-            for cdr, stamp in self._senders.resolve():
-                self._write(cdr, stamp)
-        if not self._per_publisher:
-            self._refresh_topic_sources()
-
-    def _refresh_topic_sources(self):
-        self._publisher_count = self.subscription.get_publisher_count()
-        nodes = [i.node_name for i in self._node.get_publishers_info_by_topic(self.entry.ros)]
-        bridges = [n for n in nodes if self._is_bridge_node(n)]
-        unknown = [n for n in nodes if n == self.UNKNOWN_NODE]
-        others = [n for n in nodes if n not in bridges and n not in unknown]
-        self._mixed = (bridges, others) if bridges and others else None
-        if others:
-            self._forward, self._pending_since = True, None
-        elif unknown:
-            now = time.monotonic()
-            self._pending_since = self._pending_since or now
-            self._forward = now - self._pending_since >= self.PENDING
-        else:
-            self._forward, self._pending_since = False, None
-
-    def _on_message(self, cdr, info):
-        stamp = info.get("source_timestamp")
-        gid = publisher_gid(info)
-        with self._write_lock:
-            if gid is not None:
-                self._per_publisher = True
-                for held_cdr, held_stamp in self._senders.admit(gid, (cdr, stamp)):
-                    self._write(held_cdr, held_stamp)
-                return
-            if self._pending_since is not None or self.subscription.get_publisher_count() != self._publisher_count:
-                self._refresh_topic_sources()
-            if not self._forward:
-                self._ignored += 1
-                return
-            if self._mixed and not self._mixed_reported:
-                self._mixed_reported = True
-                log.warning("ROS topic %s has publishers from bridges (%s) and from others (%s): without the "
-                            "sender of each message, the bridges' messages go to LN %s too",
-                            self.entry.ros, ", ".join(self._mixed[0]), ", ".join(self._mixed[1]), self.entry.ln)
-            self._write(cdr, stamp)
-
-    def _write(self, cdr, stamp):
-        try:
-            self.topic_type.cdr_to_ln_into(cdr, self.port.buffer)
-            self.port.write(stamp / 1e9 if stamp else None)
-            self.count += 1
-        except Exception as error:   # e.g. a string longer than the LN field: drop this one
-            self.errors += 1
-            self._warn("ROS topic %s -> LN %s: dropped a message: %s", self.entry.ros, self.entry.ln, error)
-
-    def close(self):
-        try:
-            self._node.destroy_subscription(self.subscription)
-        except Exception:
-            pass
-        try:
-            self._ln.unpublish(self.port)
-        except Exception:
-            pass
+        return self.last["ignored"]

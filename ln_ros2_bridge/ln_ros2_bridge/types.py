@@ -1,17 +1,23 @@
 """Which ROS type carries an LN definition, and the codec between them.
 
-Three ways an LN definition reaches ROS (msg_mapping provides all of them):
+Three ways a type is carried (msg_mapping provides all of them):
 
-1. generated interfaces: `ln_ros2_gen` made a ROS package for it; its
-   share/<pkg>/ln_mapping.json (found on AMENT_PREFIX_PATH) names the ROS type
-   and the LN hash it was generated from. The codec comes from LnToRos;
-2. rules: a msg_mapping rule file maps it onto a standard ROS message
-   (RuleCodec);
-3. (ROS -> LN) a ROS type with neither is unknown: reported and skipped.
+1. generated interfaces: `ln_ros2_gen` made a ROS package for an LN
+   definition; its share/<pkg>/ln_mapping.json (found on AMENT_PREFIX_PATH)
+   names the ROS type and the LN hash it was generated from. The codec comes
+   from LnToRos;
+2. rules: a msg_mapping rule file maps an LN definition onto a standard ROS
+   message (RuleCodec);
+3. derived: any installed ROS type (geometry_msgs/msg/Twist, std_srvs/srv/Trigger,
+   ...) gets the LN definition msg_mapping's RosToLn derives from it --
+   ros2/<pkg>/msg/<Type>, fixed-size for topics with capacities for strings and
+   sequences (ros_capacities), ros2/<pkg>/srv/<Type> for services -- and the
+   bridge gives the LN manager that definition (`definitions`), so LN programs
+   can use the topic or service with nothing generated.
 
-A type is only bridged when the installed interface was generated from the
-same definition the LN side uses (same hash); otherwise the message bytes
-would be misread, so it is reported as stale instead.
+A type is only bridged when the installed interface was generated from, or
+derives, the same definition the LN side uses (same hash); otherwise the
+message bytes would be misread, so it is reported instead.
 """
 
 import glob
@@ -19,9 +25,10 @@ import importlib
 import json
 import logging
 import os
+import re
 import threading
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import msg_mapping
 from msg_mapping.manager import load_fetching
@@ -41,7 +48,8 @@ class TopicType:
     msg_class: type
     codec: object          # msg_mapping Codec or RuleCodec: ln_to_cdr(buf), cdr_to_ln(buf)
     ln_size: int
-    via: str               # "generated" or "rule"
+    via: str               # "generated", "rule" or "derived"
+    definitions: tuple = ()   # derived: ((LN name, text, hash), ...) the LN manager must know, used ones first
 
     def cdr_to_ln_into(self, cdr, out):
         into = getattr(self.codec, "cdr_to_ln_into", None)
@@ -60,6 +68,22 @@ class ServiceType:
     request: object        # Codec for the request (LN flat <-> CDR)
     response: object       # Codec for the response
     via: str = "generated"
+    definitions: tuple = ()
+
+
+@dataclass(frozen=True)
+class RosCapacities:
+    """LN capacities of unbounded strings and sequences in definitions derived from
+    ROS types: defaults, and per field "pkg/msg/Type.field" (elements, or bytes of a
+    string) / "pkg/msg/Type.field[]" (bytes of each string of a string array)."""
+    string: int = 255
+    sequence: int = 64
+    fields: dict = field(default_factory=dict)
+
+
+DERIVED_PREFIX = "ros2"
+_DERIVED_NAME = re.compile(r"^%s/([A-Za-z]\w*)/(msg|srv)/([A-Za-z]\w*)$" % DERIVED_PREFIX)
+_DEFINE = re.compile(r'^\s*define\s+\w+\s+as\s+"([^"]+)"', re.MULTILINE)
 
 
 def _import_ros_type(ros_type):
@@ -78,8 +102,12 @@ def _import_ros_type(ros_type):
 class TypeRegistry:
     """Resolves LN definitions <-> ROS types; thread-safe; caches what it found."""
 
-    def __init__(self, definition_dirs=(), rule_files=(), share_dirs=None, fetch_definition=None):
+    def __init__(self, definition_dirs=(), rule_files=(), share_dirs=None, fetch_definition=None,
+                 capacities=RosCapacities()):
         self._lock = threading.RLock()
+        self._capacities = capacities
+        self._derived = None               # msg_mapping.RosToLn, made at first use
+        self._unmapped = {}                # ROS type -> why it has no LN counterpart
         self._fetch_definition = fetch_definition   # name -> None; adds a dir or text (from the LN manager)
         self._fetched = set()
         self._dirs = list(definition_dirs)
@@ -167,8 +195,16 @@ class TypeRegistry:
                             by_ros[entry["ros_type"]] = entry["ln_name"]
             self._index, self._by_ros = index, by_ros
 
+    def _derivation(self):
+        """The RosToLn that derives LN definitions from ROS types (with the capacities)."""
+        if self._derived is None:
+            caps = self._capacities
+            self._derived = msg_mapping.RosToLn(msg_mapping.ros_share_dirs(), DERIVED_PREFIX, caps.string,
+                                                caps.sequence, dict(caps.fields))
+        return self._derived
+
     def _load_rules(self):
-        ros = msg_mapping.RosToLn(msg_mapping.ros_share_dirs())
+        ros = self._derivation()   # rules go through the ROS type's fixed LN form: same capacities
         for path in self._rule_files:
             try:
                 for codec in compile_rules(load_rules(path), self._library, ros):
@@ -178,11 +214,80 @@ class TypeRegistry:
                 raise UnknownType(str(error)) from error
 
     def ln_name_for_ros(self, ros_type):
-        """The LN definition a ROS type was generated from (or is rule-mapped to), or None."""
+        """The LN definition a ROS type was generated from, is rule-mapped to, or derives
+        (any installed type); None when it has none (see why_unmapped)."""
         with self._lock:
             if ros_type not in self._by_ros:
                 self.rescan()
-            return self._by_ros.get(ros_type)
+            if ros_type in self._by_ros:
+                return self._by_ros[ros_type]
+            try:
+                return self._derive(ros_type)[0]["ln_name"]
+            except UnknownType as error:
+                self._unmapped[ros_type] = str(error)
+                return None
+
+    def why_unmapped(self, ros_type):
+        return self._unmapped.get(ros_type, "ROS type %s has no LN counterpart" % ros_type)
+
+    # -- derived from ROS types --------------------------------------------------
+    @staticmethod
+    def derived_ros_type(ln_name):
+        """"pkg/msg/Type" when `ln_name` has the form of a definition derived from it."""
+        match = _DERIVED_NAME.match(ln_name or "")
+        return "%s/%s/%s" % match.groups() if match else None
+
+    def _derive(self, ros_type):
+        """(RosToLn's interface dict, the definitions it needs). Raises UnknownType."""
+        ros = self._derivation()
+        try:
+            info = ros.add(ros_type)
+        except (msg_mapping.MappingError, msg_mapping.DefinitionError) as error:
+            raise UnknownType("ROS type %s cannot be mapped to LN: %s" % (ros_type, _one_line(error))) from error
+        return info, self._definitions(info["ln_name"], ros.definitions())
+
+    @staticmethod
+    def _definitions(ln_name, texts):
+        """((name, text, hash), ...) of `ln_name` and every definition it uses, used ones first."""
+        order, seen = [], set()
+
+        def visit(name):
+            if name in seen or name not in texts:
+                return
+            seen.add(name)
+            for used in _DEFINE.findall(texts[name]):
+                visit(used)
+            order.append(name)
+        visit(ln_name)
+        library = msg_mapping.Library([], False)
+        for name in order:
+            library.add_source(name, texts[name])
+        return tuple((name, texts[name], library.load(name)["hash"]) for name in order)
+
+    def _check_derived(self, ln_name, ros_type, requested_ros_type, info):
+        if requested_ros_type is not None and requested_ros_type != ros_type:
+            raise UnknownType("LN definition %s is derived from the ROS type %s, not %s"
+                              % (ln_name, ros_type, requested_ros_type))
+        if info["ln_name"] != ln_name:
+            raise UnknownType("ROS type %s derives the LN definition %s, not %s" % (ros_type, info["ln_name"], ln_name))
+
+    def _derived_topic(self, ln_name, ros_type, requested_ros_type):
+        info, definitions = self._derive(ros_type)
+        self._check_derived(ln_name, ros_type, requested_ros_type, info)
+        if info["kind"] != "message":
+            raise UnknownType("%s is a ROS service type, a topic needs a message type" % ros_type)
+        codec = self._derivation().codec(ros_type)
+        return TopicType(ln_name, ros_type, _import_ros_type(ros_type), codec, codec.fixed_ln_size, "derived",
+                         definitions)
+
+    def _derived_service(self, ln_name, ros_type, requested_ros_type):
+        info, definitions = self._derive(ros_type)
+        self._check_derived(ln_name, ros_type, requested_ros_type, info)
+        if info["kind"] != "service":
+            raise UnknownType("%s is a ROS message type, a service needs a service type" % ros_type)
+        ros = self._derivation()
+        return ServiceType(ln_name, ros_type, _import_ros_type(ros_type), ros.codec(ros_type, False, "request"),
+                           ros.codec(ros_type, False, "response"), "derived", definitions)
 
     # -- resolution ----------------------------------------------------------
     def topic_type(self, ln_name=None, ros_type=None):
@@ -190,18 +295,21 @@ class TypeRegistry:
         if ln_name is None:
             ln_name = self.ln_name_for_ros(ros_type)
             if ln_name is None:
-                raise UnknownType("ROS type %s has no LN counterpart (no generated interface records it "
-                                  "and no rule maps it)" % ros_type)
+                raise UnknownType(self.why_unmapped(ros_type))
         key = (ln_name, ros_type)
         with self._lock:
             if key in self._topic_cache:
                 return self._topic_cache[key]
+            derived_from = self.derived_ros_type(ln_name) if ln_name not in self._index else None
             for rule in self._rules.get(ln_name, []):
                 if ros_type in (None, rule.ros_name):
                     result = TopicType(ln_name, rule.ros_name, _import_ros_type(rule.ros_name), rule,
                                        rule.ln_size, "rule")
                     break
             else:
+                if derived_from is not None:
+                    result = self._topic_cache[key] = self._derived_topic(ln_name, derived_from, ros_type)
+                    return result
                 entry = self._generated(ln_name, "message", ros_type)
                 codec = self._codec(ln_name)
                 result = TopicType(ln_name, entry["ros_type"], _import_ros_type(entry["ros_type"]), codec,
@@ -214,12 +322,15 @@ class TypeRegistry:
         if ln_name is None:
             ln_name = self.ln_name_for_ros(ros_type)
             if ln_name is None:
-                raise UnknownType("ROS service type %s has no LN counterpart (no generated interface "
-                                  "records it)" % ros_type)
+                raise UnknownType(self.why_unmapped(ros_type))
         key = (ln_name, ros_type)
         with self._lock:
             if key in self._service_cache:
                 return self._service_cache[key]
+            derived_from = self.derived_ros_type(ln_name) if ln_name not in self._index else None
+            if derived_from is not None:
+                result = self._service_cache[key] = self._derived_service(ln_name, derived_from, ros_type)
+                return result
             entry = self._generated(ln_name, "service", ros_type)
             result = ServiceType(ln_name, entry["ros_type"], _import_ros_type(entry["ros_type"]),
                                  self._codec(ln_name, "request"), self._codec(ln_name, "response"))
@@ -258,3 +369,7 @@ class TypeRegistry:
             raise
         except Exception as error:   # DefinitionError/MappingError (or LNError, see _load)
             raise UnknownType("no codec for LN definition %s: %s" % (ln_name, error)) from error
+
+
+def _one_line(error):
+    return " ".join(str(error).split())

@@ -28,19 +28,21 @@ MD_DIRS = [HERE / "msgdefs", ELEVATOR_MSGDEFS]
 MANAGER_MD_DIRS = MD_DIRS + [HERE / "msgdefs_unmapped"]
 
 sys.path.insert(0, str(PACKAGE_ROOT))
-from ln_ros2_bridge import support  # noqa: E402
+sys.path.insert(0, str(REPO_ROOT / "tests" / "support"))
+import ln_testing  # noqa: E402
+import ros_testing  # noqa: E402
 
 
 def _prepare_and_reexec():
     env = dict(os.environ)
-    install = support.build_interfaces(MD_DIRS, "test", log=str(support.CACHE / "ln_ros2_bridge-test-build.log"))
-    env = support.interface_env(install, env)
-    env.update(support.loopback_dds_env())
+    install = ros_testing.build_interfaces(MD_DIRS, "test", log=str(ln_testing.CACHE / "ln_ros2_bridge-test-build.log"))
+    env = ros_testing.interface_env(install, env)
+    env.update(ros_testing.loopback_dds_env())
     env["PYTHONPATH"] = os.pathsep.join([str(PACKAGE_ROOT), env.get("PYTHONPATH", "")])
     env["LN_ROS2_BRIDGE_TEST_ENV"] = "1"
     argv = [sys.executable] + sys.orig_argv[1:]
-    netns = support.netns_run()
-    if not support.network_is_isolated() and netns and \
+    netns = ros_testing.netns_run()
+    if not ros_testing.network_is_isolated() and netns and \
             subprocess.run([netns, "true"], capture_output=True, timeout=30).returncode == 0:
         env["LN_ROS2_BRIDGE_NETNS"] = "1"
         os.execve(netns, [netns] + argv, env)
@@ -57,7 +59,7 @@ def pytest_configure(config):
 
 
 def pytest_report_header(config):
-    return "ln_ros2_bridge: network %s" % ("isolated (netns-run)" if support.network_is_isolated()
+    return "ln_ros2_bridge: network %s" % ("isolated (netns-run)" if ros_testing.network_is_isolated()
                                              else "NOT isolated: loopback-only DDS settings")
 
 
@@ -68,34 +70,34 @@ class Process:
     def __init__(self, name, cmd, env, work_dir):
         self.name = name
         self.log_path = Path(work_dir) / ("%s.log" % name)
-        self.proc = support.start(cmd, self.log_path, env=env)
+        self.proc = ln_testing.start(cmd, self.log_path, env=env)
 
     def text(self):
         return self.log_path.read_text(errors="replace") if self.log_path.exists() else ""
 
     def events(self):
-        return support.json_events(self.log_path)
+        return ln_testing.json_events(self.log_path)
 
     def wait_event(self, name, timeout=20.0, count=1):
         def found():
             if self.proc.poll() is not None and len([e for e in self.events() if e.get("event") == name]) < count:
                 if "NOT_YET_IMPLEMENTED" in self.text():
                     pytest.skip("%s: needs an LN feature that is not implemented yet:\n%s"
-                                % (self.name, support.tail(self.log_path, 3)))
+                                % (self.name, ln_testing.tail(self.log_path, 3)))
                 raise AssertionError("%s exited (%s) without event %r:\n%s"
-                                     % (self.name, self.proc.returncode, name, support.tail(self.log_path)))
+                                     % (self.name, self.proc.returncode, name, ln_testing.tail(self.log_path)))
             matching = [e for e in self.events() if e.get("event") == name]
             return matching if len(matching) >= count else None
-        return support.wait_for(found, timeout, "%s: event %s" % (self.name, name))
+        return ln_testing.wait_for(found, timeout, "%s: event %s" % (self.name, name))
 
     def wait_log(self, pattern, timeout=20.0):
-        return support.wait_for_log(self.log_path, pattern, timeout, self.proc)
+        return ln_testing.wait_for_log(self.log_path, pattern, timeout, self.proc)
 
     def running(self):
         return self.proc.poll() is None
 
     def stop(self, timeout=10.0):
-        return support.stop(self.proc, timeout)
+        return ln_testing.stop(self.proc, timeout)
 
 
 @pytest.fixture
@@ -106,8 +108,8 @@ def work_dir(tmp_path):
 @pytest.fixture(params=["ln29", "ln_core"])
 def ln(request, tmp_path):
     try:
-        system = support.ln_system(request.param, tmp_path / request.param)
-    except support.Unavailable as error:
+        system = ln_testing.ln_system(request.param, tmp_path / request.param)
+    except ln_testing.Unavailable as error:
         pytest.skip(str(error))
     system.start([str(d) for d in MANAGER_MD_DIRS])
     yield system
@@ -120,7 +122,7 @@ def processes():
     yield started
     for p in reversed(started):
         p.stop()
-    support.remove_ln_segments(p.proc.pid for p in started)
+    ln_testing.remove_ln_segments(p.proc.pid for p in started)
 
 
 @pytest.fixture
@@ -203,7 +205,7 @@ def ros():
 
 
 def wait_until(predicate, timeout, what):
-    return support.wait_for(predicate, timeout, what, interval=0.02)
+    return ln_testing.wait_for(predicate, timeout, what, interval=0.02)
 
 
 def ln_snapshot(ln):

@@ -8,12 +8,12 @@ from pathlib import Path
 
 import pytest
 
-from ln_ros2_bridge import support
+import ros_testing  # tests/support, on sys.path through conftest.py
 
 HELPER = Path(__file__).resolve().parent / "helpers" / "cyclone_peer.py"
 
 pytestmark = pytest.mark.skipif(
-    not support.network_is_isolated(),
+    not ros_testing.network_is_isolated(),
     reason="Fast DDS (LOCALHOST range) and Cyclone only meet with multicast discovery: needs netns-run")
 
 

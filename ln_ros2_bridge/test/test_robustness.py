@@ -28,6 +28,17 @@ def run_check(tmp_path, text):
     ("topics: [{ln: a}, {ln: a}]", "a is bridged twice"),
     ("{}", "nothing to bridge"),
     ("topics: [oops", "is not valid YAML"),
+    ("topics: [{ln: a, type: std_srvs/srv/Trigger}]",
+     "topic a: 'type' 'std_srvs/srv/Trigger' is a ROS service type; a topic needs a message type"),
+    ("services: [{ln: s, type: std_msgs/msg/String}]", "service s: 'type' 'std_msgs/msg/String' is a ROS message type"),
+    ("topics: [{ln: a, type: robot/state, capacities: {name: 3}}]",
+     "topic a: 'capacities' key 'name' must name the ROS type: 'package/msg/Type.name' (or give the entry a ROS type)"),
+    ("topics: [{ln: a, type: sensor_msgs/msg/JointState, capacities: {name: 0}}]",
+     "'capacities' name must be an integer 1..16777216, not 0"),
+    ("topics: [{ln: a, type: sensor_msgs/msg/JointState, capacities: {name: 4}},"
+     " {ln: b, type: sensor_msgs/msg/JointState, capacities: {name: 8}}]",
+     "topic b: capacity of sensor_msgs/msg/JointState.name is 8 here but 4 in topic a"),
+    ("defaults: {capacities: {frame_id: 3}}\ntopics: [{ln: a}]", "defaults: 'capacities' key 'frame_id' must name"),
 ])
 def test_bad_configuration_is_a_clear_error(tmp_path, text, message):
     result = run_check(tmp_path, text)

@@ -52,7 +52,7 @@ def test_response_without_error_fields_is_default_and_logged(ln, start_bridge, r
     client = _client(ros, Plain, "/bt/plain")
     response = ros.call(client, Plain.Request(x=21))
     assert response.y == 0
-    bridge.wait_log(r"ERROR .*bt.plain failed.*default response", 10)
+    bridge.wait_log(r"\[ERROR\] .*bt.plain failed.*default response", 10)   # the ROS logger's format
 
 
 def test_ln_caller_calls_ros_server(ln, start_bridge, ln_peer, ros):

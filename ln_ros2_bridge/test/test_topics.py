@@ -144,3 +144,43 @@ def test_both_directions_follow_the_publishing_side(ln, start_bridge, ln_peer, r
         seq += 1
         time.sleep(0.02)
     assert min(e["seq"] for e in subscriber.wait_event("packet", 10, count=5)) >= 1000
+
+
+def test_diagnostics_and_rosout(ln, start_bridge, ln_peer, ros):
+    """Each entry's state on /diagnostics (rate, forwarded, or why it does not run) and the
+    bridge's log lines on /rosout."""
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+    from rcl_interfaces.msg import Log
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    arrays, logs = [], []
+    ros.node.create_subscription(DiagnosticArray, "/diagnostics", arrays.append, 10)
+    ros.node.create_subscription(Log, "/rosout", logs.append,
+                                 QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE,
+                                            durability=DurabilityPolicy.TRANSIENT_LOCAL))
+    start_bridge({"topics": [{"ln": "bt.sample", "type": SAMPLE},
+                             {"ln": "bt.broken", "type": "bridgetest/does_not_exist"}]},
+                 wait=["bridging topic bt.sample"])
+    ln_peer("lnpub", "publish", "bt.sample", "--count", 100000, "--rate", 50)
+
+    def statuses():
+        latest = {}
+        for array in arrays:
+            for status in array.status:
+                latest[status.name] = status
+        return latest
+
+    def running():
+        status = statuses().get("ln_ros2_bridge: topic bt.sample -> /bt/sample")
+        values = {v.key: v.value for v in status.values} if status else {}
+        return status if values and float(values["rate"]) > 10 and int(values["forwarded"]) > 20 else None
+    status = wait_until(running, 30, "bt.sample running with a rate on /diagnostics")
+    values = {v.key: v.value for v in status.values}
+    assert status.level == DiagnosticStatus.OK and values["dropped"] == "0"
+    assert values["ln type"] == SAMPLE and values["ros type"] == "bridgetest_ln_msgs/msg/Sample"
+    broken = statuses()["ln_ros2_bridge: topic bt.broken -> /bt/broken"]
+    assert broken.level == DiagnosticStatus.ERROR and "bridgetest/does_not_exist cannot be loaded" in broken.message
+    assert statuses()["ln_ros2_bridge: LN connection"].level == DiagnosticStatus.OK
+
+    wait_until(lambda: any(log.name == "ln_ros2_bridge" and log.msg.startswith("bridging topic bt.sample")
+                           for log in logs), 20, "the bridge's log line on /rosout")
+    assert any(log.level == Log.WARN and "bt.broken" in log.msg for log in logs)

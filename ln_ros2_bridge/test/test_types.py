@@ -7,7 +7,7 @@ import pytest
 
 from conftest import MD_DIRS
 from ln_ros2_bridge.services import fill_error_fields
-from ln_ros2_bridge.types import TypeRegistry, UnknownType
+from ln_ros2_bridge.types import RosCapacities, TypeRegistry, UnknownType
 
 
 @pytest.fixture
@@ -34,8 +34,10 @@ def test_unknown_and_stale_types(registry, tmp_path):
         registry.topic_type("bridgetest/nope")
     with pytest.raises(UnknownType, match="is a service, not a message"):
         registry.topic_type("bridgetest/compute")
-    with pytest.raises(UnknownType, match="has no LN counterpart"):
-        registry.topic_type(ros_type="std_msgs/msg/String")
+    with pytest.raises(UnknownType, match="ROS type nope_msgs/msg/X cannot be mapped to LN: unknown ROS message type"):
+        registry.topic_type(ros_type="nope_msgs/msg/X")
+    with pytest.raises(UnknownType, match="std_srvs/srv/Trigger is a ROS service type, a topic needs a message type"):
+        registry.topic_type("ros2/std_srvs/srv/Trigger")
     # an interface generated from an older version of the definition
     share = tmp_path / "share" / "bridgetest_ln_msgs"
     share.mkdir(parents=True)
@@ -48,6 +50,31 @@ def test_unknown_and_stale_types(registry, tmp_path):
     stale = TypeRegistry([str(d) for d in MD_DIRS], share_dirs=[str(tmp_path / "share")])
     with pytest.raises(UnknownType, match="generated from another version.*regenerate"):
         stale.topic_type("bridgetest/sample")
+
+
+def test_types_derived_from_ros_types():
+    """Any installed ROS type has an LN counterpart: the definition msg_mapping derives,
+    with the configured capacities, and the definitions it uses for the LN manager."""
+    from rclpy.serialization import serialize_message
+    from sensor_msgs.msg import JointState
+    registry = TypeRegistry(capacities=RosCapacities(string=32, sequence=4, fields={
+        "sensor_msgs/msg/JointState.name[]": 8}))
+    assert registry.ln_name_for_ros("std_msgs/msg/String") == "ros2/std_msgs/msg/String"
+    topic = registry.topic_type(ros_type="sensor_msgs/msg/JointState")
+    assert (topic.ln_name, topic.via, topic.msg_class) == ("ros2/sensor_msgs/msg/JointState", "derived", JointState)
+    assert [name for name, _, _ in topic.definitions] == [
+        "ros2/msg_mapping/string8", "ros2/builtin_interfaces/msg/Time", "ros2/std_msgs/msg/Header",
+        "ros2/sensor_msgs/msg/JointState"]
+    assert "char frame_id[32]" in dict((n, t) for n, t, _ in topic.definitions)["ros2/std_msgs/msg/Header"]
+    # header (8 + 4 + 32) + names (4 + 4 * (4 + 8)) + three double sequences (3 * (4 + 4 * 8))
+    assert topic.ln_size == 44 + 52 + 108
+    assert registry.topic_type("ros2/sensor_msgs/msg/JointState").ros_type == "sensor_msgs/msg/JointState"
+    packet = topic.codec.cdr_to_ln(serialize_message(JointState(name=["a", "b"], position=[1.0])))
+    assert len(packet) == topic.ln_size
+    with pytest.raises(ValueError, match="name: sequence of 5 elements does not fit the LN capacity 4"):
+        topic.codec.cdr_to_ln(serialize_message(JointState(name=["j"] * 5)))
+    service = registry.service_type(ros_type="std_srvs/srv/Trigger")
+    assert (service.ln_name, service.via) == ("ros2/std_srvs/srv/Trigger", "derived")
 
 
 def test_error_fields():

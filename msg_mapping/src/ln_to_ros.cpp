@@ -378,6 +378,8 @@ std::vector<GeneratedPackage> LnToRos::packages() const {
   return packages;
 }
 
+std::string msg_text(const PairedType& type) { return emit_msg(ros_message_of(type)); }
+
 std::vector<std::string> definition_names_under(const std::string& dir) {
   std::vector<std::string> names;
   std::function<void(const std::string&, const std::string&)> walk = [&](const std::string& path,

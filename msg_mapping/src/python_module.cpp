@@ -24,6 +24,10 @@ namespace nb = nanobind;
 namespace md = ln::md;
 using namespace msg_mapping;
 
+namespace msg_mapping::bridge {
+void bind_bridge(nb::module_& parent);  // bridge/bindings.cpp
+}
+
 namespace {
 
 // A Python buffer held for the duration of a call.
@@ -329,4 +333,6 @@ NB_MODULE(_native, m) {
       .def("cdr_size", [](const Codec& c, nb::handle ln) { BufferView in(ln, false); return c.cdr_size(in.bytes()); })
       .def("ln_size", [](const Codec& c, nb::handle cdr) { BufferView in(cdr, false); return c.ln_size(in.bytes()); })
       .def("describe", &Codec::describe);
+
+  bridge::bind_bridge(m);
 }

@@ -17,6 +17,7 @@ enum class MoveKind : std::uint8_t {
   Number,        // one number (LN value or constant) -> one ROS number
   Array,         // LN numeric array -> ROS fixed array (same count) or inline sequence
   String,        // LN char[N] (text up to the first NUL) or a constant -> ROS string
+  StringArray,   // LN array of sub-types with a char[N] field -> ROS string array or sequence
   Time,          // LN seconds / nanoseconds -> builtin_interfaces Time/Duration
 };
 
@@ -27,13 +28,17 @@ struct RuleMove {
   bool from_ln = false;
   std::size_t ln_offset = 0;
   md::Primitive ln_type = md::Primitive::Double;
-  std::uint32_t ln_count = 1;
+  std::uint32_t ln_count = 1;         // elements (numbers, texts), or bytes of a String's char array
+  std::size_t ln_stride = 0;          // bytes from one LN element to the next (0: packed numbers)
+  std::uint32_t ln_text = 0;          // StringArray: bytes of each element's char array
   // ROS side: offsets in the fixed-size LN form of the ROS type
   std::size_t mid_offset = 0;         // the value / first element / text
   std::size_t mid_length_offset = 0;  // inline strings and sequences: their uint32 length
   md::Primitive mid_type = md::Primitive::Double;
   RosPrimitive ros_type = RosPrimitive::Float64;
   std::uint32_t mid_capacity = 0;     // inline string/sequence capacity, fixed array count
+  std::uint32_t mid_text = 0;         // StringArray: capacity of each string
+  std::size_t mid_stride = 0;         // StringArray: bytes from one string to the next
   bool sequence = false;
   bool nanoseconds = false;           // Time from integer nanoseconds
   bool scaled = false;
@@ -207,16 +212,21 @@ RosTarget resolve_ros(const PairedType& root, const std::string& path, const std
   return target;
 }
 
-// The LN field a rule reads.
+// The LN field a rule reads. "joints.position", with `joints` an array of a
+// sub-type, reads that field of every element: `repeat` elements `stride`
+// bytes apart, the first at `first_path` ("joints[0].position").
 struct LnSource {
   const md::Field* field = nullptr;
   bool element = false;
+  std::uint32_t repeat = 1;
+  std::size_t stride = 0;
+  std::string first_path;
 };
 
 LnSource resolve_ln(const md::Definition& root, const std::string& path, const std::string& where) {
   LnSource source;
   const md::Definition* def = &root;
-  const std::vector<PathPart> parts = parse_path(path, where);
+  std::vector<PathPart> parts = parse_path(path, where);
   for (std::size_t i = 0; i < parts.size(); ++i) {
     const md::Field* found = nullptr;
     std::string names;
@@ -233,9 +243,18 @@ LnSource resolve_ln(const md::Definition& root, const std::string& path, const s
     source.element = parts[i].indexed || found->count == 1;
     if (i + 1 < parts.size()) {
       if (!found->sub) throw Error(where + ": LN field '" + path + "': '" + found->name + "' has no fields");
+      if (!parts[i].indexed && found->count > 1) {  // one value per element of this array
+        if (source.repeat > 1)
+          throw Error(where + ": LN field '" + path + "' runs over two arrays; give one of them an index");
+        source.repeat = found->count;
+        source.stride = md::packet_size(*found->sub);
+        parts[i].indexed = true;
+        parts[i].index = 0;
+      }
       def = found->sub;
     }
   }
+  source.first_path = join_ln_path(parts);
   return source;
 }
 
@@ -282,10 +301,17 @@ RuleCodec::RuleCodec(const md::Definition& ln, RosToLn& ros, const std::string& 
         throw Error(where + ": LN field '" + rule.ln_path + "' is a " + source.field->sub->name +
                     "; map its fields one by one");
       m.from_ln = true;
-      m.ln_offset = md::locate_member(ln, rule.ln_path).offset;
+      m.ln_offset = md::locate_member(ln, source.first_path).offset;
       m.ln_type = *source.field->primitive;
       m.ln_count = source.element ? 1 : source.field->count;
     }
+    const bool whole_array = !target.element && f.shape != Shape::Single;
+    if (source.repeat > 1 && !whole_array)
+      throw Error(where + ": LN field '" + rule.ln_path + "' has one value per element of an LN array: it fits a ROS "
+                  "array, not " + f.ros_type().spelling());
+    if (source.repeat > 1 && f.element != ElementKind::String && m.ln_count != 1)
+      throw Error(where + ": LN field '" + rule.ln_path + "' is " + type_name(m.ln_type) + "[" + u(m.ln_count) +
+                  "] per element; " + f.ros_type().spelling() + " takes one number per element");
     if (!rule.scale.empty() || !rule.offset.empty()) {
       m.scaled = true;
       if (!rule.scale.empty() && !parse_number(rule.scale, m.scale))
@@ -319,12 +345,39 @@ RuleCodec::RuleCodec(const md::Definition& ln, RosToLn& ros, const std::string& 
       throw Error(where + ": it is a " + f.ros_type().spelling() + " message; map its fields one by one" +
                   " (or use convert for Time/Duration)");
 
+    if (f.element == ElementKind::String && whole_array) {
+      if (source.repeat == 1)
+        throw Error(where + ": an array of strings takes one LN char array per element: 'from: names.text' with "
+                    "'names' an LN array of a definition that has a char array 'text'");
+      if (m.ln_type != md::Primitive::Char && m.ln_type != md::Primitive::UInt8 && m.ln_type != md::Primitive::Int8)
+        throw Error(where + ": a string needs an LN char array, '" + rule.ln_path + "' is " + type_name(m.ln_type));
+      if (m.scaled) throw Error(where + ": scale/offset on strings");
+      m.kind = MoveKind::StringArray;
+      m.sequence = f.shape == Shape::InlineSequence;
+      m.ln_text = m.ln_count;
+      m.ln_count = source.repeat;
+      m.ln_stride = source.stride;
+      m.mid_capacity = f.count;
+      m.mid_text = f.string_capacity;
+      m.mid_stride = 4 + std::size_t{f.string_capacity};  // the helper type: uint32_t data_len; char data[cap]
+      m.mid_length_offset = m.sequence ? md::locate_member(mid_def, target.mid_path + "_len").offset : 0;
+      m.mid_offset = md::locate_member(mid_def, target.mid_path + "[0].data_len").offset;
+      if (!m.sequence && m.ln_count != f.count)
+        throw Error(where + ": " + f.ros_type().spelling() + " has " + u(f.count) + " strings, LN array has " +
+                    u(m.ln_count));
+      if (m.sequence && (m.ln_count > f.count || (f.ros_bound && m.ln_count > f.ros_bound)))
+        throw Error(where + ": the LN array has " + u(m.ln_count) + " elements, more than the sequence can hold (" +
+                    u(f.ros_bound && f.ros_bound < f.count ? f.ros_bound : f.count) + ")");
+      moves_.push_back(m);
+      continue;
+    }
+
     if (f.element == ElementKind::String) {
-      if (target.element || f.shape != Shape::Single)
-        throw Error(where + ": arrays of strings cannot be mapped by rules");
       m.kind = MoveKind::String;
       m.mid_capacity = f.string_capacity;
-      m.mid_length_offset = md::locate_member(mid_def, target.mid_path + "_len").offset;
+      const std::string text_path = target.element ? target.mid_path + ".data" : target.mid_path;  // "a[1]": a helper
+      m.mid_offset = md::locate_member(mid_def, text_path).offset;
+      m.mid_length_offset = md::locate_member(mid_def, text_path + "_len").offset;
       if (rule.has_constant) {
         m.constant_text = rule.constant;
         if (m.constant_text.size() > f.string_capacity)
@@ -344,9 +397,12 @@ RuleCodec::RuleCodec(const md::Definition& ln, RosToLn& ros, const std::string& 
     // Numbers.
     m.ros_type = f.ros_primitive;
     m.mid_type = f.ln_primitive;
-    const bool whole_array = !target.element && f.shape != Shape::Single;
     if (whole_array) {
       m.kind = MoveKind::Array;
+      if (source.repeat > 1) {  // one number per element of an LN array of sub-types
+        m.ln_count = source.repeat;
+        m.ln_stride = source.stride;
+      }
       m.sequence = f.shape == Shape::InlineSequence;
       m.mid_capacity = f.count;
       if (m.sequence) m.mid_length_offset = md::locate_member(mid_def, target.mid_path + "_len").offset;
@@ -398,8 +454,10 @@ RuleCodec& RuleCodec::operator=(RuleCodec&&) noexcept = default;
 
 namespace {
 
+std::size_t ln_step(const RuleMove& m) { return m.ln_stride ? m.ln_stride : md::size_of(m.ln_type); }
+
 void encode_number(const RuleMove& m, const std::uint8_t* ln, std::uint8_t* mid, std::size_t index) {
-  const std::uint8_t* src = ln + m.ln_offset + index * md::size_of(m.ln_type);
+  const std::uint8_t* src = ln + m.ln_offset + index * ln_step(m);
   std::uint8_t* dst = mid + m.mid_offset + index * md::size_of(m.mid_type);
   if (m.ros_type == RosPrimitive::Bool) {
     *dst = read_number(src, m.ln_type) != 0;
@@ -416,7 +474,7 @@ void encode_number(const RuleMove& m, const std::uint8_t* ln, std::uint8_t* mid,
 
 void decode_number(const RuleMove& m, const std::uint8_t* mid, std::uint8_t* ln, std::size_t index) {
   const std::uint8_t* src = mid + m.mid_offset + index * md::size_of(m.mid_type);
-  std::uint8_t* dst = ln + m.ln_offset + index * md::size_of(m.ln_type);
+  std::uint8_t* dst = ln + m.ln_offset + index * ln_step(m);
   if (!m.scaled && m.ln_type == m.mid_type) {
     std::memcpy(dst, src, md::size_of(m.ln_type));
     return;
@@ -463,6 +521,20 @@ std::vector<std::uint8_t> RuleCodec::ln_to_cdr(Bytes ln) const {
         std::memcpy(mid.data() + m.mid_offset, text, n);
         break;
       }
+      case MoveKind::StringArray: {
+        if (m.sequence) write_u32(mid.data() + m.mid_length_offset, m.ln_count);
+        for (std::uint32_t i = 0; i < m.ln_count; ++i) {
+          const char* text = reinterpret_cast<const char*>(ln.data + m.ln_offset + i * m.ln_stride);
+          const std::size_t n = strnlen(text, m.ln_text);
+          if (n > m.mid_text)
+            throw CodecError(ros_name_ + "." + m.ros_path + "[" + u(i) + "]: text of " + u(n) +
+                             " bytes exceeds the capacity " + u(m.mid_text));
+          std::uint8_t* element = mid.data() + m.mid_offset + i * m.mid_stride;
+          write_u32(element, static_cast<std::uint32_t>(n));
+          std::memcpy(element + 4, text, n);
+        }
+        break;
+      }
       case MoveKind::Time: {
         const long double v = read_number(ln.data + m.ln_offset, m.ln_type);
         const long double total_ns = m.nanoseconds ? v : std::nearbyint(v * ns_per_s);
@@ -498,6 +570,21 @@ std::vector<std::uint8_t> RuleCodec::cdr_to_ln(Bytes cdr) const {
           throw CodecError(ros_name_ + "." + m.ros_path + ": a string of " + u(n) + " bytes does not fit LN field '" +
                            m.ln_path + "' (" + u(m.ln_count) + " bytes)");
         std::memcpy(ln.data() + m.ln_offset, mid.data() + m.mid_offset, n);
+        break;
+      }
+      case MoveKind::StringArray: {
+        const std::uint32_t n = m.sequence ? read_u32(mid.data() + m.mid_length_offset) : m.ln_count;
+        if (n > m.ln_count)
+          throw CodecError(ros_name_ + "." + m.ros_path + ": " + u(n) + " strings do not fit LN field '" + m.ln_path +
+                           "' (" + u(m.ln_count) + ")");
+        for (std::uint32_t i = 0; i < n; ++i) {
+          const std::uint8_t* element = mid.data() + m.mid_offset + i * m.mid_stride;
+          const std::uint32_t length = read_u32(element);
+          if (length > m.ln_text)
+            throw CodecError(ros_name_ + "." + m.ros_path + "[" + u(i) + "]: a string of " + u(length) +
+                             " bytes does not fit LN field '" + m.ln_path + "' (" + u(m.ln_text) + " bytes)");
+          std::memcpy(ln.data() + m.ln_offset + i * m.ln_stride, element + 4, length);
+        }
         break;
       }
       case MoveKind::Time: {

@@ -1,10 +1,8 @@
 """ln_ros2_gen --from-manager: packages for what a running ln_core manager knows (the
 definition of every topic, the interface of every service), from the manager's texts."""
 import filecmp
-import glob
 import json
 import os
-import shutil
 import subprocess
 import sys
 import time
@@ -14,6 +12,10 @@ import pytest
 import msg_mapping
 from msg_mapping import cli
 from msg_mapping.manager import load_fetching, missing_definitions
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
+                                "tests", "support"))
+import ln_testing  # noqa: E402
 
 # Only the manager gets these files: the generator has to take every text from it.
 DEFINITIONS = {
@@ -28,28 +30,13 @@ DEFINITIONS = {
 }
 
 
-def _ln_core():
-    """(ln_manager, directory holding ln_core's links_and_nodes) or skip: given by
-    LN_CORE_MANAGER / LN_CORE_PYTHONPATH, else found on PATH / PYTHONPATH or in the
-    colcon install (CMAKE_PREFIX_PATH)."""
-    roots = [p for var in ("CMAKE_PREFIX_PATH", "AMENT_PREFIX_PATH") for p in os.environ.get(var, "").split(os.pathsep)
-             if p]
-    managers = [os.environ.get("LN_CORE_MANAGER"), shutil.which("ln_manager")] + \
-        [os.path.join(r, "bin", "ln_manager") for r in roots]
-    manager = next((m for m in managers if m and os.path.exists(m) and "venv-ln29" not in m), None)
-    packages = [os.environ.get("LN_CORE_PYTHONPATH")] + os.environ.get("PYTHONPATH", "").split(os.pathsep) + \
-        [site for r in roots for site in glob.glob(os.path.join(r, "lib", "python3*", "site-packages"))]
-    package = next((p for p in packages if p and os.path.exists(os.path.join(p, "links_and_nodes", "_client.py"))),
-                   None)
-    if not manager or not package:
-        pytest.skip("ln_core's ln_manager and links_and_nodes not found (LN_CORE_MANAGER, LN_CORE_PYTHONPATH)")
-    return manager, package
-
-
 def _ln_core_env():
     """(ln_manager, environment in which child processes import ln_core's links_and_nodes
-    and this msg_mapping)."""
-    manager, package = _ln_core()
+    and this msg_mapping), or skip."""
+    try:
+        manager, package = ln_testing.LnCore.locate()
+    except ln_testing.Unavailable as error:
+        pytest.skip(str(error))
     return manager, dict(os.environ, PYTHONPATH=os.pathsep.join(
         [package, os.path.dirname(os.path.dirname(msg_mapping.__file__)), os.environ.get("PYTHONPATH", "")]))
 
@@ -81,20 +68,15 @@ def ln(tmp_path_factory):
     for name, text in DEFINITIONS.items():
         (md_dir / name).parent.mkdir(parents=True, exist_ok=True)
         (md_dir / name).write_text(text)
-    config = home / "test.lnc"
-    config.write_text("instance\nname: msg_mapping_%d\nmanager: 127.0.0.1:0\nadd_message_definition_dir: %s\n"
-                      % (os.getpid(), md_dir))
-    log = open(home / "manager.log", "w+")
-    started = [subprocess.Popen([manager_exe, "-c", str(config), "-p", "0", "--without-gui"], stdout=subprocess.PIPE,
-                                stderr=log, text=True, env=dict(env, HOME=str(home)))]
+    server = ln_testing.LnCore(home, base_env=env, home=home, manager_exe=manager_exe)
+    started = []
     try:
-        address = _read_until(started[0].stdout, lambda line: "listening on" in line)
-        assert address, "ln_manager did not start: %s" % (home / "manager.log").read_text()
-        address = address.strip().rsplit(" ", 1)[-1]
-        started.append(subprocess.Popen([sys.executable, "-c", SYSTEM, address], stdin=subprocess.PIPE,
-                                        stdout=subprocess.PIPE, stderr=log, text=True, env=env))
-        hashes = _read_until(started[1].stdout, lambda line: line.startswith("{"))
-        assert hashes, "the test system did not start: %s" % (home / "manager.log").read_text()
+        address = server.start([md_dir]).address
+        with open(home / "system.log", "w") as log:
+            started.append(subprocess.Popen([sys.executable, "-c", SYSTEM, address], stdin=subprocess.PIPE,
+                                            stdout=subprocess.PIPE, stderr=log, text=True, env=env))
+        hashes = _read_until(started[0].stdout, lambda line: line.startswith("{"))
+        assert hashes, "the test system did not start: %s" % (home / "system.log").read_text()
         yield {"address": address, "md_dir": str(md_dir), "hashes": json.loads(hashes), "env": env}
     finally:
         for process in reversed(started):
@@ -107,7 +89,7 @@ def ln(tmp_path_factory):
             except subprocess.TimeoutExpired:
                 process.kill()
                 process.wait()
-        log.close()
+        server.stop()
 
 
 def _read_until(stream, accept, timeout=15.0):

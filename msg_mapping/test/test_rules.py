@@ -82,6 +82,65 @@ def test_out_of_range_values_are_errors():
         codec.ln_to_cdr(pose_bytes(counter=300))
 
 
+# An arm's joints as an LN array of a sub-type: one ROS array per field of it (rules for string arrays).
+ARM_SOURCES = {"mmrules/joint": "char name[12]\ndouble position\nfloat effort\n",
+               "mmrules/arm_state": 'define joint as "mmrules/joint"\ndouble time\njoint joints[3]\n'}
+JOINT = struct.Struct("<12sdf")
+JOINT_STATE_RULE = {"ln": "mmrules/arm_state", "ros": "sensor_msgs/msg/JointState", "fields": [
+    {"ros": "header.stamp", "from": "time", "convert": "seconds_to_time"},
+    {"ros": "name", "from": "joints.name"}, {"ros": "position", "from": "joints.position"},
+    {"ros": "effort", "from": "joints.effort"}]}
+
+
+def arm_library():
+    library = msg_mapping.Library([])
+    for name, text in ARM_SOURCES.items():
+        library.add_source(name, text)
+    return library
+
+
+def arm_bytes(time, joints):
+    return struct.pack("<d", time) + b"".join(JOINT.pack(*joint) for joint in joints)
+
+
+def test_arrays_of_strings_and_per_element_fields():
+    """sensor_msgs/msg/JointState keeps its joint names: ROS string[] <- the char array of each
+    element of an LN array, position/effort <- a number of each element."""
+    from sensor_msgs.msg import JointState
+    (codec,) = compile_rules([JOINT_STATE_RULE], arm_library(), msg_mapping.RosToLn(msg_mapping.ros_share_dirs()))
+    joints = [(b"shoulder", 0.5, 1.5), (b"elbow_joint1", -1.25, 0.0), (b"", 2.0, -3.0)]   # 12 bytes: no NUL
+    msg = serialization.deserialize_message(codec.ln_to_cdr(arm_bytes(4.5, joints)), JointState)
+    assert list(msg.name) == ["shoulder", "elbow_joint1", ""]
+    assert list(msg.position) == [0.5, -1.25, 2.0] and list(msg.effort) == [1.5, 0.0, -3.0]
+    assert (msg.header.stamp.sec, msg.header.stamp.nanosec) == (4, 500_000_000) and list(msg.velocity) == []
+
+    msg.name, msg.position, msg.effort = ["wrist", "hand"], [7.0, 8.0], [0.25, 0.5]
+    back = codec.cdr_to_ln(serialization.serialize_message(msg))
+    assert [JOINT.unpack_from(back, 8 + i * JOINT.size) for i in range(3)] == [
+        (b"wrist".ljust(12, b"\0"), 7.0, 0.25), (b"hand".ljust(12, b"\0"), 8.0, 0.5), (b"\0" * 12, 0.0, 0.0)]
+    msg.name = ["a_name_of_13_"]
+    with pytest.raises(msg_mapping.CodecError, match=r"name\[0\]: a string of 13 bytes does not fit LN field "
+                                                      r"'joints.name' \(12 bytes\)"):
+        codec.cdr_to_ln(serialization.serialize_message(msg))
+    msg.name = ["a", "b", "c", "d"]
+    with pytest.raises(msg_mapping.CodecError, match=r"name: 4 strings do not fit LN field 'joints.name' \(3\)"):
+        codec.cdr_to_ln(serialization.serialize_message(msg))
+
+
+@pytest.mark.parametrize("ros_field,ln_field,message", [
+    ("name", "joints[0].name", r"an array of strings takes one LN char array per element: 'from: names.text'"),
+    ("name", "joints.position", r"a string needs an LN char array, 'joints.position' is double"),
+    ("header.frame_id", "joints.name", r"'joints.name' has one value per element of an LN array: it fits a ROS "
+                                       r"array, not string"),
+    ("position", "joints.name", r"'joints.name' is char\[12\] per element; float64\[\] takes one number per element"),
+])
+def test_bad_per_element_rules(ros_field, ln_field, message):
+    rule = {"ln": "mmrules/arm_state", "ros": "sensor_msgs/msg/JointState",
+            "fields": [{"ros": ros_field, "from": ln_field}]}
+    with pytest.raises(msg_mapping.MappingError, match=message):
+        compile_rules([rule], arm_library(), msg_mapping.RosToLn(msg_mapping.ros_share_dirs()))
+
+
 BAD_RULES = [
     ({"pose.postion.x": {"from": "pos_mm[0]"}},
      r"ROS field 'pose.postion.x' does not exist \('postion' is not a field of geometry_msgs/msg/Pose, which has: "

@@ -13,8 +13,12 @@ import os
 import re
 import shutil
 import subprocess
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "support"))
+import ln_testing  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 REPO_ROOT = HERE.parent.parent
@@ -43,24 +47,8 @@ LN29_MD_SUBDIRS = (
 #: Filled by the tests, printed by conftest at the end of the run.
 REPORT: dict[str, object] = {}
 
-#: Fails instead of skipping when a prerequisite is missing.
-IN_CI = bool(os.environ.get("CI"))
-
-
-class MissingPrerequisite(Exception):
-    """A tool or the LN 2.9 reference is not available."""
-
-
-def require(thing, what: str):
-    """Returns `thing`, or fails (CI) / skips (locally) naming `what`."""
-    import pytest
-
-    if isinstance(thing, MissingPrerequisite) or thing is None:
-        message = str(thing) if thing is not None else what
-        if IN_CI:
-            pytest.fail(f"{message} (CI is set, so this is an error, not a skip)", pytrace=False)
-        pytest.skip(message)
-    return thing
+MissingPrerequisite = ln_testing.Unavailable
+require = ln_testing.require
 
 
 # --------------------------------------------------------------- locating

@@ -18,29 +18,26 @@ import os
 import queue
 import re
 import shutil
-import signal
-import socket
 import subprocess
+import sys
 import threading
 import time
-import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "support"))
+import ln_testing  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 REPO_ROOT = HERE.parent.parent
 PROGRAMS_DIR = HERE / "programs"
 MSGDEFS_DIR = HERE / "msgdefs"
 OUR_SOURCE_INCLUDE_DIR = REPO_ROOT / "ln_core" / "include"
-PROGRAMS = ("lnbt_probe", "lnbt_publisher", "lnbt_subscriber", "lnbt_services")
-MESSAGES = ("lnbt/counter", "lnbt/other", "lnbt/echo")
+PROGRAMS = ("lnbt_probe", "lnbt_publisher", "lnbt_subscriber", "lnbt_services", "lnbt_parameters", "lnbt_logger",
+            "lnbt_dsa", "lnbt_shm", "lnbt_events", "lnbt_service_logger")
+MESSAGES = ("lnbt/counter", "lnbt/other", "lnbt/echo", "ln/parameters/query", "ln/parameters/query_dict",
+            "ln/resource_event", "ln/event/call", "ln/log_service")
 
-IN_CI = bool(os.environ.get("CI"))
-#: Marks the environment of every process of this run, so that the LN 2.9
-#: daemons the reference manager starts (and which detach) can be told apart
-#: from anybody else's.
-RUN_MARK = f"lnbt-{os.getpid()}-{uuid.uuid4().hex[:12]}"
-RUN_MARK_VAR = "LN29_BEHAVIOUR_RUN"
 
 #: Documented differences the tests observed; conftest prints them at the end.
 DIFFERENCES: list[str] = []
@@ -50,20 +47,9 @@ MANAGER_START_TIMEOUT = 30
 PROGRAM_TIMEOUT = 20
 
 
-class MissingPrerequisite(Exception):
-    """A system or a tool is not available."""
-
-
-def require(thing, what: str):
-    """Returns `thing`, or fails (CI set) / skips (locally) with the reason."""
-    import pytest
-
-    if isinstance(thing, MissingPrerequisite) or thing is None:
-        message = str(thing) if thing is not None else what
-        if IN_CI:
-            pytest.fail(f"{message} (CI is set, so this is an error, not a skip)", pytrace=False)
-        pytest.skip(message)
-    return thing
+MissingPrerequisite = ln_testing.Unavailable
+require = ln_testing.require
+free_port = ln_testing.free_port
 
 
 # ------------------------------------------------------------------ systems
@@ -154,11 +140,10 @@ class Started:
 
 def base_environment(home: Path, tmp: Path) -> dict[str, str]:
     """The environment of every manager and program: a private HOME and
-    TMPDIR, no LN_* variables of the caller, the run mark."""
+    TMPDIR, no LN_* variables of the caller."""
     env = {k: v for k, v in os.environ.items() if not k.startswith("LN_") and k not in (
         "PYTHONPATH", "PYTHONHOME", "PYTHONSTARTUP", "LD_LIBRARY_PATH")}
     env.update(HOME=str(home), TMPDIR=str(tmp), LC_ALL="C.UTF-8", PYTHONUNBUFFERED="1")
-    env[RUN_MARK_VAR] = RUN_MARK
     return env
 
 
@@ -243,6 +228,23 @@ def run(argv, env, timeout=PROGRAM_TIMEOUT, cwd=None) -> Program:
     return program
 
 
+def python_for(system: System) -> tuple[list[str], dict[str, str]] | MissingPrerequisite:
+    """How to run a Python script against `system`: (interpreter argv,
+    environment additions) - LN 2.9's venv python, or this interpreter with
+    ln_core's links_and_nodes (next to its libln.so) on PYTHONPATH."""
+    if system.is_reference:
+        python = system.ln_manager.parent / "python"
+        if not python.exists():
+            return MissingPrerequisite(f"no python next to {system.ln_manager}")
+        return [str(python)], {}
+    candidates = [system.lib_dir / "python"] + sorted(Path(p) for p in glob.glob(
+        str(system.lib_dir / "python3*" / "site-packages")))
+    for directory in candidates:
+        if (directory / "links_and_nodes" / "__init__.py").is_file():
+            return [sys.executable], {"PYTHONPATH": str(directory)}
+    return MissingPrerequisite(f"ln_core's links_and_nodes not found below {system.lib_dir}")
+
+
 # --------------------------------------------------------------- building
 
 
@@ -285,133 +287,52 @@ def build(system: System, out_dir: Path, env: dict[str, str]) -> System | Missin
 # --------------------------------------------------------------- managers
 
 
-def free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @dataclass
 class Manager:
+    """A system's running manager (started through tests/support/ln_testing.py)."""
+
     system: System
-    process: subprocess.Popen
-    address: str  # "127.0.0.1:PORT"
-    log_file: Path
+    server: ln_testing.LnSystem
+
+    @property
+    def address(self) -> str:
+        return self.server.address
 
     def log_tail(self, n=4000) -> str:
-        try:
-            return self.log_file.read_text(errors="replace")[-n:]
-        except OSError:
-            return ""
+        return ln_testing.read_text(self.server.log_path)[-n:]
 
 
-def start_manager(system: System, work: Path, env: dict[str, str]) -> Manager | MissingPrerequisite:
-    """Starts the system's manager with a config that adds msgdefs/; returns
-    once it listens. LN 2.9 runs in --isolated-test mode (free port, private
-    ln_daemon); ln_core on 127.0.0.1 with port 0 (a free port)."""
-    work.mkdir(parents=True, exist_ok=True)
-    config = work / "lnbt.lnc"
-    config.write_text(f"instance\nname: lnbt_{system.label}_{os.getpid()}\nmanager: :{free_port()}\n"
-                      f"add_message_definition_dir: {MSGDEFS_DIR}\n")
-    log_file = work / "manager.log"
+def start_manager(system: System, work: Path, env: dict[str, str],
+                  md_dir: Path = MSGDEFS_DIR) -> Manager | MissingPrerequisite:
+    """Starts the system's manager with `md_dir` (default msgdefs/) on its
+    search path; returns once it listens. LN 2.9 runs in --isolated-test mode
+    (free port, private ln_daemon); ln_core on 127.0.0.1, a free port."""
+    options = dict(base_env=env, home=Path(env["HOME"]))
     if system.is_reference:
-        argv = [str(system.ln_manager), "-c", str(config), "--without-gui", "--isolated-test", "--log-level", "info"]
-        pattern = re.compile(r"listening on '[^']*:(\d+)' for ln-clients")
+        server = ln_testing.Ln29(work, venv=system.ln_manager.parent.parent, **options)
     else:
-        argv = [str(system.ln_manager), "-c", str(config), "--listen", "127.0.0.1:0"]
-        pattern = re.compile(r"ln_manager: listening on [0-9.]+:(\d+)")
-    with open(log_file, "wb") as log:
-        process = subprocess.Popen(argv, env=env, cwd=work, stdin=subprocess.DEVNULL, stdout=log,
-                                   stderr=subprocess.STDOUT)
-    Started.add(process.pid)
-    deadline = time.monotonic() + MANAGER_START_TIMEOUT
-    while time.monotonic() < deadline:
-        text = log_file.read_text(errors="replace")
-        m = pattern.search(text)
-        if m:
-            return Manager(system, process, f"127.0.0.1:{m.group(1)}", log_file)
-        if process.poll() is not None:
-            break
-        time.sleep(0.05)
-    stop_manager_process(process)
-    return MissingPrerequisite(f"{system}: the manager did not start listening within {MANAGER_START_TIMEOUT} s:\n"
-                               f"$ {' '.join(argv)}\n{log_file.read_text(errors='replace')[-3000:]}")
-
-
-def stop_manager_process(process: subprocess.Popen) -> None:
-    if process.poll() is None:
-        process.send_signal(signal.SIGTERM)
-        try:
-            process.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
-
-
-def our_marked_processes(exe_prefix: Path) -> list[int]:
-    """PIDs whose executable lies below `exe_prefix` and whose environment
-    carries this run's mark: the LN 2.9 daemons our reference manager started
-    (they detach to PID 1)."""
-    found = []
-    prefix = str(exe_prefix.resolve())
-    mark = f"{RUN_MARK_VAR}={RUN_MARK}".encode()
-    for entry in os.listdir("/proc"):
-        if not entry.isdigit():
-            continue
-        try:
-            exe = os.readlink(f"/proc/{entry}/exe")
-            if not exe.startswith(prefix):
-                continue
-            with open(f"/proc/{entry}/environ", "rb") as f:
-                if mark in f.read().split(b"\0"):
-                    found.append(int(entry))
-        except OSError:
-            continue
-    return found
+        server = ln_testing.LnCore(work, manager_exe=system.ln_manager, **options)
+    try:
+        server.start([md_dir], timeout=MANAGER_START_TIMEOUT)
+    except (RuntimeError, TimeoutError) as error:
+        server.stop()
+        return MissingPrerequisite(f"{system}: the manager did not start listening: {error}\n{server.log_tail()}")
+    finally:
+        if server.process is not None:
+            Started.add(server.process.pid)
+    return Manager(system, server)
 
 
 def stop_manager(manager: Manager) -> None:
-    stop_manager_process(manager.process)
-    if manager.system.is_reference:
-        # The ln_daemon of --isolated-test mode normally ends with the manager;
-        # make sure, by PID, and only for daemons of this run.
-        venv_package = manager.system.include_dir.parent
-        deadline = time.monotonic() + 3
-        while time.monotonic() < deadline and our_marked_processes(venv_package):
-            time.sleep(0.1)
-        for pid in our_marked_processes(venv_package):
-            Started.add(pid)
-            try:
-                os.kill(pid, signal.SIGTERM)
-            except ProcessLookupError:
-                pass
-        time.sleep(0.2)
-        for pid in our_marked_processes(venv_package):
-            try:
-                os.kill(pid, signal.SIGKILL)
-            except ProcessLookupError:
-                pass
+    """Ends the manager and, for LN 2.9, the daemons it started."""
+    manager.server.stop()
 
 
 def sweep_dev_shm() -> list[str]:
     """Removes /dev/shm/<pid>_* segments of processes this run started (LN
     2.9 names its segments after the publisher's PID; see README P4) once
     those processes are gone. Returns the names removed."""
-    removed = []
-    try:
-        names = os.listdir("/dev/shm")
-    except OSError:
-        return removed
-    pids = {str(p) for p in Started.pids}
-    for name in names:
-        head = name.split("_", 1)[0]
-        if head in pids and not os.path.exists(f"/proc/{head}"):
-            try:
-                os.unlink(f"/dev/shm/{name}")
-                removed.append(name)
-            except OSError:
-                pass
-    return removed
+    return ln_testing.remove_ln_segments(Started.pids)
 
 
 # ------------------------------------------------------------- scenarios

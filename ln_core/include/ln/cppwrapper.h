@@ -402,16 +402,17 @@ class client {
   /// Allows set-up calls from several threads (see ln_client_set_thread_safe()).
   void set_thread_safe(bool enable);
 
-  /// Forwards calls of services matching the comma-separated patterns to
-  /// a logger service this client provides.
+  /// Makes a service this client provides (ln/log_service) the logger of
+  /// the services matching the comma-separated patterns (see
+  /// ln_register_as_service_logger()).
   void register_as_service_logger(std::string logger_service_name,
                                   std::string service_name_patterns_to_log);
-  /// Sets a tuning parameter of the client library.
+  /// Sets a client setting (see ln_client_set_float_parameter()); throws
+  /// for unknown names and invalid values.
   void set_float_parameter(std::string parameter_name, float value);
 
-  /// Access to the parameters published under a prefix. Declared here for
-  /// LN 2.9 compatibility; defined with the parameters API
-  /// (ln/parameter_client.h), not by this header.
+  /// The parameters other clients provide below @p group_prefix; include
+  /// ln/parameter_client.h (which defines it) to use it.
   parameters::parameter_proxy get_parameters(std::string group_prefix = "",
                                              bool strict_type_checks = false);
 
@@ -813,8 +814,8 @@ class string_buffer {
   uint32_t length_ = 0;
 };
 
-/// A named recording of topics kept by the daemons; obtained from
-/// client::get_logger(), owned by the client.
+/// A named recording of topics, made and kept by the manager (see ln.h,
+/// "Topic loggers"); obtained from client::get_logger(), owned by the client.
 class logger {
  public:
   client* clnt;
@@ -830,7 +831,7 @@ class logger {
   /// Fetches the recording through the manager; the result is owned by the
   /// logger and replaced by the next download.
   logger_data* download();
-  /// As download(), directly from the daemons.
+  /// As LN 2.9: disables the logger, then downloads.
   logger_data* direct_download();
   /// Lets the manager save the recording on its host ("auto": format by
   /// file name).
@@ -891,7 +892,8 @@ class logger_data {
 /// signature. Throws std::runtime_error on failure.
 std::string dsa_dss1_sign_message(const std::string& pem_private_key_filename, const std::string& message);
 /// True if @p signature is valid for @p message and the OpenSSH public key
-/// file; throws std::runtime_error on other failures.
+/// file, false if it is not (LN 2.9 throws then); throws std::runtime_error
+/// when the key cannot be read.
 bool dsa_dss1_verify_message_signature(const std::string& openssh_public_key_filename,
                                        const std::string& message, const std::string& signature);
 /// As dsa_dss1_verify_message_signature() with the key given as text.

@@ -1185,18 +1185,17 @@ inline void logger_data::set_data(ln_logger_data contents, bool own_data) {
   }
 }
 
+// Logger data calls have no client: their detail is ln_get_error_message(NULL).
 inline void logger_data::save(std::string filename) {
   const int ret = ln_logger_data_save(data, filename.c_str());
-  if (ret == 0) return;
-  const std::string context = "ln::logger_data::save('" + filename + "')";
-  if (_logger != nullptr) _logger->clnt->throw_error(ret, context);
-  detail::throw_failure(ret, context, nullptr);
+  if (ret != 0) detail::throw_failure(ret, "ln::logger_data::save('" + filename + "')", ln_get_error_message(nullptr));
 }
 
 inline logger_data* logger_data::load(std::string filename) {
   ln_logger_data contents = nullptr;
   const int ret = ln_logger_data_load(&contents, filename.c_str());
-  if (ret != 0) detail::throw_failure(ret, "ln::logger_data::load('" + filename + "')", nullptr);
+  if (ret != 0)
+    detail::throw_failure(ret, "ln::logger_data::load('" + filename + "')", ln_get_error_message(nullptr));
   return new logger_data(nullptr, contents, true);
 }
 
@@ -1210,7 +1209,9 @@ namespace detail {
 
 inline bool verify_dsa_signature(int ret, const char* function) {
   if (ret == 0) return true;
-  if (ret == -LNE_INVALID_SIGNATURE) return false;
+  // ln_dsa_dss1_verify_*() answer -LNE_INVALID_DSA_SIGNATURE (LN 2.9's
+  // wrapper expects -LNE_INVALID_SIGNATURE and so throws for a wrong one).
+  if (ret == -LNE_INVALID_DSA_SIGNATURE || ret == -LNE_INVALID_SIGNATURE) return false;
   throw_dsa_failure(function, ret);
 }
 

@@ -220,6 +220,10 @@ typedef void* ln_client;
     if it is taken; otherwise the manager makes the name unique by appending
     a number (see ln_client_get_name()).
 
+    LN_MANAGER_CONNECT_TIMEOUT=SECONDS (ln_core) makes it wait that long for
+    a manager that does not listen yet, so that a program may start before
+    its manager; unset or 0, a refused connection fails at once (LN 2.9).
+
     @param[out] clnt receives the new client; NULL on failure.
     @param argc, argv may be 0 and NULL.
     @return 0, or e.g. -LNE_NO_MANAGER_ADDRESS, -LNE_INVALID_MANAGER_ADDRESS,
@@ -268,8 +272,10 @@ LN_API int ln_get_remaining_args(ln_client clnt, unsigned int* n_args, char** ar
     explanation behind -LNE_REQUEST_FAILED). Every failing call sets it, to ""
     when it has no detail, so right after a failure it describes that
     failure (the C++ wrapper appends it to its exceptions). Belongs to the
-    client; NULL for a NULL client. Not synchronised with failures in other
-    threads. */
+    client. For a NULL client (ln_core): the detail of this thread's last
+    failed call that has no client - why ln_init() or ln_init_to_manager()
+    failed, or ln_logger_data_save/_load/... - and "" when the last such call
+    succeeded; never NULL. Not synchronised with failures in other threads. */
 LN_API char* ln_get_error_message(ln_client clnt_);
 
 /**@}*/
@@ -754,63 +760,99 @@ LN_API int ln_get_service_signature_for_service(ln_client clnt, const char* serv
 /** Names of the registered services with the given interface, separated
     by newlines ("" if none), as one malloc()ed string (the caller frees). */
 LN_API int ln_client_find_services_with_interface(ln_client clnt, const char* interface_name, char** services);
-/** Makes the manager forward every call of services matching the
-    comma-separated name patterns to the logger service
-    @p logger_service_name (interface ln/log_service), which must be a
-    service this client provides. */
+/** Makes @p logger_service_name, a service this client provides with
+    interface ln/log_service (else -LNE_SVC_NOT_REGISTERED /
+    -LNE_INVALID_PARAMETER), a service logger: callers and providers in
+    other clients of every service whose name matches the comma-separated
+    fnmatch patterns ("!pattern" excludes; the logger itself never) send it
+    an ln/log_service item for each request sent (item_type 0) and each
+    response sent (item_type 1), filled as LN 2.9 fills them (data: the
+    request or response as LN 2.9 puts it on the wire; client_id and
+    request_id pair the two items of a call). Unlike LN 2.9 the logged calls
+    never wait for the logger: items are queued (at most 10000 per client)
+    and sent by a library thread. Kept across manager restarts. */
 LN_API int ln_register_as_service_logger(ln_client clnt, const char* logger_service_name,
                                          const char* service_name_patterns_to_log);
 
 /**@}*/
 
 /* ======================================================================== */
-/** @name Topic loggers (recording by the daemons) */
+/** @name Topic loggers
+    A logger records topics at the publisher's side: the ln_manager maps
+    each publisher's shared-memory segment and copies its packets into a ring
+    of log_size samples per topic (there are no daemons in ln_core). It is
+    not a subscriber (ln_has_subscriber(), ln_list_topics() do not count it).
+    A logger is a name the manager knows from its first enable on, for every
+    client; its recording stays in the manager until the logger is enabled
+    again, also after the publisher (or the client that enabled it) is gone.
+    Publishers on another host (network namespace) cannot be recorded:
+    enabling such a topic fails with -LNE_REQUEST_FAILED. */
 /* ======================================================================== */
 /**@{*/
 
-/** A named recording of topics, kept in memory by the daemons. */
+/** A named recording of topics, made and kept by the manager. */
 typedef void* ln_logger;
 /** Downloaded or loaded logger contents. */
 typedef void* ln_logger_data;
 
-/** Returns the logger of that name, creating it on first use. Owned by the
-    client. */
+/** Returns the logger of that name, creating it on first use (the same
+    handle for the same name). Owned by the client. */
 LN_API int ln_client_get_logger(ln_client clnt, ln_logger* logger, const char* logger_name);
-/** Records a topic: @p log_size samples in a ring, every @p divisor-th
-    packet. */
+/** Adds a topic to record (or changes the settings of one added before):
+    the newest @p log_size samples (>= 1; -LNE_INVALID_PARAMETER for 0),
+    every @p divisor-th packet counted from ln_logger_enable() (0 counts as
+    1). The topic need not be published yet: it is recorded from the moment
+    it is. Takes effect with the next ln_logger_enable(). */
 LN_API int ln_logger_add_topic(ln_logger logger, const char* topic_name, unsigned int log_size, unsigned int divisor);
-/** ln_logger_add_topic() for sizes beyond 32 bits. */
+/** ln_logger_add_topic() for sizes beyond 32 bits. Logs that do not fit the
+    manager's memory fail at ln_logger_enable() with -LNE_NO_MEM. */
 LN_API int ln_logger_add_topic64(ln_logger logger, const char* topic_name, uint64_t log_size, unsigned int divisor);
-/** Removes all topics from the logger. */
+/** Removes all topics from the logger (takes effect with the next enable). */
 LN_API int ln_logger_clear_topics(ln_logger logger);
-/** Non-zero: record timestamps only, no packet data. */
+/** Non-zero: record only the sample headers (timestamps and packet
+    counters), no packet data; samples are then 20 bytes. */
 LN_API int ln_logger_set_only_ts(ln_logger logger, int only_ts);
-/** Starts recording. */
+/** Starts a new recording of the added topics (the previous samples of the
+    logger are dropped); returns once every published topic records.
+    -LNE_NO_LOGGER_TOPICS without topics. */
 LN_API int ln_logger_enable(ln_logger logger);
-/** Stops recording. */
+/** Stops recording; the packets written before are recorded. */
 LN_API int ln_logger_disable(ln_logger logger);
-/** Fetches the recording through the manager. @p *logger_data belongs to
-    the logger and is replaced by its next download. */
+/** Fetches the recording through the manager: every topic of the logger in
+    its order, the samples oldest first (while enabled: as recorded so far).
+    Can be repeated. @p *logger_data belongs to the logger and is replaced
+    (freed) by its next download. -LNE_REQUEST_FAILED for a logger that was
+    never enabled. */
 LN_API int ln_logger_download(ln_logger logger, ln_logger_data* logger_data);
-/** As ln_logger_download(), fetching directly from the daemons. */
+/** As in LN 2.9: disables the logger, then downloads (the manager holds
+    the data, so there is no more direct way). */
 LN_API int ln_logger_direct_download(ln_logger logger, ln_logger_data* logger_data);
-/** Lets the manager save the recording to a file on its host.
-    @param format file format, "auto" chooses by file name. */
+/** Lets the manager write the recording to a file on its host.
+    @param format "raw" (the samples of a one-topic logger back to back),
+    "pcap" (LN's recorder format), "mat" (MATLAB 5), "mat4" (MATLAB 4), or
+    "auto"/NULL: chosen by the file name's extension (.raw, .pcap, .mat).
+    "pickle" is refused: the manager is not a Python program. */
 LN_API int ln_logger_manager_save(ln_logger logger, const char* filename, const char* format);
-/** Writes logger data to a file. */
+/** Writes logger data to a file in LN 2.9's format (loadable by LN 2.9).
+    On failure ln_get_error_message(NULL) says why. */
 LN_API int ln_logger_data_save(ln_logger_data logger_data, const char* filename);
-/** Loads logger data from a file; free it with ln_logger_data_deinit(). */
+/** Loads logger data from a file written by ln_logger_data_save() (also by
+    LN 2.9); free it with ln_logger_data_deinit(). A file of the other byte
+    order: -LNE_WRONG_BYTE_ORDER; a newer format: -LNE_LOG_FILE_TOO_NEW; a
+    damaged file: -LNE_INVALID_PARAMETER; ln_get_error_message(NULL) says
+    why. */
 LN_API int ln_logger_data_load(ln_logger_data* logger_data, const char* filename);
 /** Frees logger data obtained from ln_logger_data_load() (not from a
-    download) and sets *logger_data to NULL. */
+    download: -LNE_INVALID_PARAMETER) and sets *logger_data to NULL. */
 LN_API int ln_logger_data_deinit(ln_logger_data* logger_data);
 
 #include "packed.h"
 /** One recorded sample; samples of a topic are sample_size bytes apart. */
 typedef struct LN_PACKED {
-  double log_ts;           /**< when the daemon recorded it */
+  double log_ts;           /**< when the manager's recorder copied it (wall clock;
+                                it polls, so up to a few ms after the write) */
   double src_ts;           /**< the publisher's timestamp */
-  uint32_t packet_counter; /**< the publisher's packet counter */
+  uint32_t packet_counter; /**< the publisher's packet counter (low 32 bits) */
   uint8_t data;            /**< first byte of the packet (absent with only_ts) */
 } logger_sample;
 #include "endpacked.h"
@@ -825,15 +867,18 @@ struct logger_topic_ {
   uint32_t divisor;
   /* Filled in by a download or load: */
   uint32_t n_samples;
-  uint32_t sample_size;    /**< distance between samples in bytes */
-  char* md_name;
-  char* md;
-  logger_sample* samples;
+  uint32_t sample_size;    /**< distance between samples in bytes: 20 + message
+                                size, 20 with only_ts, 0 for a topic never seen
+                                published */
+  char* md_name;           /**< message definition name ("" if never seen) */
+  char* md;                /**< the definition in LN 2.9's Python dict notation */
+  logger_sample* samples;  /**< n_samples samples, oldest first */
 };
 
 /** Number of topics in logger data. */
 LN_API int ln_logger_data_get_info(ln_logger_data logger_data, unsigned int* n_topics);
-/** Topic @p topic_id (0-based) of logger data; belongs to the data. */
+/** Topic @p topic_id (0-based) of logger data; belongs to the data.
+    -LNE_TOPIC_ID_OUT_OF_RANGE beyond the last topic. */
 LN_API int ln_logger_data_get_topic(ln_logger_data logger_data, unsigned int topic_id, logger_topic** topic);
 
 /**@}*/
@@ -843,9 +888,22 @@ LN_API int ln_logger_data_get_topic(ln_logger_data logger_data, unsigned int top
 /* ======================================================================== */
 /**@{*/
 
+/* Events, as LN 2.9 has them. Connecting to event NAME registers the
+   handler service "NAME.<client name>" (interface ln/event/call) in the
+   client's default service group; whoever emits the event calls that
+   service with the flat call data and "<definition>: <call signature>", so
+   the handler runs in the thread that handles the default group
+   (ln_wait_and_handle_service_group_requests() or a thread pool), one event
+   at a time. The ln_manager emits "ln.resource_event" (definition
+   ln/resource_event): connect with four fnmatch patterns (event, name, md,
+   client) to hear of service providers, topic publishers and subscribers
+   coming and going, after an initial sync ending with "initial_sync_done".
+   Other "ln.*" names fail with -LNE_REQUEST_FAILED; events with other names
+   need no manager: a program emits them by calling the handler service. */
+
 /** Subscription to an event source. */
 typedef void* ln_event_connection;
-/** One event being delivered. */
+/** One event being delivered (valid during the handler). */
 typedef void* ln_event_call;
 
 /** Receives an event; runs in the thread that handles the client's default
@@ -853,8 +911,11 @@ typedef void* ln_event_call;
 typedef void (*ln_event_handler)(ln_client clnt, ln_event_call call, void* user_data);
 
 /** Connects to an event source.
-    @param connect_signature the generated *_CONNECT_SIGNATURE.
-    @param connect_data the generated *_connect_t struct (filters). */
+    @param connect_signature the generated *_CONNECT_SIGNATURE
+           ("<definition>: <signature>"; else -LNE_INVALID_SIGNATURE).
+    @param connect_data the generated *_connect_t struct (filters).
+    @return 0, -LNE_REQUEST_FAILED when this client is connected to the
+            event already or the manager refuses (ln_get_error_message()). */
 LN_API int ln_event_connect(ln_client clnt, ln_event_connection* conn, const char* event_name,
                             const char* connect_signature, void* connect_data,
                             ln_event_handler handler, void* user_data);
@@ -863,14 +924,18 @@ LN_API int ln_event_connect_flat(ln_client clnt, ln_event_connection* conn, cons
                                  const char* connect_signature, void* connect_data_flat,
                                  uint32_t connect_data_flat_len, ln_event_handler handler,
                                  void* user_data);
-/** Disconnects and releases; sets *conn to NULL. */
+/** Disconnects (no event reaches the handler afterwards) and releases; sets
+    *conn to NULL. */
 LN_API int ln_event_connection_deinit(ln_event_connection* conn);
-/** Client-unique id of a connection. */
+/** The connection's id, unique per client from 1 (LN 2.9 gives 0 to every
+    connection to an event that is not "ln.*"). */
 LN_API unsigned int ln_event_connection_get_id(ln_event_connection conn);
 /** Unpacks an event into @p call_data (the generated *_call_t struct);
-    @p call_signature is the generated *_CALL_SIGNATURE. */
+    @p call_signature is the generated *_CALL_SIGNATURE and must be the one
+    the event came with (else -LNE_SVC_REQ_SET_DATA_WRONG); malformed event
+    data: -LNE_SVC_RECV_REQ. Dynamic fields point into the call's memory. */
 LN_API int ln_event_call_set_data(ln_event_call call, const char* call_signature, void* call_data);
-/** Raw event bytes (belong to the call). */
+/** The event's flat call data (belongs to the call). */
 LN_API int ln_event_call_get_buffer(ln_event_call call, void** ptr, uint32_t* len);
 
 /**@}*/
@@ -880,30 +945,48 @@ LN_API int ln_event_call_get_buffer(ln_event_call call, void** ptr, uint32_t* le
 /* ======================================================================== */
 /**@{*/
 
-/** Sets a named tuning parameter of the client library. */
+/** Sets a named setting of the client (LN 2.9's names): "debug" (the
+    LN_DEBUG level, 0 = quiet), "reconnect_interval" (the longest wait, in
+    seconds, between attempts to reach a restarted manager; 0 < value <=
+    3600), "win32_async_ping_timeout", "win32_async_ping_interval",
+    "win32_wait_for_service_request_timeout" (accepted; for Windows only).
+    "__LN_CPP_WRAPPER_VERSION" answers 0 even without a client.
+    @return 0; -LNE_UNKNOWN_PARAMETER for other names, -LNE_INVALID_PARAMETER
+            for a value out of range or a NULL name. (Parameters that programs
+            expose to others are a different thing: ln/parameters_c.h.) */
 LN_API int ln_client_set_float_parameter(ln_client clnt, const char* name, float value);
 
-/** Build features of the shared-memory implementation (LN 2.9 diagnostics);
-    each output is 0 or 1. */
+/** Features of the shared-memory implementation (LN 2.9 diagnostics), each
+    0 or 1: blocking reads sleep in futex(2) (1 on Linux), and the library
+    was built against glibc 2.25 or later. NULL outputs are skipped. */
 LN_API void ln_get_v16_features(unsigned int* is_with_sys_futex, unsigned int* is_glibc_atleast_2_25);
 
-/** Signs a message with a DSA private key (PEM file), as used to
-    authenticate with daemons. @p *signature_out is malloc()ed; the caller
-    frees it. */
+/** DSA signatures with SHA-1 ("DSS1"; OpenSSL's libcrypto does the work),
+    interchangeable with LN 2.9's: keys in its files (a traditional PEM
+    "BEGIN DSA PRIVATE KEY" file, an OpenSSH "ssh-dss ..." public key line),
+    signatures DER-encoded. These functions return 0 on success, else
+    -LNE_CHECK_ERRNO when a file cannot be read or written (errno says why;
+    EINVAL: not a DSA key in the expected format), -LNE_INVALID_PARAMETER for
+    a NULL argument.
+    Signs @p message with the private key; @p *signature_out is malloc()ed,
+    the caller frees it. */
 LN_API int ln_dsa_dss1_sign_message(const char* pem_private_key_filename, const uint8_t* message,
                                     unsigned int message_len, uint8_t** signature_out,
                                     unsigned int* signature_out_len);
 /** Verifies a signature against an OpenSSH public key file.
-    @return 0 valid, -LNE_INVALID_SIGNATURE invalid, other < 0 on error. */
+    @return 0 valid, -LNE_INVALID_DSA_SIGNATURE when it does not verify (also
+    when it is no DER signature at all), other < 0 on error. */
 LN_API int ln_dsa_dss1_verify_message_signature(const char* openssh_public_key_filename,
                                                 const uint8_t* message, unsigned int message_len,
                                                 const uint8_t* signature, unsigned int signature_len);
-/** As ln_dsa_dss1_verify_message_signature() with the key given as text. */
+/** As ln_dsa_dss1_verify_message_signature() with the key line given as text
+    (a trailing comment is allowed). */
 LN_API int ln_dsa_dss1_verify_message_signature_memkey(const char* openssh_public_key_contents,
                                                        const uint8_t* message, unsigned int message_len,
                                                        const uint8_t* signature,
                                                        unsigned int signature_len);
-/** Writes a new DSA key pair: PEM private key and OpenSSH public key. */
+/** Writes a new 1024-bit DSA key pair: the PEM private key (mode 0600) and
+    the OpenSSH public key; existing files are replaced atomically. */
 LN_API int ln_dsa_dss1_generate_key_pair(const char* pem_private_key_filename,
                                          const char* openssh_public_key_filename);
 
@@ -911,8 +994,26 @@ LN_API int ln_dsa_dss1_generate_key_pair(const char* pem_private_key_filename,
 
 /* ======================================================================== */
 /** @name Low-level shared-memory rings
-    Used by the daemons and tools; programs use ports instead. These return 0
-    on success; on failure see errno. */
+    Named segments (/dev/shm/NAME) in LN 2.9's byte layout, shared by name
+    between processes; topics do not use them (ports do that for you).
+    Either side creates the segment (create_*: replaces one of that name;
+    version 0..3, n_elements >= 1), the other opens it (open_*); close_*
+    detaches, destroy_* also removes the name. A target writes packets of up
+    to element_size bytes (get_next_buffer_from_shm_target() + a write with
+    data NULL writes in place); a source reads them in order, each once,
+    only those written after it attached; a reader that fell n_elements or
+    more behind continues with the oldest packet still in the ring.
+    read_last_from_shm_source() returns the newest packet again and again.
+    Reads return 1 (a packet: the timestamp, the packet's number in
+    *packet_counter and min(len, element_size) bytes), 0 (none; after a wait
+    that timed out errno is ETIMEDOUT), -2 when unblock_shm_source() ended
+    the wait. Version-3 segments interoperate with LN 2.9 processes in both
+    directions (versions 0..2 only among ln_core processes). Other failures
+    are < 0 with errno set: -1 (-LNE_CHECK_ERRNO) for system errors (ENOENT
+    ...), -LNE_INVALID_SHM_MAGIC, -LNE_SHM_VERSION_TOO_NEW,
+    -LNE_WRONG_SHM_SIZE, -LNE_SHM_NAME_TOO_LONG, -LNE_PACKET_TOO_LARGE,
+    -LNE_INVALID_PARAMETER (NULL or stale handles, no elements). One writer
+    at a time; the packet counter passed to reads is only written. */
 /* ======================================================================== */
 /**@{*/
 
@@ -930,6 +1031,8 @@ LN_API int create_shm_source(shm_source_t*, const char* name, unsigned int eleme
                              unsigned int version);
 LN_API int destroy_shm_source(shm_source_t*);
 LN_API int open_shm_source(shm_source_t*, const char* name);
+/** The newest packet's number (0: none yet). Takes the handle or, as LN
+    2.9's library does, the handle itself cast to shm_source_t*. */
 LN_API int shm_source_get_last_counter(shm_source_t* source_, uint32_t* counter);
 LN_API int close_shm_source(shm_source_t*);
 LN_API int read_from_shm_source(shm_source_t, double* ts, uint32_t* packet_counter, void* data, unsigned int len,
@@ -938,6 +1041,9 @@ LN_API int read_from_shm_source_timeout(shm_source_t, double* ts, uint32_t* pack
                                         unsigned int len, double timeout);
 LN_API int read_last_from_shm_source(shm_source_t, double* ts, uint32_t* packet_counter, void* data,
                                      unsigned int len);
+/** Waits until the segment's newest packet number differs from
+    *packet_counter (timeout < 0: no limit), stores it there and counts it as
+    read: 1, 0 (timeout, errno ETIMEDOUT) or -2 (unblocked). */
 LN_API int block_only_on_shm_source(shm_source_t source_, uint32_t* packet_counter, double timeout);
 LN_API int unblock_shm_source(shm_source_t source_);
 
@@ -1147,10 +1253,85 @@ LN_API int ln_list_services(ln_client clnt, ln_service_info** services, unsigned
     @return as ln_list_topics(). */
 LN_API int ln_get_manager_status(ln_client clnt, ln_manager_status** status);
 
+/** A copy of logger data that belongs to the caller (free it with
+    ln_logger_data_deinit()): a download kept beyond the logger's next one.
+    @return 0, or -LNE_INVALID_PARAMETER for an invalid handle. */
+LN_API int ln_logger_data_copy(ln_logger_data logger_data, ln_logger_data* copy);
+
 /** Releases the result of ln_list_topics(), ln_list_clients(),
-    ln_list_services() or ln_get_manager_status(); NULL does nothing. Every
-    pointer into the block becomes invalid. */
+    ln_list_services(), ln_get_manager_status(), ln_list_processes() or
+    ln_get_process_output(); NULL does nothing. Every pointer into the block
+    becomes invalid. */
 LN_API void ln_free_list(void* list);
+
+/**@}*/
+
+/* ======================================================================== */
+/** @name ln_core: processes, states and groups of the manager
+    The manager runs what its .lnc config describes (process, state and
+    group sections). These calls list them, start and stop them and read
+    their output, as `ln process|state|group` does. A manager without a
+    config that has any lists nothing. */
+/* ======================================================================== */
+/**@{*/
+
+/** One process, state or group (ln_list_processes()). */
+typedef struct ln_process_info {
+  const char* name;
+  const char* kind;       /**< "process", "state" or "group" */
+  /** processes: "stopped", "starting" (waiting for its dependencies),
+      "started" (runs; not ready yet, or without a ready condition), "ready",
+      "stopping", "restarting" (waiting for its automatic restart), "failed";
+      states: "UP", "DOWN", "unknown", "checking", "going up", "going down",
+      "error"; groups: "N/M running" */
+  const char* state;
+  const char* requested;  /**< on its way: "start", "stop", "up", "down", "check" or "" */
+  int64_t pid;            /**< 0 when it does not run */
+  double uptime;          /**< seconds since it started; 0 when it does not run */
+  unsigned int restarts;  /**< automatic restarts so far */
+  /** Processes: ready (or running without a ready condition); states: UP;
+      groups: every member process runs. */
+  int ready;
+  const char* last_exit;  /**< how it ended last: "exit status 3", "killed by SIGKILL", "" */
+  const char* error;      /**< why it failed or cannot start, "" */
+  const char* command;    /**< a process's command, a state's check command */
+  /** What it depends on (NULL-terminated): "a|b" is satisfied by either
+      (providers), "!s" needs state s DOWN. */
+  const char* const* depends_on;
+  const char* const* members;  /**< groups: their processes and states (NULL-terminated) */
+} ln_process_info;
+
+/** Lists the manager's processes, states and groups (in that order, each in
+    config order); memory and return values as ln_list_topics(). */
+LN_API int ln_list_processes(ln_client clnt, ln_process_info** processes, unsigned int* count);
+
+/** Asks the manager to start, stop or restart a process or group, or to
+    bring a state up or down or check it; returns once the manager accepted
+    the request (ln_list_processes() tells how it goes).
+    @param action "start", "stop", "restart" (processes, groups) or "up",
+           "down", "check" (states)
+    @param alt_command NULL, or the name of one of the process's
+           alt_command keys to start it with
+    @return 0, -LNE_INVALID_PARAMETER (no such name or action; see
+            ln_get_error_message()), -LNE_REQUEST_FAILED (refused: the flag
+            disable_stop, the manager shuts down), or another error. */
+LN_API int ln_control_process(ln_client clnt, const char* name, const char* action, const char* alt_command);
+
+/** Output of a process or state (ln_get_process_output()); lines are
+    numbered from 1 in the order the manager received them. */
+typedef struct ln_process_output {
+  const char* const* lines;  /**< NULL-terminated, oldest first, without newlines */
+  uint64_t first;            /**< number of lines[0] */
+  uint64_t last;             /**< number of the newest line the manager has (0: none yet) */
+  uint64_t dropped;          /**< lines after `after` that the manager no longer keeps */
+} ln_process_output;
+
+/** The lines a process or state printed after line number `after` (0: all
+    the manager keeps; see the config key max_output_lines); ask again with
+    `after` = last to follow it. Release with ln_free_list().
+    @return 0, -LNE_INVALID_PARAMETER (no such process or state), or
+            another error. */
+LN_API int ln_get_process_output(ln_client clnt, const char* name, uint64_t after, ln_process_output** output);
 
 /**@}*/
 

@@ -12,7 +12,9 @@ port.sample_info, service_wrapper.call_future(), request.respond_error(),
 client.wait_for_service(), client.set_*_availability_handler(),
 client.list_topics()/list_clients()/list_services()/get_manager_status()
 (introspection: topic_info, client_info, service_info, manager_status),
-client.close() and typed errors (LNError with .code, FieldError).
+client.list_processes()/control_process()/get_process_output() (the
+manager's processes: process_info, process_output),
+event_connection_wrapper.id/disconnect(), client.close() and typed errors (LNError with .code, FieldError).
 """
 
 from . import _ln
@@ -22,7 +24,14 @@ from ._errors import ERROR_CODES, LNError, error_name  # noqa: F401
 from ._packets import FieldError, FieldTypeError, FieldValueError, Part as ln_packet_part  # noqa: F401
 from ._client import client, port_wrapper, multi_waiter, borrowed_packet  # noqa: F401
 from ._services import service_wrapper, request_wrapper, ServiceFuture, SVC_RESP_LATER  # noqa: F401
+from ._events import event_connection_wrapper  # noqa: F401
 from ._introspection import topic_info, client_info, service_info, manager_status  # noqa: F401
+from ._loggers import logger, logger_data, logger_topic_, logger_data_wrapper, topic_cursor_wrapper  # noqa: F401
+from ._parameters import parameters_proxy, ParameterBlock, ParameterSignal, ParameterOutputs  # noqa: F401
+from ._ln import (  # noqa: F401  (parameter element types, as LN 2.9 exports them)
+    LN_PARAM_BOOLEAN, LN_PARAM_DOUBLE, LN_PARAM_INT16, LN_PARAM_INT32, LN_PARAM_INT64, LN_PARAM_INT8,
+    LN_PARAM_SINGLE, LN_PARAM_UINT16, LN_PARAM_UINT32, LN_PARAM_UINT64, LN_PARAM_UINT8)
+from ._introspection import process_info, process_output  # noqa: F401
 from ._mainloop import GLibMainloop, MainloopInterface, MainloopMultiWaiter, SelectMainloop  # noqa: F401
 from ._wrapped import (  # noqa: F401
     ServiceErrorResponse, service_provider, services_wrapper, wrapped_service, wrapped_service_provider)
@@ -34,6 +43,8 @@ LN_MANAGER_CLIENT_ID = 0xFFFFFFFF
 RATE_ON_REQUEST_NEXT = -3
 
 get_time = _ln.get_time
+dsa_dss1_sign_message = _ln.dsa_dss1_sign_message
+dsa_dss1_generate_key_pair = _ln.dsa_dss1_generate_key_pair
 get_monotonic_time = _ln.get_monotonic_time
 format_error = _ln.format_error
 from ._packets import ctor_name as get_packet_ctor_name  # noqa: E402,F401

@@ -20,6 +20,13 @@ def _close_all():
             pass
 
 
+def _checked_buffers(buffers):
+    count = int(buffers)
+    if count < 1:
+        raise ValueError("buffers must be at least 1, not %r" % (buffers,))
+    return count
+
+
 class client:
     """A connection to the ln_manager.
 
@@ -43,6 +50,7 @@ class client:
         self._compiler = Compiler()
         self._models = {}
         self._services = set()
+        self._event_connections = set()
         self._availability = {}
         _live_clients.add(self)
 
@@ -52,6 +60,8 @@ class client:
         for svc in list(self._services):
             svc._release()
         self._services.clear()
+        for connection in list(self._event_connections):
+            connection.disconnect()
         self._native.close()
 
     def __enter__(self):
@@ -125,9 +135,10 @@ class client:
 
     def publish(self, topic_name, message_definition_name="", buffers=1):
         """Becomes the publisher of a topic; returns its port."""
+        buffers = _checked_buffers(buffers)
         md_name = message_definition_name.split("|")[0]
         model, cls = self._topic_model(md_name)
-        native = _ln.OutPort(self._native, topic_name, message_definition_name, int(buffers))
+        native = _ln.OutPort(self._native, topic_name, message_definition_name, buffers)
         return port_wrapper(md_name, cls, native, self, topic_name)
 
     def subscribe(self, topic_name, message_definition_name=None, rate=-1, buffers=1,
@@ -138,9 +149,10 @@ class client:
         elif not isinstance(message_definition_name, str):
             raise TypeError("subscribe: message_definition_name must be None or a str, not %r"
                             % (message_definition_name,))
+        buffers = _checked_buffers(buffers)
         md_name = message_definition_name.split("|")[0]
         model, cls = self._topic_model(md_name)
-        native = _ln.InPort(self._native, topic_name, message_definition_name, float(rate), int(buffers),
+        native = _ln.InPort(self._native, topic_name, message_definition_name, float(rate), buffers,
                             bool(need_reliable_transport))
         return port_wrapper(md_name, cls, native, self, topic_name, need_reliable_transport)
 
@@ -152,6 +164,12 @@ class client:
 
     def get_multi_waiter(self):
         return multi_waiter(self)
+
+    # -- topic loggers ----------------------------------------------------
+    def get_logger(self, logger_name):
+        """The topic logger of that name (made on first use); the manager records."""
+        from ._loggers import logger
+        return logger(_ln.get_logger(self._native, logger_name))
 
     # -- services ---------------------------------------------------------
     def get_service(self, service_name, interface_name="", mainloop=None):
@@ -235,6 +253,23 @@ class client:
         definition search path, as ln.manager_status."""
         return _introspection.get_manager_status(self._native)
 
+    # -- processes of the manager's config (ln_core) ----------------------
+    def list_processes(self):
+        """ln_core: the manager's processes, states and groups, as a list of
+        ln.process_info (processes first, each kind in config order)."""
+        return _introspection.list_processes(self._native)
+
+    def control_process(self, name, action, alt_command=None):
+        """ln_core: asks the manager to "start", "stop" or "restart" a
+        process or group, or to bring a state "up", "down" or "check" it.
+        Returns once the manager accepted; list_processes() shows progress."""
+        _introspection.control_process(self._native, name, action, alt_command)
+
+    def get_process_output(self, name, after=0):
+        """ln_core: the lines a process or state printed after line number
+        `after`, as ln.process_output."""
+        return _introspection.get_process_output(self._native, name, after)
+
     # -- misc -------------------------------------------------------------
     def ping(self, timeout=-1):
         return self._native.ping(float(timeout))
@@ -254,17 +289,28 @@ class client:
     def _unsupported(self, what):
         raise LNError("%s is not supported by links_and_nodes on ln_core" % what, LNE_NOT_YET_IMPLEMENTED, 0)
 
-    def get_logger(self, logger_name):
-        self._unsupported("client.get_logger()")
-
     def get_parameters(self, parameter_group_prefix="", allow_empty=False):
-        self._unsupported("client.get_parameters()")
+        """The parameters other clients provide below `parameter_group_prefix`
+        (LN_PARAMETER_PREFIX in front), as a parameters_proxy; fails if there
+        are none, unless allow_empty."""
+        from ._parameters import parameters_proxy
+        return parameters_proxy(self, parameter_group_prefix, allow_empty)
 
     def parameter_block(self, parameter_group_name, always_publish=False, topic_name=""):
-        self._unsupported("client.parameter_block()")
+        """Parameters this program provides, named
+        "<LN_PARAMETER_PREFIX><parameter_group_name>.<name>": add(), register(),
+        then update() once per loop iteration (see ParameterBlock)."""
+        from ._parameters import ParameterBlock
+        return ParameterBlock(self, parameter_group_name, always_publish, topic_name)
 
-    def connect_to_event(self, *args, **kwargs):
-        self._unsupported("client.connect_to_event()")
+    def connect_to_event(self, event_name, event_md, callback, **connect_args):
+        """Connects `callback(event)` to event `event_name` of definition
+        `event_md` ("": the interface of the service named `event_name`);
+        `connect_args` set the connect fields (for ln.resource_event: the
+        fnmatch patterns event_pattern, name_pattern, md_pattern and
+        client_pattern). See links_and_nodes._events."""
+        from ._events import event_connection_wrapper
+        return event_connection_wrapper(self, event_name, event_md, callback, connect_args)
 
 
 class port_wrapper:
@@ -276,12 +322,34 @@ class port_wrapper:
         self.msg_def_name = md_name
         self.msg_def_hash = port.msg_def_hash
         self.port = port
-        self.packet = packet_class(name=md_name)
         self._packet_class = packet_class
+        self._packet = packet_class(name=md_name)
         self.need_reliable_transport = need_reliable_transport
         self.timestamp = 0
         self.sequence = 0
         self.lost = 0
+
+    @property
+    def packet(self):
+        """The message read() fills and write() sends."""
+        return self._packet
+
+    @packet.setter
+    def packet(self, value):
+        # Another packet of this port's definition, or exactly one message's
+        # bytes (copied in): anything else would only fail in write().
+        if isinstance(value, self._packet_class):
+            self._packet = value
+            return
+        size = self._packet._size
+        try:
+            data = memoryview(value).cast("B")
+        except TypeError:
+            raise TypeError("port.packet takes a packet of '%s' or a bytes-like object of its %d bytes, not %s"
+                            % (self.msg_def_name, size, type(value).__name__)) from None
+        if data.nbytes != size:
+            raise ValueError("port.packet: '%s' messages are %d bytes, got %d" % (self.msg_def_name, size, data.nbytes))
+        self._packet._decode(data)
 
     def read(self, blocking_or_timeout=True):
         """Returns `packet` updated with the next message, or None if there was

@@ -67,6 +67,49 @@ class manager_status(NamedTuple):
     message_definition_dirs: List[str]
 
 
+class process_info(NamedTuple):
+    """A process, state or group of the manager's config."""
+    name: str
+    #: "process", "state" or "group"
+    kind: str
+    #: processes: stopped, starting, started, ready, stopping, restarting,
+    #: failed; states: UP, DOWN, unknown, checking, going up, going down,
+    #: error; groups: "N/M running"
+    state: str
+    #: on its way: "start", "stop", "up", "down", "check" or ""
+    requested: str
+    #: 0 when it does not run
+    pid: int
+    #: seconds since it started, 0 when it does not run
+    uptime: float
+    #: automatic restarts so far
+    restarts: int
+    #: processes: ready; states: UP; groups: every member process runs
+    ready: bool
+    #: how it ended last ("exit status 3", "killed by SIGKILL"), ""
+    last_exit: str
+    #: why it failed or cannot start, ""
+    error: str
+    #: a process's command, a state's check command
+    command: str
+    #: what it depends on ("a|b": either; "!s": state s DOWN)
+    depends_on: List[str]
+    #: groups: their processes and states
+    members: List[str]
+
+
+class process_output(NamedTuple):
+    """Lines a process or state printed (client.get_process_output())."""
+    lines: List[str]
+    #: number of lines[0]
+    first: int
+    #: number of the newest line the manager has (0: none yet); ask again
+    #: with after=last to follow
+    last: int
+    #: lines after `after` the manager no longer keeps
+    dropped: int
+
+
 def list_topics(native):
     return [topic_info(**row) for row in _ln.list_topics(native)]
 
@@ -81,3 +124,15 @@ def list_services(native):
 
 def get_manager_status(native):
     return manager_status(**_ln.manager_status(native))
+
+
+def list_processes(native):
+    return [process_info(**row) for row in _ln.list_processes(native)]
+
+
+def control_process(native, name, action, alt_command=None):
+    _ln.control_process(native, name, action, alt_command or "")
+
+
+def get_process_output(native, name, after=0):
+    return process_output(**_ln.process_output(native, name, int(after)))

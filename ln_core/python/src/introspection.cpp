@@ -2,6 +2,7 @@
 
 #include <nanobind/stl/string.h>
 
+#include <cstdint>
 #include <memory>
 #include <string>
 
@@ -70,8 +71,28 @@ nb::dict as_dict(const ln_manager_status& status) {
   return d;
 }
 
+nb::dict as_dict(const ln_process_info& info) {
+  nb::dict d;
+  d["name"] = info.name;
+  d["kind"] = info.kind;
+  d["state"] = info.state;
+  d["requested"] = info.requested;
+  d["pid"] = info.pid;
+  d["uptime"] = info.uptime;
+  d["restarts"] = info.restarts;
+  d["ready"] = info.ready != 0;
+  d["last_exit"] = info.last_exit;
+  d["error"] = info.error;
+  d["command"] = info.command;
+  d["depends_on"] = names(info.depends_on);
+  d["members"] = names(info.members);
+  return d;
+}
+
+}  // namespace
+
 // Raises links_and_nodes.LNError as the rest of the module does: (message, code, 0).
-[[noreturn]] void raise(nb::handle ln_error, int ret, const std::string& what, ln_client handle) {
+[[noreturn]] void raise_ln_error(nb::handle ln_error, int ret, const std::string& what, ln_client handle) {
   std::string message = what + ": " + ln_format_error(ret);
   const char* detail = ln_get_error_message(handle);
   if (detail != nullptr && *detail != '\0') message += ": " + std::string(detail);
@@ -80,6 +101,8 @@ nb::dict as_dict(const ln_manager_status& status) {
   Py_XDECREF(args);
   throw nb::python_error();
 }
+
+namespace {
 
 // One ln_list_* call with the GIL released, its rows as dicts.
 template <typename Row>
@@ -94,7 +117,7 @@ nb::list list_of(WithClient with_client, nb::handle ln_error, nb::handle client,
       nb::gil_scoped_release release;
       ret = list(handle, &rows, &count);
     }
-    if (ret < 0) raise(ln_error, ret, what, handle);
+    if (ret < 0) raise_ln_error(ln_error, ret, what, handle);
     const std::unique_ptr<Row, FreeList> owned(rows);
     for (unsigned int i = 0; i < count; ++i) out.append(as_dict(rows[i]));
   });
@@ -134,13 +157,56 @@ void register_introspection(nb::module_& module, WithClient with_client) {
             nb::gil_scoped_release release;
             ret = ln_get_manager_status(handle, &status);
           }
-          if (ret < 0) raise(ln_error, ret, "get_manager_status", handle);
+          if (ret < 0) raise_ln_error(ln_error, ret, "get_manager_status", handle);
           const std::unique_ptr<ln_manager_status, FreeList> owned(status);
           out = as_dict(*status);
         });
         return out;
       },
       "client"_a, "The manager's status as a dict (see links_and_nodes.manager_status).");
+  module.def(
+      "list_processes",
+      [with_client, ln_error](nb::handle client) {
+        return list_of(with_client, ln_error, client, "list_processes", ln_list_processes);
+      },
+      "client"_a, "The manager's processes, states and groups, as dicts (see links_and_nodes.process_info).");
+  module.def(
+      "control_process",
+      [with_client, ln_error](nb::handle client, const std::string& name, const std::string& action,
+                              const std::string& alt_command) {
+        with_client(client, [&](ln_client handle) {
+          int ret;
+          {
+            nb::gil_scoped_release release;
+            ret = ln_control_process(handle, name.c_str(), action.c_str(), alt_command.c_str());
+          }
+          if (ret < 0) raise_ln_error(ln_error, ret, "control_process('" + name + "', '" + action + "')", handle);
+        });
+      },
+      "client"_a, "name"_a, "action"_a, "alt_command"_a = "",
+      "Asks the manager to start/stop/restart a process or group, or up/down/check a state.");
+  module.def(
+      "process_output",
+      [with_client, ln_error](nb::handle client, const std::string& name, std::uint64_t after) {
+        nb::dict out;
+        with_client(client, [&](ln_client handle) {
+          ln_process_output* output = nullptr;
+          int ret;
+          {
+            nb::gil_scoped_release release;
+            ret = ln_get_process_output(handle, name.c_str(), after, &output);
+          }
+          if (ret < 0) raise_ln_error(ln_error, ret, "get_process_output('" + name + "')", handle);
+          const std::unique_ptr<ln_process_output, FreeList> owned(output);
+          out["lines"] = names(output->lines);
+          out["first"] = output->first;
+          out["last"] = output->last;
+          out["dropped"] = output->dropped;
+        });
+        return out;
+      },
+      "client"_a, "name"_a, "after"_a = 0,
+      "Output lines of a process or state numbered after `after`, as a dict (see links_and_nodes.process_output).");
 }
 
 }  // namespace lnpy

@@ -20,6 +20,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <cstring>
 #include <memory>
@@ -29,6 +30,8 @@
 
 #include "ln/ln.h"
 #include "introspection.hpp"
+#include "loggers.hpp"
+#include "parameters.hpp"
 #include "model.hpp"
 
 namespace nb = nanobind;
@@ -65,6 +68,18 @@ std::string naming_the_code(std::string message, int code) {
   if (message.find("LNE_") != std::string::npos) return message;
   const std::string formatted = ln_format_error(-code);
   return message + " (" + formatted.substr(0, formatted.find(' ')) + ")";
+}
+
+// Names and texts go to the C API as C strings, where a NUL byte would cut
+// them: "a.b\0x" would silently publish "a.b".
+void require_no_nul(const std::string& value, const char* what) {
+  if (value.find('\0') != std::string::npos)
+    throw nb::value_error((std::string(what) + " must not contain NUL bytes: " +
+                           std::string(nb::repr(nb::str(value.data(), value.size())).c_str()))
+                              .c_str());
+}
+void require_no_nul(const std::optional<std::string>& value, const char* what) {
+  if (value) require_no_nul(*value, what);
 }
 
 [[noreturn]] void throw_closed() { throw Failure{LNE_CLIENT_NOT_INITIALIZED, "the client was closed"}; }
@@ -208,6 +223,8 @@ class Client {
  public:
   Client(const std::string& name, std::optional<std::string> manager, std::optional<std::vector<std::string>> argv)
       : state_(std::make_shared<ClientState>()) {
+    require_no_nul(name, "the client name");
+    require_no_nul(manager, "the manager address");
     int ret;
     ln_client handle = nullptr;
     if (argv) {
@@ -220,7 +237,13 @@ class Client {
       nb::gil_scoped_release release;
       ret = ln_init_to_manager(&handle, name.c_str(), manager ? manager->c_str() : nullptr);
     }
-    if (ret < 0) fail(ret, "cannot create client '" + name + "'");
+    if (ret < 0) {
+      // no client to ask: ln_get_error_message(NULL) tells why ln_init failed (ln_core)
+      std::string message = "cannot create client '" + name + "': " + ln_format_error(ret);
+      const char* detail = ln_get_error_message(nullptr);
+      if (detail != nullptr && *detail != '\0' && ret != -LNE_CHECK_ERRNO) message += ": " + std::string(detail);
+      throw Failure{-ret, message};
+    }
     state_->handle = handle;
   }
   ~Client() {
@@ -289,6 +312,7 @@ class Client {
   }
 
   nb::tuple get_message_definition(const std::string& name) {
+    require_no_nul(name, "the message definition name");
     Use use(*state_);
     char *md = nullptr, *hash = nullptr, *flat = nullptr;
     unsigned int size = 0;
@@ -305,6 +329,7 @@ class Client {
   }
 
   nb::tuple get_message_definition_for_topic(const std::string& topic) {
+    require_no_nul(topic, "the topic name");
     Use use(*state_);
     char *md_name = nullptr, *md = nullptr, *hash = nullptr;
     unsigned int size = 0;
@@ -321,6 +346,7 @@ class Client {
   }
 
   std::string describe_message_definition(const std::string& name) {
+    require_no_nul(name, "the message definition name");
     Use use(*state_);
     char* text = nullptr;
     check(ln_describe_message_definition(state_->handle, name.c_str(), &text), "describe_message_definition");
@@ -328,6 +354,8 @@ class Client {
   }
 
   std::string put_message_definition(const std::string& name, const std::string& text) {
+    require_no_nul(name, "the message definition name");
+    require_no_nul(text, "the message definition text");
     Use use(*state_);
     char* real = nullptr;
     check(ln_put_message_definition(state_->handle, name.c_str(), text.c_str(), &real), "put_message_definition");
@@ -335,6 +363,8 @@ class Client {
   }
 
   nb::tuple locate_member(const std::string& md_name, const std::string& member) {
+    require_no_nul(md_name, "the message definition name");
+    require_no_nul(member, "the member");
     Use use(*state_);
     unsigned int offset = 0, length = 0;
     check(ln_locate_member_in_message_definition(state_->handle, md_name.c_str(), member.c_str(), &offset, &length),
@@ -344,6 +374,8 @@ class Client {
 
   // The model of a definition as the manager knows it (or of `text`).
   nb::dict model(const std::string& name, std::optional<std::string> text) {
+    require_no_nul(name, "the message definition name");
+    require_no_nul(text, "the message definition text");
     Use use(*state_);
     ln_client handle = state_->handle;
     if (!text) {  // the manager's error (LN 2.9: LNE_REQUEST_FAILED) for an unknown definition
@@ -362,6 +394,7 @@ class Client {
   }
 
   nb::tuple get_service_signature(const std::string& interface) {
+    require_no_nul(interface, "the service interface");
     Use use(*state_);
     char *definition = nullptr, *signature = nullptr;
     int ret;
@@ -376,6 +409,7 @@ class Client {
   }
 
   nb::tuple get_service_signature_for_service(const std::string& service) {
+    require_no_nul(service, "the service name");
     Use use(*state_);
     char *interface = nullptr, *definition = nullptr, *signature = nullptr;
     int ret;
@@ -391,6 +425,7 @@ class Client {
   }
 
   std::vector<std::string> find_services_with_interface(const std::string& interface) {
+    require_no_nul(interface, "the service interface");
     Use use(*state_);
     char* services = nullptr;
     check(ln_client_find_services_with_interface(state_->handle, interface.c_str(), &services),
@@ -408,6 +443,7 @@ class Client {
   }
 
   void needs_provider(const std::string& name, double timeout) {
+    require_no_nul(name, "the service or topic name");
     Use use(*state_);
     int ret;
     {
@@ -418,6 +454,7 @@ class Client {
   }
 
   bool wait_for_service(const std::string& name, double timeout) {
+    require_no_nul(name, "the service name");
     Use use(*state_);
     const int ret = wait_in_slices(timeout, state_.get(), [&](double slice) {
       const int r = ln_wait_for_service(state_->handle, name.c_str(), slice);
@@ -428,6 +465,7 @@ class Client {
   }
 
   void wait_and_handle_service_group_requests(std::optional<std::string> group, double timeout) {
+    require_no_nul(group, "the service group name");
     Use use(*state_);
     const char* group_name = group ? group->c_str() : nullptr;
     {
@@ -468,34 +506,43 @@ class Client {
   }
 
   void handle_service_group_in_thread_pool(std::optional<std::string> group, const std::string& pool) {
+    require_no_nul(group, "the service group name");
+    require_no_nul(pool, "the thread pool name");
     Use use(*state_);
     check(ln_handle_service_group_in_thread_pool(state_->handle, group ? group->c_str() : nullptr, pool.c_str()),
           "handle_service_group_in_thread_pool");
   }
   void remove_service_group_from_thread_pool(std::optional<std::string> group) {
+    require_no_nul(group, "the service group name");
     Use use(*state_);
     nb::gil_scoped_release release;  // waits for running handlers, which need the GIL
     check_nogil(ln_remove_service_group_from_thread_pool(state_->handle, group ? group->c_str() : nullptr),
                 "remove_service_group_from_thread_pool");
   }
   void unblock_service_group(std::optional<std::string> group) {
+    require_no_nul(group, "the service group name");
     Use use(*state_);
     check(ln_unblock_service_group(state_->handle, group ? group->c_str() : nullptr), "unblock_service_group");
   }
   void set_max_threads(const std::string& pool, unsigned int n) {
+    require_no_nul(pool, "the thread pool name");
     Use use(*state_);
     check(ln_set_max_threads(state_->handle, pool.c_str(), n), "set_max_threads");
   }
   void thread_pool_setschedparam(const std::string& pool, int policy, int priority, unsigned int affinity) {
+    require_no_nul(pool, "the thread pool name");
     Use use(*state_);
     check(ln_thread_pool_setschedparam(state_->handle, pool.c_str(), policy, priority, affinity),
           "thread_pool_setschedparam");
   }
   void set_float_parameter(const std::string& name, float value) {
+    require_no_nul(name, "the parameter name");
     Use use(*state_);
     check(ln_client_set_float_parameter(state_->handle, name.c_str(), value), "set_float_parameter");
   }
   void register_as_service_logger(const std::string& service, const std::string& patterns) {
+    require_no_nul(service, "the service name");
+    require_no_nul(patterns, "the service name patterns");
     Use use(*state_);
     check(ln_register_as_service_logger(state_->handle, service.c_str(), patterns.c_str()),
           "register_as_service_logger");
@@ -506,6 +553,7 @@ class Client {
   }
 
   void set_availability_handler(bool service, const std::string& name, nb::object callback) {
+    require_no_nul(name, service ? "the service name" : "the topic name");
     Use use(*state_);
     AvailabilityHandler* handler = callback.is_none() ? nullptr : new AvailabilityHandler{callback};
     int ret;
@@ -553,6 +601,8 @@ class OutPort {
  public:
   OutPort(Client& client, const std::string& topic, const std::string& md_name, unsigned int buffers)
       : state_(client.state()) {
+    require_no_nul(topic, "the topic name");
+    require_no_nul(md_name, "the message definition name");
     Use use(*state_);
     int ret;
     {
@@ -643,6 +693,8 @@ class InPort {
   InPort(Client& client, const std::string& topic, const std::string& md_name, double rate, unsigned int buffers,
          bool reliable)
       : state_(client.state()) {
+    require_no_nul(topic, "the topic name");
+    require_no_nul(md_name, "the message definition name");
     Use use(*state_);
     int ret;
     {
@@ -974,6 +1026,7 @@ class Request {
     responded = true;
   }
   void respond_error(int code, const std::string& message) {
+    require_no_nul(message, "the error message");
     check(ln_service_request_respond_error(get(), code, message.c_str()), "respond_error");
     responded = true;
   }
@@ -1005,6 +1058,9 @@ class Service {
  public:
   Service(Client& client, const std::string& name, const std::string& interface, const std::string& signature)
       : state_(client.state()), name_(name) {
+    require_no_nul(name, "the service name");
+    require_no_nul(interface, "the service interface");
+    require_no_nul(signature, "the service signature");
     Use use(*state_);
     int ret;
     {
@@ -1130,6 +1186,7 @@ class Service {
   }
 
   void register_in_group(std::optional<std::string> group) {
+    require_no_nul(group, "the service group name");
     Use use(*state_);
     int ret;
     ln_service svc = get();
@@ -1229,6 +1286,53 @@ class Service {
   static inline bool interruptible_ = true;
 };
 
+// ---------------------------------------------------------------- events
+
+// An event connection (ln_event_connect_flat): `callback(data)` gets each
+// event's flat call data in the thread that handles the client's default
+// service group, with the GIL; links_and_nodes/_events.py unpacks it.
+class EventConnection {
+ public:
+  EventConnection(Client& client, const std::string& name, const std::string& connect_signature,
+                  nb::bytes connect_flat, nb::object callback)
+      : state_(client.state()), callback_(std::move(callback)) {
+    Use use(*state_);
+    int ret;
+    {
+      nb::gil_scoped_release release;
+      ret = ln_event_connect_flat(state_->handle, &connection_, name.c_str(), connect_signature.c_str(),
+                                  const_cast<char*>(connect_flat.c_str()), static_cast<uint32_t>(connect_flat.size()),
+                                  &EventConnection::deliver, this);
+    }
+    if (ret < 0) fail(ret, "connect_to_event('" + name + "')", state_->handle);
+  }
+  ~EventConnection() { disconnect(); }
+
+  void disconnect() {
+    if (connection_ == nullptr) return;
+    nb::gil_scoped_release release;  // waits for a running handler, which needs the GIL
+    ln_event_connection_deinit(&connection_);
+  }
+  unsigned int id() const { return connection_ != nullptr ? ln_event_connection_get_id(connection_) : 0; }
+
+ private:
+  static void deliver(ln_client, ln_event_call call, void* self) {
+    void* data = nullptr;
+    uint32_t len = 0;
+    if (_Py_IsFinalizing() || ln_event_call_get_buffer(call, &data, &len) != 0) return;
+    nb::gil_scoped_acquire acquire;
+    try {
+      static_cast<EventConnection*>(self)->callback_(nb::bytes(static_cast<const char*>(data), len));
+    } catch (nb::python_error& error) {
+      error.discard_as_unraisable("links_and_nodes event callback");
+    }
+  }
+
+  StatePtr state_;
+  ln_event_connection connection_ = nullptr;
+  nb::object callback_;
+};
+
 }  // namespace
 }  // namespace lnpy
 
@@ -1270,6 +1374,33 @@ NB_MODULE(_ln, m) {
         "chained to abort the call, then Python's handler runs).");
   m.def("interruptible_calls", &Service::interruptible);
 
+  // DSA helpers (LN 2.9's Python has these two): a failure names the file
+  // and, for file errors, errno's reason.
+  auto check_dsa = [](int ret, const std::string& what) {
+    if (ret == -LNE_CHECK_ERRNO) fail(ret, what + " (" + std::strerror(errno) + ")");
+    if (ret < 0) fail(ret, what);
+  };
+  m.def("dsa_dss1_sign_message",
+        [check_dsa](const std::string& key_file, nb::handle message) {
+          if (!PyBytes_Check(message.ptr())) throw nb::value_error("dsa_dss1_sign_message: message is not a bytes object");
+          uint8_t* signature = nullptr;
+          unsigned int length = 0;
+          check_dsa(ln_dsa_dss1_sign_message(key_file.c_str(), reinterpret_cast<const uint8_t*>(PyBytes_AS_STRING(message.ptr())),
+                                             static_cast<unsigned int>(PyBytes_GET_SIZE(message.ptr())), &signature, &length),
+                    "dsa_dss1_sign_message('" + key_file + "')");
+          nb::bytes out(reinterpret_cast<const char*>(signature), length);
+          std::free(signature);
+          return out;
+        },
+        "pem_private_key_file"_a, "message"_a, "The DSA/SHA-1 signature (DER) of `message` (bytes).");
+  m.def("dsa_dss1_generate_key_pair",
+        [check_dsa](const std::string& private_file, const std::string& public_file) {
+          check_dsa(ln_dsa_dss1_generate_key_pair(private_file.c_str(), public_file.c_str()),
+                    "dsa_dss1_generate_key_pair('" + private_file + "', '" + public_file + "')");
+        },
+        "pem_private_key_file"_a, "openssh_public_key_file"_a,
+        "Writes a new DSA key pair: PEM private key (mode 0600), OpenSSH public key.");
+
   m.def("model_from_sources",
         [](const std::string& name, const std::map<std::string, std::string>& sources) {
           return build_model(name, std::nullopt, [&](const std::string& wanted) -> std::optional<std::string> {
@@ -1291,6 +1422,9 @@ NB_MODULE(_ln, m) {
            "name"_a, "manager"_a = nb::none(), "argv"_a = nb::none())
       .def("close", &Client::close)
       .def_prop_ro("closed", &Client::closed)
+      // The C API's ln_client, for compiled code in this process that uses the
+      // same connection (ln_ros2_bridge's data path); 0 once closed.
+      .def_prop_ro("handle", [](const Client& c) { return reinterpret_cast<std::uintptr_t>(c.handle()); })
       .def_prop_ro("name", &Client::name)
       .def("get_remaining_args", &Client::remaining_args)
       .def("ping", &Client::ping, "timeout"_a = -1.0)
@@ -1317,6 +1451,12 @@ NB_MODULE(_ln, m) {
       .def("register_as_service_logger", &Client::register_as_service_logger)
       .def("set_availability_handler", &Client::set_availability_handler, "service"_a, "name"_a,
            "callback"_a.none());
+
+  nb::class_<EventConnection>(m, "EventConnection")
+      .def(nb::init<Client&, const std::string&, const std::string&, nb::bytes, nb::object>(), "client"_a,
+           "name"_a, "connect_signature"_a, "connect_flat"_a, "callback"_a)
+      .def("disconnect", &EventConnection::disconnect)
+      .def_prop_ro("id", &EventConnection::id);
 
   nb::class_<OutPort>(m, "OutPort")
       .def(nb::init<Client&, const std::string&, const std::string&, unsigned int>())
@@ -1375,9 +1515,12 @@ NB_MODULE(_ln, m) {
       .def("get_fd", &Service::get_fd)
       .def("release", &Service::release);
 
-  register_introspection(m, [](nb::handle client, const std::function<void(ln_client)>& body) {
+  const WithClient with_client = [](nb::handle client, const std::function<void(ln_client)>& body) {
     Client& native = nb::cast<Client&>(client);
     Use use(*native.state());
     body(native.handle());
-  });
+  };
+  register_introspection(m, with_client);
+  register_loggers(m, with_client);
+  register_parameters(m, with_client);
 }

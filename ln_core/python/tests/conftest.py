@@ -9,7 +9,8 @@ Environment (set by ctest, see python.cmake; otherwise searched):
 links_and_nodes itself must be importable (PYTHONPATH=<build>/python).
 """
 
-import glob
+import contextlib
+import importlib.util
 import os
 import shutil
 import subprocess
@@ -22,83 +23,58 @@ import pytest
 HERE = os.path.dirname(os.path.abspath(__file__))
 MSGDEFS = os.path.join(HERE, "msgdefs")
 LN_CORE = os.path.dirname(os.path.dirname(HERE))
+BUILTIN_MSGDEFS = os.path.join(LN_CORE, "share", "message_definitions")
 
-
-def _find(env, patterns):
-    value = os.environ.get(env)
-    if value:
-        return value
-    for pattern in patterns:
-        hits = sorted(glob.glob(pattern), key=os.path.getmtime, reverse=True)
-        if hits:
-            return hits[0]
-    return None
+sys.path.insert(0, os.path.join(os.path.dirname(LN_CORE), "tests", "support"))
+import ln_testing  # noqa: E402
 
 
 def manager_binary():
-    found = _find("LN_CORE_MANAGER", ["/tmp/build-py/ln_core/ln_manager", os.path.join(LN_CORE, "..", "build*", "**", "ln_manager"),
-                                      os.path.join(LN_CORE, "..", "install", "bin", "ln_manager")])
-    if not found:
-        pytest.skip("ln_core's ln_manager not found (set LN_CORE_MANAGER)")
-    return found
+    try:
+        return ln_testing.ln_core_manager()
+    except ln_testing.Unavailable as error:
+        ln_testing.skip(str(error))
 
 
-class Manager:
-    """A running ln_core manager; `address` is HOST:PORT."""
+class Manager(ln_testing.LnCore):
+    """A running ln_core manager in `tmp_path` (also its clients' HOME); `address` is HOST:PORT."""
 
-    def __init__(self, tmp_path, md_dirs=(MSGDEFS,)):
-        self.home = str(tmp_path)
-        config = os.path.join(self.home, "test.lnc")
-        with open(config, "w") as f:
-            f.write("instance\nname: pytest_%s\nmanager: 127.0.0.1:0\n" % uuid.uuid4().hex[:8])
-            for d in md_dirs:
-                f.write("add_message_definition_dir: %s\n" % d)
-        env = dict(os.environ, HOME=self.home)
-        self.log_path = os.path.join(self.home, "manager.log")
-        self.log = open(self.log_path, "w+")
-        self.process = subprocess.Popen([manager_binary(), "-c", config, "-p", "0", "--without-gui"],
-                                        stdout=subprocess.PIPE, stderr=self.log, env=env, text=True)
-        deadline = time.time() + 10
-        self.address = None
-        while time.time() < deadline:
-            line = self.process.stdout.readline()
-            if not line:
-                break
-            if "listening on" in line:
-                self.address = line.strip().rsplit(" ", 1)[-1]
-                break
-        if self.address is None:
-            self.stop()
-            raise RuntimeError("ln_manager did not start: %s" % open(self.log_path).read())
+    def __init__(self, tmp_path, md_dirs=(MSGDEFS,), extra_config=""):
+        """`extra_config`: more .lnc text (processes, states, groups)."""
+        spec = importlib.util.find_spec("links_and_nodes")
+        package_dir = os.path.dirname(os.path.dirname(spec.origin)) if spec and spec.origin else None
+        super().__init__(tmp_path, home=tmp_path, manager_exe=manager_binary(), package_dir=package_dir)
+        self.start(md_dirs, extra_config=extra_config)
 
-    def env(self, **extra):
-        """Environment for a client process of this manager."""
-        env = dict(os.environ, LN_MANAGER=self.address, HOME=self.home)
-        env.update(extra)
-        return env
 
-    def stop(self):
-        if self.process.poll() is None:
-            self.process.terminate()
-            try:
-                self.process.wait(5)
-            except subprocess.TimeoutExpired:
-                self.process.kill()
-                self.process.wait()
-        self.log.close()
+@contextlib.contextmanager
+def running_manager(tmp_path, md_dirs=(MSGDEFS,)):
+    """A Manager, with LN_MANAGER pointing at it, for the duration of the block."""
+    m = Manager(tmp_path, md_dirs)
+    saved = os.environ.get("LN_MANAGER")
+    os.environ["LN_MANAGER"] = m.address
+    try:
+        yield m
+    finally:
+        if saved is None:
+            os.environ.pop("LN_MANAGER", None)
+        else:
+            os.environ["LN_MANAGER"] = saved
+        m.stop()
 
 
 @pytest.fixture(scope="module")
 def manager(tmp_path_factory):
-    m = Manager(tmp_path_factory.mktemp("manager"))
-    saved = os.environ.get("LN_MANAGER")
-    os.environ["LN_MANAGER"] = m.address
-    yield m
-    if saved is None:
-        os.environ.pop("LN_MANAGER", None)
-    else:
-        os.environ["LN_MANAGER"] = saved
-    m.stop()
+    with running_manager(tmp_path_factory.mktemp("manager")) as m:
+        yield m
+
+
+@pytest.fixture(scope="module")
+def builtins_manager(tmp_path_factory):
+    """A manager that also searches the source tree's built-in definitions
+    (ln/parameters/*, ...), not only the installed ones."""
+    with running_manager(tmp_path_factory.mktemp("manager"), (MSGDEFS, BUILTIN_MSGDEFS)) as m:
+        yield m
 
 
 @pytest.fixture

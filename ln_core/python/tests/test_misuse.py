@@ -132,3 +132,46 @@ def test_threads_reading_one_port(clnt, unique):
         t.join(10)
     assert not any(t.is_alive() for t in threads)
     assert sum(counts) == 100  # none lost, none twice
+
+
+def test_names_with_nul_bytes_are_refused(clnt, unique):
+    # The C API takes C strings: "a.b\0x" would silently publish "a.b".
+    topic = "misuse.nul.%s" % unique
+    with pytest.raises(ValueError, match="the topic name must not contain NUL bytes"):
+        clnt.publish(topic + "\x00x", "counter/count_message")
+    with pytest.raises(ValueError, match="the topic name must not contain NUL bytes"):
+        clnt.subscribe(topic + "\x00x", "counter/count_message")
+    with pytest.raises(ValueError, match="the message definition name must not contain NUL bytes"):
+        clnt.get_message_definition("counter/count_message\x00x")
+    with pytest.raises(ValueError, match="the service name must not contain NUL bytes"):
+        clnt.wait_for_service("misuse.svc\x00x", 0)
+    with pytest.raises(ValueError, match="the client name must not contain NUL bytes"):
+        ln.client("misuse\x00client")
+    assert topic not in [t.name for t in clnt.list_topics()]
+
+
+def test_buffers_below_one_are_refused(clnt, unique):
+    for buffers in (0, -3):
+        with pytest.raises(ValueError, match="buffers must be at least 1, not %d" % buffers):
+            clnt.publish("misuse.buffers.%s" % unique, "counter/count_message", buffers=buffers)
+        with pytest.raises(ValueError, match="buffers must be at least 1, not %d" % buffers):
+            clnt.subscribe("misuse.buffers.%s" % unique, "counter/count_message", buffers=buffers)
+    # The native layer (the C API) refuses 0 as well.
+    with pytest.raises(ln.LNError, match="buffers must be at least 1"):
+        _ln.OutPort(clnt._native, "misuse.buffers.%s" % unique, "counter/count_message", 0)
+
+
+def test_packets_of_the_wrong_size_are_refused(clnt, unique):
+    pub = clnt.publish("misuse.packet.%s" % unique, "counter/count_message")
+    with pytest.raises(ValueError, match="'counter/count_message' messages are 12 bytes, got 5"):
+        pub.packet = b"short"
+    with pytest.raises(TypeError, match="port.packet takes a packet of 'counter/count_message'"):
+        pub.packet = 12
+    pub.write()  # the packet is still the port's own
+    pub.packet = bytes(range(12))
+    assert bytes(pub.packet._flat()) == bytes(range(12))
+    other = clnt.publish("misuse.packet2.%s" % unique, "counter/count_message")
+    other.packet.num_counts = 7
+    pub.packet = other.packet
+    assert pub.packet.num_counts == 7
+    pub.write()

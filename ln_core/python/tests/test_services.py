@@ -11,6 +11,8 @@ import time
 import numpy as np
 import pytest
 
+import ln_testing  # tests/support, on sys.path through conftest.py
+
 import links_and_nodes as ln
 
 
@@ -165,13 +167,25 @@ def sleepy(request, req, resp):
     return 0
 
 
+def recorded(handler, started, finished):
+    """`handler`, setting the events `started` and `finished` around each call."""
+    def run(request, req, resp):
+        started.set()
+        try:
+            return handler(request, req, resp)
+        finally:
+            finished.set()
+    return run
+
+
 def test_timeout_async_and_futures(clnt, serve, unique):
-    serve("svc.sleep." + unique, "pytest/sleep", sleepy)
+    finished = threading.Event()
+    serve("svc.sleep." + unique, "pytest/sleep", recorded(sleepy, threading.Event(), finished))
     svc = clnt.get_service("svc.sleep." + unique, "pytest/sleep")
     with pytest.raises(ln.LNError) as info:
         svc.call_with_timeout(seconds=1.0, timeout=0.2)
     assert info.value.code == ln.LNE_SVC_TIMEOUT
-    time.sleep(1.0)
+    assert finished.wait(10), "the handler of the timed-out call never returned"  # the provider is free again
     svc.call_async(seconds=0.2)
     assert svc.finished() is False
     deadline = time.time() + 5
@@ -194,15 +208,19 @@ def test_wait_for_service_and_availability(clnt, serve, unique, nyi):
         if error.code != ln.LNE_NOT_YET_IMPLEMENTED:
             raise
     found = []
-    waiter = threading.Thread(target=lambda: found.append(clnt.wait_for_service(name, 10)))
+    waiting = threading.Event()
+
+    def wait():
+        waiting.set()
+        found.append(clnt.wait_for_service(name, 10))
+    waiter = threading.Thread(target=wait)
     waiter.start()
-    time.sleep(0.2)
+    assert waiting.wait(10)
+    assert found == [], "wait_for_service returned before the service existed"
     serve(name, "pytest/small_srv", small_handler)
     waiter.join(10)
     assert found == [True]
-    deadline = time.time() + 5
-    while True not in events and time.time() < deadline:
-        time.sleep(0.01)
+    ln_testing.wait_for(lambda: True in events, 10, "the availability handler to see the service")
     assert events[0] is False and True in events
 
 
@@ -219,18 +237,17 @@ CALL_SCRIPT = textwrap.dedent("""
 
 def test_ctrl_c_interrupts_a_blocking_call(manager, serve, tmp_path, unique):
     name = "svc.sigint." + unique
-    serve(name, "pytest/sleep", sleepy)
+    handling = threading.Event()
+    serve(name, "pytest/sleep", recorded(sleepy, handling, threading.Event()))
     script = tmp_path / "call.py"
     script.write_text(CALL_SCRIPT)
     proc = subprocess.Popen([sys.executable, str(script), name], env=manager.env(), stdout=subprocess.PIPE,
                             text=True)
     try:
         assert proc.stdout.readline().strip() == "calling"
-        time.sleep(0.5)
-        start = time.time()
+        assert handling.wait(20), "the call never reached the provider"  # so the caller blocks in call()
         proc.send_signal(signal.SIGINT)
-        out, _ = proc.communicate(timeout=10)
-        assert time.time() - start < 5
+        out, _ = proc.communicate(timeout=25)  # the call itself takes 30 s: ending sooner means interrupted
     finally:
         if proc.poll() is None:
             proc.kill()

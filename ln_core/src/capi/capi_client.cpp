@@ -1,13 +1,18 @@
 // ln.h: versions, errors, time and the client itself.
 #include <time.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstdarg>
+#include <cstring>
 #include <mutex>
 #include <set>
+#include <string>
 
 #include "capi/capi_support.hpp"
+#include "parameters/provider.hpp"
 
 namespace ln::capi {
 namespace {
@@ -22,13 +27,15 @@ std::set<Client*>& live_clients() {
   return clients;
 }
 
+// The detail of this thread's last failed call without a client (ln_init*,
+// ln_logger_data_*): no client exists to keep it (ln_get_error_message(NULL)).
+thread_local clientlib::ErrorSlot clientless_slot;
+
 template <typename Create>
 int init_with(ln_client* handle, Create&& create) noexcept {
   if (handle == nullptr) return -LNE_INVALID_PARAMETER;
   *handle = nullptr;
-  // No client exists on failure, so the detail text is lost; ln_format_error
-  // still names the errno of a refused connection, as in LN 2.9.
-  return guarded(nullptr, [&] {
+  return clientless([&] {
     std::unique_ptr<Client> client = create();
     register_client(client.get());
     *handle = client.release();
@@ -37,6 +44,8 @@ int init_with(ln_client* handle, Create&& create) noexcept {
 }
 
 }  // namespace
+
+clientlib::ErrorSlot& clientless_errors() noexcept { return clientless_slot; }
 
 void register_client(Client* client) {
   std::lock_guard<std::mutex> lock(live_clients_mutex());
@@ -107,10 +116,39 @@ int ln_deinit(ln_client* clnt) {
   if (clnt == nullptr) return -LNE_INVALID_PARAMETER;
   Client* client = client_from(*clnt);
   if (client == nullptr) return -LNE_CLIENT_NOT_INITIALIZED;
+  ln::paramcore::client_closing(*clnt);  // its parameter services, while it can still release them
   ln::capi::unregister_client(client);
   delete client;
   *clnt = nullptr;
   return 0;
+}
+
+// LN 2.9's client settings: "debug" (level), "reconnect_interval" (seconds),
+// the Windows-only "win32_*" timings (accepted, without effect here, as in
+// LN 2.9 on Linux) and "__LN_CPP_WRAPPER_VERSION" (its C++ wrapper's
+// version check; needs no client).
+int ln_client_set_float_parameter(ln_client clnt, const char* name, float value) {
+  if (name != nullptr && std::strcmp(name, "__LN_CPP_WRAPPER_VERSION") == 0) return 0;
+  Client* client = client_from(clnt);
+  if (client == nullptr) return -LNE_CLIENT_NOT_INITIALIZED;
+  return guarded(client, [&] {
+    ln::capi::require(name != nullptr, "name");
+    const std::string setting = name;
+    if (setting == "debug") {
+      client->set_debug_level(std::isfinite(value) ? static_cast<int>(value) : 0);
+    } else if (setting == "reconnect_interval") {
+      if (!(value > 0) || !std::isfinite(value) || value > 3600)
+        throw ln::clientlib::Failure(LNE_INVALID_PARAMETER, "reconnect_interval must be between 0 and 3600 seconds, not " +
+                                                 std::to_string(value));
+      client->set_reconnect_interval(std::chrono::milliseconds(std::max(1L, std::lround(value * 1000.0))));
+    } else if (setting != "win32_async_ping_timeout" && setting != "win32_async_ping_interval" &&
+               setting != "win32_wait_for_service_request_timeout") {
+      throw ln::clientlib::Failure(LNE_UNKNOWN_PARAMETER, "unknown client setting '" + setting +
+                                               "' (debug, reconnect_interval, win32_async_ping_timeout, "
+                                               "win32_async_ping_interval, win32_wait_for_service_request_timeout)");
+    }
+    return 0;
+  });
 }
 
 void ln_debug(ln_client clnt_, const char* format, ...) {
@@ -146,8 +184,8 @@ int ln_get_remaining_args(ln_client clnt, unsigned int* n_args, char** args_ptr)
 }
 
 char* ln_get_error_message(ln_client clnt_) {
-  Client* client = client_from(clnt_);
-  return client != nullptr ? client->errors().text() : nullptr;
+  Client* client = clnt_ != nullptr ? client_from(clnt_) : nullptr;
+  return client != nullptr ? client->errors().text() : ln::capi::clientless_errors().text();
 }
 
 }  // extern "C"

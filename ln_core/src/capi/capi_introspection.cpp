@@ -1,6 +1,7 @@
 // ln.h: introspection (ln_list_topics, ln_list_clients, ln_list_services,
-// ln_get_manager_status). The manager answers with tables of parallel string
-// columns (protocol/methods.hpp); each result reaches the caller as one
+// ln_get_manager_status) and the manager's processes (ln_list_processes,
+// ln_control_process, ln_get_process_output). The manager answers with
+// tables of parallel string columns (protocol/methods.hpp); each result reaches the caller as one
 // malloc()ed block that ln_free_list() releases: the structs, then the
 // NULL-terminated name arrays, then the characters.
 #include <algorithm>
@@ -222,5 +223,63 @@ int ln_get_manager_status(ln_client clnt, ln_manager_status** status) {
 }
 
 void ln_free_list(void* list) { std::free(list); }
+
+int ln_list_processes(ln_client clnt, ln_process_info** processes, unsigned int* count) {
+  return list(clnt, method::process_list,
+              {"names", "kinds", "states", "requested", "pids", "uptimes", "restarts", "ready", "last_exits", "errors",
+               "commands", "depends_on", "members"},
+              processes, count, [](const Table& table, Block& block, std::size_t row, ln_process_info& info) {
+                info.name = block.string(table.text("names", row));
+                info.kind = block.string(table.text("kinds", row));
+                info.state = block.string(table.text("states", row));
+                info.requested = block.string(table.text("requested", row));
+                info.pid = table.number<int64_t>("pids", row);
+                info.uptime = table.number<double>("uptimes", row);
+                info.restarts = table.number<unsigned int>("restarts", row);
+                info.ready = table.text("ready", row) == "1";
+                info.last_exit = block.string(table.text("last_exits", row));
+                info.error = block.string(table.text("errors", row));
+                info.command = block.string(table.text("commands", row));
+                info.depends_on = block.strings(table.names("depends_on", row));
+                info.members = block.strings(table.names("members", row));
+              });
+}
+
+int ln_control_process(ln_client clnt, const char* name, const char* action, const char* alt_command) {
+  Client* client = client_from(clnt);
+  if (client == nullptr) return -LNE_CLIENT_NOT_INITIALIZED;
+  return guarded(client, [&] {
+    require(name != nullptr, "name");
+    require(action != nullptr, "action");
+    auto request = client->new_request(method::process_control);
+    request.set("name", name).set("action", action);
+    if (alt_command != nullptr && alt_command[0] != '\0') request.set("alt_command", alt_command);
+    client->request(std::move(request));
+    return 0;
+  });
+}
+
+int ln_get_process_output(ln_client clnt, const char* name, uint64_t after, ln_process_output** output) {
+  Client* client = client_from(clnt);
+  if (client == nullptr) return -LNE_CLIENT_NOT_INITIALIZED;
+  return guarded(client, [&] {
+    require(name != nullptr, "name");
+    require(output != nullptr, "output");
+    require(after <= static_cast<uint64_t>(std::numeric_limits<int64_t>::max()), "after");
+    auto request = client->new_request(method::process_output);
+    request.set("name", name).set("after", static_cast<int64_t>(after));
+    const Message answer = client->request(std::move(request));
+    auto number = [&](const char* field) {
+      return static_cast<uint64_t>(answer.get_int(field, 0, std::numeric_limits<int64_t>::max()));
+    };
+    *output = pack<ln_process_output>(1, [&](Block& block, std::size_t, ln_process_output& info) {
+      info.lines = block.strings(answer.get_list("lines"));
+      info.first = number("first");
+      info.last = number("last");
+      info.dropped = number("dropped");
+    });
+    return 0;
+  });
+}
 
 }  // extern "C"

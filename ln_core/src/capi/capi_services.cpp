@@ -121,6 +121,19 @@ double seconds_left(std::chrono::steady_clock::time_point deadline) {
   return std::chrono::duration<double>(deadline - std::chrono::steady_clock::now()).count();
 }
 
+// Why the process or state `name` failed ("" while it has not), from the
+// manager's process_list.
+std::string provider_failure(Client& client, const std::string& name) {
+  const auto answer = client.request(client.new_request(method::process_list));
+  const auto& names = answer.get_list("names");
+  const auto& states = answer.get_list("states");
+  const auto& errors = answer.get_list("errors");
+  for (std::size_t row = 0; row < names.size() && row < states.size() && row < errors.size(); ++row)
+    if (names[row] == name && (states[row] == "failed" || states[row] == "error"))
+      return errors[row].empty() ? states[row] : errors[row];
+  return "";
+}
+
 }  // namespace
 
 extern "C" {
@@ -146,6 +159,7 @@ int ln_service_init(ln_client clnt, ln_service* svc, const char* service_name, c
     service->caller = std::make_unique<services::ServiceCaller>(
         service->signature, service->glue->connector(service->name, service->interface, signature),
         service->glue->reactor(), service->glue->limits(), service->glue->wait_policy(), service->name);
+    service->caller->set_call_log(service->glue->call_log(), service->interface);
     {
       std::lock_guard<std::mutex> lock(live_services_mutex());
       live_services().insert(service.get());
@@ -458,6 +472,19 @@ int ln_client_find_services_with_interface(ln_client clnt, const char* interface
   });
 }
 
+int ln_register_as_service_logger(ln_client clnt, const char* logger_service_name,
+                                  const char* service_name_patterns_to_log) {
+  Client* client = client_from(clnt);
+  if (client == nullptr) return -LNE_CLIENT_NOT_INITIALIZED;
+  return guarded(client, [&] {
+    require(logger_service_name != nullptr, "logger_service_name");
+    require(service_name_patterns_to_log != nullptr, "service_name_patterns_to_log");
+    ServicesGlue::of(*client)->logging().register_logger(client->service_mapping().apply(logger_service_name),
+                                                         service_name_patterns_to_log);
+    return 0;
+  });
+}
+
 // ------------------------------------------------------ waiting, watching
 
 int ln_wait_for_service(ln_client clnt, const char* service_name, double timeout) {
@@ -474,18 +501,35 @@ int ln_needs_provider(ln_client clnt, const char* service_or_topic_name, double 
   if (client == nullptr) return -LNE_CLIENT_NOT_INITIALIZED;
   return guarded(client, [&] {
     require(service_or_topic_name != nullptr, "service_or_topic_name");
-    // ln_core starts no processes: this only waits for a provider/publisher.
     auto glue = ServicesGlue::of(*client);
     const std::string service = client->service_mapping().apply(service_or_topic_name);
     const std::string topic = client->topic_mapping().apply(service_or_topic_name);
+    if (glue->wait_for_service(service, 0) == 1 || glue->topic_has_publisher(topic)) return 0;
+    // The manager starts the process (or state) whose `provides` names it.
+    std::string provider;
+    try {
+      auto request = client->new_request(method::needs_provider);
+      request.set("name", service);
+      provider = client->request(std::move(request)).get_string_or("provider", "");
+    } catch (const Failure& e) {
+      if (e.code() != LNE_MANAGER_TOO_OLD) throw;  // an older manager: only wait
+    }
+    if (timeout == 0) return 0;  // "only asks"
     const auto deadline = std::chrono::steady_clock::now() +
                           std::chrono::microseconds(static_cast<long long>(std::min(timeout, 1e9) * 1e6));
+    auto next_check = std::chrono::steady_clock::now();
     for (;;) {
       if (glue->wait_for_service(service, 0) == 1 || glue->topic_has_publisher(topic)) return 0;
-      if (timeout == 0) return 0;  // "only asks"
+      if (!provider.empty() && std::chrono::steady_clock::now() >= next_check) {
+        next_check = std::chrono::steady_clock::now() + std::chrono::milliseconds(250);
+        if (const std::string failure = provider_failure(*client, provider); !failure.empty())
+          throw Failure(LNE_START_PROVIDER_FAILED, "'" + provider + "', which provides '" +
+                                                       std::string(service_or_topic_name) + "', failed: " + failure);
+      }
       if (timeout > 0 && seconds_left(deadline) <= 0)
-        throw Failure(LNE_NO_PROVIDER_FOUND, "nothing provides '" + std::string(service_or_topic_name) +
-                                                 "' (ln_core starts no providers; waited for one to appear)");
+        throw Failure(LNE_NO_PROVIDER_FOUND,
+                      "nothing provides '" + std::string(service_or_topic_name) + "' yet" +
+                          (provider.empty() ? std::string() : " ('" + provider + "' was started for it)"));
       const double wait = timeout > 0 ? std::min(0.05, std::max(0.0, seconds_left(deadline))) : 0.05;
       if (glue->wait_for_service(service, wait) == 1) return 0;
     }

@@ -27,11 +27,11 @@ void unregister_client(Client* client);
 Client* client_from(ln_client handle);
 
 /// Runs `body` (returning an int >= 0) and maps failures to -LNE_* codes,
-/// storing the detail in the client's error slot (when there is a client).
+/// storing the detail in `slot` (when there is one).
 template <typename Body>
-int guarded(Client* client, Body&& body) noexcept {
-  auto record = [client](int code, const std::string& text) noexcept {
-    if (client != nullptr) client->errors().set(text);
+int guarded_into(clientlib::ErrorSlot* slot, Body&& body) noexcept {
+  auto record = [slot](int code, const std::string& text) noexcept {
+    if (slot != nullptr) slot->set(text);
     return -code;
   };
   try {
@@ -49,6 +49,25 @@ int guarded(Client* client, Body&& body) noexcept {
   } catch (...) {
     return record(LNE_INTERNAL_ERROR, "unexpected exception");
   }
+}
+
+/// guarded_into() the client's error slot (when there is a client).
+template <typename Body>
+int guarded(Client* client, Body&& body) noexcept {
+  return guarded_into(client != nullptr ? &client->errors() : nullptr, std::forward<Body>(body));
+}
+
+/// The detail of this thread's last failed call that has no client (ln_init*,
+/// ln_logger_data_*; "" when the last such call succeeded): what
+/// ln_get_error_message(NULL) returns.
+clientlib::ErrorSlot& clientless_errors() noexcept;
+
+/// Runs `body()` for a call without client; the detail of a failure goes to
+/// clientless_errors().
+template <typename Body>
+int clientless(Body&& body) noexcept {
+  clientless_errors().clear();
+  return guarded_into(&clientless_errors(), std::forward<Body>(body));
 }
 
 /// A malloc()ed copy for strings the caller frees. Throws bad_alloc.

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <thread>
 
 #include "client/c_api.hpp"
 #include "client/failure.hpp"
@@ -31,7 +32,6 @@ constexpr milliseconds kPeerTimeout{2000};
 // subscribers_changed that names it; well below kPeerTimeout.
 constexpr milliseconds kListingWait{500};
 constexpr milliseconds kFirstBackoff{50};
-constexpr milliseconds kLongestBackoff{1000};
 
 std::string without_hash(const std::string& md_name) { return md_name.substr(0, md_name.find('|')); }
 
@@ -50,6 +50,37 @@ int debug_level_from_environment() {
   char* end = nullptr;
   const long level = std::strtol(value, &end, 10);
   return end != value ? static_cast<int>(level) : 1;  // a non-number still asks for debugging
+}
+
+// LN_MANAGER_CONNECT_TIMEOUT: how many seconds a new client waits for a
+// manager that does not listen yet (0, the default: fail at once, as LN 2.9).
+double connect_timeout_from_environment() {
+  const char* value = std::getenv("LN_MANAGER_CONNECT_TIMEOUT");
+  if (value == nullptr || value[0] == '\0') return 0;
+  char* end = nullptr;
+  const double seconds = std::strtod(value, &end);
+  if (end == value || *end != '\0' || !(seconds >= 0) || seconds > 1e6)
+    throw Failure(LNE_INVALID_PARAMETER,
+                  "LN_MANAGER_CONNECT_TIMEOUT='" + std::string(value) + "' is not a number of seconds (0 to 1000000)");
+  return seconds;
+}
+
+// Connects, and while the manager refuses (not listening yet) tries again
+// until `wait_seconds` passed.
+UniqueFd connect_waiting(const sockaddr_in& address, double wait_seconds) {
+  const auto deadline = std::chrono::steady_clock::now() +
+                        std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(wait_seconds));
+  auto pause = milliseconds(10);
+  for (;;) {
+    const auto left = std::chrono::duration_cast<milliseconds>(deadline - std::chrono::steady_clock::now());
+    try {
+      return connect_tcp(address, wait_seconds > 0 ? std::clamp(left, milliseconds(1), kConnectTimeout) : kConnectTimeout);
+    } catch (const Failure&) {
+      if (std::chrono::steady_clock::now() + pause >= deadline) throw;
+    }
+    std::this_thread::sleep_for(pause);  // the manager is not there yet: nothing to wait on but time
+    pause = std::min(pause * 2, milliseconds(200));
+  }
 }
 
 std::uint64_t next_port_serial() {
@@ -91,7 +122,7 @@ std::unique_ptr<Client> Client::connect(const char* client_name, CommandLine com
                                                      command_line.program_name, program_name(command_line.remaining));
   settings.requested_name = requested.name;
   settings.exact = requested.exact;
-  UniqueFd socket = connect_tcp(settings.resolved, kConnectTimeout);
+  UniqueFd socket = connect_waiting(settings.resolved, connect_timeout_from_environment());
   std::unique_ptr<Client> client(new Client(std::move(settings), std::move(command_line)));
   client->start(std::move(socket));
   return client;
@@ -197,10 +228,13 @@ Client::~Client() {
   link_.detach("the client was closed");
   connecting_.reset();
   std::shared_ptr<void> services;
+  std::map<std::string, std::shared_ptr<void>> parts;
   {
     std::lock_guard<std::mutex> lock(services_mutex_);
     services.swap(services_);
+    parts.swap(parts_);
   }
+  parts.clear();     // first: event delivery calls services
   services.reset();  // stops its threads; handlers may still use the client
   std::lock_guard<std::mutex> lock(registry_mutex_);
   waiters_.clear();   // before the ports they look at
@@ -275,6 +309,13 @@ void Client::add_reconnect_handler(std::function<void()> handler) {
   else loop_.post(std::move(add));
 }
 
+std::shared_ptr<void> Client::part_state(const std::string& part, const std::function<std::shared_ptr<void>()>& make) {
+  std::lock_guard<std::mutex> lock(services_mutex_);
+  std::shared_ptr<void>& state = parts_[part];
+  if (!state) state = make();
+  return state;
+}
+
 std::shared_ptr<void> Client::services_state(const std::function<std::shared_ptr<void>()>& make) {
   std::lock_guard<std::mutex> lock(services_mutex_);
   if (!services_) services_ = make();
@@ -306,7 +347,7 @@ InPort* Client::find_inport_locked(std::int64_t subscription_id) const {
 OutPort* Client::publish(const std::string& topic_name, const std::string& md_name, unsigned buffers) {
   require_registered();
   if (md_name.empty()) throw Failure(LNE_INVALID_PARAMETER, "publishing '" + topic_name + "' needs a message definition name");
-  buffers = std::max(buffers, 1u);
+  if (buffers < 1) throw Failure(LNE_INVALID_PARAMETER, "publishing '" + topic_name + "': buffers must be at least 1, not 0");
   const std::string topic = topic_mapping_.apply(topic_name);
   auto owned = std::make_unique<OutPort>(errors_, topic, without_hash(md_name), buffers);
   OutPort* port = owned.get();
@@ -335,6 +376,7 @@ OutPort* Client::publish(const std::string& topic_name, const std::string& md_na
       topic_id = answer.get_int("topic_id");
       message_size = static_cast<std::uint32_t>(answer.get_int("message_size", 0, transport::layout::kMaxMessageSize));
       hash = answer.get_string("hash");
+      port->set_segment_limit(static_cast<std::uint64_t>(std::max<std::int64_t>(answer.get_int_or("segment_limit", 0), 0)));
       port->want_history(static_cast<std::uint32_t>(answer.get_int_or("subscriber_buffers", 1)));
       std::lock_guard<std::mutex> lock(registry_mutex_);
       Registration& registration = registrations_.at(port);
@@ -344,6 +386,7 @@ OutPort* Client::publish(const std::string& topic_name, const std::string& md_na
       registration.packet_reports.restart(0, PacketCountReports::Clock::now());
       outports_by_topic_id_[topic_id] = port;
     });
+    port->set_recovery_handler([this, port] { loop_.post([this, port] { send_publisher_ready(port, true); }); });
     port->create_segment(message_size, hash, std::max(buffers, port->wanted_history()));
     port->ensure_history(port->wanted_history());  // a subscriber may have asked for more meanwhile
   } catch (...) {
@@ -423,7 +466,8 @@ InPort* Client::subscribe(const std::string& topic_name, const std::string& md_n
   if (rate == RATE_ON_REQUEST_NEXT) rate = RATE_ON_REQUEST_LAST;
   if (std::isnan(rate) || (rate < 0 && rate != RATE_AS_PUBLISHED && rate != RATE_ON_REQUEST_LAST))
     throw Failure(LNE_INVALID_PARAMETER, "invalid subscription rate " + std::to_string(rate));
-  buffers = std::max(buffers, 1u);
+  if (buffers < 1)
+    throw Failure(LNE_INVALID_PARAMETER, "subscribing to '" + topic_name + "': buffers must be at least 1, not 0");
   const std::string topic = topic_mapping_.apply(topic_name);
   auto owned = std::make_unique<InPort>(errors_, topic, without_hash(md_name), rate, buffers, reliable);
   InPort* port = owned.get();
@@ -707,8 +751,9 @@ void Client::serve_listed_opens() {
 void Client::serve_open_segment(PeerRequest& request, bool may_wait) {
   if (request.connection->over_tcp())
     return request.fail(LNE_REQUEST_FAILED, "shared-memory segments cannot be handed over TCP (peer on another host)");
-  if (request.connection->peer_uid() != static_cast<long>(::getuid()))
-    return request.fail(LNE_REQUEST_FAILED, "shared-memory segments are only handed to processes of the same user");
+  if (!request.connection->local_user_allowed())
+    return request.fail(LNE_REQUEST_FAILED, "shared-memory segments are only handed to processes of the same user "
+                                            "(or of users LN_PEER_ALLOW_UIDS lists)");
   const std::int64_t topic_id = request.message.get_int_or("topic_id", -1);
   const std::int64_t subscription_id = request.message.get_int_or("subscription_id", -1);
   const std::string topic = request.message.get_string_or("topic", "");
@@ -769,7 +814,7 @@ void Client::serve_open_segment(PeerRequest& request, bool may_wait) {
   request.connection->send(answer, offer.fd.get());
 }
 
-void Client::send_publisher_ready(OutPort* port) {
+void Client::send_publisher_ready(OutPort* port, bool recovered) {
   std::int64_t topic_id;
   std::uint64_t packets;
   {
@@ -788,6 +833,11 @@ void Client::send_publisher_ready(OutPort* port) {
   ready.set("topic_id", topic_id)
       .set("segment_generation", port->generation())
       .set("packets", static_cast<std::int64_t>(packets));
+  if (recovered) {
+    ready.set("recovered", static_cast<std::int64_t>(port->segment_recoveries()));
+    debug("topic '%s': re-created the shared-memory segment, which was corrupted (%llu times so far)",
+          port->topic().c_str(), static_cast<unsigned long long>(port->segment_recoveries()));
+  }
   const std::string topic = port->topic();
   link_.send_request(std::move(ready), [this, topic](Reply& reply) {
     if (reply.error != 0) debug("announcing the segment of '%s' failed: %s", topic.c_str(), reply.error_text.c_str());
@@ -803,6 +853,9 @@ void Client::report_packet_counts() {
     const std::uint64_t session = link_.session();
     const auto now = PacketCountReports::Clock::now();
     for (const auto& port : outports_) {
+      // A segment written over by a subscriber is replaced (and announced
+      // through the recovery handler).
+      port->check_segment();
       Registration& registration = registrations_.at(port.get());
       if (registration.manager_id < 0 || registration.session != session) continue;
       const std::uint64_t packets = port->packets_written();
@@ -834,8 +887,9 @@ void Client::on_disconnect(const std::string& reason) {
 }
 
 void Client::schedule_reconnect() {
-  loop_.run_after(backoff_, [this] { try_reconnect(); });
-  backoff_ = std::min(backoff_ * 2, kLongestBackoff);
+  const milliseconds longest{longest_backoff_ms_.load()};
+  loop_.run_after(std::min(backoff_, longest), [this] { try_reconnect(); });
+  backoff_ = std::min(backoff_ * 2, longest);
 }
 
 void Client::try_reconnect() {

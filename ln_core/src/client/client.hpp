@@ -105,6 +105,11 @@ class Client {
   bool debugging() const { return debug_level_.load(std::memory_order_relaxed) > 0; }
   void debug(const char* format, ...) const __attribute__((format(printf, 2, 3)));
   void vdebug(const char* format, va_list args) const;
+  /// ln_client_set_float_parameter("debug"): 0 quiet, > 0 LN_DEBUG output.
+  void set_debug_level(int level) { debug_level_.store(level); }
+  /// ln_client_set_float_parameter("reconnect_interval"): the longest wait
+  /// between two attempts to reach a restarted manager (> 0).
+  void set_reconnect_interval(std::chrono::milliseconds interval) { longest_backoff_ms_.store(interval.count()); }
 
   // ---- extension points (for services and availability callbacks)
   EventLoop& loop() { return loop_; }
@@ -123,6 +128,9 @@ class Client {
   /// (services_glue.hpp): `make`s it on first use. Released in ~Client once
   /// the I/O thread stopped and the manager link is closed.
   std::shared_ptr<void> services_state(const std::function<std::shared_ptr<void>()>& make);
+  /// The same for other parts of the library, by name ("loggers", "events");
+  /// released before the services state, which they may use.
+  std::shared_ptr<void> part_state(const std::string& part, const std::function<std::shared_ptr<void>()>& make);
 
  private:
   struct Settings {
@@ -154,7 +162,8 @@ class Client {
   void resubscribe(InPort* port);
   bool handle_subscribe_answer(InPort* port, const protocol::Message& answer);
   void open_publisher_segment(InPort* port, std::uint64_t serial, const protocol::Message& publisher);
-  void send_publisher_ready(OutPort* port);
+  /// `recovered`: the port replaced a corrupted segment (the manager logs it).
+  void send_publisher_ready(OutPort* port, bool recovered = false);
   /// topic_stats for the outports whose count is due (topic_stats.hpp);
   /// re-arms itself every PacketCountReports::kPeriod.
   void report_packet_counts();
@@ -208,6 +217,7 @@ class Client {
 
   // I/O thread only
   std::chrono::milliseconds backoff_{50};
+  std::atomic<std::int64_t> longest_backoff_ms_{1000};
   UniqueFd connecting_;
   std::map<std::string, std::vector<NotificationHandler>, std::less<>> notification_handlers_;
   std::vector<std::function<void()>> reconnect_handlers_;
@@ -246,6 +256,7 @@ class Client {
   std::vector<std::unique_ptr<MultiWaiter>> waiters_;
   std::mutex services_mutex_;
   std::shared_ptr<void> services_;
+  std::map<std::string, std::shared_ptr<void>> parts_;  // services_mutex_
   // Receives topic data from publishers on other hosts; made with the first
   // subscription (it must be named in the subscribe request).
   std::unique_ptr<RemoteReceiver> receiver_;

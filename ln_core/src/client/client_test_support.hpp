@@ -1,6 +1,6 @@
-// Test support for the client tests: an in-process ln_manager on a free
-// loopback port (restartable on the same port), bounded waiting (from
-// test_waiting.hpp), and scoped environment variables.
+// Test support for the client tests: the in-process ln_manager and temporary
+// directory of src/testing/, bounded waiting (test_waiting.hpp), scoped
+// environment variables and child processes.
 #pragma once
 
 #include <fcntl.h>
@@ -15,6 +15,7 @@
 #include <cstring>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -22,7 +23,8 @@
 #include <vector>
 
 #include "client/test_waiting.hpp"
-#include "manager/manager.hpp"
+#include "testing/in_process_manager.hpp"
+#include "testing/temp_dir.hpp"
 
 extern char** environ;
 
@@ -35,70 +37,14 @@ using Clock = std::chrono::steady_clock;
 #  error "LN_TEST_MD_DIR must name the test message definitions"
 #endif
 
-/// A directory that is removed with everything in it.
-class TempDir {
- public:
-  TempDir() {
-    char pattern[] = "/tmp/ln_client_test_XXXXXX";
-    if (!::mkdtemp(pattern)) throw std::runtime_error("mkdtemp failed");
-    path_ = pattern;
-  }
-  ~TempDir() {
-    const std::string command = "rm -rf '" + path_ + "'";
-    (void)!::system(command.c_str());
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  const std::string& path() const { return path_; }
+using test::TempDir;
 
- private:
-  std::string path_;
-};
-
-/// An ln_manager running in a thread of the test process.
-class InProcessManager {
+/// The in-process manager (testing/in_process_manager.hpp) with the client
+/// tests' definitions (LN_TEST_MD_DIR) unless told other directories.
+class InProcessManager : public test::InProcessManager {
  public:
-  /// Starts on `port` (0: any free port), searching `md_dirs` for definitions.
   explicit InProcessManager(std::uint16_t port = 0, std::vector<std::string> md_dirs = {LN_TEST_MD_DIR})
-      : md_dirs_(std::move(md_dirs)) {
-    start(port);
-  }
-  ~InProcessManager() { stop(); }
-
-  void start(std::uint16_t port = 0) {
-    manager::ManagerOptions options;
-    options.port = port;
-    options.message_definition_dirs = md_dirs_;
-    options.generated_definition_dir = generated_.path();
-    manager_ = std::make_unique<manager::Manager>(options);
-    // A restart on the same port may briefly race the old socket's teardown.
-    for (int attempt = 0;; ++attempt) {
-      try {
-        manager_->start();
-        break;
-      } catch (const std::runtime_error&) {
-        if (attempt > 100) throw;
-        std::this_thread::sleep_for(20ms);
-      }
-    }
-    port_ = manager_->port();
-    manager_->run_in_thread();
-  }
-  /// Stops the manager; every client connection drops.
-  void stop() { manager_.reset(); }
-  void restart() {
-    stop();
-    start(port_);
-  }
-
-  std::uint16_t port() const { return port_; }
-  std::string address() const { return "127.0.0.1:" + std::to_string(port_); }
-
- private:
-  std::vector<std::string> md_dirs_;
-  TempDir generated_;
-  std::unique_ptr<manager::Manager> manager_;
-  std::uint16_t port_ = 0;
+      : test::InProcessManager(std::move(md_dirs), {}, port) {}
 };
 
 /// Sets (or, with nullopt, removes) an environment variable for a scope.

@@ -8,6 +8,7 @@
 
 #include <atomic>
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
 #include <random>
 
@@ -34,6 +35,14 @@ bool PeerConnection::send(const protocol::Message& message, int fd) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (!socket_.valid()) return false;
   return send_all(socket_.get(), frame, fd, kPeerSendTimeout) == 0;
+}
+
+bool PeerConnection::local_user_allowed() const {
+  if (over_tcp_ || peer_uid_ < 0) return false;
+  if (peer_uid_ == static_cast<long>(::getuid())) return true;
+  const char* text = std::getenv("LN_PEER_ALLOW_UIDS");
+  const std::string allowed = "," + std::string(text ? text : "") + ",";
+  return allowed == ",*," || allowed.find("," + std::to_string(peer_uid_) + ",") != std::string::npos;
 }
 
 void PeerConnection::close() {

@@ -38,6 +38,10 @@ class PeerConnection {
   long peer_uid() const { return peer_uid_; }
   /// True for connections that came in over TCP (maybe from another host).
   bool over_tcp() const { return over_tcp_; }
+  /// The access rule for segments and services on this host: a peer
+  /// process of our own user, or of a user that LN_PEER_ALLOW_UIDS lists
+  /// ("1001,1002"; "*" for every user). False over TCP (no uid to check).
+  bool local_user_allowed() const;
   /// Closes the connection (further sends fail). Thread-safe.
   void close();
 

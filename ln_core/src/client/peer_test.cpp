@@ -102,5 +102,30 @@ TEST_F(PeerTest, HandlerCanTakeTheConnectionOver) {
   EXPECT_STREQ(raw, "raw");
 }
 
+// Segments and services on this host: our own user, and the users
+// LN_PEER_ALLOW_UIDS lists; nobody over TCP (there is no uid to check).
+TEST(PeerAccess, SameUserUnlessConfigured) {
+  const long me = static_cast<long>(::getuid());
+  const long other = me + 1;
+  const auto allowed = [](long uid, bool over_tcp) { return PeerConnection(UniqueFd(), uid, over_tcp).local_user_allowed(); };
+  const char* saved = std::getenv("LN_PEER_ALLOW_UIDS");
+  const std::string old = saved ? saved : "";
+  ::unsetenv("LN_PEER_ALLOW_UIDS");
+  EXPECT_TRUE(allowed(me, false));
+  EXPECT_FALSE(allowed(other, false));
+  EXPECT_FALSE(allowed(-1, false));
+  EXPECT_FALSE(allowed(me, true));
+  ::setenv("LN_PEER_ALLOW_UIDS", ("7," + std::to_string(other)).c_str(), 1);
+  EXPECT_TRUE(allowed(other, false));
+  EXPECT_FALSE(allowed(other + 1, false));
+  ::setenv("LN_PEER_ALLOW_UIDS", std::to_string(other * 10).c_str(), 1);
+  EXPECT_FALSE(allowed(other, false)) << "whole numbers only, not prefixes";
+  ::setenv("LN_PEER_ALLOW_UIDS", "*", 1);
+  EXPECT_TRUE(allowed(other, false));
+  EXPECT_FALSE(allowed(other, true));
+  if (saved) ::setenv("LN_PEER_ALLOW_UIDS", old.c_str(), 1);
+  else ::unsetenv("LN_PEER_ALLOW_UIDS");
+}
+
 }  // namespace
 }  // namespace ln::clientlib

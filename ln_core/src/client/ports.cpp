@@ -8,11 +8,13 @@
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <random>
 
 #include "client/error_slot.hpp"
 #include "client/failure.hpp"
+#include "transport/shm_layout.hpp"
 
 namespace ln::clientlib {
 
@@ -24,10 +26,6 @@ using transport::WriteStatus;
 using Clock = std::chrono::steady_clock;
 
 namespace {
-
-// Borrow slots of a segment: one per subscriber that holds a zero-copy loan
-// at a time, shared by all subscribers (the ring grows by one slot per token).
-constexpr std::uint32_t kBorrowSlots = 4;
 
 double wall_clock_now() noexcept {
   timespec now{};
@@ -111,53 +109,86 @@ void OutPort::set_remote_targets(const std::vector<RemoteTarget>& targets) {
   senders_.swap(kept);  // the senders left in `kept` stop here
 }
 
-void OutPort::create_segment(std::uint32_t message_size, const std::string& hash, std::uint32_t history) {
-  message_size_ = message_size;
-  hash_ = hash;
+std::uint32_t OutPort::history_limit() const noexcept {
+  if (segment_limit_ == 0) return transport::layout::kMaxHistory;
+  // The largest history whose segment fits (segments grow with history).
+  std::uint32_t fits = 0, too_big = transport::layout::kMaxHistory + 1;
+  while (too_big - fits > 1) {
+    const std::uint32_t middle = fits + (too_big - fits) / 2;
+    const std::uint64_t size = transport::topic_segment_size(message_size_, middle);
+    if (size != 0 && size <= segment_limit_) fits = middle;
+    else too_big = middle;
+  }
+  return std::max<std::uint32_t>(fits, 1);  // the manager refused anything that needs more than that
+}
+
+std::unique_ptr<transport::ShmWriter> OutPort::make_writer(std::uint32_t message_size, std::uint32_t history,
+                                                           std::uint64_t first_sequence, const char* what) const {
   transport::RingConfig config;
   config.message_size = std::max<std::uint32_t>(message_size, 1);  // the ring needs a byte; empty packets still count
   config.history = std::max<std::uint32_t>(history, 1);
-  config.borrow_slots = kBorrowSlots;
+  config.borrow_slots = transport::kTopicBorrowSlots;
+  config.first_sequence = first_sequence;
   config.debug_name = "ln:" + topic_;
   try {
-    auto writer = std::make_unique<transport::ShmWriter>(transport::ShmWriter::create(config));
-    std::lock_guard<std::mutex> lock(write_mutex_);
-    writer_ = std::move(writer);
-    generation_ = next_segment_generation();
-    first_sequence_ = 1;
-    stream_ = new_stream_id();
+    return std::make_unique<transport::ShmWriter>(transport::ShmWriter::create(config));
   } catch (const ShmError& error) {
-    throw Failure(failure_code_of(error), "creating the shared-memory segment of topic '" + topic_ + "': " + error.what());
+    throw Failure(failure_code_of(error),
+                  std::string(what) + " the shared-memory segment of topic '" + topic_ + "': " + error.what());
   }
 }
 
-bool OutPort::ensure_history(std::uint32_t history) {
+void OutPort::create_segment(std::uint32_t message_size, const std::string& hash, std::uint32_t history) {
+  message_size_ = message_size;
+  hash_ = hash;
+  auto writer = make_writer(message_size, std::min(history, history_limit()), 1, "creating");
+  std::lock_guard<std::mutex> lock(write_mutex_);
+  writer_ = std::move(writer);
+  generation_ = next_segment_generation();
+  first_sequence_ = 1;
+  stream_ = new_stream_id();
+}
+
+bool OutPort::ensure_history(std::uint32_t wanted) {
+  const std::uint32_t history = std::min(wanted, history_limit());
+  {
+    std::lock_guard<std::mutex> lock(write_mutex_);
+    if (!writer_ || writer_->history() >= history) return false;
+  }
+  // Made and pre-faulted without the lock (a segment of many buffers of
+  // large packets takes a while); writes go on into the current segment
+  // meanwhile. It starts right after the current segment's last packet,
+  // numbered when it takes over.
+  std::unique_ptr<transport::ShmWriter> bigger = make_writer(message_size_, history, 1, "growing");
   std::lock_guard<std::mutex> lock(write_mutex_);
   if (!writer_ || writer_->history() >= history) return false;
-  // Creating the bigger segment under the lock delays concurrent writes
-  // once; it has to start right after the old segment's last packet.
-  transport::RingConfig config;
-  config.message_size = writer_->message_size();
-  config.history = history;
-  config.borrow_slots = kBorrowSlots;
-  config.first_sequence = writer_->last_sequence() + 1;
-  config.debug_name = "ln:" + topic_;
-  std::unique_ptr<transport::ShmWriter> bigger;
-  try {
-    bigger = std::make_unique<transport::ShmWriter>(transport::ShmWriter::create(config));
-  } catch (const ShmError& error) {
-    throw Failure(failure_code_of(error), "growing the shared-memory segment of topic '" + topic_ + "': " + error.what());
-  }
+  if (!bigger->renumber(writer_->last_sequence() + 1))
+    throw Failure(LNE_INTERNAL_ERROR, "growing the shared-memory segment of topic '" + topic_ + "': cannot number it");
+  switch_segment_locked(std::move(bigger));
+  return true;
+}
+
+void OutPort::switch_segment_locked(std::unique_ptr<transport::ShmWriter> next) {
   writer_->close_replaced();
   if (loan_ != nullptr) {
     retired_ = std::move(writer_);
     retired_loan_ = loan_;
     loan_ = nullptr;
   }
-  writer_ = std::move(bigger);
+  first_sequence_ = next->last_sequence() + 1;
+  writer_ = std::move(next);
   generation_ = next_segment_generation();
-  first_sequence_ = config.first_sequence;
-  return true;
+}
+
+bool OutPort::recover_segment_locked() noexcept {
+  try {
+    switch_segment_locked(make_writer(message_size_, writer_->history(), writer_->last_sequence() + 1, "re-creating"));
+    recoveries_.fetch_add(1, std::memory_order_relaxed);
+    if (recovery_handler_) recovery_handler_();
+    return true;
+  } catch (...) {
+    return false;  // out of memory or descriptors: the write fails and the next one tries again
+  }
 }
 
 void OutPort::want_history(std::uint32_t history) noexcept {
@@ -171,7 +202,18 @@ std::int64_t OutPort::generation() const {
   return generation_;
 }
 
-std::uint64_t OutPort::packets_written() const noexcept { return writer_ ? writer_->published_sequence() : 0; }
+std::uint64_t OutPort::packets_written() const noexcept {
+  // write() may replace the writer (a corrupted segment) from any thread.
+  std::unique_lock<std::mutex> lock(write_mutex_, std::try_to_lock);
+  if (lock.owns_lock() && writer_) last_packets_written_.store(writer_->published_sequence(), std::memory_order_relaxed);
+  return last_packets_written_.load(std::memory_order_relaxed);
+}
+
+bool OutPort::check_segment() noexcept {
+  std::unique_lock<std::mutex> lock(write_mutex_, std::try_to_lock);
+  if (!lock.owns_lock() || !writer_ || writer_->shared_state_intact()) return false;
+  return recover_segment_locked();
+}
 
 std::uint64_t OutPort::newest_sequence() const {
   std::lock_guard<std::mutex> lock(write_mutex_);
@@ -210,6 +252,7 @@ int OutPort::write(const void* packet, unsigned size, const double* timestamp) n
       loan_ = nullptr;
     }
     status = writer_->write(packet, size, stamp);
+    if (status == WriteStatus::no_free_slot && recover_segment_locked()) status = writer_->write(packet, size, stamp);
     if (retired_) {  // the packet may live in the retired writer's loan: copied by now
       retired_->discard_loan();
       retired_.reset();
@@ -228,6 +271,7 @@ int OutPort::next_buffer(void** buffer, unsigned* length) noexcept {
   std::lock_guard<std::mutex> lock(write_mutex_);
   if (!writer_) return fail(LNE_INVALID_PORT_OBJECT, "the port has no segment");
   if (loan_ == nullptr) loan_ = writer_->loan();
+  if (loan_ == nullptr && recover_segment_locked()) loan_ = writer_->loan();
   if (loan_ == nullptr) return fail(LNE_INTERNAL_ERROR, "no buffer available in the shared-memory segment");
   *buffer = loan_;
   if (length != nullptr) *length = message_size_;
@@ -337,6 +381,10 @@ void InPort::adopt_pending_segment() {
   transport::ReaderOptions options;
   options.buffers = std::min(buffers_, std::max<std::uint32_t>(segment.slots, 1));
   options.max_borrows = 1;
+  // A subscriber that may write where it must not (while debugging one)
+  // faults at the write instead of corrupting the publisher's packets.
+  const char* protect = std::getenv("LN_SHM_WRITE_PROTECT");
+  options.write_protect = protect != nullptr && *protect != '\0' && std::string(protect) != "0";
   const bool continues = !resume_socket_.empty() && resume_socket_ == segment.identity.publisher_socket;
   // An on-request read returns the newest packet, also one written before
   // this subscription (as LN 2.9 fetches it from the publisher).

@@ -11,6 +11,7 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <functional>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -81,6 +82,11 @@ struct SegmentIdentity {
 
 class OutPort : public PortBase {
  public:
+  /// write() and next_buffer() replace a segment whose shared state makes
+  /// writing impossible (a subscriber's stray writes into the part readers
+  /// may write, which only can pin every spare slot) by a new one that
+  /// continues the numbering: subscribers drain the old one and follow, as
+  /// for a bigger segment, once set_recovery_handler()'s handler announced it.
   OutPort(ErrorSlot& errors, std::string topic, std::string md_name, std::uint32_t buffers)
       : PortBase(PortKind::outport, errors, std::move(topic), std::move(md_name)), buffers_(buffers) {}
   /// Stops the senders to remote subscribers first: they read the segment.
@@ -93,19 +99,34 @@ class OutPort : public PortBase {
 
   // ---- set-up and I/O thread
   std::uint32_t buffers() const { return buffers_; }
+  /// The largest segment the manager allows for this topic (publish's
+  /// segment_limit; 0: none known). Before create_segment().
+  void set_segment_limit(std::uint64_t bytes) noexcept { segment_limit_ = bytes; }
   /// Creates the first segment. Throws Failure.
   void create_segment(std::uint32_t message_size, const std::string& hash, std::uint32_t history);
-  /// Moves to a segment with at least `history` slots if the current one is
-  /// smaller; subscribers drain the old one and continue without a gap.
-  /// Returns true if it switched. Throws Failure.
+  /// Moves to a segment with at least `history` slots (as many as the
+  /// segment limit allows) if the current one is smaller; subscribers drain
+  /// the old one and continue without a gap. The new segment is made and
+  /// filled in without the write lock, so writes go on meanwhile. Returns
+  /// true if it switched. Throws Failure.
   bool ensure_history(std::uint32_t history);
+  /// Called (from the writing thread, write lock held: it must only hand
+  /// the work on) after write() replaced a corrupted segment. Before the
+  /// port is handed to the program.
+  void set_recovery_handler(std::function<void()> handler) { recovery_handler_ = std::move(handler); }
+  /// Segments write() found corrupted and replaced (see write()).
+  std::uint64_t segment_recoveries() const noexcept { return recoveries_.load(std::memory_order_relaxed); }
   std::int64_t generation() const;
   /// Packets written since the port was created (sequence numbers continue
-  /// across segments). Reads the segment's counter without the write lock,
-  /// so that counting never delays a writer. Only from the I/O thread and
-  /// once publish() listed the port in its client: from then on only that
-  /// thread replaces the segment.
+  /// across segments). Only tries the write lock, so that counting never
+  /// waits for a writer: while one writes, the previous count is returned.
   std::uint64_t packets_written() const noexcept;
+  /// Replaces the segment if its shared state was written over (by a
+  /// subscriber with a writable mapping; readers then fail): what write()
+  /// does when it finds no free slot, for damage write() cannot notice. Only
+  /// tries the write lock (the I/O thread calls it about once a second).
+  /// True if it replaced the segment.
+  bool check_segment() noexcept;
   void set_subscribers(int count) noexcept { subscribers_.store(count, std::memory_order_relaxed); }
   /// The newest packet's sequence number (0 before any). Taken under the
   /// write lock, so that whatever the program writes once it sees a
@@ -136,6 +157,19 @@ class OutPort : public PortBase {
   std::atomic<int> subscribers_{0};
   std::atomic<std::uint32_t> wanted_history_{1};
 
+  /// The largest history that keeps the segment within segment_limit_.
+  std::uint32_t history_limit() const noexcept;
+  std::unique_ptr<transport::ShmWriter> make_writer(std::uint32_t message_size, std::uint32_t history,
+                                                    std::uint64_t first_sequence, const char* what) const;
+  /// Closes the current segment as replaced and continues in `next` (write lock held).
+  void switch_segment_locked(std::unique_ptr<transport::ShmWriter> next);
+  /// After writer_ found no free slot: a fresh segment (write lock held). False if that failed.
+  bool recover_segment_locked() noexcept;
+
+  std::uint64_t segment_limit_ = 0;
+  mutable std::atomic<std::uint64_t> last_packets_written_{0};
+  std::atomic<std::uint64_t> recoveries_{0};
+  std::function<void()> recovery_handler_;
   mutable std::mutex write_mutex_;  // the writer, its loan and the generation
   std::unique_ptr<transport::ShmWriter> writer_;
   std::int64_t generation_ = 0;

@@ -1,13 +1,18 @@
-// White-box tests of an InPort taking over a publisher's segment, without a
-// manager: the segment is handed to the port as the I/O thread would.
+// White-box tests of an InPort taking over a publisher's segment, and of an
+// OutPort's segments, without a manager: segments are handed to the port as
+// the I/O thread would.
 #include "client/ports.hpp"
 
 #include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/mman.h>
+#include <unistd.h>
 
+#include <atomic>
 #include <cstdint>
 #include <cstring>
 #include <optional>
+#include <thread>
 
 #include "client/error_slot.hpp"
 
@@ -93,6 +98,96 @@ TEST_F(HandOver, OnRequestReadsFindThePacketWrittenBeforeTheHandOver) {
   packet.seq = 0;
   ASSERT_EQ(on_request.read(&packet, sizeof packet, &info, 0), 1);  // again, until a newer one comes
   EXPECT_EQ(packet.seq, 2u);
+}
+
+// ------------------------------------------------------------------ OutPort
+
+struct Kib {
+  std::uint32_t seq;
+  std::uint8_t pad[1020];
+};
+
+// Makes every spare slot of `port`'s segment look pinned, as a subscriber's
+// stray writes into the part of the segment readers may write can.
+void scribble_over_reader_area(OutPort& port) {
+  OutPort::SegmentOffer offer = port.offer_segment();
+  const auto size = static_cast<std::size_t>(::lseek(offer.fd.get(), 0, SEEK_END));
+  void* raw = ::mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_SHARED, offer.fd.get(), 0);
+  ASSERT_NE(raw, MAP_FAILED);
+  std::uint64_t shared_offset = 0;
+  std::memcpy(&shared_offset, static_cast<unsigned char*>(raw) + 48, sizeof shared_offset);  // SegmentInfo
+  ASSERT_LT(shared_offset, size);
+  std::memset(static_cast<unsigned char*>(raw) + shared_offset, 0xff, size - shared_offset);
+  ::munmap(raw, size);
+}
+
+TEST(OutPortSegments, ACorruptedSegmentIsReplacedAndReadersFollow) {
+  ErrorSlot errors;
+  OutPort out(errors, "t.recover", "test/kib", 4);
+  int announced = 0;
+  out.set_recovery_handler([&] { ++announced; });
+  out.create_segment(sizeof(Kib), "hash", 4);
+  InPort in(errors, "t.recover", "test/kib", -1, 4, false);
+  const auto offer_to_subscriber = [&] {
+    OutPort::SegmentOffer offer = out.offer_segment();
+    in.offer_segment(std::move(offer.fd), {"peer", offer.generation}, offer.slots, offer.last_sequence);
+  };
+  offer_to_subscriber();
+  Kib packet{};
+  ln_sample_info info{};
+  EXPECT_EQ(in.read(&packet, sizeof packet, &info, 0), 0);  // takes the segment over
+  for (std::uint32_t seq = 1; seq <= 2; ++seq) {
+    packet.seq = seq;
+    ASSERT_EQ(out.write(&packet, sizeof packet, nullptr), 0);
+  }
+  const std::int64_t before = out.generation();
+  scribble_over_reader_area(out);
+  packet.seq = 3;
+  ASSERT_EQ(out.write(&packet, sizeof packet, nullptr), 0) << errors.text();  // into a new segment
+  EXPECT_EQ(out.segment_recoveries(), 1u);
+  EXPECT_EQ(announced, 1);
+  EXPECT_NE(out.generation(), before);
+  offer_to_subscriber();  // what the I/O thread does once the manager announced it
+  std::vector<std::uint32_t> seqs;
+  while (in.read(&packet, sizeof packet, &info, 0) == 1) seqs.push_back(packet.seq);
+  EXPECT_EQ(seqs, (std::vector<std::uint32_t>{1, 2, 3}));
+  EXPECT_EQ(info.lost, 0u);
+}
+
+TEST(OutPortSegments, GrowingDoesNotStopWrites) {
+  ErrorSlot errors;
+  OutPort out(errors, "t.grow", "test/kib", 1);
+  out.create_segment(sizeof(Kib), "hash", 1);
+  std::atomic<int> phase{0};  // 0 before, 1 while growing, 2 after
+  std::atomic<int> written_while_growing{0};
+  std::thread writer([&] {
+    Kib packet{};
+    while (phase.load() < 2) {
+      ++packet.seq;
+      if (out.write(&packet, sizeof packet, nullptr) == 0 && phase.load() == 1) ++written_while_growing;
+    }
+  });
+  while (out.newest_sequence() == 0) std::this_thread::yield();  // the writer runs
+  phase = 1;
+  // ~110 MB: making and pre-faulting it takes a while, during which the
+  // program's writes go on into the old segment (they waited for all of it
+  // before, for seconds with gigabytes).
+  const bool grew = out.ensure_history(100000);
+  phase = 2;
+  writer.join();
+  EXPECT_TRUE(grew);
+  EXPECT_GT(written_while_growing.load(), 0);
+  EXPECT_EQ(out.offer_segment().slots, 100000u);
+}
+
+TEST(OutPortSegments, GrowthStaysWithinTheManagersLimit) {
+  ErrorSlot errors;
+  OutPort out(errors, "t.limit", "test/kib", 1);
+  out.set_segment_limit(1024 * 1024);
+  out.create_segment(sizeof(Kib), "hash", 4096);  // a subscriber asked for too many before
+  EXPECT_LE(transport::topic_segment_size(sizeof(Kib), out.offer_segment().slots), 1024u * 1024);
+  EXPECT_GT(out.offer_segment().slots, 900u);
+  EXPECT_FALSE(out.ensure_history(100000)) << "an open_segment asking for more gets no bigger segment";
 }
 
 }  // namespace

@@ -16,6 +16,7 @@
 #include <tuple>
 
 #include "client/c_api.hpp"
+#include "client/datagram_faults.hpp"
 #include "client/failure.hpp"
 #include "client/ports.hpp"
 
@@ -32,6 +33,14 @@ constexpr std::uint32_t kBigEndianPayload = 1u << 0;  // header flag
 constexpr bool kHostIsBigEndian = __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__;
 constexpr std::size_t kRetiredStreams = 4;  // per inbox
 constexpr std::size_t kEndedIds = 64;       // per receiver
+// TCP senders (reliable subscriptions): how many connections at once, and
+// how many bytes of partly received packets all of them may hold; beyond,
+// the oldest connection, or the one holding the most, is dropped.
+constexpr std::size_t kMaxStreamConnections = 256;
+constexpr std::size_t kMaxStreamBytes = 64u << 20;
+// New publisher streams (a ring each) one inbox takes per period.
+constexpr auto kNewStreamPeriod = std::chrono::seconds(1);
+constexpr int kNewStreamsPerPeriod = 8;
 
 void put_le(unsigned char* out, std::uint64_t value, int bytes) {
   for (int i = 0; i < bytes; ++i) out[i] = static_cast<unsigned char>(value >> (8 * i));
@@ -146,43 +155,10 @@ const unsigned char* PacketAssembler::add(std::uint64_t sequence, std::uint32_t 
 
 // -------------------------------------------------------------- RemoteSender
 
-#ifdef LN_TEST_HOOKS
-// Test builds only: LN_CORE_TEST_UDP_FAULTS="drop=K,duplicate=M,reorder=N"
-// makes every K-th UDP datagram vanish, every M-th go out twice, and every
-// N-th go out after the one following it -- the network faults the veth test
-// needs where the kernel has no netem.
-struct RemoteSender::Faults {
-  std::uint64_t drop = 0, duplicate = 0, reorder = 0;
-  std::uint64_t count = 0;
-  std::vector<unsigned char> delayed;
-
-  static std::shared_ptr<Faults> from_environment() {
-    const char* text = std::getenv("LN_CORE_TEST_UDP_FAULTS");
-    if (text == nullptr || *text == '\0') return nullptr;
-    auto faults = std::make_shared<Faults>();
-    std::istringstream in(text);
-    std::string item;
-    while (std::getline(in, item, ',')) {
-      const auto equals = item.find('=');
-      if (equals == std::string::npos) continue;
-      const std::uint64_t every = std::strtoull(item.c_str() + equals + 1, nullptr, 10);
-      const std::string name = item.substr(0, equals);
-      if (name == "drop") faults->drop = every;
-      else if (name == "duplicate") faults->duplicate = every;
-      else if (name == "reorder") faults->reorder = every;
-    }
-    return faults;
-  }
-};
-#else
-struct RemoteSender::Faults {
-  static std::shared_ptr<Faults> from_environment() { return nullptr; }
-};
-#endif
 
 
 RemoteSender::RemoteSender(OutPort& port, RemoteTarget target)
-    : port_(port), target_(std::move(target)), faults_(Faults::from_environment()) {
+    : port_(port), target_(std::move(target)), faults_(datagram_faults_from_environment()) {
   thread_ = std::thread([this] { run(); });
 }
 
@@ -245,25 +221,7 @@ bool RemoteSender::send_datagram(const unsigned char* header, const unsigned cha
     // A full socket buffer drops the datagram (the subscriber counts it lost).
     return ::sendmsg(socket_.get(), &message, MSG_NOSIGNAL | MSG_DONTWAIT) >= 0 || errno == ECONNREFUSED;
   };
-#ifdef LN_TEST_HOOKS
-  if (faults_) {
-    Faults& faults = *faults_;
-    const std::uint64_t n = ++faults.count;
-    if (faults.drop != 0 && n % faults.drop == 0) return true;
-    if (faults.reorder != 0 && n % faults.reorder == 0 && faults.delayed.empty()) {
-      faults.delayed.assign(header, header + kHeaderSize);
-      faults.delayed.insert(faults.delayed.end(), payload, payload + length);
-      return true;
-    }
-    const bool sent = send(header, payload, length);
-    if (faults.duplicate != 0 && n % faults.duplicate == 0) send(header, payload, length);
-    if (!faults.delayed.empty()) {
-      send(faults.delayed.data(), faults.delayed.data() + kHeaderSize, faults.delayed.size() - kHeaderSize);
-      faults.delayed.clear();
-    }
-    return sent;
-  }
-#endif
+  if (faults_) return faults_->send(header, kHeaderSize, payload, length, send);
   return send(header, payload, length);
 }
 
@@ -371,7 +329,7 @@ RemoteReceiver::RemoteReceiver(const std::string& local_ip) {
     address.sin_port = 0;
     socklen_t length = sizeof address;
     if (!listener.valid() || ::bind(listener.get(), reinterpret_cast<sockaddr*>(&address), sizeof address) != 0 ||
-        ::listen(listener.get(), 16) != 0 ||
+        ::listen(listener.get(), 128) != 0 ||
         ::getsockname(listener.get(), reinterpret_cast<sockaddr*>(&address), &length) != 0)
       throw errno_failure(errno, "opening the TCP receiver for remote topic data on " + local_ip);
     UniqueFd udp(::socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0));
@@ -488,6 +446,15 @@ void RemoteReceiver::deliver_locked(const unsigned char* data, std::size_t size,
     const auto& retired = inbox.retired_streams;
     if (std::find(retired.begin(), retired.end(), header.stream) != retired.end()) return;  // a straggler
     if (header.sequence <= header.joined_after) return;
+    // A new publisher is rare; datagrams that claim a new one all the time
+    // (anyone can send them) must not make a ring each (a memory file
+    // each): a few per second, the rest are dropped.
+    const auto now = std::chrono::steady_clock::now();
+    if (now - inbox.new_streams_since > kNewStreamPeriod) {
+      inbox.new_streams_since = now;
+      inbox.new_streams = 0;
+    }
+    if (++inbox.new_streams > kNewStreamsPerPeriod) return;
     transport::RingConfig config;
     config.message_size = inbox.message_size;
     config.history = inbox.history;
@@ -531,19 +498,36 @@ void RemoteReceiver::on_packet(const unsigned char* data, std::size_t size) {
 }
 
 void RemoteReceiver::on_stream(Connection& connection) {
+  std::size_t done = 0;
   for (;;) {
-    if (connection.buffered.size() < 4) return;
-    const auto* bytes = reinterpret_cast<const unsigned char*>(connection.buffered.data());
+    const std::size_t left = connection.buffered.size() - done;
+    if (left < 4) break;
+    const auto* bytes = reinterpret_cast<const unsigned char*>(connection.buffered.data()) + done;
     const std::uint32_t frame = static_cast<std::uint32_t>(get_le(bytes, 4));
     if (frame < kHeaderSize || frame > kMaxPacketSize + kHeaderSize) {
       connection.socket.reset();  // not our protocol
       return;
     }
-    if (connection.buffered.size() < 4u + frame) return;
+    if (left < 4u + frame) break;
     Header header;
     if (decode_header(bytes + 4, frame, header) && header.offset == 0 && header.packet_size == frame - kHeaderSize)
       on_packet(bytes + 4, frame);
-    connection.buffered.erase(0, 4u + frame);
+    done += 4u + frame;
+  }
+  connection.buffered.erase(0, done);
+}
+
+void RemoteReceiver::drop_largest_streams_over_budget() {
+  for (;;) {
+    std::size_t total = 0;
+    Connection* largest = nullptr;
+    for (Connection& connection : connections_) {
+      if (!connection.socket.valid()) continue;
+      total += connection.buffered.size();
+      if (!largest || connection.buffered.size() > largest->buffered.size()) largest = &connection;
+    }
+    if (total <= kMaxStreamBytes || largest == nullptr) return;
+    largest->socket.reset();
   }
 }
 
@@ -560,13 +544,21 @@ void RemoteReceiver::run() {
         on_packet(datagram.data(), static_cast<std::size_t>(n));
       }
     }
-    if (fds[2].revents != 0) {
+    for (int i = 0; fds[2].revents != 0 && i < 64; ++i) {
       UniqueFd accepted(::accept4(listener_.get(), nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC));
-      if (accepted.valid()) connections_.push_back(Connection{std::move(accepted), {}});
+      if (!accepted.valid()) break;
+      if (connections_.size() >= kMaxStreamConnections) {  // the oldest goes (erased below)
+        for (Connection& oldest : connections_) {
+          if (!oldest.socket.valid()) continue;
+          oldest.socket.reset();
+          break;
+        }
+      }
+      connections_.push_back(Connection{std::move(accepted), {}});
     }
     for (std::size_t i = 3; i < fds.size(); ++i) {
-      if (fds[i].revents == 0) continue;
       Connection& connection = connections_[i - 3];
+      if (fds[i].revents == 0 || !connection.socket.valid()) continue;
       char chunk[65536];
       const ssize_t n = ::recv(connection.socket.get(), chunk, sizeof chunk, 0);
       if (n <= 0) {
@@ -576,6 +568,7 @@ void RemoteReceiver::run() {
       connection.buffered.append(chunk, static_cast<std::size_t>(n));
       on_stream(connection);
     }
+    drop_largest_streams_over_budget();
     connections_.erase(std::remove_if(connections_.begin(), connections_.end(),
                                       [](const Connection& c) { return !c.socket.valid(); }),
                        connections_.end());

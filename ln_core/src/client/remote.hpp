@@ -68,6 +68,7 @@
 namespace ln::clientlib {
 
 class OutPort;
+class DatagramFaults;
 
 /// UDP fragments carry at most this many payload bytes: below the 64 KiB
 /// UDP limit, and well below it for IPv4 reassembly buffers on the way.
@@ -127,8 +128,6 @@ class RemoteSender {
   RemoteSender& operator=(const RemoteSender&) = delete;
 
  private:
-  struct Faults;  // test builds: datagrams dropped, duplicated, reordered on purpose
-
   void run();
   bool attach(std::optional<std::uint64_t> resume_after);
   bool connect_target();
@@ -145,7 +144,7 @@ class RemoteSender {
   double last_sent_timestamp_ = 0;
   bool sent_any_ = false;
   std::vector<unsigned char> buffer_;
-  std::shared_ptr<Faults> faults_;
+  std::unique_ptr<DatagramFaults> faults_;  // test builds only: see datagram_faults.hpp
   std::thread thread_;
 };
 
@@ -203,6 +202,8 @@ class RemoteReceiver {
     std::vector<std::uint64_t> retired_streams;  // stragglers of these are dropped
     PacketAssembler assembler;
     bool failed = false;
+    std::chrono::steady_clock::time_point new_streams_since{};  // rings made for new streams lately
+    int new_streams = 0;
   };
   struct Connection {
     UniqueFd socket;
@@ -218,6 +219,8 @@ class RemoteReceiver {
   // A datagram, or a TCP frame without its length: header + fragment.
   void on_packet(const unsigned char* data, std::size_t size);
   void on_stream(Connection& connection);
+  /// Keeps what TCP connections hold of unfinished packets within a budget.
+  void drop_largest_streams_over_budget();
   void deliver_locked(const unsigned char* data, std::size_t size, bool may_hold);
   void forget_id_locked(std::int64_t subscription_id);
 

@@ -34,6 +34,16 @@ services::Limits limits_from_environment() {
     const unsigned long long value = std::strtoull(text, &end, 10);
     if (end != text && value > 0) limits.max_data_size = static_cast<std::size_t>(value);
   }
+  if (const char* text = std::getenv("LN_SERVICE_RESPONSE_TIMEOUT_MS")) {
+    char* end = nullptr;
+    const unsigned long value = std::strtoul(text, &end, 10);
+    if (end != text && value > 0) limits.response_timeout_ms = static_cast<unsigned>(std::min(value, 3600000UL));
+  }
+  if (const char* text = std::getenv("LN_SERVICE_MAX_UNREAD_RESPONSES")) {
+    char* end = nullptr;
+    const unsigned long long value = std::strtoull(text, &end, 10);
+    if (end != text && value > 0) limits.max_unread_responses = static_cast<std::size_t>(value);
+  }
   return limits;
 }
 
@@ -128,9 +138,13 @@ ServicesGlue::ServicesGlue(Client& client)
       limits_(limits_from_environment()),
       wait_(wait_from_environment()),
       dispatcher_(static_cast<void*>(&client), limits_, wait_),
-      reactor_(std::make_shared<services::AsyncReactor>()) {}
+      reactor_(std::make_shared<services::AsyncReactor>()),
+      logging_(std::make_shared<ServiceLogging>(client, *this)) {
+  dispatcher_.set_call_log(logging_);
+}
 
 ServicesGlue::~ServicesGlue() {
+  logging_->stop();
   {
     std::lock_guard<std::mutex> lock(mutex_);
     stopping_ = true;
@@ -171,6 +185,14 @@ void ServicesGlue::install_hooks() {
     }
   });
   notifier_ = std::thread([this] { notifier_main(); });
+  logging_->start();  // its reconnect handler runs after ours: loggers after their services
+}
+
+bool ServicesGlue::provides(const std::string& name) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (const auto& entry : registrations_)
+    if (entry.second.name == name) return true;
+  return false;
 }
 
 // ------------------------------------------------------------------ calling
@@ -200,6 +222,7 @@ services::Connector ServicesGlue::connector(std::string name, std::string interf
     if (!read.ok()) return read;
     if (answer.is_error())
       return Status::failure(answer.error_code() > 0 ? answer.error_code() : LNE_REQUEST_FAILED, answer.error_text());
+    if (found.has("log_services")) logging_->set_loggers(name, "", found.get_list("log_services"));
     const std::int64_t local_id = answer.get_int_or("service_id", -1);
     if (local_id <= 0 || local_id > 0xffffffffLL || !set_blocking(socket.get()))
       return Status::failure(LNE_GOT_INVALID_RESPONSE, "invalid handshake answer");
@@ -233,7 +256,8 @@ std::uint32_t ServicesGlue::register_provider(const std::string& name, const std
   try {
     // The translation is in place (loop thread) before any caller can look
     // the new id up.
-    client_.request(std::move(request), Client::kRequestTimeout, [this, local_id](const Message& answer) {
+    client_.request(std::move(request), Client::kRequestTimeout, [this, local_id, name, interface](const Message& answer) {
+      if (answer.has("log_services")) logging_->set_loggers(name, interface, answer.get_list("log_services"));
       std::lock_guard<std::mutex> lock(mutex_);
       const std::int64_t manager_id = answer.get_int_or("service_id", -1);
       auto it = registrations_.find(local_id);
@@ -276,8 +300,14 @@ Status ServicesGlue::release_provider(std::uint32_t local_id) {
 }
 
 void ServicesGlue::on_call(PeerRequest& request) {
-  // No uid check: over TCP there is none to make, and LN does not restrict
-  // services by user either.
+  // On this host the rule of shared-memory segments: same user unless
+  // LN_PEER_ALLOW_UIDS says otherwise. Over TCP there is no uid to check
+  // (the peer server listens on the address used towards the manager).
+  if (!request.connection->over_tcp() && !request.connection->local_user_allowed()) {
+    request.fail(LNE_REQUEST_FAILED, "services are only offered to processes of the same user on this host "
+                                     "(or of users LN_PEER_ALLOW_UIDS lists)");
+    return;
+  }
   const std::int64_t manager_id = request.message.get_int_or("service_id", -1);
   std::uint32_t local_id = 0;
   {
@@ -318,6 +348,8 @@ void ServicesGlue::reregister_all() {
       std::lock_guard<std::mutex> lock(glue->mutex_);
       auto it = glue->registrations_.find(id);
       if (it == glue->registrations_.end()) return;
+      if (reply.message.has("log_services"))
+        glue->logging_->set_loggers(it->second.name, it->second.interface, reply.message.get_list("log_services"));
       it->second.manager_id = reply.message.get_int_or("service_id", -1);
       glue->local_by_manager_id_[it->second.manager_id] = id;
     });

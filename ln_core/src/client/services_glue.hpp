@@ -30,6 +30,7 @@
 #include <thread>
 
 #include "client/client.hpp"
+#include "client/service_logging.hpp"
 #include "services/call_state.hpp"
 #include "services/dispatch.hpp"
 
@@ -51,6 +52,11 @@ class ServicesGlue : public std::enable_shared_from_this<ServicesGlue> {
   const std::shared_ptr<services::AsyncReactor>& reactor() const { return reactor_; }
   const services::Limits& limits() const { return limits_; }
   const services::WaitPolicy& wait_policy() const { return wait_; }
+  /// Service logging (service_logging.hpp); callers of ln_service handles report to it.
+  ServiceLogging& logging() { return *logging_; }
+  std::shared_ptr<services::CallLog> call_log() const { return logging_; }
+  /// True if this client registered a provider named `name`.
+  bool provides(const std::string& name);
 
   /// Opens connections to the provider of `name` (already mapped).
   services::Connector connector(std::string name, std::string interface, std::string signature);
@@ -111,6 +117,7 @@ class ServicesGlue : public std::enable_shared_from_this<ServicesGlue> {
   const services::WaitPolicy wait_;
   services::Dispatcher dispatcher_;
   std::shared_ptr<services::AsyncReactor> reactor_;
+  std::shared_ptr<ServiceLogging> logging_;
 
   std::mutex mutex_;  // registrations, ids, watches, events
   std::map<std::uint32_t, Registration> registrations_;        // by local id

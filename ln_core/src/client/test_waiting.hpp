@@ -1,5 +1,6 @@
 // Test support shared by the client's unit tests and its tests against a
-// manager: bounded waiting for a condition, and what a waiting thread costs.
+// manager: bounded waiting for a condition (testing/wait.hpp), and what a
+// waiting thread costs.
 #pragma once
 
 #include <sys/resource.h>
@@ -9,20 +10,14 @@
 #include <functional>
 #include <thread>
 
+#include "testing/wait.hpp"
+
 namespace ln::clienttest {
 
 using namespace std::chrono_literals;
 using Clock = std::chrono::steady_clock;
 
-/// Polls `condition` until it holds or `timeout` passes.
-inline bool wait_until(const std::function<bool()>& condition, std::chrono::milliseconds timeout = 5000ms) {
-  const auto deadline = Clock::now() + timeout;
-  while (!condition()) {
-    if (Clock::now() >= deadline) return false;
-    std::this_thread::sleep_for(2ms);
-  }
-  return true;
-}
+using test::wait_until;
 
 /// CPU time and voluntary context switches (wake-ups after sleeping) of the
 /// calling thread; differences measure what a wait cost.

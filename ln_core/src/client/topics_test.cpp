@@ -1,9 +1,13 @@
 // Topic semantics through the public API of libln.so: several clients in this
 // process against an in-process manager (the cross-process cases live in
 // tests/topics).
+#include <dirent.h>
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <ln/ln.h>
 #include <poll.h>
+#include <sys/mman.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <chrono>
@@ -125,6 +129,112 @@ TEST_F(TopicTest, PublishSubscribeWriteRead) {
   EXPECT_TRUE(wait_until([&] { return ln_has_subscriber(out) == 0; }));
   EXPECT_EQ(ln_unpublish(&out), 0);
   EXPECT_EQ(out, nullptr);
+}
+
+// The segment of `topic` as this process maps it (the publisher's and the
+// subscriber's descriptors name the same memory file), writable: what a
+// subscriber that scribbles over its mapping can reach.
+struct WritableSegment {
+  explicit WritableSegment(const std::string& topic) {
+    DIR* fds = ::opendir("/proc/self/fd");
+    while (const dirent* entry = fds ? ::readdir(fds) : nullptr) {
+      char target[256] = {};
+      const std::string link = std::string("/proc/self/fd/") + entry->d_name;
+      if (::readlink(link.c_str(), target, sizeof target - 1) <= 0) continue;
+      if (std::string(target).rfind("/memfd:ln:" + topic + " ", 0) != 0) continue;
+      const int fd = ::open(link.c_str(), O_RDWR | O_CLOEXEC);
+      size = static_cast<std::size_t>(::lseek(fd, 0, SEEK_END));
+      base = static_cast<unsigned char*>(::mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0));
+      ::close(fd);
+      break;
+    }
+    if (fds) ::closedir(fds);
+  }
+  ~WritableSegment() {
+    if (base != nullptr && base != MAP_FAILED) ::munmap(base, size);
+  }
+  // The ring names slots that do not exist: readers fail with corrupt_segment.
+  void scribble_over_ring() {
+    std::uint64_t ring_offset = 0;
+    std::memcpy(&ring_offset, base + 24, sizeof ring_offset);  // SegmentInfo::ring_offset
+    std::memset(base + ring_offset, 0xff, 16);
+  }
+  // Everything readers may write set to ones: every spare slot looks pinned.
+  void scribble_over_reader_area() {
+    std::uint64_t shared_offset = 0;
+    std::memcpy(&shared_offset, base + 48, sizeof shared_offset);  // SegmentInfo::shared_offset
+    std::memset(base + shared_offset, 0xff, size - shared_offset);
+  }
+  unsigned char* base = nullptr;
+  std::size_t size = 0;
+};
+
+// A publisher and a subscriber of `topic` that exchanged packets; then
+// `damage` plays a subscriber that writes where it must not.
+class DamagedSegmentTest : public TopicTest {
+ protected:
+  void exchange_then_damage(const char* topic, void (WritableSegment::*damage)()) {
+    out = publish(topic, 4);
+    in = subscribe(topic, 4);
+    ASSERT_TRUE(out && in);
+    EXPECT_TRUE(wait_until([&] { return ln_has_publisher(in) == 1 && ln_has_subscriber(out) == 1; }));
+    handshake(out, in);
+    WritableSegment segment(topic);
+    ASSERT_NE(segment.base, nullptr);
+    ASSERT_NE(segment.base, MAP_FAILED);
+    (segment.*damage)();
+  }
+  ln_outport out = nullptr;
+  ln_inport in = nullptr;
+};
+
+TEST_F(DamagedSegmentTest, ACorruptedSegmentIsReplacedAndSubscribersFollow) {
+  ASSERT_NO_FATAL_FAILURE(exchange_then_damage("t.corrupt", &WritableSegment::scribble_over_reader_area));
+  // The publisher's writes succeed (into a new segment) and the subscriber
+  // gets every one of them.
+  for (uint32_t seq = 1; seq <= 3; ++seq) {
+    P64 p = packet(seq);
+    ASSERT_EQ(ln_write(out, &p, sizeof p, nullptr), 0) << ln_get_error_message(publisher_);
+  }
+  ln_sample_info info{};
+  for (uint32_t seq = 1; seq <= 3; ++seq) {
+    P64 received{};
+    ASSERT_EQ(ln_read_with_info(in, &received, sizeof received, &info, 5), 1) << ln_get_error_message(subscriber_);
+    EXPECT_EQ(received.seq, seq);
+    EXPECT_EQ(info.lost, 0u);
+  }
+  EXPECT_TRUE(manager_.wait_for_log("found the shared-memory segment of topic 't.corrupt' corrupted and replaced it "
+                                    "(1 times so far)"));
+}
+
+TEST_F(DamagedSegmentTest, AnOverwrittenRingIsNoticedByThePublisherAndReplaced) {
+  ASSERT_NO_FATAL_FAILURE(exchange_then_damage("t.ring", &WritableSegment::scribble_over_ring));
+  // Readers of the damaged segment fail; the publisher notices within about
+  // a second, replaces it, and the subscriber reads the new one.
+  bool read_after_replacement = false;
+  const auto deadline = Clock::now() + 10s;
+  for (uint32_t seq = 1; !read_after_replacement && Clock::now() < deadline; ++seq) {
+    P64 p = packet(seq);
+    ASSERT_EQ(ln_write(out, &p, sizeof p, nullptr), 0);
+    P64 received{};
+    read_after_replacement = ln_read_timeout(in, &received, sizeof received, nullptr, 0.02) == 1;
+  }
+  EXPECT_TRUE(read_after_replacement);
+  EXPECT_TRUE(manager_.wait_for_log("found the shared-memory segment of topic 't.ring' corrupted and replaced it"));
+}
+
+TEST_F(TopicTest, BuffersMustBeAtLeastOneAndWithinTheLimit) {
+  ln_outport out = nullptr;
+  EXPECT_EQ(ln_publish_with_buffers(publisher_, "t.zero", "test/p64", 0, &out), -LNE_INVALID_PARAMETER);
+  EXPECT_NE(std::string(ln_get_error_message(publisher_)).find("buffers must be at least 1"), std::string::npos);
+  ln_inport in = nullptr;
+  EXPECT_EQ(ln_subscribe_with_buffers(subscriber_, "t.zero", "test/p64", &in, RATE_AS_PUBLISHED, 0, 0),
+            -LNE_INVALID_PARAMETER);
+  // 4096 buffers of test/big (1 MiB packets) would need 4 GiB: refused, naming the limit.
+  EXPECT_EQ(ln_subscribe_with_buffers(subscriber_, "t.huge", "test/big", &in, RATE_AS_PUBLISHED, 0, 4096),
+            -LNE_SHM_IS_TOO_BIG);
+  EXPECT_NE(std::string(ln_get_error_message(subscriber_)).find("(max_topic_shm 256 MiB)"), std::string::npos)
+      << ln_get_error_message(subscriber_);
 }
 
 TEST_F(TopicTest, SampleInfoCountsSequenceAndLoss) {

@@ -1,5 +1,6 @@
 // The real ln_manager executable: start-up line, config, signals, exit
-// codes, and running out of file descriptors. Every child is bounded and
+// codes, running out of file descriptors, and the lifecycle of the
+// processes it runs (stop order, orphans, SIGKILL, --keep-processes). Every child is bounded and
 // killed by its PID.
 #include <fcntl.h>
 #include <signal.h>
@@ -9,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "manager/test_support.hpp"
@@ -110,8 +112,10 @@ class BinaryTest : public ::testing::Test {
                        "manager: :0\n"
                        "gen_message_definition_path: %(CURDIR)/gen\n"
                        "add_message_definition_dir: %(CURDIR)/md\n"
-                       "process ignored\n"
-                       "command: sleep 1\n");
+                       "hosts\n"
+                       "robot: arch:x86_64\n"
+                       "process not_started\n"
+                       "command: /bin/sleep 1\n");
   }
 
   TempDir dir;
@@ -130,7 +134,8 @@ TEST_F(BinaryTest, ServesClientsAndExitsCleanlyOnSigterm) {
   EXPECT_EQ(manager.wait_exit(), 0);
   const std::string log = manager.stderr_text();
   EXPECT_NE(log.find("instance 'binary_test'"), std::string::npos) << log;
-  EXPECT_NE(log.find("the section type 'process' is not supported"), std::string::npos) << log;
+  EXPECT_NE(log.find("the section type 'hosts' is not supported"), std::string::npos) << log;
+  EXPECT_EQ(log.find("started 'not_started'"), std::string::npos) << "processes start when asked to";
   EXPECT_NE(log.find("client 'probe'"), std::string::npos) << log;
 }
 
@@ -193,7 +198,199 @@ TEST_F(BinaryTest, RunningOutOfDescriptorsRefusesOnlyNewConnections) {
   }
   EXPECT_TRUE(served) << manager.stderr_text();
   manager.signal(SIGTERM);
-  EXPECT_EQ(manager.wait_exit(), 0);
+  EXPECT_EQ(manager.wait_exit(), 0) << manager.stderr_text();
+}
+
+
+// ------------------------------------------------- processes of the config
+
+// A config whose processes record how they stop; %(DIR) is the test's
+// directory. `escaper` starts a grandchild in a session of its own, which
+// only a subreaper manager can still stop once its parent is gone.
+class BinaryProcessTest : public ::testing::Test {
+ protected:
+  std::string config(const std::string& instance, const std::string& extra = "") {
+    const std::string trap = "trap 'echo stop %(_PROCESS) >> %(CURDIR)/stops; exit 0' TERM; echo up; "
+                             "while :; do sleep 0.05; done";
+    return dir.write(instance + ".lnc",
+                     "instance\nname: " + instance + "\nmanager: :0\n"
+                     "process base\ncommand: /bin/sh -c \"" + trap + "\"\nready_regex: ^up\n"
+                     "process top\ncommand: /bin/sh -c \"" + trap + "\"\nready_regex: ^up\ndepends_on: base\n"
+                     "process escaper\n"
+                     "command: /bin/sh -c 'setsid /bin/sleep 1000 & echo $! > %(CURDIR)/grandchild; echo up; "
+                     "exec /bin/sleep 1000'\n"
+                     "ready_regex: ^up\n"
+                     "process counter\n"
+                     "command: /bin/sh -c 'i=0; while :; do i=$((i+1)); echo count $i; echo $i > %(CURDIR)/count; "
+                     "sleep 0.02; done'\n" +
+                         extra);
+  }
+
+  std::map<std::string, std::pair<std::string, long>> states(TestClient& client) {
+    const Message answer = client.call("process_list");
+    std::map<std::string, std::pair<std::string, long>> out;
+    for (std::size_t i = 0; i < answer.get_list("names").size(); ++i)
+      out[answer.get_list("names")[i]] = {answer.get_list("states")[i], std::stol(answer.get_list("pids")[i])};
+    return out;
+  }
+
+  // Polls the manager (bounded) until `name` is `state`; its pid.
+  long wait_state(TestClient& client, const std::string& name, const std::string& state) {
+    const auto deadline = Clock::now() + 10s;
+    std::pair<std::string, long> now;
+    while (Clock::now() < deadline) {
+      now = states(client)[name];
+      if (now.first == state) return now.second;
+      std::this_thread::sleep_for(5ms);  // polling the manager, bounded
+    }
+    ADD_FAILURE() << name << " is '" << now.first << "', not '" << state << "'";
+    return 0;
+  }
+
+  long file_pid(const std::string& relative) {
+    const auto deadline = Clock::now() + 10s;
+    while (Clock::now() < deadline) {
+      std::ifstream in(dir.path() + "/" + relative);
+      long pid = 0;
+      if (in >> pid && pid > 0) return pid;
+      std::this_thread::sleep_for(5ms);
+    }
+    return 0;
+  }
+
+  std::string file(const std::string& relative) {
+    std::ifstream in(dir.path() + "/" + relative);
+    std::stringstream text;
+    text << in.rdbuf();
+    return text.str();
+  }
+
+  // A registered client of `manager`, once it listens.
+  static std::unique_ptr<TestClient> client_of(ManagerProcess& manager) {
+    const std::uint16_t port = manager.wait_listening();
+    if (port == 0) throw std::runtime_error("the manager does not listen:\n" + manager.stderr_text());
+    auto client = std::make_unique<TestClient>(port);
+    if (client->hello("probe").is_error()) throw std::runtime_error("the manager refused hello");
+    return client;
+  }
+
+  TempDir dir;
+};
+
+TEST_F(BinaryProcessTest, SigtermStopsDependentsFirstAndLeavesNoOrphan) {
+  ManagerProcess manager(dir, {"-c", config("stop_order"), "--start", "top", "--start", "escaper"});
+  const auto client = client_of(manager);
+  const long top = wait_state(*client, "top", "ready");
+  const long escaper = wait_state(*client, "escaper", "ready");
+  const long grandchild = file_pid("grandchild");
+  ASSERT_TRUE(process_running(grandchild));
+  manager.signal(SIGTERM);
+  EXPECT_EQ(manager.wait_exit(10s), 0) << manager.stderr_text();
+  EXPECT_EQ(file("stops"), "stop top\nstop base\n") << "dependents first";
+  for (long pid : {top, escaper, grandchild}) EXPECT_FALSE(process_running(pid)) << pid << "\n" << manager.stderr_text();
+  EXPECT_NE(manager.stderr_text().find("stopping orphaned process " + std::to_string(grandchild)), std::string::npos)
+      << manager.stderr_text();
+}
+
+TEST_F(BinaryProcessTest, AProcessKilledBySigkillLeavesNoOrphan) {
+  ManagerProcess manager(dir, {"-c", config("sigkill_process"), "--start", "escaper"});
+  const auto client = client_of(manager);
+  const long escaper = wait_state(*client, "escaper", "ready");
+  const long grandchild = file_pid("grandchild");
+  ASSERT_TRUE(process_running(grandchild));
+  ::kill(static_cast<pid_t>(escaper), SIGKILL);
+  EXPECT_EQ(wait_state(*client, "escaper", "failed"), 0);
+  EXPECT_TRUE(wait_process_gone(grandchild, 10s)) << "the subreaper stops what lost its parent\n" << manager.stderr_text();
+  manager.signal(SIGTERM);
+  EXPECT_EQ(manager.wait_exit(10s), 0);
+}
+
+TEST_F(BinaryProcessTest, AManagerKilledBySigkillTakesItsProcessesAlong) {
+  ManagerProcess manager(dir, {"-c", config("sigkill_manager"), "--start", "top", "--start", "counter"});
+  const auto client = client_of(manager);
+  const long top = wait_state(*client, "top", "ready");
+  const long counter = wait_state(*client, "counter", "started");
+  manager.signal(SIGKILL);
+  EXPECT_EQ(manager.wait_exit(), 128 + SIGKILL);
+  for (long pid : {top, counter}) EXPECT_TRUE(wait_process_gone(pid, 10s)) << "their term_signal comes from the kernel";
+}
+
+TEST_F(BinaryProcessTest, KeptProcessesAreAdoptedByTheNextManager) {
+  const std::string lnc = config("keep");
+  long counter = 0;
+  {
+    ManagerProcess first(dir, {"-c", lnc, "--keep-processes", "--start", "counter"});
+    const auto client = client_of(first);
+    counter = wait_state(*client, "counter", "started");
+    first.signal(SIGTERM);
+    EXPECT_EQ(first.wait_exit(10s), 0) << first.stderr_text();
+    EXPECT_NE(first.stderr_text().find("leaving 1 running process(es) to the keeper"), std::string::npos)
+        << first.stderr_text();
+  }
+  EXPECT_TRUE(process_running(counter)) << "it outlived its manager";
+  {
+    // killed, not stopped: the keeper holds them all the same
+    ManagerProcess second(dir, {"-c", lnc, "--keep-processes"});
+    const auto client = client_of(second);
+    EXPECT_EQ(wait_state(*client, "counter", "started"), counter) << second.stderr_text();
+    second.signal(SIGKILL);
+    EXPECT_EQ(second.wait_exit(), 128 + SIGKILL);
+  }
+  ASSERT_TRUE(process_running(counter)) << "a manager that died left it to the keeper";
+  // let it print a few lines while only the keeper reads its output
+  const long unread = file_pid("count") + 1;
+  const auto printing = Clock::now() + 10s;
+  while (file_pid("count") < unread + 2 && Clock::now() < printing) std::this_thread::sleep_for(5ms);
+  ManagerProcess third(dir, {"-c", lnc});
+  const auto client = client_of(third);
+  EXPECT_EQ(wait_state(*client, "counter", "started"), counter) << third.stderr_text();
+  // what it printed while no manager read it, and what it prints now
+  const auto first_output = client->call("process_output", [](Message& m) { m.set("name", "counter").set("after", 0); });
+  const auto& lines = first_output.get_list("lines");
+  ASSERT_FALSE(lines.empty());
+  std::string all;
+  for (const auto& line : lines) all += line + "\n";
+  EXPECT_NE(all.find("count " + std::to_string(unread) + "\n"), std::string::npos)
+      << "the keeper kept what it printed while no manager ran:\n" << all;
+  const auto deadline = Clock::now() + 10s;
+  std::int64_t last = first_output.get_int("last");
+  while (Clock::now() < deadline &&
+         client->call("process_output", [&](Message& m) { m.set("name", "counter").set("after", last); })
+             .get_list("lines").empty())
+    std::this_thread::sleep_for(5ms);
+  EXPECT_GT(client->call("process_output", [&](Message& m) { m.set("name", "counter").set("after", 0); }).get_int("last"),
+            last) << "its output reaches the new manager";
+  third.signal(SIGTERM);
+  EXPECT_EQ(third.wait_exit(10s), 0) << third.stderr_text();
+  EXPECT_FALSE(process_running(counter)) << "a manager without --keep-processes stops what it adopted";
+}
+
+TEST_F(BinaryProcessTest, ASecondSignalKillsAtOnce) {
+  ManagerProcess manager(dir, {"-c", config("impatient",
+                                            "process stubborn\ncommand: /bin/sh -c \"trap '' TERM; echo up; "
+                                            "while :; do sleep 0.05; done\"\nready_regex: ^up\nterm_timeout: 60\n"),
+                               "--start", "stubborn"});
+  const auto client = client_of(manager);
+  const long stubborn = wait_state(*client, "stubborn", "ready");
+  manager.signal(SIGTERM);
+  EXPECT_EQ(wait_state(*client, "stubborn", "stopping"), stubborn);
+  manager.signal(SIGINT);
+  EXPECT_EQ(manager.wait_exit(10s), 0) << manager.stderr_text();
+  EXPECT_FALSE(process_running(stubborn));
+  EXPECT_NE(manager.stderr_text().find("killing all processes"), std::string::npos) << manager.stderr_text();
+}
+
+TEST_F(BinaryProcessTest, StartNamesMustExistAndIsolatedTestPicksAPort) {
+  ManagerProcess unknown(dir, {"-c", config("names"), "--start", "nobody"});
+  EXPECT_EQ(unknown.wait_exit(), 2);
+  EXPECT_NE(unknown.stderr_text().find("--start nobody: the config has no process, state or group of that name"),
+            std::string::npos);
+  ManagerProcess isolated(dir, {"-c", config("names"), "--isolated-test"});
+  const std::uint16_t port = isolated.wait_listening();
+  ASSERT_NE(port, 0) << isolated.stderr_text();
+  EXPECT_NE(isolated.stderr_text().find("instance 'isolated_test_"), std::string::npos) << isolated.stderr_text();
+  isolated.signal(SIGTERM);
+  EXPECT_EQ(isolated.wait_exit(), 0);
 }
 
 }  // namespace

@@ -105,26 +105,28 @@ TEST_F(ConfigTest, UnsupportedSectionsAndKeysAreReportedOnce) {
       "name: test\n"
       "documentation: http://example.org\n"
       "documentation: again\n"
-      "process talker\n"
-      "command: [\n"
-      "  python3 talker.py\n"
-      "  --fast ]\n"
-      "node: localhost\n"
-      "a line without colon inside an ignored section\n"
-      "process listener\n"
-      "command: %(shell not evaluated)\n"
-      "state ssh_tunnel\n"
-      "check: true\n"
-      "push_name_prefix: robot\n"
       "hosts\n"
-      "robot: arch:x86_64\n");
+      "robot: arch:x86_64\n"
+      "a line without colon inside an ignored section\n"
+      "network lab\n"
+      "member_interfaces: robot/eth0\n"
+      "process talker\n"
+      "command: /bin/true\n"
+      "vte_color_style: dark\n"
+      "add flags: forward_x11\n"
+      "process listener\n"
+      "command: /bin/true\n"
+      "vte_color_style: light\n"
+      "flags: forward_x11, no_such_flag\n");
   EXPECT_EQ(s.instance_name, "test");
-  EXPECT_EQ(logged("the section type 'process' is not supported"), 1u);
-  EXPECT_EQ(logged("the section type 'state' is not supported"), 1u);
   EXPECT_EQ(logged("the section type 'hosts' is not supported"), 1u);
+  EXPECT_EQ(logged("test.lnc:5: the section type 'hosts'"), 1u) << "the report says where";
+  EXPECT_EQ(logged("the section type 'network' is not supported"), 1u);
   EXPECT_EQ(logged("the instance key 'documentation' is not supported"), 1u);
-  EXPECT_EQ(logged("the directive 'push_name_prefix' is not supported"), 1u);
-  EXPECT_EQ(logged("test.lnc:5: the section type 'process'"), 1u) << "the report says where";
+  EXPECT_EQ(logged("the process key 'vte_color_style' is not supported"), 1u);
+  EXPECT_EQ(logged("the flag 'forward_x11' is not supported"), 1u);
+  EXPECT_EQ(logged("unknown flag 'no_such_flag'"), 1u);
+  ASSERT_EQ(s.processes.size(), 2u);
 }
 
 TEST_F(ConfigTest, IncludesAreRelativeToTheIncludingFile) {
@@ -151,13 +153,13 @@ TEST_F(ConfigTest, IfdefAndIfndefPrefixes) {
       "ifdef empty: manager: :1\n"
       "ifndef empty: manager: :2\n"
       "ifdef nothing: add_message_definition_dir: /never\n"
-      "ifdef nothing: process skipped\n"
+      "ifdef nothing: state skipped\n"
       "ifdef nothing: documentation: [\n"
       "  still consumed ]\n");
   EXPECT_EQ(s.instance_name, "simulated");
   EXPECT_EQ(s.manager_port, 2);
   EXPECT_TRUE(s.message_definition_dirs.empty());
-  EXPECT_EQ(logged("process"), 0u);
+  EXPECT_TRUE(s.states.empty());
 }
 
 TEST_F(ConfigTest, UndefAndWarningDirectives) {
@@ -181,14 +183,17 @@ TEST_F(ConfigTest, ErrorsNameFileAndLine) {
             std::string::npos);
   EXPECT_NE(error_of("instance\nname: %(unclosed\n").find("test.lnc:2: '%(' without"), std::string::npos);
   EXPECT_NE(error_of("instance\nname: %(env LN_CONFIG_TEST_UNSET)\n").find("is not set"), std::string::npos);
-  EXPECT_NE(error_of("instance\nname: %(shell hostname)\n").find("never runs commands"), std::string::npos);
+  EXPECT_NE(error_of("instance\nname: %(no_such_function x)\n").find("test.lnc:2: there is no function 'no_such_function'"),
+            std::string::npos);
   EXPECT_NE(error_of("ifdef x\n").find("expected 'ifdef DEFINE: line'"), std::string::npos);
 }
 
 TEST_F(ConfigTest, ADefineThatCannotBeEvaluatedOnlyFailsWhereUsed) {
-  EXPECT_EQ(error_of("defines\nhost: %(shell hostname)\ninstance\nname: fine\n"), "");
+  ::unsetenv("LN_CONFIG_TEST_UNSET");
+  EXPECT_EQ(error_of("defines\nhost: %(env LN_CONFIG_TEST_UNSET)\ninstance\nname: fine\n"), "");
   EXPECT_EQ(logged("define 'host' cannot be evaluated"), 1u);
-  EXPECT_NE(error_of("defines\nhost: %(shell hostname)\ninstance\nname: %(host)\n").find("test.lnc:4: define 'host' is unusable"),
+  EXPECT_NE(error_of("defines\nhost: %(env LN_CONFIG_TEST_UNSET)\ninstance\nname: %(host)\n")
+                .find("test.lnc:4: define 'host' is unusable"),
             std::string::npos);
 }
 

@@ -1,6 +1,7 @@
 #include "manager/definitions.hpp"
 
 #include <fcntl.h>
+#include <ftw.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -10,8 +11,10 @@
 #include <set>
 #include <sstream>
 
+#include "manager/limits.hpp"
 #include "manager/names.hpp"
 #include "manager/request_error.hpp"
+#include "md/sha256.hpp"
 
 namespace ln::manager {
 namespace {
@@ -76,6 +79,30 @@ void write_file_atomically(const std::string& path, std::string_view content) {
   }
 }
 
+std::optional<struct stat> stat_of(const std::string& path) {
+  struct stat st;
+  if (::stat(path.c_str(), &st) != 0) return std::nullopt;
+  return st;
+}
+
+// A stored definition is a regular file that is not a temporary one of write_file_atomically().
+bool is_stored_definition(const char* path, const struct stat& st) {
+  return S_ISREG(st.st_mode) && std::string(path).find(".tmp.") == std::string::npos;
+}
+
+// nftw() takes a plain function: the counts of the walk in progress (the
+// manager's loop is its only caller).
+thread_local std::size_t walk_files = 0;
+thread_local std::uint64_t walk_bytes = 0;
+
+int count_one(const char* path, const struct stat* st, int, FTW*) {
+  if (is_stored_definition(path, *st)) {
+    ++walk_files;
+    walk_bytes += static_cast<std::uint64_t>(st->st_size);
+  }
+  return 0;
+}
+
 }  // namespace
 
 std::optional<std::string> first_dynamic_field(const md::Definition& definition) {
@@ -83,17 +110,79 @@ std::optional<std::string> first_dynamic_field(const md::Definition& definition)
   return first_dynamic_field_in(definition, visiting);
 }
 
-DefinitionStore::DefinitionStore(std::vector<std::string> configured_dirs, std::string generated_dir)
-    : configured_dirs_(std::move(configured_dirs)), generated_dir_(std::move(generated_dir)) {
+DefinitionStore::DefinitionStore(std::vector<std::string> configured_dirs, std::string generated_dir,
+                                 const ManagerLimits& limits)
+    : configured_dirs_(std::move(configured_dirs)), generated_dir_(std::move(generated_dir)), limits_(limits) {
   while (generated_dir_.size() > 1 && generated_dir_.back() == '/') generated_dir_.pop_back();
   if (!generated_dir_.empty() && generated_dir_.front() != '/') {
     char cwd[4096];
     if (::getcwd(cwd, sizeof cwd)) generated_dir_ = std::string(cwd) + "/" + generated_dir_;
   }
   reload();
+  count_stored();
 }
 
 DefinitionStore::~DefinitionStore() = default;
+
+void DefinitionStore::count_stored() {
+  walk_files = 0;
+  walk_bytes = 0;
+  ::nftw(generated_dir_.c_str(), count_one, 16, FTW_PHYS);
+  stored_files_ = walk_files;
+  stored_bytes_ = walk_bytes;
+}
+
+void DefinitionStore::check_quota(const std::string& path, std::size_t bytes) const {
+  const auto existing = stat_of(path);
+  const bool replaces = existing && is_stored_definition(path.c_str(), *existing);
+  const std::size_t files = stored_files_ + (replaces ? 0 : 1);
+  const std::uint64_t total = stored_bytes_ - (replaces ? static_cast<std::uint64_t>(existing->st_size) : 0) + bytes;
+  if (files > limits_.max_stored_definitions)
+    throw RequestError(LNE_REQUEST_FAILED, "'" + generated_dir_ + "' holds " + std::to_string(stored_files_) +
+                                               " stored definitions, as many as the manager allows "
+                                               "(max_stored_definitions); remove some or raise the limit");
+  if (total > limits_.max_stored_definition_bytes)
+    throw RequestError(LNE_REQUEST_FAILED, "'" + generated_dir_ + "' holds " + byte_text(stored_bytes_) +
+                                               " of stored definitions; this one would exceed the " +
+                                               byte_text(limits_.max_stored_definition_bytes) +
+                                               " the manager allows (max_stored_definition_bytes)");
+}
+
+std::optional<DefinitionStore::Stored> DefinitionStore::cached_put(const std::string& name,
+                                                                   const std::string& digest) const {
+  const auto it = put_cache_.find(name);
+  if (it == put_cache_.end() || it->second.digest != digest) return std::nullopt;
+  // Still the file the name resolves to, and nothing it was read from changed.
+  const auto found = library_->search_path().find(name);
+  if (!found || *found != it->second.files.front().path) return std::nullopt;
+  for (const FileStamp& known : it->second.files) {
+    const auto st = stat_of(known.path);
+    if (!st) return std::nullopt;
+    const FileStamp now{known.path, static_cast<std::uint64_t>(st->st_ino), static_cast<std::uint64_t>(st->st_size),
+                        static_cast<std::int64_t>(st->st_mtim.tv_sec) * 1000000000 + st->st_mtim.tv_nsec};
+    if (!(now == known)) return std::nullopt;
+  }
+  return Stored{name, it->second.hash};
+}
+
+void DefinitionStore::remember_put(const std::string& name, const std::string& digest, const md::Definition& stored) {
+  CachedPut entry{digest, stored.hash, {}};
+  std::vector<const md::Definition*> pending{&stored};
+  std::set<const md::Definition*> seen{&stored};
+  while (!pending.empty()) {
+    const md::Definition* current = pending.back();
+    pending.pop_back();
+    const auto st = stat_of(current->path);
+    if (!st) return;  // not from a file: nothing to check later, so nothing to remember
+    entry.files.push_back({current->path, static_cast<std::uint64_t>(st->st_ino), static_cast<std::uint64_t>(st->st_size),
+                           static_cast<std::int64_t>(st->st_mtim.tv_sec) * 1000000000 + st->st_mtim.tv_nsec});
+    for (const md::Define& define : current->defines)
+      if (define.definition && seen.insert(define.definition).second) pending.push_back(define.definition);
+  }
+  // Bounded like the directory it describes.
+  if (put_cache_.size() >= limits_.max_stored_definitions && !put_cache_.count(name)) put_cache_.erase(put_cache_.begin());
+  put_cache_[name] = std::move(entry);
+}
 
 md::SearchPath DefinitionStore::make_search_path() const {
   std::vector<std::string> dirs = configured_dirs_;
@@ -142,11 +231,22 @@ DefinitionBundle DefinitionStore::bundle(const md::Definition& definition) const
 }
 
 DefinitionStore::Stored DefinitionStore::put(std::string_view name, std::string_view text,
-                                             const std::function<bool(const std::string&)>& in_use) {
+                                             const std::function<bool(const std::string&)>& in_use,
+                                             std::size_t& client_parses) {
   const std::string wanted(name);
   if (auto problem = definition_name_problem(wanted)) throw RequestError(LNE_INVALID_PARAMETER, *problem);
   if (text.size() > max_definition_text_size)
     throw RequestError(LNE_INVALID_PARAMETER, "message definition '" + wanted + "' is larger than 1 MiB");
+  const std::string digest = md::sha256_hex(text);
+  if (auto known = cached_put(wanted, digest)) return *known;
+  // Parsing a large text takes a while of the manager's only thread (about
+  // 0.1 s for 1 MiB), and so does a text that fails late: each client has
+  // its count of them.
+  if (client_parses >= limits_.max_definitions_per_client)
+    throw RequestError(LNE_REQUEST_FAILED, "this client has put " + std::to_string(client_parses) +
+                                               " new message definitions, as many as the manager allows per client "
+                                               "(max_definitions_per_client)");
+  ++client_parses;
 
   reload();  // look at the directories as they are now, not as they were
 
@@ -168,7 +268,10 @@ DefinitionStore::Stored DefinitionStore::put(std::string_view name, std::string_
       // A broken stored file may be replaced; anything else stays untouched.
       if (!generated) throw RequestError(LNE_REQUEST_FAILED, e.what());
     }
-    if (existing_hash == new_hash) return {wanted, new_hash};
+    if (existing_hash == new_hash) {
+      if (generated) remember_put(wanted, digest, library_->load(wanted));
+      return {wanted, new_hash};
+    }
     if (!generated)
       throw RequestError(LNE_REQUEST_FAILED, "message definition '" + wanted + "' already exists as '" +
                                                  *existing_path +
@@ -178,12 +281,16 @@ DefinitionStore::Stored DefinitionStore::put(std::string_view name, std::string_
                                                  "' is in use by a topic with different content; it cannot be "
                                                  "replaced until that topic is gone");
   }
-  write_file_atomically(generated_dir_ + "/" + wanted, text);
+  const std::string path = generated_dir_ + "/" + wanted;
+  check_quota(path, text.size());
+  write_file_atomically(path, text);
+  count_stored();
   reload();
   const md::Definition& stored = resolve(wanted);
   if (stored.hash != new_hash)
     throw RequestError(LNE_REQUEST_FAILED, "message definition '" + wanted + "' was stored, but the name resolves to '" +
                                                stored.path + "' with different content");
+  remember_put(wanted, digest, stored);
   return {stored.name, stored.hash};
 }
 

@@ -8,6 +8,7 @@
 
 #include "ln/md/message_definition.hpp"
 #include "manager/definitions.hpp"
+#include "manager/loggers.hpp"
 #include "manager/request_error.hpp"
 #include "protocol/methods.hpp"
 
@@ -39,8 +40,8 @@ std::string join(const std::set<std::string>& items) {
 
 }  // namespace
 
-Dispatcher::Dispatcher(Registry& registry, DefinitionStore& definitions, std::string manager_version)
-    : registry_(registry), definitions_(definitions), manager_version_(std::move(manager_version)) {
+Dispatcher::Dispatcher(Registry& registry, DefinitionStore& definitions, std::string manager_version, LogFunction log)
+    : registry_(registry), definitions_(definitions), manager_version_(std::move(manager_version)), log_(std::move(log)) {
   handlers_ = {
       {std::string(method::hello), &Dispatcher::hello},
       {std::string(method::goodbye), &Dispatcher::goodbye},
@@ -63,7 +64,20 @@ Dispatcher::Dispatcher(Registry& registry, DefinitionStore& definitions, std::st
       {std::string(method::list_topics), &Dispatcher::list_topics},
       {std::string(method::list_services), &Dispatcher::list_services},
       {std::string(method::manager_status), &Dispatcher::manager_status},
+      {std::string(method::process_list), &Dispatcher::process_list},
+      {std::string(method::process_control), &Dispatcher::process_control},
+      {std::string(method::process_output), &Dispatcher::process_output},
+      {std::string(method::needs_provider), &Dispatcher::needs_provider},
+      {std::string(method::connect_event), &Dispatcher::connect_event},
+      {std::string(method::disconnect_event), &Dispatcher::disconnect_event},
+      {std::string(method::register_as_service_logger), &Dispatcher::register_as_service_logger},
   };
+}
+
+Message Dispatcher::deferred() { return Message::notification("(answered later)"); }
+
+bool Dispatcher::is_deferred(const Message& response) {
+  return response.kind() == protocol::Kind::Notification && response.get_string_or("method", "") == "(answered later)";
 }
 
 void Dispatcher::listening_at(std::string address) {
@@ -91,10 +105,15 @@ Message Dispatcher::handle(Session& session, const Message& request, Outbox& out
   try {
     name = request.get_string("method");
     const auto handler = handlers_.find(name);
-    if (handler == handlers_.end())
+    const bool for_loggers = loggers_ != nullptr && Loggers::handles(name);
+    if (handler == handlers_.end() && !for_loggers)
       throw RequestError(LNE_MANAGER_TOO_OLD, "this manager does not know the method '" + name + "'");
-    if (!session.client && handler->second != &Dispatcher::hello)
+    if (!session.client && (for_loggers || handler->second != &Dispatcher::hello))
       throw RequestError(LNE_CLIENT_NOT_INITIALIZED, "say hello first: '" + name + "' needs a registered client");
+    if (for_loggers) {
+      auto response = loggers_->handle(*session.client, request, out);
+      return response ? std::move(*response) : deferred();
+    }
     return (this->*handler->second)(session, request, out);
   } catch (const RequestError& e) {
     return Message::error_response_to(request, e.code(), e.what());
@@ -156,9 +175,10 @@ Message Dispatcher::get_message_definition_for_topic(Session&, const Message& re
   return response;
 }
 
-Message Dispatcher::put_message_definition(Session&, const Message& request, Outbox&) {
+Message Dispatcher::put_message_definition(Session& session, const Message& request, Outbox&) {
   const auto stored = definitions_.put(request.get_string("name"), request.get_string("text"),
-                                       [this](const std::string& name) { return registry_.definition_in_use(name); });
+                                       [this](const std::string& name) { return registry_.definition_in_use(name); },
+                                       session.definitions_put);
   return Message::response_to(request).set("name", stored.name).set("hash", stored.hash);
 }
 
@@ -169,15 +189,22 @@ Message Dispatcher::publish(Session& session, const Message& request, Outbox& ou
       .set("topic_id", topic.id)
       .set("message_size", topic.message_size)
       .set("hash", topic.hash)
-      .set("subscriber_buffers", registry_.subscriber_buffers(topic));
+      .set("subscriber_buffers", registry_.subscriber_buffers(topic))
+      .set("segment_limit", static_cast<std::int64_t>(registry_.limits().max_topic_shm));
 }
 
 Message Dispatcher::publisher_ready(Session& session, const Message& request, Outbox& out) {
   constexpr std::int64_t max = std::numeric_limits<std::int64_t>::max();
   std::optional<std::int64_t> packets;
   if (request.has("packets")) packets = request.get_int("packets", 0, max);
-  registry_.publisher_ready(*session.client, get_id(request, "topic_id"), request.get_int("segment_generation", 0, max),
-                            packets, out);
+  const Id topic_id = get_id(request, "topic_id");
+  registry_.publisher_ready(*session.client, topic_id, request.get_int("segment_generation", 0, max), packets, out);
+  if (loggers_ != nullptr) loggers_->publisher_ready(registry_.topic(topic_id), out);
+  if (request.has("recovered") && log_)
+    log_(LogLevel::Warning, "client '" + registry_.client(*session.client).name + "' found the shared-memory segment of topic '" +
+                                registry_.topic(topic_id).name + "' corrupted and replaced it (" +
+                                std::to_string(request.get_int("recovered", 0, max)) +
+                                " times so far); a subscriber process of that topic writes where it must not");
   return Message::response_to(request);
 }
 
@@ -215,7 +242,9 @@ Message Dispatcher::register_service(Session& session, const Message& request, O
   const Service& service =
       registry_.register_service(*session.client, request.get_string("name"), request.get_string("interface"),
                                  request.get_string("signature"), request.get_string_or("group", ""), out);
-  return Message::response_to(request).set("service_id", service.id);
+  return Message::response_to(request)
+      .set("service_id", service.id)
+      .set("log_services", registry_.loggers_of(service.name, *session.client));
 }
 
 Message Dispatcher::unregister_service(Session& session, const Message& request, Outbox& out) {
@@ -223,9 +252,10 @@ Message Dispatcher::unregister_service(Session& session, const Message& request,
   return Message::response_to(request);
 }
 
-Message Dispatcher::lookup_service(Session&, const Message& request, Outbox&) {
+Message Dispatcher::lookup_service(Session& session, const Message& request, Outbox&) {
   const Service& service = registry_.lookup_service(
       request.get_string("name"), request.get_string_or("interface", ""), request.get_string_or("signature", ""));
+  registry_.note_caller(*session.client, service.name);
   const Client& provider = registry_.client(service.provider);
   return Message::response_to(request)
       .set("interface", service.interface)
@@ -234,7 +264,8 @@ Message Dispatcher::lookup_service(Session&, const Message& request, Outbox&) {
       .set("host_id", provider.hello.host_id)
       .set("peer_socket", provider.hello.peer_socket)
       .set("peer_address", provider.hello.peer_address)
-      .set("service_id", service.id);
+      .set("service_id", service.id)
+      .set("log_services", registry_.loggers_of(service.name, *session.client));
 }
 
 Message Dispatcher::get_service_signature(Session&, const Message& request, Outbox&) {
@@ -349,6 +380,24 @@ Message Dispatcher::manager_status(Session&, const Message& request, Outbox&) {
       .set("topics", static_cast<std::int64_t>(registry_.topics().size()))
       .set("services", static_cast<std::int64_t>(registry_.services().size()))
       .set("message_definition_dirs", definitions_.search_dirs());
+}
+
+Message Dispatcher::connect_event(Session& session, const Message& request, Outbox& out) {
+  const EventConnection& connection =
+      registry_.connect_event(*session.client, request.get_string("name"), request.get_string("signature"),
+                              request.get_string("connect_data"), request.get_string("handler"), out);
+  return Message::response_to(request).set("event_connection_id", connection.id);
+}
+
+Message Dispatcher::disconnect_event(Session& session, const Message& request, Outbox&) {
+  registry_.disconnect_event(*session.client, get_id(request, "event_connection_id"));
+  return Message::response_to(request);
+}
+
+Message Dispatcher::register_as_service_logger(Session& session, const Message& request, Outbox& out) {
+  registry_.register_service_logger(*session.client, request.get_string("logger_service"),
+                                    request.get_string("patterns"), out);
+  return Message::response_to(request);
 }
 
 }  // namespace ln::manager

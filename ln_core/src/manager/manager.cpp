@@ -10,11 +10,14 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <cerrno>
+#include <chrono>
 #include <cstdlib>
 #include <cstring>
+#include <list>
 #include <map>
 #include <mutex>
 #include <stdexcept>
@@ -22,6 +25,8 @@
 
 #include "manager/definitions.hpp"
 #include "manager/dispatch.hpp"
+#include "manager/limits.hpp"
+#include "manager/loggers.hpp"
 #include "manager/registry.hpp"
 #include "manager/request_error.hpp"
 #include "protocol/wire.hpp"
@@ -55,21 +60,50 @@ in_addr resolve_ipv4(const std::string& host) {
   return address;
 }
 
-std::string endpoint_text(const sockaddr_in& address) {
+std::string ip_text(const sockaddr_in& address) {
   char text[INET_ADDRSTRLEN] = "?";
   ::inet_ntop(AF_INET, &address.sin_addr, text, sizeof text);
-  return std::string(text) + ":" + std::to_string(ntohs(address.sin_port));
+  return text;
 }
+
+std::string endpoint_text(const sockaddr_in& address) {
+  return ip_text(address) + ":" + std::to_string(ntohs(address.sin_port));
+}
+
+using Clock = std::chrono::steady_clock;
+
+Clock::duration seconds(double value) {
+  return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(value));
+}
+
+// Requests of one connection handled in a row before the others get their
+// turn: a client that floods the manager only delays everyone by this many.
+constexpr int requests_per_turn = 16;
+// What an unregistered connection may send before its hello is complete:
+// a hello is a few hundred bytes.
+constexpr std::size_t max_pending_input = 64 * 1024;
+// How often deadlines of unregistered connections are checked.
+constexpr auto pending_check_interval = std::chrono::milliseconds(100);
 
 struct Connection {
   int fd = -1;
-  std::string peer;
+  std::string peer;     ///< "IP:PORT"
+  std::string peer_ip;  ///< for max_pending_per_peer
   protocol::FrameReader reader;
   std::string outgoing;  ///< encoded frames not yet written ...
   std::size_t written = 0;  ///< ... of which this many bytes are out
   bool waiting_for_writable = false;
   Session session;
   bool doomed = false;
+  Clock::time_point accepted_at;
+  Clock::time_point last_received;
+  /// Unregistered: its place in Impl::pending (oldest first).
+  std::optional<std::list<int>::iterator> pending_entry;
+  /// It had more complete requests than its turn allowed: handled in the
+  /// next round, before anything more is read from it.
+  bool backlogged = false;
+  /// Bytes this connection contributes to Impl::total_input.
+  std::size_t counted_input = 0;
 
   std::size_t unsent() const { return outgoing.size() - written; }
 };
@@ -79,13 +113,20 @@ struct Connection {
 struct Manager::Impl {
   explicit Impl(ManagerOptions o)
       : options(std::move(o)),
-        definitions(options.message_definition_dirs, options.generated_definition_dir.empty()
-                                                         ? default_generated_dir()
-                                                         : options.generated_definition_dir),
-        registry(definitions),
-        dispatcher(registry, definitions, std::string("ln_core ") + LN_MANAGER_VERSION) {}
+        definitions(options.message_definition_dirs,
+                    options.generated_definition_dir.empty() ? default_generated_dir() : options.generated_definition_dir,
+                    options.limits),
+        registry(definitions, options.limits),
+        dispatcher(registry, definitions, std::string("ln_core ") + LN_MANAGER_VERSION, options.log),
+        loggers(registry, definitions, [this](Loggers::Task task) { post(std::move(task)); }, options.log) {
+    dispatcher.serve_loggers(loggers);
+  }
 
   ~Impl() {
+    {
+      std::lock_guard<std::mutex> lock(posted_mutex);
+      wake_fd_closing = true;  // the loggers' threads still run until they are destroyed
+    }
     for (auto& entry : connections) ::close(entry.first);
     for (int fd : {listen_fd, wake_fd, epoll_fd, spare_fd})
       if (fd >= 0) ::close(fd);
@@ -129,6 +170,31 @@ struct Manager::Impl {
     for (const auto& dir : definitions.search_dirs()) dirs += (dirs.empty() ? "" : ", ") + dir;
     log(LogLevel::Info, "message-definition search path: " + (dirs.empty() ? std::string("(no existing directory)") : dirs));
     log(LogLevel::Info, "put_message_definition stores into " + definitions.generated_dir());
+    start_processes(address);
+  }
+
+  void start_processes(const sockaddr_in& address) {
+    const LncSettings* system = options.system.get();
+    if (system == nullptr || (system->processes.empty() && system->states.empty() && system->groups.empty())) return;
+    ProcessControlOptions process_options = options.process_options;
+    process_options.log = options.log;
+    sockaddr_in reachable = address;
+    if (reachable.sin_addr.s_addr == htonl(INADDR_ANY)) reachable.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    process_options.manager_address = endpoint_text(reachable);
+    process_options.definition_dirs = definitions.search_dirs();
+    process_options.instance_name = options.instance_name;
+    processes = std::make_unique<ProcessControl>(*system, process_options);
+    dispatcher.set_process_control(processes.get());
+    watch(processes->fd(), EPOLLIN);
+    for (const auto& name : options.start) {
+      try {
+        const bool state = std::any_of(system->states.begin(), system->states.end(),
+                                       [&](const StateConfig& s) { return s.name == name; });
+        processes->request(name, state ? "up" : "start");
+      } catch (const RequestError& e) {
+        log(LogLevel::Error, "--start " + name + ": " + e.what());
+      }
+    }
   }
 
   void watch(int fd, std::uint32_t events) {
@@ -144,9 +210,14 @@ struct Manager::Impl {
     if (listen_fd < 0) throw std::runtime_error("Manager::run() needs start() first");
     loop_thread.store(std::this_thread::get_id());
     std::array<epoll_event, 64> events;
-    while (!stop_requested.load()) {
-      // While listening is paused (out of descriptors), look again soon.
-      const int timeout_ms = listening_paused ? 100 : -1;
+    while (!stopping_done()) {
+      // Backlogged requests are handled at once; unregistered connections
+      // have deadlines; while listening is paused (out of descriptors),
+      // look again soon.
+      int timeout_ms = -1;
+      if (!backlogged.empty()) timeout_ms = 0;
+      else if (listening_paused || !pending.empty())
+        timeout_ms = static_cast<int>(pending_check_interval.count());
       const int count = ::epoll_wait(epoll_fd, events.data(), static_cast<int>(events.size()), timeout_ms);
       if (count < 0) {
         if (errno == EINTR) continue;
@@ -160,24 +231,73 @@ struct Manager::Impl {
         if (fd == wake_fd) {
           std::uint64_t ignored;
           (void)!::read(wake_fd, &ignored, sizeof ignored);
+          run_posted_tasks();
         } else if (fd == listen_fd) {
           accept_connections();
+        } else if (processes && fd == processes->fd()) {
+          processes->handle_events();
         } else if (auto it = connections.find(fd); it != connections.end() && !it->second->doomed) {
           Connection& connection = *it->second;
           if (what & (EPOLLIN | EPOLLHUP | EPOLLERR)) receive(connection);
           if (!connection.doomed && (what & EPOLLOUT)) flush(connection);
         }
       }
+      serve_backlog();
+      check_pending_deadlines();
       close_doomed_connections();
     }
     log(LogLevel::Info, "stopping; " + std::to_string(connections.size()) + " connection(s) closed");
     for (auto& entry : connections) ::close(entry.first);
     connections.clear();
     by_client.clear();
+    pending.clear();
+    pending_per_peer.clear();
+    backlogged.clear();
+  }
+
+  // Work finished by other threads (the loggers' workers) comes back here,
+  // to run in the loop thread.
+  void post(Loggers::Task task) {
+    std::lock_guard<std::mutex> lock(posted_mutex);
+    if (wake_fd_closing) return;
+    posted.push_back(std::move(task));
+    const std::uint64_t one = 1;
+    if (wake_fd >= 0) (void)!::write(wake_fd, &one, sizeof one);
+  }
+
+  void run_posted_tasks() {
+    std::vector<Loggers::Task> tasks;
+    {
+      std::lock_guard<std::mutex> lock(posted_mutex);
+      tasks.swap(posted);
+    }
+    for (auto& task : tasks) {
+      Outbox out;
+      task(out);
+      deliver(out);
+    }
+  }
+
+  // Whether run() may end: once stop() was called and, with processes,
+  // they are all stopped. Keeps serving clients meanwhile.
+  bool stopping_done() {
+    const int requests = stop_requests.load();
+    if (requests == 0) return false;
+    if (!processes) return true;
+    if (!shutdown_begun) {
+      shutdown_begun = true;
+      processes->begin_shutdown();
+    }
+    if (requests > 1 && !killed_all) {
+      killed_all = true;
+      log(LogLevel::Warning, "asked to stop again: killing all processes (SIGKILL)");
+      processes->kill_all();
+    }
+    return processes->finished();
   }
 
   void stop() {
-    stop_requested.store(true);
+    stop_requests.fetch_add(1);
     const std::uint64_t one = 1;
     if (wake_fd >= 0) (void)!::write(wake_fd, &one, sizeof one);
   }
@@ -197,9 +317,11 @@ struct Manager::Impl {
         return;
       }
       const std::string peer = endpoint_text(address);
-      if (connections.size() >= options.max_clients) {
+      const std::string ip = ip_text(address);
+      make_room_for_pending(ip);
+      if (connections.size() >= options.limits.max_clients) {
         log(LogLevel::Warning, "refused the connection from " + peer + ": already " +
-                                   std::to_string(connections.size()) + " connections (the limit)");
+                                   std::to_string(connections.size()) + " connections (the limit), max_clients");
         ::close(fd);
         continue;
       }
@@ -213,11 +335,74 @@ struct Manager::Impl {
         ::close(fd);
         continue;
       }
-      auto connection = std::make_unique<Connection>();
-      connection->fd = fd;
-      connection->peer = peer;
-      connections[fd] = std::move(connection);
+      auto owned = std::make_unique<Connection>();
+      Connection& connection = *owned;
+      connection.fd = fd;
+      connection.peer = peer;
+      connection.peer_ip = ip;
+      connection.accepted_at = connection.last_received = Clock::now();
+      connections[fd] = std::move(owned);
+      pending.push_back(fd);
+      connection.pending_entry = std::prev(pending.end());
+      ++pending_per_peer[ip];
       log(LogLevel::Debug, "connection from " + peer);
+      // A client sends its hello right after connecting: often it is here
+      // already, and the connection is registered before the next one comes.
+      receive(connection);
+    }
+  }
+
+  // Unregistered connections are capped in all and per address; a new one
+  // closes the oldest (a real client registers within a round trip, so
+  // only connections that hold a place without registering lose it).
+  // Beyond max_clients, an unregistered connection makes room as well.
+  void make_room_for_pending(const std::string& ip) {
+    auto close_oldest = [&](const std::string* of_ip, const std::string& why) {
+      for (int fd : pending) {
+        Connection& victim = *connections.at(fd);
+        if (victim.doomed || (of_ip && victim.peer_ip != *of_ip)) continue;
+        doom(victim, LogLevel::Warning, "closed: " + why);
+        return true;
+      }
+      return false;
+    };
+    bool closed_any = false;
+    const auto from_peer = pending_per_peer.find(ip);
+    if (from_peer != pending_per_peer.end() && from_peer->second >= options.limits.max_pending_per_peer)
+      closed_any |= close_oldest(&ip, "the oldest of " + std::to_string(options.limits.max_pending_per_peer) +
+                                          " connections from " + ip + " that did not register (max_pending_per_peer)");
+    if (pending.size() >= options.limits.max_pending)
+      closed_any |= close_oldest(nullptr, "the oldest of " + std::to_string(options.limits.max_pending) +
+                                              " connections that did not register (max_pending)");
+    if (connections.size() >= options.limits.max_clients)
+      closed_any |= close_oldest(nullptr, "the oldest connection that did not register, to make room for a new one "
+                                          "(max_clients " + std::to_string(options.limits.max_clients) + ")");
+    if (closed_any) close_doomed_connections();
+  }
+
+  void leave_pending(Connection& connection) {
+    if (!connection.pending_entry) return;
+    pending.erase(*connection.pending_entry);
+    connection.pending_entry.reset();
+    const auto it = pending_per_peer.find(connection.peer_ip);
+    if (it != pending_per_peer.end() && --it->second == 0) pending_per_peer.erase(it);
+  }
+
+  void check_pending_deadlines() {
+    const Clock::time_point now = Clock::now();
+    if (now < next_pending_check) return;
+    next_pending_check = now + pending_check_interval;
+    const auto handshake = seconds(options.limits.handshake_timeout);
+    const auto idle = seconds(options.limits.pending_idle_timeout);
+    for (auto it = pending.begin(); it != pending.end();) {
+      Connection& connection = *connections.at(*it++);  // doom() takes it out of `pending`
+      if (connection.doomed) continue;
+      if (now - connection.accepted_at > handshake)
+        doom(connection, LogLevel::Warning, "did not register within " + shortest_text(options.limits.handshake_timeout) +
+                                                " s (handshake_timeout); closed");
+      else if (now - connection.last_received > idle)
+        doom(connection, LogLevel::Warning, "sent nothing for " + shortest_text(options.limits.pending_idle_timeout) +
+                                                " s without registering (pending_idle_timeout); closed");
     }
   }
 
@@ -251,26 +436,82 @@ struct Manager::Impl {
   // ------------------------------------------------------------ reading
 
   void receive(Connection& connection) {
+    // A backlogged connection is not read: what it sends waits in the
+    // kernel (and, once that is full, in the sender) until its turn.
+    if (connection.backlogged) return;
     const ssize_t count = ::recv(connection.fd, receive_buffer.data(), receive_buffer.size(), 0);
     if (count == 0) return doom(connection, LogLevel::Info, "closed the connection");
     if (count < 0) {
       if (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR) return;
       return doom(connection, LogLevel::Info, errno_text("connection failed"));
     }
+    connection.last_received = Clock::now();
     try {
       connection.reader.append(receive_buffer.data(), static_cast<std::size_t>(count));
+    } catch (const protocol::ProtocolError& e) {
+      return doom(connection, LogLevel::Warning, "sent a malformed message (" + std::string(e.what()) + "); disconnected");
+    }
+    handle_turn(connection);
+  }
+
+  // Handles up to requests_per_turn complete requests of `connection`.
+  void handle_turn(Connection& connection) {
+    int handled = 0;
+    try {
       while (!connection.doomed && !connection.session.close_after_response) {
+        if (handled == requests_per_turn) {
+          if (!connection.backlogged) backlogged.push_back(connection.fd);
+          connection.backlogged = true;
+          break;
+        }
         auto message = connection.reader.next();
-        if (!message) break;
+        if (!message) {
+          connection.backlogged = false;
+          break;
+        }
+        ++handled;
         handle(connection, *message);
       }
-      // What is left is one incomplete message.
-      if (connection.reader.buffered() > options.max_request_size)
-        doom(connection, LogLevel::Warning,
-             "sent a message larger than " + std::to_string(options.max_request_size) + " bytes; disconnected");
     } catch (const protocol::ProtocolError& e) {
       doom(connection, LogLevel::Warning, "sent a malformed message (" + std::string(e.what()) + "); disconnected");
     }
+    if (connection.doomed) return;
+    // What is left is at most one incomplete request (plus a backlog).
+    const std::size_t limit = connection.session.client ? options.limits.max_request_size : max_pending_input;
+    if (!connection.backlogged && connection.reader.buffered() > limit)
+      return doom(connection, LogLevel::Warning,
+                  connection.session.client
+                      ? "sent a message larger than " + std::to_string(limit) + " bytes (max_request_size); disconnected"
+                      : "sent more than " + std::to_string(limit) + " bytes without registering; disconnected");
+    if (connection.reader.buffered() == 0) connection.reader.release_memory();
+    count_input(connection);
+  }
+
+  void serve_backlog() {
+    std::vector<int> turn;
+    turn.swap(backlogged);
+    for (int fd : turn) {
+      const auto it = connections.find(fd);
+      if (it == connections.end() || it->second->doomed || !it->second->backlogged) continue;
+      Connection& connection = *it->second;
+      connection.backlogged = false;
+      handle_turn(connection);
+    }
+  }
+
+  // Keeps total_input (partly received requests of all connections) within
+  // max_total_input: beyond, the connection holding the most goes.
+  void count_input(Connection& connection) {
+    total_input += connection.reader.buffered();
+    total_input -= connection.counted_input;
+    connection.counted_input = connection.reader.buffered();
+    if (total_input <= options.limits.max_total_input) return;
+    Connection* largest = &connection;
+    for (auto& [fd, other] : connections)
+      if (!other->doomed && other->counted_input > largest->counted_input) largest = other.get();
+    doom(*largest, LogLevel::Warning,
+         "holds " + byte_text(largest->counted_input) + " of partly received requests, the most while all connections "
+         "together hold more than " + byte_text(options.limits.max_total_input) + " (max_total_input); disconnected");
   }
 
   void handle(Connection& connection, const protocol::Message& message) {
@@ -288,6 +529,7 @@ struct Manager::Impl {
     const std::optional<Id> before = connection.session.client;
     Outbox out;
     const protocol::Message response = dispatcher.handle(connection.session, message, out, options.log);
+    if (Dispatcher::is_deferred(response)) return deliver(out);  // answered through post() later
     if (response.is_error())
       log(LogLevel::Debug, describe(connection) + ": '" + message.get_string_or("method", "") +
                                "' refused: " + response.error_text());
@@ -295,6 +537,7 @@ struct Manager::Impl {
       if (before) by_client.erase(*before);
       if (connection.session.client) {
         by_client[*connection.session.client] = &connection;
+        leave_pending(connection);
         log(LogLevel::Info, describe(connection) + " registered");
       }
     }
@@ -331,16 +574,31 @@ struct Manager::Impl {
 
   void queue(Connection& connection, const std::string& frame) {
     if (connection.doomed) return;
-    if (connection.unsent() + frame.size() > options.max_output_queue)
+    if (connection.unsent() + frame.size() > options.limits.max_output_queue)
       return doom(connection, LogLevel::Warning,
-                  "does not read what the manager sends (more than " + std::to_string(options.max_output_queue) +
-                      " bytes pending); disconnected");
+                  "does not read what the manager sends (more than " + std::to_string(options.limits.max_output_queue) +
+                      " bytes pending, max_output_queue); disconnected");
     if (connection.written > 0 && connection.written * 2 >= connection.outgoing.size()) {
       connection.outgoing.erase(0, connection.written);
       connection.written = 0;
     }
     connection.outgoing += frame;
+    total_output += frame.size();
     flush(connection);
+    if (total_output > options.limits.max_total_output) shed_largest_output();
+  }
+
+  // All clients together may not hold more than max_total_output unsent:
+  // the one that holds the most goes.
+  void shed_largest_output() {
+    Connection* largest = nullptr;
+    for (auto& [fd, other] : connections)
+      if (!other->doomed && (!largest || other->unsent() > largest->unsent())) largest = other.get();
+    if (largest == nullptr) return;
+    doom(*largest, LogLevel::Warning,
+         "does not read what the manager sends (" + byte_text(largest->unsent()) + " pending, the most while all clients "
+         "together have more than " + byte_text(options.limits.max_total_output) + " pending, max_total_output); "
+         "disconnected");
   }
 
   void flush(Connection& connection) {
@@ -353,8 +611,11 @@ struct Manager::Impl {
         return doom(connection, LogLevel::Info, errno_text("connection failed"));
       }
       connection.written += static_cast<std::size_t>(count);
+      total_output -= static_cast<std::size_t>(count);
     }
     if (connection.unsent() == 0) {
+      // A large answer went out: give its memory back.
+      if (connection.outgoing.capacity() > 1024 * 1024) std::string().swap(connection.outgoing);
       connection.outgoing.clear();
       connection.written = 0;
       if (connection.session.close_after_response) return doom(connection, LogLevel::Info, "said goodbye");
@@ -387,6 +648,7 @@ struct Manager::Impl {
     connection.doomed = true;
     log(level, describe(connection) + " " + reason);
     doomed.push_back(connection.fd);
+    leave_pending(connection);
   }
 
   void close_doomed_connections() {
@@ -403,6 +665,8 @@ struct Manager::Impl {
         by_client.erase(client);
         deliver(out);
       }
+      total_output -= connection.unsent();
+      total_input -= connection.counted_input;
       ::epoll_ctl(epoll_fd, EPOLL_CTL_DEL, fd, nullptr);
       ::close(fd);
       connections.erase(it);
@@ -413,6 +677,10 @@ struct Manager::Impl {
   DefinitionStore definitions;
   Registry registry;
   Dispatcher dispatcher;
+  std::mutex posted_mutex;
+  std::vector<Loggers::Task> posted;
+  bool wake_fd_closing = false;
+  Loggers loggers;  // after everything it uses: destroyed (its threads stopped) first
 
   int epoll_fd = -1;
   int listen_fd = -1;
@@ -420,7 +688,10 @@ struct Manager::Impl {
   int spare_fd = -1;
   bool listening_paused = false;
   std::uint16_t bound_port = 0;
-  std::atomic<bool> stop_requested{false};
+  std::atomic<int> stop_requests{0};
+  std::unique_ptr<ProcessControl> processes;
+  bool shutdown_begun = false;
+  bool killed_all = false;
   std::thread thread;
   std::mutex join_mutex;  ///< two threads calling stop() must not both join
   std::atomic<std::thread::id> loop_thread{};
@@ -428,6 +699,12 @@ struct Manager::Impl {
   std::map<int, std::unique_ptr<Connection>> connections;
   std::map<Id, Connection*> by_client;
   std::vector<int> doomed;
+  std::list<int> pending;  ///< unregistered connections, oldest first
+  std::map<std::string, std::size_t> pending_per_peer;  ///< by IP address
+  Clock::time_point next_pending_check{};
+  std::vector<int> backlogged;  ///< connections with requests left for the next round
+  std::size_t total_input = 0;   ///< partly received requests, all connections
+  std::size_t total_output = 0;  ///< unsent messages, all connections
   std::array<char, 64 * 1024> receive_buffer{};
 };
 

@@ -9,7 +9,10 @@
 #include <string>
 #include <vector>
 
+#include "manager/config.hpp"
+#include "manager/limits.hpp"
 #include "manager/log.hpp"
+#include "manager/process_control.hpp"
 
 namespace ln::manager {
 
@@ -23,15 +26,17 @@ struct ManagerOptions {
   std::vector<std::string> message_definition_dirs;
   /// Where put_message_definition stores; "" = ~/ln_message_definitions/gen.
   std::string generated_definition_dir;
-  /// A client whose unsent messages exceed this is disconnected.
-  std::size_t max_output_queue = 16u * 1024 * 1024;
-  /// A request may be this large (the wire allows 64 MiB; no request needs
-  /// more than a 1 MiB definition text), so a client cannot make the
-  /// manager buffer more.
-  std::size_t max_request_size = 4u * 1024 * 1024;
-  /// Further connections are accepted and closed at once.
-  std::size_t max_clients = 4096;
+  ManagerLimits limits;
   LogFunction log;
+  /// The processes, states and groups to supervise (process_control.hpp);
+  /// none by default.
+  std::shared_ptr<const LncSettings> system;
+  /// Started (processes, groups) or brought up (states) once listening.
+  std::vector<std::string> start;
+  /// How they are supervised (stop_with_manager, reap_orphans,
+  /// keep_processes, keeper_command, library_dir); the manager fills in the
+  /// log, its address, the definition search path and the instance name.
+  ProcessControlOptions process_options;
 };
 
 class Manager {
@@ -52,7 +57,9 @@ class Manager {
   void run_in_thread();
   /// Ends run() soon; from any thread (also a signal-handling one), any
   /// number of times. Joins the thread of run_in_thread() unless called
-  /// from it.
+  /// from it. With processes, run() first stops them (dependents first,
+  /// term_signal, SIGKILL after term_timeout) while it keeps serving
+  /// clients; a second stop() kills them at once.
   void stop();
 
  private:

@@ -4,12 +4,16 @@
 #pragma once
 
 #include <chrono>
+#include <cstddef>
 #include <cstdint>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
+#include "manager/events.hpp"
+#include "manager/manager.hpp"
 #include "protocol/wire.hpp"
 
 namespace ln::manager {
@@ -43,6 +47,7 @@ struct Client {
   Id id = 0;
   std::string name;
   ClientHello hello;
+  std::size_t ports = 0;  ///< topics it publishes, subscriptions and services (max_ports_per_client)
 };
 
 struct Subscription {
@@ -87,6 +92,23 @@ struct Service {
   Id provider = 0;
 };
 
+/// A client's connection to ln.resource_event (events.hpp).
+struct EventConnection {
+  Id id = 0;
+  Id client = 0;
+  std::string handler;    ///< the client's service that receives the events
+  std::string interface;  ///< the definition named in the connect signature
+  ResourceFilter filter;
+};
+
+/// A service logger: a service of `client` (interface ln/log_service) that
+/// callers and providers of the services its patterns match send copies of
+/// requests and responses to.
+struct ServiceLogger {
+  Id client = 0;
+  std::vector<std::string> patterns;  ///< fnmatch patterns; "!pattern" excludes
+};
+
 struct SubscribeRequest {
   std::string topic;
   std::string definition;  ///< may carry "|hash"; "" = whatever the topic uses
@@ -110,7 +132,9 @@ std::string shortest_text(double value);
 /// All operations throw RequestError and change nothing when they refuse.
 class Registry {
  public:
-  explicit Registry(DefinitionStore& definitions) : definitions_(definitions) {}
+  /// `limits` (max_topic_shm, max_client_shm) must outlive the registry.
+  Registry(DefinitionStore& definitions, const ManagerLimits& limits) : definitions_(definitions), limits_(limits) {}
+  const ManagerLimits& limits() const { return limits_; }
 
   // ------------------------------------------------------------- clients
   const Client& add_client(ClientHello hello);
@@ -144,6 +168,16 @@ class Registry {
   /// Packets per second as list_topics shows it now (0 once stale).
   double current_rate(const Topic& topic) const;
 
+  // --------------------------------------------------------- recorder taps
+  /// A tap: the manager's own recorder (manager/recorder.hpp) reading topic
+  /// `topic`'s segment like a subscriber on the publisher's host, listed in
+  /// subscribers_changed's `local` ids and counted in subscriber_buffers, but
+  /// not as a subscriber (has_subscriber, list_topics, list_clients). Kept by
+  /// topic name, also while the topic has no publisher or does not exist.
+  Id add_tap(const std::string& topic, std::int64_t buffers, Outbox& out);
+  void set_tap_buffers(Id tap, std::int64_t buffers, Outbox& out);
+  void remove_tap(Id tap, Outbox& out);
+
   // ------------------------------------------------------------ services
   const Service& register_service(Id client, const std::string& name, const std::string& interface,
                                   const std::string& signature, const std::string& group, Outbox& out);
@@ -154,6 +188,27 @@ class Registry {
                                 const std::string& signature) const;
   const Service& service_named(const std::string& name) const;
   std::vector<std::string> services_with_interface(const std::string& interface) const;
+
+  // -------------------------------------------------------------- events
+  /// Connects `client` to ln.resource_event (the only event there is;
+  /// others: LNE_REQUEST_FAILED) and queues the initial sync.
+  /// `signature` is "<definition>: <connect signature>".
+  const EventConnection& connect_event(Id client, const std::string& name, const std::string& signature,
+                                       const std::string& connect_data, const std::string& handler, Outbox& out);
+  void disconnect_event(Id client, Id connection);
+
+  // ----------------------------------------------------- service logging
+  /// ln_register_as_service_logger(): `logger_service` must be a service of
+  /// `client` (LNE_SVC_NOT_REGISTERED) with interface ln/log_service.
+  /// Patterns are comma-separated (LN 2.9). Tells the other clients about
+  /// the services they provide or call that it logs (add_service_logger).
+  void register_service_logger(Id client, const std::string& logger_service, const std::string& patterns,
+                               Outbox& out);
+  /// The loggers that get copies of `service`'s calls from `client`: every
+  /// logger of another client whose patterns match (never the logger itself).
+  std::vector<std::string> loggers_of(const std::string& service, Id client) const;
+  /// `client` calls `service` (lookup_service): it hears of loggers added later.
+  void note_caller(Id client, const std::string& service);
 
   // ------------------------------------------------------- introspection
   const std::map<Id, Client>& clients() const { return clients_; }
@@ -169,14 +224,28 @@ class Registry {
   };
   ResolvedDefinition resolve_for_topic(const std::string& topic, const std::string& definition);
   void check_topic_definition(const Topic& topic, const ResolvedDefinition& wanted) const;
+  /// The buffers the topic's segment has now: its publisher's and its subscribers' largest.
+  std::int64_t segment_history(const Topic& topic) const;
+  /// Refuses (RequestError naming the limit) a segment of `history` buffers
+  /// for topic `name` with packets of `message_size` bytes, if it exceeds
+  /// max_topic_shm or makes `publisher`'s topics exceed max_client_shm.
+  /// `topic_id`: the topic's current segment, not counted twice (0: new).
+  void check_shared_memory(const std::string& name, std::int64_t message_size, std::int64_t history,
+                           std::optional<Id> publisher, Id topic_id, const std::string& asked_by) const;
   Topic& create_topic(const std::string& name, const ResolvedDefinition& definition);
+  /// Refuses (RequestError) one more topic, subscription or service of a client at max_ports_per_client.
+  void check_port_quota(Id client) const;
   Topic& owned_topic(Id client, Id topic);
   void notify_publisher(const Topic& topic, Outbox& out) const;
   static void restart_packet_count(Topic& topic, std::int64_t packets);
   void erase_topic_if_unused(Id topic);
   void notify_all_clients(const protocol::Message& message, Outbox& out) const;
+  /// `event` to every event connection whose filter accepts it.
+  void emit(const ResourceEvent& event, Outbox& out) const;
+  void send_event(const EventConnection& connection, const ResourceEvent& event, Outbox& out) const;
 
   DefinitionStore& definitions_;
+  const ManagerLimits& limits_;
   Id last_id_ = 0;
   std::map<Id, Client> clients_;
   std::map<std::string, Id> client_names_;
@@ -185,6 +254,15 @@ class Registry {
   std::map<Id, Subscription> subscriptions_;
   std::map<Id, Service> services_;
   std::map<std::string, Id> service_names_;
+  struct Tap {
+    std::string topic;
+    std::int64_t buffers = 1;
+  };
+  std::map<Id, Tap> taps_;
+  void notify_publisher_of(const std::string& topic, Outbox& out) const;
+  std::map<Id, EventConnection> event_connections_;
+  std::map<std::string, ServiceLogger> service_loggers_;  // by logger service name
+  std::map<Id, std::set<std::string>> called_services_;   // by client
 };
 
 }  // namespace ln::manager

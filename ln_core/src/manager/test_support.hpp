@@ -25,6 +25,8 @@
 
 #include "manager/manager.hpp"
 #include "protocol/wire.hpp"
+#include "testing/in_process_manager.hpp"
+#include "testing/temp_dir.hpp"
 
 namespace ln::manager::testing {
 
@@ -34,40 +36,7 @@ using protocol::Message;
 
 constexpr auto default_timeout = 5s;
 
-/// A directory that is removed with everything in it.
-class TempDir {
- public:
-  TempDir() {
-    char pattern[] = "/tmp/ln_manager_test_XXXXXX";
-    if (!::mkdtemp(pattern)) throw std::runtime_error("mkdtemp failed");
-    path_ = pattern;
-  }
-  ~TempDir() {
-    const std::string command = "rm -rf '" + path_ + "'";
-    (void)!::system(command.c_str());
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-
-  const std::string& path() const { return path_; }
-
-  /// Writes `content` to path()/relative, creating directories.
-  std::string write(const std::string& relative, const std::string& content) const {
-    const std::string file = path_ + "/" + relative;
-    for (auto slash = file.find('/', path_.size() + 1); slash != std::string::npos; slash = file.find('/', slash + 1))
-      ::mkdir(file.substr(0, slash).c_str(), 0700);
-    std::ofstream(file, std::ios::binary) << content;
-    return file;
-  }
-
-  bool exists(const std::string& relative) const {
-    struct stat st;
-    return ::stat((path_ + "/" + relative).c_str(), &st) == 0;
-  }
-
- private:
-  std::string path_;
-};
+using ln::test::TempDir;
 
 /// A client that speaks the wire protocol by hand, every wait bounded.
 class TestClient {
@@ -200,6 +169,23 @@ class TestClient {
   std::deque<Message> notifications_;
 };
 
+/// Whether process `pid` runs (zombies do not count: the init of a
+/// container may never reap the orphans a test leaves).
+inline bool process_running(long pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+  std::string stat;
+  if (pid <= 0 || !std::getline(in, stat)) return false;
+  const auto close = stat.rfind(')');
+  return close != std::string::npos && close + 2 < stat.size() && stat[close + 2] != 'Z';
+}
+
+/// Waits (bounded) until process `pid` no longer runs.
+inline bool wait_process_gone(long pid, Clock::duration timeout = default_timeout) {
+  const auto deadline = Clock::now() + timeout;
+  while (process_running(pid) && Clock::now() < deadline) std::this_thread::sleep_for(5ms);
+  return !process_running(pid);
+}
+
 /// The message definitions the tests use, under "mt/".
 inline void write_test_definitions(const TempDir& dir) {
   dir.write("md/mt/point", "double x\ndouble y\ndouble z\n");
@@ -212,55 +198,15 @@ inline void write_test_definitions(const TempDir& dir) {
   dir.write("md/mt/echo", "service\nrequest\nchar* text\nresponse\nchar* text\n");
 }
 
-/// An in-process manager on 127.0.0.1 and an ephemeral port.
-class RunningManager {
+/// The in-process manager (testing/in_process_manager.hpp) on the
+/// definitions of `dir`/md, generating into `dir`/gen.
+class RunningManager : public ln::test::InProcessManager {
  public:
-  explicit RunningManager(const TempDir& dir, const std::function<void(ManagerOptions&)>& adjust = {}) {
-    ManagerOptions options;
-    options.port = 0;
-    options.message_definition_dirs = {dir.path() + "/md"};
-    options.generated_definition_dir = dir.path() + "/gen";
-    options.log = [this](LogLevel level, const std::string& text) {
-      std::lock_guard<std::mutex> lock(mutex_);
-      log_.push_back(std::string(level_name(level)) + ": " + text);
-    };
-    if (adjust) adjust(options);
-    manager_ = std::make_unique<Manager>(options);
-    manager_->start();
-    manager_->run_in_thread();
-  }
-  ~RunningManager() { manager_->stop(); }
-
-  std::uint16_t port() const { return manager_->port(); }
-  Manager& manager() { return *manager_; }
-
-  /// Waits (bounded) until a log line contains `text`.
-  bool wait_for_log(const std::string& text, Clock::duration timeout = default_timeout) const {
-    const auto deadline = Clock::now() + timeout;
-    do {
-      if (count_log(text) > 0) return true;
-      std::this_thread::sleep_for(2ms);  // polling our own log, not waiting on a peer
-    } while (Clock::now() < deadline);
-    return false;
-  }
-  /// Everything logged so far, for failure messages.
-  std::string log_text() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    std::string out;
-    for (const auto& line : log_) out += line + "\n";
-    return out;
-  }
-  std::size_t count_log(const std::string& text) const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    std::size_t n = 0;
-    for (const auto& line : log_) n += line.find(text) != std::string::npos;
-    return n;
-  }
-
- private:
-  mutable std::mutex mutex_;
-  std::vector<std::string> log_;
-  std::unique_ptr<Manager> manager_;
+  explicit RunningManager(const TempDir& dir, const std::function<void(ManagerOptions&)>& adjust = {})
+      : InProcessManager({dir.path() + "/md"}, [&dir, adjust](ManagerOptions& options) {
+          options.generated_definition_dir = dir.path() + "/gen";
+          if (adjust) adjust(options);
+        }) {}
 };
 
 }  // namespace ln::manager::testing

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <sstream>
 
 #include "ln/md/message_definition.hpp"
@@ -41,6 +42,10 @@ std::string list_dirs(const SearchPath& path) {
 // Sizes above 4 GiB cannot be described by LN's 32-bit message sizes, and
 // checking here keeps every later size computation free of overflow.
 constexpr std::size_t max_definition_size = std::numeric_limits<std::uint32_t>::max();
+// Signatures, the hash and layouts write sub-types out in full: a few
+// small files that import each other twice per level would otherwise
+// describe billions of fields.
+constexpr std::size_t max_expanded_fields = 1'000'000;
 
 }  // namespace
 
@@ -98,10 +103,14 @@ struct Library::Loader final : DefineResolver {
     return load_file(absolute_name, *found);
   }
 
-  // Runs once the outermost load has parsed everything it imports.
+  // Runs once the outermost load has parsed everything it imports. Every
+  // walk here visits each definition once (definitions may come from any
+  // client of a manager: imports that share sub-types must not cost
+  // exponential time).
   void finish() {
-    for (Definition* def : created) check_no_direct_recursion(*def);
-    for (Definition* def : created) check_no_indirect_recursion(*def);
+    std::map<const Definition*, Visit> by_value, all;
+    for (Definition* def : created) check_no_cycle(*def, by_value, true);
+    for (Definition* def : created) check_no_cycle(*def, all, false);
     // Imports are created after their importers: check them first, so that
     // sizes of already-checked sub-types never overflow.
     for (auto it = created.rbegin(); it != created.rend(); ++it) check_sizes(**it);
@@ -113,63 +122,73 @@ struct Library::Loader final : DefineResolver {
     created.clear();
   }
 
-  // A type may contain itself only through a pointer: by value it would be
-  // infinitely large.
-  void check_no_direct_recursion(const Definition& def) {
-    std::vector<const Definition*> path{&def};
-    walk_by_value(def, path);
-  }
+  enum class Visit { in_progress, done };
 
-  // Recursion must be direct (a type pointing to itself): signatures write
-  // a recursive reference as "[]", meaning the innermost enclosing type, so
-  // a longer cycle (A holds B*, B holds A*) has no unambiguous signature.
-  // LN 2.9 cannot load such definitions either.
-  void check_no_indirect_recursion(const Definition& def) {
-    std::vector<const Definition*> path{&def};
-    walk_all(def, path);
-  }
-
-  void walk_all(const Definition& current, std::vector<const Definition*>& path) {
-    for (const auto* list : {&current.fields, &current.response_fields})
+  // Depth first from `current`; a sub-type met again while it is still in
+  // progress closes a cycle. By value (`by_value`): a type may contain
+  // itself only through a pointer, else it would be infinitely large. All
+  // fields: recursion must be direct (a type pointing to itself), because
+  // signatures write a recursive reference as "[]", meaning the innermost
+  // enclosing type, so a longer cycle (A holds B*, B holds A*) has no
+  // unambiguous signature. LN 2.9 cannot load such definitions either.
+  void check_no_cycle(const Definition& current, std::map<const Definition*, Visit>& visits, bool by_value) {
+    if (!visits.emplace(&current, Visit::in_progress).second) return;
+    for (const auto* list : {&current.fields, &current.response_fields}) {
+      if (by_value && list == &current.response_fields) break;
       for (const Field& f : *list) {
-        if (!f.sub || f.sub == &current) continue;
-        if (std::find(path.begin(), path.end(), f.sub) != path.end())
+        if (!f.sub || (by_value ? f.dynamic : f.sub == &current)) continue;
+        const auto seen = visits.find(f.sub);
+        if (seen == visits.end()) {
+          check_no_cycle(*f.sub, visits, by_value);
+        } else if (seen->second == Visit::in_progress) {
+          if (by_value)
+            throw Error(current.path, f.line,
+                        "field '" + f.name + "' makes '" + f.sub->name + "' contain itself; recursive types "
+                        "must use a pointer ('" + f.type_spelling + "* " + f.name + "')");
           throw Error(current.path, f.line,
                       "field '" + f.name + "' closes a cycle of types through '" + f.sub->name +
                       "'; only a type pointing to itself may be recursive");
-        path.push_back(f.sub);
-        walk_all(*f.sub, path);
-        path.pop_back();
+        }
       }
-  }
-
-  void walk_by_value(const Definition& current, std::vector<const Definition*>& path) {
-    for (const Field& f : current.fields) {
-      if (f.dynamic || !f.sub) continue;
-      if (std::find(path.begin(), path.end(), f.sub) != path.end())
-        throw Error(current.path, f.line,
-                    "field '" + f.name + "' makes '" + f.sub->name + "' contain itself; recursive types "
-                    "must use a pointer ('" + f.type_spelling + "* " + f.name + "')");
-      path.push_back(f.sub);
-      walk_by_value(*f.sub, path);
-      path.pop_back();
     }
+    visits[&current] = Visit::done;
   }
 
-  void check_sizes(const Definition& def) {
+  // Sizes of the host struct (pointers for dynamic fields) and the number
+  // of fields once sub-types are written out, as signatures and the hash
+  // do; checked for every section. Sub-types (also those of earlier loads)
+  // are measured once and remembered.
+  struct Sizes {
+    std::size_t host_size = 0;
+    std::size_t expanded_fields = 0;
+  };
+
+  const Sizes& check_sizes(const Definition& def) {
+    if (auto known = sizes.find(&def); known != sizes.end()) return known->second;
+    Sizes plain;
     for (const auto* list : {&def.fields, &def.response_fields}) {
       std::size_t total = 0;
+      std::size_t expanded = 0;
       for (const Field& f : *list) {
-        const std::size_t element = f.dynamic ? sizeof(void*)
-                                    : f.primitive ? size_of(*f.primitive)
-                                                  : struct_layout(f.sub->fields).size;
+        // By-value cycles and cycles longer than one type are refused
+        // before this runs: only a dynamic field can name `def` itself.
+        const Sizes* sub = f.sub && f.sub != &def ? &check_sizes(*f.sub) : nullptr;
+        const std::size_t element = f.dynamic ? sizeof(void*) : f.primitive ? size_of(*f.primitive) : sub->host_size;
         std::size_t bytes;
         if (__builtin_mul_overflow(element, std::size_t{f.count}, &bytes) ||
             __builtin_add_overflow(total, bytes, &total) || total > max_definition_size)
           throw Error(def.path, f.line, "the definition grows beyond 4 GiB at field '" + f.name + "'");
+        expanded += 1 + (sub ? sub->expanded_fields : 0);
+        if (expanded > max_expanded_fields)
+          throw Error(def.path, f.line, "the definition has more than " + std::to_string(max_expanded_fields) +
+                                            " fields with its sub-types written out, at field '" + f.name + "'");
       }
+      if (list == &def.fields) plain = {total, expanded};
     }
+    return sizes.emplace(&def, plain).first->second;
   }
+
+  std::map<const Definition*, Sizes> sizes;
 
   Library& lib;
   std::vector<Definition*> created;

@@ -1,8 +1,10 @@
 #include "md/parser.hpp"
 
 #include <algorithm>
+#include <list>
 #include <map>
 #include <stdexcept>
+#include <unordered_map>
 
 #include "md/count_expression.hpp"
 #include "md/text.hpp"
@@ -11,6 +13,9 @@ namespace ln::md {
 namespace {
 
 constexpr std::int64_t max_array_count = 0x7fffffff;
+// Types are looked up among the defines by a scan (a handful in practice);
+// the bound keeps a definition from any client cheap to read.
+constexpr std::size_t max_defines = 256;
 
 enum class Section { First, Second };  // request/connect, response/call
 
@@ -89,6 +94,8 @@ class DefinitionParser {
     if (!is_valid_definition_name(target))
       fail("'" + target + "' is not a valid message-definition name (relative, '/'-separated, no '..')");
 
+    if (def_.defines.size() >= max_defines)
+      fail("more than " + std::to_string(max_defines) + " 'define's in one definition");
     Define define;
     define.local_name = local;
     define.line = line_;
@@ -138,12 +145,12 @@ class DefinitionParser {
     if (!text::is_identifier(field.name) || text::is_reserved_word(field.name))
       fail("'" + field.name + "' is not a valid field name (a C identifier that is not a keyword)");
 
-    auto& list = fields(section_);
-    const auto same = std::find_if(list.begin(), list.end(), [&](const Field& f) { return f.name == field.name; });
-    if (same != list.end())
-      fail("field '" + field.name + "' is already defined in line " + std::to_string(same->line));
+    // One lookup per field: definitions can come from any client, and a
+    // scan of the list per field made 100 000 fields take a minute.
+    const auto [same, added] = field_lines_[static_cast<int>(section_)].emplace(field.name, line_);
+    if (!added) fail("field '" + field.name + "' is already defined in line " + std::to_string(same->second));
     if (field.dynamic) dynamic_names_[static_cast<int>(section_)].push_back(field.name);
-    list.push_back(std::move(field));
+    fields(section_).push_back(std::move(field));
   }
 
   std::uint32_t array_count(std::string_view brackets) {
@@ -172,36 +179,46 @@ class DefinitionParser {
   // before X: inserted when the author did not declare it, moved when it was
   // declared elsewhere. The move reproduces LN 2.9 exactly, including its
   // quirk: an X_len declared more than one field before X ends up right
-  // *after* X (remove, then insert at X's old index).
+  // *after* X (remove, then insert at X's old index). Done on a linked list
+  // with the fields found by name, so it takes linear time. X and X_len are
+  // never moved by the other fields' moves (X is dynamic, X_len must not be),
+  // so their order in the list is still their declaration order.
   void place_length_fields(Section section) {
-    auto& list = fields(section);
-    for (const auto& dynamic_name : dynamic_names_[static_cast<int>(section)]) {
-      auto index_of = [&](const std::string& n) -> std::ptrdiff_t {
-        const auto it = std::find_if(list.begin(), list.end(), [&](const Field& f) { return f.name == n; });
-        return it == list.end() ? -1 : it - list.begin();
-      };
-      const std::ptrdiff_t i = index_of(dynamic_name);
+    const auto& dynamic_names = dynamic_names_[static_cast<int>(section)];
+    if (dynamic_names.empty()) return;
+    std::vector<Field>& declared_fields = fields(section);
+    std::list<Field> list(std::make_move_iterator(declared_fields.begin()),
+                          std::make_move_iterator(declared_fields.end()));
+    std::unordered_map<std::string_view, std::list<Field>::iterator> by_name;
+    std::unordered_map<std::string_view, std::size_t> declared_at;
+    std::size_t index = 0;
+    for (auto it = list.begin(); it != list.end(); ++it, ++index) {
+      by_name.emplace(it->name, it);
+      declared_at.emplace(it->name, index);
+    }
+    for (const auto& dynamic_name : dynamic_names) {
+      const auto dynamic = by_name.at(dynamic_name);
       const std::string length_name = dynamic_name + "_len";
-      const std::ptrdiff_t k = index_of(length_name);
-      if (k < 0) {
+      const auto found = by_name.find(length_name);
+      if (found == by_name.end()) {
         Field length;
         length.name = length.hash_name = length_name;
         length.type_spelling = "uint32_t";
         length.primitive = Primitive::UInt32;
-        list.insert(list.begin() + i, std::move(length));
+        list.insert(dynamic, std::move(length));
         continue;
       }
-      const Field& declared = list[static_cast<std::size_t>(k)];
-      if (!declared.primitive || !is_integer(*declared.primitive) || declared.dynamic || declared.count != 1) {
-        line_ = declared.line;
+      const auto declared = found->second;
+      if (!declared->primitive || !is_integer(*declared->primitive) || declared->dynamic || declared->count != 1) {
+        line_ = declared->line;
         fail("'" + length_name + "' holds the element count of dynamic field '" + dynamic_name +
              "' and must be an integer scalar such as uint32_t");
       }
-      if (k == i - 1) continue;
-      Field moved = std::move(list[static_cast<std::size_t>(k)]);
-      list.erase(list.begin() + k);
-      list.insert(list.begin() + i, std::move(moved));
+      if (std::next(declared) == dynamic) continue;
+      const bool declared_before = declared_at.at(length_name) < declared_at.at(dynamic_name);
+      list.splice(declared_before ? std::next(dynamic) : dynamic, list, declared);
     }
+    declared_fields.assign(std::make_move_iterator(list.begin()), std::make_move_iterator(list.end()));
   }
 
   Definition& def_;
@@ -209,6 +226,7 @@ class DefinitionParser {
   Section section_ = Section::First;
   int line_ = 0;
   std::vector<std::string> dynamic_names_[2];
+  std::unordered_map<std::string, int> field_lines_[2];  // field name -> its line, per section
 };
 
 }  // namespace

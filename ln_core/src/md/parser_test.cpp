@@ -10,22 +10,12 @@ namespace ln::md {
 namespace {
 
 using testing::DefinitionTree;
+using testing::load_error;
 
 std::vector<std::string> names_of(const std::vector<Field>& fields) {
   std::vector<std::string> names;
   for (const auto& f : fields) names.push_back(f.name);
   return names;
-}
-
-// Loads `name` from `tree` and returns the Error it throws ("" if none).
-std::string load_error(const DefinitionTree& tree, const std::string& name) {
-  Library library(SearchPath::exactly({tree.root()}));
-  try {
-    library.load(name);
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
 }
 
 TEST(Parser, ReadsEveryPrimitiveTypeAndKeepsAliasSpellings) {

@@ -13,7 +13,16 @@
 // notifications other than topic_stats sent to the manager are ignored.
 // A malformed frame, a request larger than 4 MiB, or more than 16 MiB of
 // unsent messages (a client that does not read) closes the connection,
-// which releases the client.
+// which releases the client. So do the manager's other limits
+// (manager.hpp ManagerLimits, all configurable): a connection must say hello
+// within 10 s and send something every 2 s until then, may send 64 KiB
+// before it, and the oldest unregistered connection is closed when there
+// are more than 64 from one address or 256 in all; when all connections'
+// partly received requests exceed 64 MiB (unsent messages: 256 MiB) the one
+// holding the most is closed. A connection's requests are handled at most
+// 16 in a row before other connections get their turn. A client may hold
+// 4096 topics it publishes, subscriptions and services together
+// (max_ports_per_client; beyond: LNE_REQUEST_FAILED).
 //
 // ---------------------------------------------------------------------------
 // Client -> manager requests (over the client's TCP connection)
@@ -52,12 +61,16 @@
 //   stored in the generated-definitions dir, which is searched right after
 //   the config's dirs, so the real name is `name`. The same content again
 //   is a no-op; different content is refused when `name` exists outside the
-//   generated dir or a topic uses it.
+//   generated dir or a topic uses it. Refused (LNE_REQUEST_FAILED) beyond
+//   the quota: max_stored_definitions / _bytes in the dir, and
+//   max_definitions_per_client new texts (parsed) per registration.
 //
 // publish          topic (str), message_definition (str, may carry |hash),
 //                  buffers (int >= 1)
 //   -> topic_id (int), message_size (int), hash (str),
-//      subscriber_buffers (int: the largest buffers any subscriber asked for)
+//      subscriber_buffers (int: the largest buffers any subscriber asked for),
+//      segment_limit (int: the largest segment the publisher may make for
+//      the topic, max_topic_shm; it grows no bigger for any subscriber)
 //   The publisher then creates its shared-memory segment and sends
 //   publisher_ready; only then are subscribers told. buffers 1..65536.
 //   subscriber_buffers is 0 without subscribers. A subscribers_changed
@@ -65,10 +78,16 @@
 //   publisher ("topic 'T' already published by client 'C'"), another
 //   definition than the topic's ("you requested message_definition 'X' but
 //   topic 'T' uses 'Y'"), service/event definitions and definitions with
-//   dynamic fields (LNE_INVALID_PARAMETER), a wrong |hash (LNE_WRONG_MD_HASH).
+//   dynamic fields (LNE_INVALID_PARAMETER), a wrong |hash (LNE_WRONG_MD_HASH),
+//   and (LNE_SHM_IS_TOO_BIG, the message names the limit and how many
+//   buffers fit) buffers whose segment (transport::topic_segment_size with
+//   the subscribers' buffers) exceeds max_topic_shm, or makes the client's
+//   published topics together exceed max_client_shm.
 // publisher_ready  topic_id (int), segment_generation (int >= 0),
 //                  packets (int >= 0, optional: the publisher's packet count
-//                  now, see topic_stats) -> ok
+//                  now, see topic_stats), recovered (int, optional: the
+//                  publisher replaced a segment it found corrupted, this
+//                  many times so far; the manager logs it) -> ok
 //   May be repeated (a new segment): subscribers get publisher_available
 //   again. The first one after a publish is announced to every client as
 //   topic_publisher_available. `packets` starts a new rate interval.
@@ -86,18 +105,21 @@
 //      message_definition (str), and when the topic has a publisher the
 //      publisher fields of the publisher_available notification (only once
 //      that publisher sent publisher_ready).
-//   "" for an unknown topic -> LNE_PORT_NOT_FOUND; definition checks as
-//   for publish.
+//   "" for an unknown topic -> LNE_PORT_NOT_FOUND; definition and
+//   shared-memory checks as for publish (buffers beyond the topic's current
+//   segment count against the topic's and its publisher's limits).
 // unsubscribe      subscription_id (int) -> ok
 //
 // register_service     name, interface, signature (str), group (str)
-//   -> service_id (int)
+//   -> service_id (int), log_services (list: the service loggers that get
+//      copies of its responses, see register_as_service_logger)
 //   group is optional. The interface must be a valid definition name (may
 //   carry |hash); it is not resolved. A taken name -> LNE_SVC_ALREADY_REGISTERED.
 // unregister_service   service_id (int) -> ok  (not yours: LNE_SVC_NOT_REGISTERED)
 // lookup_service       name, interface (str, "" = any), signature (str)
 //   -> interface, signature, provider (str: client name), host_id,
-//      peer_socket, peer_address, service_id
+//      peer_socket, peer_address, service_id, log_services (list: the
+//      service loggers that get copies of the caller's requests)
 //   Unknown name -> LNE_NO_PROVIDER_FOUND. Interfaces are compared by name
 //   (hashes too when both carry one: LNE_WRONG_MD_HASH); signatures as
 //   strings, "" = not checked; mismatches -> LNE_REQUEST_FAILED.
@@ -108,6 +130,26 @@
 //   definition (get_service_signature) or the provider's registered one
 //   (..._for_service).
 // find_services_with_interface     interface (str) -> services (list, sorted)
+//
+// connect_event    name (str: "ln.resource_event", the only event there is),
+//                  signature (str: "<definition>: <connect signature>"),
+//                  connect_data (str: the flat connect section: four
+//                  fnmatch patterns), handler (str: the client's service,
+//                  interface ln/event/call, that receives the events)
+//   -> event_connection_id (int). Then the initial sync arrives as `event`
+//   notifications (manager/events.hpp). Other names -> LNE_REQUEST_FAILED;
+//   a signature that is not ln/resource_event's -> LNE_INVALID_SIGNATURE.
+//   Events other than ln.resource_event are not the manager's: their
+//   clients only register the handler service (the client library).
+// disconnect_event event_connection_id (int) -> ok
+//
+// register_as_service_logger  logger_service (str: a service of the client,
+//                  interface ln/log_service), patterns (str: comma-separated
+//                  fnmatch patterns of service names, "!pattern" excludes)
+//   -> ok. Callers and providers of matching services (of other clients;
+//   never the logger service itself) send it a copy of every request and
+//   response (ln/log_service; client/service_logging.hpp). Not a service
+//   of the client -> LNE_SVC_NOT_REGISTERED.
 //
 // list_clients / list_topics / list_services (no fields) -> introspection
 //   tables as parallel lists of strings, one entry per row (numbers in
@@ -131,6 +173,66 @@
 //                  message_definition_dirs (list: the definition search path
 //                  in search order: configured dirs, generated dir, standard
 //                  dirs; only directories that exist)
+//
+// Topic loggers (manager/loggers.hpp): the manager records, a logger is a
+// name; its recording lives in the manager until the logger is enabled again.
+// logger_enable    name (str), topics (list: topic names, in the logger's
+//                  order), log_sizes (list: samples kept per topic, decimal,
+//                  >= 1), divisors (list: record every n-th packet, decimal,
+//                  0 counts as 1), only_ts (bool)
+//   -> ok once every listed topic with a ready publisher records (the answer
+//   waits for the recorder to attach to the publishers' segments); topics
+//   without a publisher are recorded from its publisher_ready on. Starts a new
+//   recording (earlier samples of the logger are dropped). Lists of unequal
+//   length, log size 0, invalid topic names -> LNE_INVALID_PARAMETER; logs that
+//   do not fit the manager's memory -> LNE_NO_MEM; a publisher whose segment
+//   cannot be attached (another host) -> LNE_REQUEST_FAILED (the other
+//   topics record).
+// logger_disable   name -> ok; packets written before the request are
+//   recorded, none after. An unknown logger is not an error.
+// logger_download  name -> download (int), topics, log_sizes, divisors,
+//   n_samples, sample_sizes (lists, numbers in decimal), md_names, mds (lists:
+//   definition name and md::python_dict_text, "" for a topic never seen
+//   published): a frozen view of the recording (an enabled logger goes on
+//   recording). A logger never enabled -> LNE_REQUEST_FAILED.
+// logger_download_data  download (int), topic (int: index), offset (int:
+//   byte offset) -> data (str: the topic's samples from offset on, at most
+//   logger::kDownloadChunk bytes). A view lives until the client's next
+//   logger_download or until it leaves.
+// logger_manager_save  name, filename, format (str) -> ok once the manager
+//   wrote the file on its host (formats: manager/log_files.hpp).
+//
+// ---------------------------------------------------------------------------
+// Client -> manager requests: the processes, states and groups of the config
+// (manager/process_control.hpp). A manager without them answers an empty
+// process_list and refuses the others for an unknown name.
+//
+// process_list     (no fields) -> introspection table as for list_topics:
+//                  names, kinds ("process", "state", "group"), states,
+//                  requested, pids, uptimes (seconds, shortest form),
+//                  restarts, ready ("1"/"0"), last_exits, errors, commands,
+//                  depends_on (comma-joined; "a|b" for alternatives, "!s" for
+//                  a state that must be DOWN), members (groups, comma-joined)
+//   Values as ObjectStatus (process_control.hpp) describes them.
+// process_control  name (str), action (str: start, stop, restart for
+//                  processes and groups; up, down, check for states),
+//                  alt_command (str, optional: a process's alt_command to
+//                  start with) -> ok once the request is accepted (it does
+//                  not wait for the process: process_list tells).
+//   Unknown name or action -> LNE_INVALID_PARAMETER; refused (the flag
+//   disable_stop, shutting down) -> LNE_REQUEST_FAILED.
+// process_output   name (str: a process or state), after (int >= 0: the
+//                  number of the last line already seen; 0 = from the
+//                  oldest kept), max_lines (int >= 0, optional: 0 = up to
+//                  10000) -> lines (list), first (int: number of lines[0]),
+//                  last (int: number of the newest line), dropped (int:
+//                  lines after `after` the ring no longer holds)
+// needs_provider   name (str: a service or topic) -> provider (str: "" when
+//                  a registered client already provides or publishes it,
+//                  else the process or state asked to start)
+//   Nothing provides it and no process or state `provides` it ->
+//   LNE_NO_PROVIDER_FOUND. The client then waits for the service or
+//   publisher itself, and asks process_list whether the provider failed.
 //
 // ---------------------------------------------------------------------------
 // Client -> manager notifications (the only notifications the manager reads;
@@ -167,6 +269,15 @@
 //   The publisher remembers, per local subscription id, its newest packet
 //   when the id first appeared (before the new count is visible to the
 //   program); open_segment answers with it.
+// event                event_connection_id (int), handler (str: the service
+//                      named at connect_event), data (str: the flat call
+//                      section of the event), signature (str: "<definition>:
+//                      <call signature>"). The client calls its handler
+//                      service with {data, signature}, one event at a time.
+// add_service_logger   service (str), logger_service (str): from now on
+//                      send copies of `service`'s calls (as caller or
+//                      provider) to logger_service
+// del_service_logger   logger_service (str): it is gone (or re-registered)
 // service_available    name (str), provider (str)   [for availability callbacks]
 // service_gone         name (str)
 //   Both go to every registered client (the provider too), for changes after
@@ -198,9 +309,13 @@
 //      segment) and
 //      the segment's file descriptor passed with SCM_RIGHTS alongside the
 //      response frame.
-//      Only answered for peers with the same uid (SO_PEERCRED).
+//      Only answered for peers with the same uid (SO_PEERCRED), or a uid
+//      LN_PEER_ALLOW_UIDS lists; `buffers` grows the segment only up to the
+//      publish answer's segment_limit.
 // call             service_id (int), request (str: the flattened request)
 //   -> response (str) or an error response; see the services code.
+//   On this host only for peers of the same uid (or LN_PEER_ALLOW_UIDS), as
+//   open_segment; over TCP for anyone.
 //   As implemented by services/ (call_frames.hpp): the caller opens a
 //   connection of its own per service handle and sends `call` with
 //   service_id only, as the handshake. The peer server answers ok if
@@ -238,10 +353,25 @@ inline constexpr std::string_view list_topics = "list_topics";
 inline constexpr std::string_view list_services = "list_services";
 inline constexpr std::string_view manager_status = "manager_status";
 inline constexpr std::string_view topic_stats = "topic_stats";
+inline constexpr std::string_view logger_enable = "logger_enable";
+inline constexpr std::string_view logger_disable = "logger_disable";
+inline constexpr std::string_view logger_download = "logger_download";
+inline constexpr std::string_view logger_download_data = "logger_download_data";
+inline constexpr std::string_view logger_manager_save = "logger_manager_save";
+inline constexpr std::string_view process_list = "process_list";
+inline constexpr std::string_view process_control = "process_control";
+inline constexpr std::string_view process_output = "process_output";
+inline constexpr std::string_view needs_provider = "needs_provider";
+inline constexpr std::string_view connect_event = "connect_event";
+inline constexpr std::string_view disconnect_event = "disconnect_event";
+inline constexpr std::string_view register_as_service_logger = "register_as_service_logger";
 
 inline constexpr std::string_view publisher_available = "publisher_available";
 inline constexpr std::string_view publisher_gone = "publisher_gone";
 inline constexpr std::string_view subscribers_changed = "subscribers_changed";
+inline constexpr std::string_view event = "event";
+inline constexpr std::string_view add_service_logger = "add_service_logger";
+inline constexpr std::string_view del_service_logger = "del_service_logger";
 inline constexpr std::string_view service_available = "service_available";
 inline constexpr std::string_view service_gone = "service_gone";
 inline constexpr std::string_view topic_publisher_available = "topic_publisher_available";

@@ -257,6 +257,12 @@ void FrameReader::check_announced_size() const {
                         std::to_string(max_frame_size));
 }
 
+void FrameReader::release_memory() {
+  if (buffered() != 0 || buffer_.capacity() <= 65536) return;
+  std::string().swap(buffer_);
+  consumed_ = 0;
+}
+
 std::optional<Message> FrameReader::next() {
   if (buffered() < 4) return std::nullopt;
   std::uint32_t size = 0;

@@ -116,6 +116,9 @@ class FrameReader {
   std::optional<Message> next();
   /// Bytes received but not yet returned as messages.
   std::size_t buffered() const { return buffer_.size() - consumed_; }
+  /// Gives the buffer's memory back once nothing is buffered (after a large
+  /// message, the buffer would otherwise keep its size).
+  void release_memory();
 
  private:
   void check_announced_size() const;

@@ -45,6 +45,15 @@ bool Payload::allocate(std::size_t size) {
   return data_ != nullptr;
 }
 
+bool Payload::grow(std::size_t size) {
+  char* grown = static_cast<char*>(std::realloc(data_.get(), size == 0 ? 1 : size));
+  if (grown == nullptr) return false;
+  (void)data_.release();
+  data_.reset(grown);
+  size_ = size;
+  return true;
+}
+
 bool FrameBuffer::resize(std::size_t size) {
   constexpr std::size_t keep_below = std::size_t{1} << 20;
   if (size > capacity_ || (capacity_ > keep_below && size < capacity_ / 4)) {
@@ -63,7 +72,7 @@ void write_request_head(char* out, const RequestHead& head, std::size_t body_siz
   write_prefix_and_kind(out, request_kind, header_size + body_size);
   store_le32(out + size_prefix + 4, head.service_id);
   store_le32(out + size_prefix + 8, head.request_id);
-  store_le32(out + size_prefix + 12, 0);
+  store_le32(out + size_prefix + 12, head.client_id);
 }
 
 std::size_t response_overhead(std::string_view text) {
@@ -84,6 +93,7 @@ Status parse_request(const Payload& payload, RequestHead& head) {
   if (!s.ok()) return s;
   head.service_id = load_le32(payload.data() + 4);
   head.request_id = load_le32(payload.data() + 8);
+  head.client_id = load_le32(payload.data() + 12);
   return {};
 }
 
@@ -120,9 +130,11 @@ char* FrameAssembler::space(std::size_t& capacity) {
 Status FrameAssembler::commit(std::size_t n) {
   if (large_active_) {
     large_filled_ += n;
-    if (large_filled_ == large_.size()) {
+    if (large_filled_ == large_total_) {
       ready_.push_back(std::move(large_));
       large_active_ = false;
+    } else if (large_filled_ == large_.size() && !large_.grow(std::min(2 * large_.size(), large_total_))) {
+      return Status::failure(LNE_NO_MEM, "no memory for a service frame of " + std::to_string(large_total_) + " bytes");
     }
     return {};
   }
@@ -147,11 +159,14 @@ Status FrameAssembler::split_scratch() {
       continue;
     }
     if (size_prefix + size > scratch_capacity) {
-      // Too big for the scratch buffer: receive the rest in place.
-      if (!large_.allocate(size))
+      // Too big for the scratch buffer: receive the rest in place, in
+      // memory that grows with what arrives (what a peer announces is only
+      // a claim: 256 MiB announced and never sent must not cost 256 MiB).
+      if (!large_.allocate(std::min(size, large_start)))
         return Status::failure(LNE_NO_MEM, "no memory for a service frame of " + std::to_string(size) + " bytes");
       std::memcpy(large_.data(), payload_start, available);
       large_filled_ = available;
+      large_total_ = size;
       large_active_ = true;
       begin_ = end_ = 0;
       return {};

@@ -8,7 +8,7 @@
 //
 //   frame    = u32 payload_size | payload         (the envelope of wire.hpp)
 //   request  = u8 0x10 | u8 version 1 | u16 0 | u32 service_id | u32 request_id
-//              | u32 0 | flat request                                     (caller -> provider)
+//              | u32 client_id | flat request                            (caller -> provider)
 //   response = u8 0x11 | u8 version 1 | u16 0 | u32 request_id | i32 result
 //              | u32 text_size | text | flat response                      (provider -> caller)
 //
@@ -16,7 +16,9 @@
 // 0: success, the flat response follows and text is empty; < 0: an LN error
 // (-LNE_*, e.g. -LNE_SVC_HANDLER_NO_RESP, -LNE_SVC_HANDLER_EXC); > 0: the
 // error code the provider's handler returned. `text` explains a failure
-// (may be empty). request_id counts per connection; a response answers the
+// (may be empty). client_id is the caller's id at the manager (0 if it does
+// not know it; service logging reports it). request_id counts per
+// connection; a response answers the
 // request with the same id. A caller that gives up on a call (timeout,
 // abort) closes the connection, which is how the provider learns that the
 // request was aborted; so there is no abort frame and never a late
@@ -65,6 +67,9 @@ class Payload {
   Payload() = default;
   /// Uninitialised bytes; false if memory is short.
   bool allocate(std::size_t size);
+  /// Resizes keeping the contents (the rest uninitialised); false if
+  /// memory is short (then nothing changed).
+  bool grow(std::size_t size);
   char* data() const { return data_.get(); }
   std::size_t size() const { return size_; }
   bool empty() const { return size_ == 0; }
@@ -99,6 +104,7 @@ class FrameBuffer {
 struct RequestHead {
   std::uint32_t service_id = 0;
   std::uint32_t request_id = 0;
+  std::uint32_t client_id = 0;
 };
 
 struct ResponseHead {
@@ -140,17 +146,22 @@ class FrameAssembler {
   bool next(Payload& out);
   /// Whether part of a frame has arrived but not all of it.
   bool in_frame() const { return large_active_ || end_ > begin_; }
+  /// Whether next() has a payload to give.
+  bool has_ready() const { return !ready_.empty(); }
 
  private:
   Status split_scratch();
 
   static constexpr std::size_t scratch_capacity = 64 * 1024;
+  /// First allocation for a large frame; it doubles as the frame arrives.
+  static constexpr std::size_t large_start = 4 * 1024 * 1024;
   std::size_t max_payload_;
   std::unique_ptr<char[]> scratch_;
   std::size_t begin_ = 0;
   std::size_t end_ = 0;
   Payload large_;
   std::size_t large_filled_ = 0;
+  std::size_t large_total_ = 0;  // the announced size large_ grows to
   bool large_active_ = false;
   std::deque<Payload> ready_;
 };

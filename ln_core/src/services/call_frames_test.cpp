@@ -101,6 +101,18 @@ TEST(CallFrames, LargeFramesLandInTheirOwnBuffer) {
   EXPECT_EQ(reinterpret_cast<std::uintptr_t>(payloads[1].data() + header_size) % 8, 0u);
 }
 
+TEST(CallFrames, WhatAPeerAnnouncesIsNotAllocatedBeforeItArrives) {
+  FrameAssembler assembler(256u << 20);
+  std::size_t capacity = 0;
+  char* space = assembler.space(capacity);
+  const std::uint32_t announced = 200u << 20;
+  std::memcpy(space, &announced, 4);  // little endian, as the wire
+  ASSERT_TRUE(assembler.commit(4).ok());
+  space = assembler.space(capacity);
+  ASSERT_NE(space, nullptr);
+  EXPECT_LE(capacity, 4u << 20) << "the buffer grows with the data, from 4 MiB";
+}
+
 TEST(CallFrames, OversizedFrameIsRefusedBeforeAllocation) {
   FrameAssembler assembler(1000);
   std::size_t capacity = 0;

@@ -42,11 +42,19 @@ struct CallerConnection {
   // once (EPIPE) instead of vanishing, as it can over TCP.
   const bool local;
   frames::FrameAssembler assembler;  // used by the one call in flight
-  std::uint32_t next_request_id = 1;
   std::atomic<bool> broken{false};
 };
 
 namespace {
+
+// Request ids are unique per process, not only per connection: with the
+// caller's client id they name a call in service logs (as LN 2.9's do).
+std::uint32_t new_request_id() {
+  static std::atomic<std::uint32_t> last{0};
+  std::uint32_t id = last.fetch_add(1, std::memory_order_relaxed) + 1;
+  if (id == 0) id = last.fetch_add(1, std::memory_order_relaxed) + 1;  // 0 is never an id
+  return id;
+}
 
 std::string describe(const io::Result& r, const char* while_doing) {
   switch (r.outcome) {
@@ -348,7 +356,31 @@ ServiceCaller::ServiceCaller(std::shared_ptr<const ServiceSignature> signature, 
       reactor_(std::move(reactor)),
       limits_(limits),
       wait_(wait),
-      context_(service_name.empty() ? std::string() : "service '" + service_name + "': ") {}
+      context_(service_name.empty() ? std::string() : "service '" + service_name + "': "),
+      name_(service_name) {}
+
+void ServiceCaller::set_call_log(std::shared_ptr<CallLog> log, std::string interface) {
+  log_ = std::move(log);
+  interface_ = std::move(interface);
+}
+
+frames::RequestHead ServiceCaller::head_for(const CallerConnection& connection, std::uint32_t request_id) const {
+  return {connection.service_id, request_id, log_ ? log_->client_id() : 0};
+}
+
+void ServiceCaller::log_sent(const frames::FrameBuffer& frame, const CallerConnection& connection,
+                             std::uint32_t request_id, double started, double sent) const {
+  CallLog::Item item;
+  item.service = name_;
+  item.interface = interface_;
+  item.caller_id = log_->client_id();
+  item.request_id = request_id;
+  item.flat = {frame.data() + frames::request_overhead, frame.size() - frames::request_overhead};
+  item.completion_time = started;
+  item.transfer_time = sent - started;
+  item.fd = connection.fd;
+  log_->record(item);
+}
 
 ServiceCaller::~ServiceCaller() {
   if (async_) async_->abort();
@@ -483,13 +515,17 @@ int ServiceCaller::run_call(void* data, std::string_view flat_request, double ti
   std::shared_ptr<CallerConnection> connection;
   std::uint32_t request_id = 0;
   io::Result r;
+  bool logging = false;
+  double started = 0;
   for (bool first_attempt = true;; first_attempt = false) {
     bool fresh = false;
     rc = ensure_connection(connection, first_attempt, fresh);
     if (rc != 0) return rc;
-    request_id = connection->next_request_id++;
-    frames::write_request_head(frame_.data(), {connection->service_id, request_id},
+    logging = log_ && log_->enabled();  // a new connection's lookup may have just named the loggers
+    request_id = new_request_id();
+    frames::write_request_head(frame_.data(), head_for(*connection, request_id),
                                frame_.size() - frames::request_overhead);
+    if (logging) started = wall_clock_seconds();
     r = io::send_all(connection->fd, frame_.data(), frame_.size(), deadline);
     // A local connection the provider closed while it was idle refuses the
     // request (EPIPE): no provider has seen it (a frame is only handled
@@ -501,6 +537,7 @@ int ServiceCaller::run_call(void* data, std::string_view flat_request, double ti
     }
     break;
   }
+  if (logging && r.outcome == io::Outcome::Done) log_sent(frame_, *connection, request_id, started, wall_clock_seconds());
   Status malformed;
   if (r.outcome == io::Outcome::Done)
     r = io::receive_frame(connection->fd, connection->assembler, deadline, response_, malformed, wait_.spin_us);
@@ -576,9 +613,14 @@ int ServiceCaller::start_async(void* data, std::string_view flat_request, AsyncC
   bool fresh = false;
   rc = ensure_connection(connection, false, fresh);
   if (rc != 0) return rc;
-  const std::uint32_t request_id = connection->next_request_id++;
-  frames::write_request_head(async_->frame_.data(), {connection->service_id, request_id},
+  const std::uint32_t request_id = new_request_id();
+  frames::write_request_head(async_->frame_.data(), head_for(*connection, request_id),
                              async_->frame_.size() - frames::request_overhead);
+  // Logged when started: the reactor may still be sending the tail of a big one.
+  if (log_ && log_->enabled()) {
+    const double now = wall_clock_seconds();
+    log_sent(async_->frame_, *connection, request_id, now, now);
+  }
   async_->start(data, connection, request_id);
   {
     // Small requests go out at once; the reactor sends the rest of big ones.

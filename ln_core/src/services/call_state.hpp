@@ -33,6 +33,7 @@
 #include <unordered_map>
 
 #include "services/call_frames.hpp"
+#include "services/call_log.hpp"
 #include "services/marshal.hpp"
 #include "services/request_handle.hpp"
 #include "services/signature.hpp"
@@ -189,6 +190,10 @@ class ServiceCaller {
   int call_flat_async(std::string_view flat_request, AsyncCall*& call);
   /// The detail of the last failed blocking call or call start.
   std::string last_error() const;
+  /// Service logging: every request sent is reported to `log` (as a call
+  /// of `interface`); its client id goes into the request frames. Set
+  /// before the first call.
+  void set_call_log(std::shared_ptr<CallLog> log, std::string interface);
 
  private:
   bool needs_data() const;
@@ -202,6 +207,10 @@ class ServiceCaller {
   int ensure_connection(std::shared_ptr<CallerConnection>& out, bool resend_possible, bool& fresh);
   void drop_connection(const std::shared_ptr<CallerConnection>& connection);
   int fail(int code, std::string detail);
+  // The request frame's head; reports the request once it is sent.
+  frames::RequestHead head_for(const CallerConnection& connection, std::uint32_t request_id) const;
+  void log_sent(const frames::FrameBuffer& frame, const CallerConnection& connection, std::uint32_t request_id,
+                double started, double sent) const;
 
   const std::shared_ptr<const ServiceSignature> signature_;
   const Connector connector_;
@@ -209,6 +218,9 @@ class ServiceCaller {
   const Limits limits_;
   const WaitPolicy wait_;
   const std::string context_;  // starts every error text
+  const std::string name_;
+  std::shared_ptr<CallLog> log_;
+  std::string interface_;
 
   std::mutex call_mutex_;  // one call (blocking, or the start of an asynchronous one) at a time
   mutable std::mutex state_mutex_;

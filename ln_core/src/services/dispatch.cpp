@@ -7,11 +7,13 @@
 #include <sys/epoll.h>
 #include <sys/eventfd.h>
 #include <sys/socket.h>
+#include <sys/timerfd.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <cerrno>
 #include <cstring>
+#include <deque>
 #include <exception>
 #include <list>
 
@@ -37,6 +39,23 @@ struct Provider {
   int running = 0;  // handlers in progress
 };
 
+namespace {
+
+// How long a response write waits for a caller to make room before the rest
+// is queued: a caller that reads takes it within this (large responses go
+// out in one go), one that does not holds up its serving thread no longer.
+constexpr auto response_wait = std::chrono::milliseconds(1);
+
+std::int64_t now_ns() { return io::Clock::now().time_since_epoch().count(); }
+
+}  // namespace
+
+// Responses go out in order. What a caller does not take at once is queued
+// (its requests then wait in its socket, see serve_claimed), flushed when
+// the socket is writable again, and the connection is closed when the queue
+// makes no progress for Limits::response_timeout_ms or would grow beyond
+// Limits::max_unread_responses: a caller that does not read holds up
+// nobody but itself.
 struct ProviderConnection {
   ProviderConnection(int socket, std::shared_ptr<Provider> served, std::size_t max_payload)
       : fd(socket), provider(std::move(served)), assembler(max_payload) {}
@@ -44,9 +63,55 @@ struct ProviderConnection {
   // can never write into a descriptor number that was reused meanwhile.
   ~ProviderConnection() { ::close(fd); }
 
-  io::Result send(const char* data, std::size_t size) {
+  enum class Sent { out, queued, too_much, failed };
+
+  // `owned`: the frame's memory, kept instead of copied if the rest is queued.
+  Sent send(const char* data, std::size_t size, std::unique_ptr<char[]> owned, const Limits& limits,
+            int& sys_errno) {
     std::lock_guard<std::mutex> lock(write_mutex);
-    return io::send_all(fd, data, size, io::Deadline());
+    std::size_t sent = 0;
+    if (queue.empty()) {
+      const io::Result r = io::send_within(fd, data, size, io::Deadline::at(io::Clock::now() + response_wait), sent);
+      sys_errno = r.sys_errno;
+      // A caller that has gone (aborted, timed out) simply does not get it.
+      if (r.outcome == io::Outcome::Done || r.outcome == io::Outcome::Closed) return Sent::out;
+      if (r.outcome != io::Outcome::Timeout) return Sent::failed;
+      last_progress_ns.store(now_ns());
+    } else if (queued_bytes + size > limits.max_unread_responses) {
+      return Sent::too_much;
+    }
+    Chunk chunk;
+    if (owned) {
+      chunk.owned = std::move(owned);
+      chunk.data = data + sent;
+    } else {
+      chunk.copy.assign(data + sent, size - sent);
+      chunk.data = chunk.copy.data();
+    }
+    chunk.size = size - sent;
+    queued_bytes += chunk.size;
+    queue.push_back(std::move(chunk));
+    has_queued.store(true);
+    return Sent::queued;
+  }
+
+  // Writes what the socket takes now; `empty` tells whether the queue is.
+  io::Result flush(bool& empty) {
+    std::lock_guard<std::mutex> lock(write_mutex);
+    io::Result r;
+    while (!queue.empty()) {
+      Chunk& front = queue.front();
+      const std::size_t before = front_sent;
+      r = io::send_some(fd, front.data, front.size, front_sent);
+      if (front_sent != before) last_progress_ns.store(now_ns());
+      queued_bytes -= front_sent - before;
+      if (r.outcome != io::Outcome::Done || front_sent < front.size) break;
+      queue.pop_front();
+      front_sent = 0;
+    }
+    empty = queue.empty();
+    has_queued.store(!empty);
+    return r;
   }
 
   const int fd;
@@ -54,9 +119,22 @@ struct ProviderConnection {
   frames::FrameAssembler assembler;  // used only by the thread that claimed the connection
   std::mutex write_mutex;
   std::atomic<bool> closed{false};
+  std::atomic<bool> has_queued{false};
+  std::atomic<std::int64_t> last_progress_ns{0};  // of the queue: when it last shrank or began
+  // Guarded by write_mutex:
+  struct Chunk {
+    std::unique_ptr<char[]> owned;
+    std::string copy;
+    const char* data = nullptr;
+    std::size_t size = 0;
+  };
+  std::deque<Chunk> queue;
+  std::size_t front_sent = 0;
+  std::size_t queued_bytes = 0;
   // Guarded by the dispatcher's mutex:
   std::uint64_t key = 0;
   int registered_in = -1;  // the epoll set it is registered with
+  std::uint32_t armed_events = 0;
   bool claimed = false;    // a thread is reading it
 };
 
@@ -66,8 +144,18 @@ namespace {
 // waits to be re-armed by the thread that served it: never two threads on
 // one connection. A group's own set has one waiter at a time, so there a
 // connection stays armed (level-triggered) and costs no re-arm per request.
-constexpr std::uint32_t shared_set_events = EPOLLIN | EPOLLRDHUP | EPOLLONESHOT;
-constexpr std::uint32_t own_set_events = EPOLLIN | EPOLLRDHUP;
+// A connection whose caller has not taken all responses yet waits for room
+// (EPOLLOUT) instead of requests (EPOLLIN): its requests wait in its socket.
+std::uint32_t set_events(bool shared, bool output_queued) {
+  return (output_queued ? EPOLLOUT : EPOLLIN) | EPOLLRDHUP | (shared ? EPOLLONESHOT : 0u);
+}
+// The key of an event set's timer (connection keys count up from 1, 0 is
+// the wake-up descriptor).
+constexpr std::uint64_t timer_key = ~std::uint64_t{0};
+// Requests of one connection handled in a row; the rest wait for the
+// connection's next turn, after the other connections': a caller that
+// floods the provider delays the others by this many requests only.
+constexpr int requests_per_turn = 4;
 
 thread_local const Provider* handling_provider = nullptr;
 
@@ -93,7 +181,8 @@ int wait_for_events(int epoll_fd, epoll_event* events, int max_events, const io:
 
 }  // namespace
 
-// An epoll set plus the eventfd that wakes its waiters (key 0).
+// An epoll set plus the eventfd that wakes its waiters (key 0) and a timer
+// (timer_key) for the deadlines of its connections' queued responses.
 struct EventSet {
   EventSet() = default;
   EventSet(const EventSet&) = delete;
@@ -101,6 +190,7 @@ struct EventSet {
   ~EventSet() {
     if (epoll_fd >= 0) ::close(epoll_fd);
     if (wake_fd >= 0) ::close(wake_fd);
+    if (timer_fd >= 0) ::close(timer_fd);
   }
 
   Status open() {
@@ -108,11 +198,30 @@ struct EventSet {
     if (epoll_fd < 0) return errno_failure("epoll_create1", errno);
     wake_fd = ::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
     if (wake_fd < 0) return errno_failure("eventfd", errno);
+    timer_fd = ::timerfd_create(CLOCK_MONOTONIC, TFD_CLOEXEC | TFD_NONBLOCK);
+    if (timer_fd < 0) return errno_failure("timerfd_create", errno);
     epoll_event ev{};
     ev.events = EPOLLIN;
     ev.data.u64 = 0;
     if (::epoll_ctl(epoll_fd, EPOLL_CTL_ADD, wake_fd, &ev) != 0) return errno_failure("epoll_ctl", errno);
+    ev.data.u64 = timer_key;
+    if (::epoll_ctl(epoll_fd, EPOLL_CTL_ADD, timer_fd, &ev) != 0) return errno_failure("epoll_ctl", errno);
     return {};
+  }
+  // Fires at `when_ns` (steady clock) unless it fires earlier already (dispatcher's mutex held).
+  void arm_timer(std::int64_t when_ns) {
+    if (timer_armed && timer_at_ns <= when_ns) return;
+    itimerspec spec{};
+    spec.it_value.tv_sec = static_cast<time_t>(when_ns / 1000000000);
+    spec.it_value.tv_nsec = static_cast<long>(when_ns % 1000000000);
+    if (spec.it_value.tv_sec == 0 && spec.it_value.tv_nsec == 0) spec.it_value.tv_nsec = 1;  // 0 would disarm
+    ::timerfd_settime(timer_fd, TFD_TIMER_ABSTIME, &spec, nullptr);
+    timer_armed = true;
+    timer_at_ns = when_ns;
+  }
+  void consume_timer() {
+    std::uint64_t expirations = 0;
+    [[maybe_unused]] const ssize_t n = ::read(timer_fd, &expirations, sizeof expirations);
   }
   void wake() const {
     const std::uint64_t one = 1;
@@ -125,6 +234,12 @@ struct EventSet {
 
   int epoll_fd = -1;
   int wake_fd = -1;
+  int timer_fd = -1;
+  bool timer_armed = false;  // guarded by the dispatcher's mutex
+  std::int64_t timer_at_ns = 0;
+  // Connections whose turn ended with requests left (received already, so
+  // epoll will not report them), in turn order; guarded by the mutex.
+  std::deque<std::uint64_t> backlog;
 };
 
 struct PendingEvent {
@@ -210,31 +325,6 @@ void restore_scheduling(pthread_t thread, const ThreadScheduling& s) {
   if (s.has_cpus) ::pthread_setaffinity_np(thread, sizeof s.cpus, &s.cpus);
 }
 
-// Writes one response frame to `connection`. A caller that has gone (it
-// aborted or timed out) simply does not get it.
-Status send_response(ProviderConnection& connection, std::uint32_t request_id, int result, std::string_view text,
-                     std::string_view body_flat, const MessageLayout* layout, const void* host, std::size_t body_size) {
-  const std::size_t overhead = frames::response_overhead(text);
-  const std::size_t total = overhead + body_size;
-  char small[512];
-  std::unique_ptr<char[]> large;
-  char* frame = small;
-  if (total > sizeof small) {
-    large.reset(new (std::nothrow) char[total]);
-    if (!large) return Status::failure(LNE_NO_MEM, "no memory for a response of " + std::to_string(total) + " bytes");
-    frame = large.get();
-  }
-  frames::write_response_head(frame, {request_id, result}, text, body_size);
-  if (layout != nullptr)
-    write_flat(*layout, host, frame + overhead);
-  else if (body_size > 0)
-    std::memcpy(frame + overhead, body_flat.data(), body_size);
-  const io::Result r = connection.send(frame, total);
-  if (r.outcome == io::Outcome::Failed && !connection.closed)
-    return errno_failure("sending the service response", r.sys_errno);
-  return {};
-}
-
 }  // namespace
 
 // --------------------------------------------------------------- Request
@@ -246,14 +336,19 @@ Request* provider_request(void* handle) {
   return h != nullptr && h->side() == RequestHandle::Side::Provider ? static_cast<Request*>(h) : nullptr;
 }
 
-Request::Request(std::shared_ptr<Provider> provider, std::shared_ptr<ProviderConnection> connection,
-                 std::uint32_t request_id, frames::Payload payload, const Limits& limits)
+Request::Request(Dispatcher& dispatcher, std::shared_ptr<Provider> provider,
+                 std::shared_ptr<ProviderConnection> connection, const frames::RequestHead& head,
+                 frames::Payload payload, const Limits& limits, std::shared_ptr<CallLog> log)
     : RequestHandle(Side::Provider),
+      dispatcher_(dispatcher),
       provider_(std::move(provider)),
       connection_(std::move(connection)),
-      request_id_(request_id),
+      request_id_(head.request_id),
+      caller_id_(head.client_id),
       payload_(std::move(payload)),
-      limits_(limits) {}
+      limits_(limits),
+      log_(log && log->enabled() ? std::move(log) : nullptr),
+      arrived_(log_ ? wall_clock_seconds() : 0) {}
 
 std::string_view Request::request_data() const {
   return {payload_.data() + frames::header_size, payload_.size() - frames::header_size};
@@ -328,11 +423,35 @@ Status Request::send_frame(int result, std::string_view text, const void* host, 
     // The caller must not wait for a response that will never come.
     const std::string reason = "provider of '" + provider_->name + "' failed to send its response: " +
                                invalid_response.detail();
-    Status s = send_response(*connection_, request_id_, invalid_response.code(), reason, {}, nullptr, nullptr, 0);
+    Status s = dispatcher_.send_response(connection_, request_id_, invalid_response.code(), reason, {}, nullptr,
+                                         nullptr, 0);
     return s.ok() ? invalid_response : s;
   }
-  return send_response(*connection_, request_id_, result, text, flat, result == 0 && host ? &layout : nullptr, host,
-                       body_size);
+  if (!log_)
+    return dispatcher_.send_response(connection_, request_id_, result, text, flat,
+                                     result == 0 && host ? &layout : nullptr, host, body_size);
+  // Logged: the flat response is made once, sent and reported.
+  std::string flattened;
+  if (result == 0 && host != nullptr) {
+    flattened.resize(body_size);
+    write_flat(layout, host, flattened.data());
+    flat = flattened;
+  }
+  CallLog::Item item;
+  item.service = provider_->name;
+  item.response = true;
+  item.caller_id = caller_id_;
+  item.request_id = request_id_;
+  item.result = result;
+  item.flat = result == 0 ? flat : std::string_view();
+  item.request_time = arrived_;
+  item.completion_time = wall_clock_seconds();
+  item.fd = connection_->fd;
+  const Status sent =
+      dispatcher_.send_response(connection_, request_id_, result, text, flat, nullptr, nullptr, flat.size());
+  item.transfer_time = wall_clock_seconds() - item.completion_time;
+  if (sent.ok()) log_->record(item);
+  return sent;
 }
 
 void Request::handler_returned(int ret) {
@@ -354,6 +473,51 @@ void Request::handler_returned(int ret) {
 }
 
 // ------------------------------------------------------------ Dispatcher
+
+// Writes one response frame to `connection`. A caller that has gone (it
+// aborted or timed out) simply does not get it; one that does not read gets
+// the rest queued (see ProviderConnection) or, beyond its budget, loses the
+// connection.
+Status Dispatcher::send_response(const std::shared_ptr<ProviderConnection>& connection, std::uint32_t request_id,
+                                 int result, std::string_view text, std::string_view body_flat,
+                                 const MessageLayout* layout, const void* host, std::size_t body_size) {
+  const std::size_t overhead = frames::response_overhead(text);
+  const std::size_t total = overhead + body_size;
+  char small[512];
+  std::unique_ptr<char[]> large;
+  char* frame = small;
+  if (total > sizeof small) {
+    large.reset(new (std::nothrow) char[total]);
+    if (!large) return Status::failure(LNE_NO_MEM, "no memory for a response of " + std::to_string(total) + " bytes");
+    frame = large.get();
+  }
+  frames::write_response_head(frame, {request_id, result}, text, body_size);
+  if (layout != nullptr)
+    write_flat(*layout, host, frame + overhead);
+  else if (body_size > 0)
+    std::memcpy(frame + overhead, body_flat.data(), body_size);
+  int err = 0;
+  switch (connection->send(frame, total, std::move(large), limits_, err)) {
+    case ProviderConnection::Sent::out: return {};
+    case ProviderConnection::Sent::queued: {
+      bool unwatched = false;
+      {
+        // A thread serving the connection re-arms it when it is done with it.
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (!connection->closed && !connection->claimed) unwatched = !arm_locked(*connection).ok();
+      }
+      if (unwatched) close_connection(connection);  // never flushed: the caller cannot get its answer
+      return {};
+    }
+    case ProviderConnection::Sent::too_much:
+      close_connection(connection);  // the caller does not read its answers: it loses its connection
+      return {};
+    case ProviderConnection::Sent::failed:
+      if (connection->closed) return {};
+      return errno_failure("sending the service response", err);
+  }
+  return {};
+}
 
 Dispatcher::Dispatcher(void* client, Limits limits, WaitPolicy wait) : client_(client), limits_(limits), wait_(wait) {}
 
@@ -529,13 +693,18 @@ Status Dispatcher::adopt_connection(int fd, std::uint32_t service_id) {
 // Registers (or re-arms) a connection in the event set that serves its
 // group now: the group's own, or its pool's.
 Status Dispatcher::arm_locked(ProviderConnection& connection) {
-  const ServiceGroup& group = *connection.provider->group;
+  ServiceGroup& group = *connection.provider->group;
   const bool shared = group.pool != nullptr;
-  const int home = shared ? group.pool->events.epoll_fd : group.events.epoll_fd;
-  if (connection.registered_in == home && !shared) return {};  // still armed
+  EventSet& set = shared ? group.pool->events : group.events;
+  const int home = set.epoll_fd;
+  const bool queued = connection.has_queued;
+  const std::uint32_t events = set_events(shared, queued);
+  if (queued) set.arm_timer(connection.last_progress_ns + static_cast<std::int64_t>(limits_.response_timeout_ms) * 1000000);
+  if (connection.registered_in == home && !shared && connection.armed_events == events) return {};  // still armed
   epoll_event ev{};
-  ev.events = shared ? shared_set_events : own_set_events;
+  ev.events = events;
   ev.data.u64 = connection.key;
+  connection.armed_events = events;
   if (connection.registered_in == home) {
     if (::epoll_ctl(home, EPOLL_CTL_MOD, connection.fd, &ev) == 0) return {};
     return errno_failure("epoll_ctl", errno);
@@ -545,6 +714,25 @@ Status Dispatcher::arm_locked(ProviderConnection& connection) {
   if (::epoll_ctl(home, EPOLL_CTL_ADD, connection.fd, &ev) != 0) return errno_failure("epoll_ctl", errno);
   connection.registered_in = home;
   return {};
+}
+
+void Dispatcher::expire_queued_responses(EventSet& set) {
+  set.consume_timer();
+  const std::int64_t now = now_ns();
+  const std::int64_t timeout = static_cast<std::int64_t>(limits_.response_timeout_ms) * 1000000;
+  std::vector<std::shared_ptr<ProviderConnection>> stalled;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    set.timer_armed = false;
+    for (auto& [key, connection] : connections_) {
+      if (connection->registered_in != set.epoll_fd || !connection->has_queued) continue;
+      const std::int64_t due = connection->last_progress_ns + timeout;
+      if (due <= now) stalled.push_back(connection);
+      else set.arm_timer(due);
+    }
+  }
+  // Its caller has not taken a byte of its answers for response_timeout_ms.
+  for (auto& connection : stalled) close_connection(connection);
 }
 
 void Dispatcher::move_group_connections_locked(const ServiceGroup& group, int to_epoll) {
@@ -606,19 +794,55 @@ int Dispatcher::serve(std::uint64_t key) {
 }
 
 int Dispatcher::serve_claimed(const std::shared_ptr<ProviderConnection>& connection) {
+  if (connection->has_queued) {
+    bool empty = false;
+    const io::Result flushed = connection->flush(empty);
+    if (flushed.outcome != io::Outcome::Done) {
+      close_connection(connection);  // the caller left
+      return 0;
+    }
+    if (!empty) return 0;  // release() waits for room again
+  }
   Status malformed;
-  const io::Result r = io::receive_available(connection->fd, connection->assembler, malformed);
+  // Requests left from the last turn come first; more are read after them.
+  // A caller that left meanwhile takes its unstarted requests with it.
+  const bool backlog = connection->assembler.has_ready();
+  const io::Result r = !backlog ? io::receive_available(connection->fd, connection->assembler, malformed)
+                       : io::peer_closed(connection->fd) ? io::Result{io::Outcome::Closed, 0}
+                                                         : io::Result{};
   if (r.outcome != io::Outcome::Done) {
     // The caller left (or broke the stream): its unstarted requests go too.
     close_connection(connection);
     return 0;
   }
+  // A caller that does not take its answers gets no more of them: its
+  // further requests wait (in the assembler, then in its socket) until it
+  // reads or its connection times out.
   int handled = 0;
   frames::Payload payload;
-  while (!connection->closed && connection->assembler.next(payload)) {
+  while (!connection->closed && !connection->has_queued && handled < requests_per_turn &&
+         connection->assembler.next(payload)) {
     handle_payload(connection, std::move(payload));
     ++handled;
   }
+  if (!connection->closed && !connection->has_queued && connection->assembler.has_ready()) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ServiceGroup& group = *connection->provider->group;
+    EventSet& set = group.pool ? group.pool->events : group.events;
+    set.backlog.push_back(connection->key);
+    set.wake();
+  }
+  return handled;
+}
+
+int Dispatcher::serve_backlog(EventSet& set) {
+  std::deque<std::uint64_t> keys;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    keys.swap(set.backlog);
+  }
+  int handled = 0;
+  for (std::uint64_t key : keys) handled += serve(key);
   return handled;
 }
 
@@ -630,19 +854,19 @@ void Dispatcher::handle_payload(const std::shared_ptr<ProviderConnection>& conne
   }
   Provider& provider = *connection->provider;
   if (provider.removed || head.service_id != provider.service_id) {
-    send_response(*connection, head.request_id, -LNE_SVC_NOT_REGISTERED,
+    send_response(connection, head.request_id, -LNE_SVC_NOT_REGISTERED,
                   "service '" + provider.name + "' is not provided here any more", {}, nullptr, nullptr, 0);
     return;
   }
   const Status valid = check_flat(provider.signature->request(), payload.data() + frames::header_size,
                                   payload.size() - frames::header_size, limits_);
   if (!valid.ok()) {
-    send_response(*connection, head.request_id, -LNE_SVC_RECV_REQ,
+    send_response(connection, head.request_id, -LNE_SVC_RECV_REQ,
                   "malformed request for service '" + provider.name + "': " + valid.detail(), {}, nullptr, nullptr,
                   0);
     return;
   }
-  run_handler(new Request(connection->provider, connection, head.request_id, std::move(payload), limits_));
+  run_handler(new Request(*this, connection->provider, connection, head, std::move(payload), limits_, log_));
 }
 
 void Dispatcher::run_handler(Request* request) {
@@ -759,17 +983,29 @@ Status Dispatcher::wait_and_handle(const char* group_name, double timeout, int* 
       }
     }
     if (count > 0) break;
-    const int n = wait_for_events(group->events.epoll_fd, events, 8, deadline, wait_.spin_us, yield_first);
+    // Connections with requests left from their last turn do not wait for
+    // epoll; the others' new requests are looked at first, without waiting.
+    bool backlogged;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      backlogged = !group->events.backlog.empty();
+    }
+    const int n = wait_for_events(group->events.epoll_fd, events, 8,
+                                  backlogged ? io::Deadline::at(io::Clock::now()) : deadline,
+                                  backlogged ? 0 : wait_.spin_us, yield_first);
     yield_first = false;
     if (n < 0 && errno == EINTR) continue;
     if (n < 0) return errno_failure("epoll_wait", errno);
-    if (n == 0) break;
     for (int i = 0; i < n; ++i) {
       if (events[i].data.u64 == 0)
         group->events.consume();
+      else if (events[i].data.u64 == timer_key)
+        expire_queued_responses(group->events);
       else
         count += serve(events[i].data.u64);
     }
+    if (backlogged) count += serve_backlog(group->events);
+    if (n == 0 && !backlogged) break;
   }
   if (handled) *handled = count;
   return {};
@@ -912,10 +1148,14 @@ void Dispatcher::pool_thread_main(ThreadPool* pool, PoolThread* self) {
       if (key != 0) rearm(key);  // its event goes to a thread that stays
       break;
     }
-    if (key == 0)
+    if (key == 0) {
       deliver_events(nullptr, pool);
-    else
+      serve_backlog(pool->events);
+    } else if (key == timer_key) {
+      expire_queued_responses(pool->events);
+    } else {
       serve(key);
+    }
   }
   std::lock_guard<std::mutex> lock(mutex_);
   self->finished = true;

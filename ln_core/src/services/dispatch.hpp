@@ -21,6 +21,15 @@
 // concurrent requests" in a pool of n threads means up to n callers at a
 // time. Serving threads wait as WaitPolicy says (spin briefly, then sleep).
 //
+// Callers that do not read. A response the caller's socket does not take
+// within a millisecond is queued in its connection (in order with later
+// ones) and written when the socket has room; meanwhile that connection's
+// further requests are not handled (they wait in its socket). A queue that
+// makes no progress for Limits::response_timeout_ms, or would grow beyond
+// Limits::max_unread_responses, closes that connection. So a caller that
+// does not read its answers holds up its own requests only, never the
+// provider's thread or the other callers.
+//
 // Handler protocol (LN 2.9): the handler gets a Request (ln_service_request),
 // copies the request out with set_data(), and answers with respond() (or
 // respond_error()). Its return value then decides: answered -> done;
@@ -54,6 +63,7 @@
 #include <vector>
 
 #include "services/call_frames.hpp"
+#include "services/call_log.hpp"
 #include "services/marshal.hpp"
 #include "services/request_handle.hpp"
 #include "services/signature.hpp"
@@ -70,6 +80,7 @@ using ConnectionObserver = void (*)(void* client, int event, int fd, void* user_
 // Internals of dispatch.cpp.
 struct Provider;
 struct ProviderConnection;
+struct EventSet;
 struct ServiceGroup;
 struct ThreadPool;
 struct PoolThread;
@@ -109,8 +120,9 @@ class Request : public RequestHandle {
 
  private:
   friend class Dispatcher;
-  Request(std::shared_ptr<Provider> provider, std::shared_ptr<ProviderConnection> connection,
-          std::uint32_t request_id, frames::Payload payload, const Limits& limits);
+  Request(Dispatcher& dispatcher, std::shared_ptr<Provider> provider, std::shared_ptr<ProviderConnection> connection,
+          const frames::RequestHead& head, frames::Payload payload, const Limits& limits,
+          std::shared_ptr<CallLog> log);
   ~Request() = default;
   // Sends the one answer: `result` 0 with the flat form of `host` (or of
   // `flat` if host is null), else an error with `text`.
@@ -118,11 +130,15 @@ class Request : public RequestHandle {
   Status send_frame(int result, std::string_view text, const void* host, std::string_view flat);
   void handler_returned(int ret);
 
+  Dispatcher& dispatcher_;
   const std::shared_ptr<Provider> provider_;
   const std::shared_ptr<ProviderConnection> connection_;
   const std::uint32_t request_id_;
+  const std::uint32_t caller_id_;
   frames::Payload payload_;
   const Limits limits_;
+  const std::shared_ptr<CallLog> log_;  // set while service logging is on
+  double arrived_ = 0;                  // wall clock, when logging
   Arena arena_;
   void* data_ = nullptr;
 
@@ -146,6 +162,10 @@ class Dispatcher {
   Dispatcher& operator=(const Dispatcher&) = delete;
 
   // ---------------------------------------------------------------- providers
+
+  /// Service logging: providers report every response they send to `log`.
+  /// Set before the first provider is added.
+  void set_call_log(std::shared_ptr<CallLog> log) { log_ = std::move(log); }
 
   /// Makes `service_id` (the manager's id for the registered service)
   /// callable; `group_name` nullptr is the default group.
@@ -201,6 +221,14 @@ class Dispatcher {
   Status set_pool_schedparam(const char* pool_name, int policy, int priority, unsigned affinity_mask);
 
  private:
+  friend class Request;
+  Status send_response(const std::shared_ptr<ProviderConnection>& connection, std::uint32_t request_id, int result,
+                       std::string_view text, std::string_view body_flat, const MessageLayout* layout,
+                       const void* host, std::size_t body_size);
+  /// Closes the connections of `set` whose queued responses made no progress for response_timeout_ms.
+  void expire_queued_responses(EventSet& set);
+  /// Gives the connections whose last turn left requests their next turn.
+  int serve_backlog(EventSet& set);
   Status group_locked(const char* name, ServiceGroup*& out);
   ServiceGroup* find_group_locked(const char* name);
   Status pool_locked(const char* name, ThreadPool*& out);
@@ -221,6 +249,7 @@ class Dispatcher {
   void pool_thread_main(ThreadPool* pool, PoolThread* self);
 
   void* const client_;
+  std::shared_ptr<CallLog> log_;
   const Limits limits_;
   const WaitPolicy wait_;
   mutable std::mutex mutex_;

@@ -10,6 +10,7 @@
 #include <cstring>
 #include <future>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "services/socket_io.hpp"
@@ -341,6 +342,103 @@ TEST(Dispatch, GarbageOnOneConnectionDoesNotDisturbOthers) {
   int sum = 0;
   EXPECT_EQ(call_add(*caller, 20, 22, &sum), 0);
   EXPECT_EQ(sum, 42);
+}
+
+// True once the provider closed its end (without reading what it sent).
+bool peer_hung_up(int fd, double seconds) {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  while (std::chrono::steady_clock::now() < until) {
+    pollfd p{fd, POLLRDHUP, 0};
+    if (::poll(&p, 1, 100) > 0 && (p.revents & (POLLRDHUP | POLLHUP)) != 0) return true;
+  }
+  return false;
+}
+
+TEST(Dispatch, ACallerThatDoesNotReadLosesOnlyItsOwnConnection) {
+  Limits limits;
+  limits.response_timeout_ms = 300;
+  Harness h(limits);
+  HandlerBox add{add_numbers};
+  ASSERT_OK(h.dispatcher.add_provider(1, "add", signature(svc_test_add_signature), &HandlerBox::call, &add, nullptr));
+  GroupServer server(h.dispatcher, nullptr);
+  auto caller = h.caller(1, signature(svc_test_add_signature));
+  ASSERT_EQ(call_add(*caller, 1, 1), 0);
+
+  // Requests as long as the socket takes them; the answers are never read.
+  const int stalled = raw_connection(h, 1);
+  std::string request(frames::request_overhead + 8, '\0');
+  frames::write_request_head(request.data(), {1, 7}, 8);
+  std::string requests;
+  for (int i = 0; i < 4096; ++i) requests += request;
+  std::size_t sent = 0;
+  for (int round = 0; round < 200; ++round) {
+    const ssize_t n = ::send(stalled, requests.data(), requests.size(), MSG_DONTWAIT | MSG_NOSIGNAL);
+    if (n <= 0) break;
+    sent += static_cast<std::size_t>(n);
+  }
+  EXPECT_GT(sent, 100000u);
+  // Everyone else is served meanwhile (before, the provider blocked on the
+  // stalled caller's full socket and the others timed out one after another).
+  for (int i = 0; i < 20; ++i) {
+    int sum = 0;
+    ASSERT_EQ(call_add(*caller, i, 1, &sum, 5), 0) << caller->last_error();
+    EXPECT_EQ(sum, i + 1);
+  }
+  EXPECT_TRUE(peer_hung_up(stalled, 10)) << "the caller that does not read loses its connection";
+  ::close(stalled);
+  EXPECT_EQ(call_add(*caller, 2, 3), 0);
+}
+
+TEST(Dispatch, AFloodingCallerDelaysOthersByAFewRequestsOnly) {
+  Harness h;
+  std::atomic<int> flood_handled{0};
+  std::atomic<int> flood_handled_when_normal_came{-1};
+  HandlerBox add{[&](Request& r) {
+    svc_test_add_t d;
+    Status s = r.set_data(&d, svc_test_add_signature);
+    if (!s.ok()) return s.code();
+    if (d.req.a == -1) flood_handled_when_normal_came = flood_handled.load();
+    else ++flood_handled;
+    d.resp.sum = d.req.a + d.req.b;
+    return r.respond().code();
+  }};
+  ASSERT_OK(h.dispatcher.add_provider(1, "add", signature(svc_test_add_signature), &HandlerBox::call, &add, nullptr));
+  GroupServer server(h.dispatcher, nullptr);
+  auto caller = h.caller(1, signature(svc_test_add_signature));
+  ASSERT_EQ(call_add(*caller, 1, 1), 0);
+
+  // A caller that sends requests as fast as the provider takes them (and
+  // reads the answers, so only the volume is wrong).
+  const int flooder = raw_connection(h, 1);
+  std::atomic<bool> stop{false};
+  std::thread sender([&] {
+    std::string request(frames::request_overhead + 8, '\0');
+    frames::write_request_head(request.data(), {1, 7}, 8);
+    std::string batch;
+    for (int i = 0; i < 512; ++i) batch += request;
+    while (!stop && ::send(flooder, batch.data(), batch.size(), MSG_NOSIGNAL) > 0) {
+    }
+  });
+  std::thread reader([&] {
+    char sink[65536];
+    while (!stop && ::recv(flooder, sink, sizeof sink, 0) > 0) {
+    }
+  });
+  const auto flooding = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (flood_handled.load() < 10000 && std::chrono::steady_clock::now() < flooding) std::this_thread::yield();
+  ASSERT_GE(flood_handled.load(), 10000);
+  const int before = flood_handled.load();
+  int sum = 0;
+  ASSERT_EQ(call_add(*caller, -1, 43, &sum, 10), 0) << caller->last_error();
+  EXPECT_EQ(sum, 42);
+  // The normal request waited for a turn of the flooder's at most (plus
+  // what the provider had read before it came), not for its whole backlog.
+  EXPECT_LT(flood_handled_when_normal_came.load() - before, 1000);
+  stop = true;
+  ::shutdown(flooder, SHUT_RDWR);
+  sender.join();
+  reader.join();
+  ::close(flooder);
 }
 
 TEST(Dispatch, MalformedRequestDataIsAnsweredNotHandled) {

@@ -65,6 +65,11 @@ Result send_some(int fd, const char* data, std::size_t size, std::size_t& sent) 
 
 Result send_all(int fd, const char* data, std::size_t size, const Deadline& deadline) {
   std::size_t sent = 0;
+  return send_within(fd, data, size, deadline, sent);
+}
+
+Result send_within(int fd, const char* data, std::size_t size, const Deadline& deadline, std::size_t& sent) {
+  sent = 0;
   for (;;) {
     Result r = send_some(fd, data, size, sent);
     if (r.outcome != Outcome::Done || sent == size) return r;

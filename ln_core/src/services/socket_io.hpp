@@ -55,6 +55,9 @@ struct Result {
 /// Sends all `size` bytes before `deadline`.
 Result send_all(int fd, const char* data, std::size_t size, const Deadline& deadline);
 
+/// send_all() that tells how many bytes went out (`sent`, also on Timeout).
+Result send_within(int fd, const char* data, std::size_t size, const Deadline& deadline, std::size_t& sent);
+
 /// Sends what the socket takes now; `sent` grows by that.
 Result send_some(int fd, const char* data, std::size_t size, std::size_t& sent);
 

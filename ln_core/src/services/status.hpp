@@ -41,6 +41,13 @@ struct Limits {
   /// Deepest nesting of sub-type elements (fixed or dynamic, recursion
   /// included) a request or response may have; bounds the stack.
   unsigned max_nesting = 128;
+  /// Provider side: responses a caller has not read yet that its
+  /// connection may hold beyond what the kernel buffers (one response is
+  /// always taken, whatever its size). More closes that caller's connection.
+  std::size_t max_unread_responses = std::size_t{16} << 20;
+  /// Provider side: a caller whose connection has taken no byte of its
+  /// responses for this long loses the connection (it does not read).
+  unsigned response_timeout_ms = 2000;
 };
 
 /// How a thread that waits for the other side waits: it first polls for up

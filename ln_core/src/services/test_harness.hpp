@@ -80,7 +80,8 @@ class Flag {
 };
 
 struct Harness {
-  Dispatcher dispatcher{nullptr};
+  explicit Harness(Limits limits = {}) : dispatcher(nullptr, limits) {}
+  Dispatcher dispatcher;
   std::shared_ptr<AsyncReactor> reactor = std::make_shared<AsyncReactor>();
   Flag connects;
 

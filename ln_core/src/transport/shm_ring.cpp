@@ -54,8 +54,10 @@ Geometry compute_geometry(std::uint32_t message_size, std::uint32_t history,
   geometry.slots_offset =
       geometry.ring_offset +
       round_up(std::uint64_t{history} * sizeof(std::atomic<std::uint32_t>), kCacheLine);
-  geometry.total_size =
-      geometry.slots_offset + std::uint64_t{geometry.slot_count} * geometry.slot_stride;
+  geometry.shared_offset = round_up(
+      geometry.slots_offset + std::uint64_t{geometry.slot_count} * geometry.slot_stride, kReaderAreaAlignment);
+  geometry.total_size = geometry.shared_offset + kBorrowStatesOffset +
+                        std::uint64_t{geometry.slot_count} * sizeof(std::atomic<std::uint64_t>);
   if (geometry.total_size > kMaxTotalSize) {
     throw ShmError(ShmErrc::invalid_config, "segment would be larger than 1 TiB");
   }
@@ -78,6 +80,7 @@ std::uint32_t checksum(const SegmentInfo& info) {
 
 namespace {
 
+using layout::ReaderArea;
 using layout::SegmentHeader;
 using layout::SegmentState;
 using layout::SlotHeader;
@@ -90,24 +93,35 @@ inline void cpu_relax() noexcept {
 #endif
 }
 
+std::size_t page_size() noexcept {
+  static const long size = ::sysconf(_SC_PAGESIZE);
+  return size > 0 ? static_cast<std::size_t>(size) : layout::kReaderAreaAlignment;
+}
+
 double wall_clock_seconds() noexcept {
   const auto since_epoch = std::chrono::system_clock::now().time_since_epoch();
   return std::chrono::duration<double>(since_epoch).count();
 }
 
-// Addresses of the parts of a mapped segment, computed from a validated geometry.
+// Addresses of the parts of a mapped segment, computed from a validated
+// geometry: `base` maps the publisher's part (read-only for readers),
+// `shared` the reader area at geometry.shared_offset.
 struct SegmentView {
   layout::Geometry geometry;
   SegmentHeader* header = nullptr;
   std::atomic<std::uint32_t>* ring = nullptr;
   std::byte* slots = nullptr;
+  ReaderArea* readers = nullptr;
+  std::atomic<std::uint64_t>* borrow_states = nullptr;
 
   SegmentView() = default;
-  SegmentView(std::byte* base, const layout::Geometry& g)
+  SegmentView(std::byte* base, std::byte* shared, const layout::Geometry& g)
       : geometry(g),
         header(reinterpret_cast<SegmentHeader*>(base)),
         ring(reinterpret_cast<std::atomic<std::uint32_t>*>(base + g.ring_offset)),
-        slots(base + g.slots_offset) {}
+        slots(base + g.slots_offset),
+        readers(reinterpret_cast<ReaderArea*>(shared)),
+        borrow_states(reinterpret_cast<std::atomic<std::uint64_t>*>(shared + layout::kBorrowStatesOffset)) {}
 
   SlotHeader& slot(std::uint32_t index) const noexcept {
     return *reinterpret_cast<SlotHeader*>(slots + std::uint64_t{index} * geometry.slot_stride);
@@ -115,6 +129,7 @@ struct SegmentView {
   std::byte* payload(std::uint32_t index) const noexcept {
     return slots + std::uint64_t{index} * geometry.slot_stride + layout::kPayloadOffset;
   }
+  std::atomic<std::uint64_t>& borrow_state(std::uint32_t index) const noexcept { return borrow_states[index]; }
 };
 
 ReadStatus status_for_state(std::uint32_t state) noexcept {
@@ -141,6 +156,14 @@ constexpr nanoseconds kMinYieldBackoff = std::chrono::milliseconds(1);
 constexpr nanoseconds kMaxYieldBackoff = std::chrono::milliseconds(100);
 
 }  // namespace
+
+std::uint64_t topic_segment_size(std::uint32_t message_size, std::uint32_t history) noexcept {
+  try {
+    return layout::compute_geometry(std::max<std::uint32_t>(message_size, 1), history, kTopicBorrowSlots).total_size;
+  } catch (const ShmError&) {
+    return 0;
+  }
+}
 
 const char* to_string(WriteStatus status) {
   switch (status) {
@@ -188,6 +211,7 @@ struct WriterCore {
   bool streaming = false;  // the loan is being filled by stream_into_loan
   bool closed = false;
   std::uint64_t last_sequence = 0;
+  std::uint64_t created_before = 0;  // last_sequence at creation: nothing written while they agree
 
   bool borrowing_possible() const noexcept { return view.geometry.borrow_slots != 0; }
 
@@ -200,7 +224,7 @@ struct WriterCore {
       SlotHeader& slot = view.slot(spares[candidate]);
       if (borrowing_possible()) {
         std::uint64_t expected = 0;
-        if (!slot.borrow_state.compare_exchange_strong(expected, layout::kWritingBit,
+        if (!view.borrow_state(spares[candidate]).compare_exchange_strong(expected, layout::kWritingBit,
                                                        std::memory_order_acquire,
                                                        std::memory_order_relaxed)) {
           continue;  // pinned by a reader
@@ -223,7 +247,7 @@ struct WriterCore {
     slot.timestamp.store(timestamp, std::memory_order_relaxed);
     slot.size.store(size, std::memory_order_relaxed);
     slot.sequence.store(sequence, std::memory_order_release);
-    if (borrowing_possible()) slot.borrow_state.store(0, std::memory_order_release);
+    if (borrowing_possible()) view.borrow_state(index).store(0, std::memory_order_release);
 
     const std::size_t position = sequence % view.geometry.history;
     spares[loan_spare] = ring_slots[position];
@@ -274,7 +298,7 @@ struct WriterCore {
     if (!loan_open) return;
     // The slot keeps sequence 0, so no reader will ever take its contents.
     if (borrowing_possible()) {
-      view.slot(spares[loan_spare]).borrow_state.store(0, std::memory_order_release);
+      view.borrow_state(spares[loan_spare]).store(0, std::memory_order_release);
     }
     loan_open = false;
   }
@@ -283,11 +307,11 @@ struct WriterCore {
   // readers increment sleeping_readers before loading wake_word, so either we
   // see their count or they see the new head / a changed futex word.
   void wake_sleepers(bool always, std::uint32_t wake_mask) noexcept {
-    SegmentHeader& header = *view.header;
-    header.wake_word.fetch_add(1, std::memory_order_seq_cst);
-    if (always || header.sleeping_readers.load(std::memory_order_seq_cst) != 0) {
-      header.last_wake_ns.store(Clock::now().time_since_epoch().count(), std::memory_order_relaxed);
-      futex_wake_all(&header.wake_word, wake_mask);
+    ReaderArea& readers = *view.readers;
+    readers.wake_word.fetch_add(1, std::memory_order_seq_cst);
+    if (always || readers.sleeping_readers.load(std::memory_order_seq_cst) != 0) {
+      view.header->last_wake_ns.store(Clock::now().time_since_epoch().count(), std::memory_order_relaxed);
+      futex_wake_all(&readers.wake_word, wake_mask);
     }
   }
 
@@ -328,6 +352,11 @@ ShmWriter ShmWriter::create(const RingConfig& config) {
   for (std::uint32_t i = 0; i < geometry.slot_count; ++i) {
     new (base + geometry.slots_offset + i * geometry.slot_stride) SlotHeader();
   }
+  std::byte* shared = base + geometry.shared_offset;
+  new (shared) ReaderArea();
+  for (std::uint32_t i = 0; i < geometry.slot_count; ++i) {
+    new (shared + layout::kBorrowStatesOffset + i * sizeof(std::atomic<std::uint64_t>)) std::atomic<std::uint64_t>(0);
+  }
   header->head_sequence.store(config.first_sequence - 1, std::memory_order_relaxed);
   header->publisher_cpu.store(-1, std::memory_order_relaxed);
   header->state.store(kOpen, std::memory_order_relaxed);
@@ -341,6 +370,7 @@ ShmWriter ShmWriter::create(const RingConfig& config) {
   info.ring_offset = geometry.ring_offset;
   info.slots_offset = geometry.slots_offset;
   info.slot_stride = geometry.slot_stride;
+  info.shared_offset = geometry.shared_offset;
   info.message_size = geometry.message_size;
   info.history = geometry.history;
   info.borrow_slots = geometry.borrow_slots;
@@ -353,11 +383,11 @@ ShmWriter ShmWriter::create(const RingConfig& config) {
 
   core->fd = std::move(fd);
   core->mapping = std::move(mapping);
-  core->view = SegmentView(base, geometry);
+  core->view = SegmentView(base, shared, geometry);
   core->ring_slots.resize(geometry.history);
   for (std::uint32_t i = 0; i < geometry.history; ++i) core->ring_slots[i] = i;
   for (std::uint32_t i = geometry.history; i < geometry.slot_count; ++i) core->spares.push_back(i);
-  core->last_sequence = config.first_sequence - 1;
+  core->last_sequence = core->created_before = config.first_sequence - 1;
   return ShmWriter(std::move(core));
 }
 
@@ -423,13 +453,41 @@ WriteStatus ShmWriter::commit(std::size_t size) noexcept {
 }
 
 void ShmWriter::discard_loan() noexcept { core_->discard_loan(); }
+
+bool ShmWriter::renumber(std::uint64_t first_sequence) noexcept {
+  detail::WriterCore& core = *core_;
+  if (core.closed || core.loan_open || core.last_sequence != core.created_before || first_sequence == 0 ||
+      first_sequence > (std::uint64_t{1} << 62))
+    return false;
+  core.last_sequence = core.created_before = first_sequence - 1;
+  core.view.header->head_sequence.store(first_sequence - 1, std::memory_order_release);
+  return true;
+}
 std::uint64_t ShmWriter::last_sequence() const noexcept { return core_->last_sequence; }
 std::uint64_t ShmWriter::published_sequence() const noexcept {
   return core_->view.header->head_sequence.load(std::memory_order_relaxed);
 }
 
+bool ShmWriter::shared_state_intact() const noexcept {
+  const detail::WriterCore& core = *core_;
+  const SegmentHeader& header = *core.view.header;
+  const layout::Geometry& g = core.view.geometry;
+  const layout::SegmentInfo& info = header.info;
+  if (layout::checksum(info) != info.checksum || info.total_size != g.total_size ||
+      info.ring_offset != g.ring_offset || info.slots_offset != g.slots_offset || info.slot_stride != g.slot_stride ||
+      info.shared_offset != g.shared_offset || info.message_size != g.message_size || info.history != g.history ||
+      info.slot_count != g.slot_count || info.borrow_slots != g.borrow_slots)
+    return false;
+  const std::uint32_t expected_state = static_cast<std::uint32_t>(core.closed ? SegmentState::closed : SegmentState::open);
+  if (!core.closed && header.state.load(std::memory_order_relaxed) != expected_state) return false;
+  if (!core.loan_open && header.head_sequence.load(std::memory_order_relaxed) != core.last_sequence) return false;
+  for (std::uint32_t i = 0; i < g.history; ++i)
+    if (core.view.ring[i].load(std::memory_order_relaxed) != core.ring_slots[i]) return false;
+  return true;
+}
+
 std::uint32_t ShmWriter::sleeping_readers() const noexcept {
-  return core_->view.header->sleeping_readers.load(std::memory_order_acquire);
+  return core_->view.readers->sleeping_readers.load(std::memory_order_acquire);
 }
 
 void ShmWriter::close() noexcept { core_->close(SegmentState::closed); }
@@ -458,7 +516,8 @@ struct ReaderCore {
 
   UniqueFd fd;
   bool own_description = false;  // false only without /proc: no liveness check, no borrowing
-  Mapping mapping;
+  Mapping mapping;         // the publisher's part (read-only), or everything
+  Mapping shared_mapping;  // the reader area, when mapped on its own
   SegmentView view;
   std::uint32_t flags = 0;
   ReaderOptions options;
@@ -536,7 +595,7 @@ struct ReaderCore {
   void clear_stale_pins(std::uint32_t token) noexcept {
     const std::uint64_t bit = std::uint64_t{1} << token;
     for (std::uint32_t i = 0; i < view.geometry.slot_count; ++i) {
-      auto& state = view.slot(i).borrow_state;
+      auto& state = view.borrow_state(i);
       if ((state.load(std::memory_order_relaxed) & bit) != 0) {
         state.fetch_and(~bit, std::memory_order_release);
       }
@@ -552,7 +611,7 @@ struct ReaderCore {
     std::lock_guard<std::mutex> lock(token_mutex);
     if (ticket == 0 || tokens_in_use >= max_borrows) return std::nullopt;
     const std::uint32_t count = view.geometry.borrow_slots;
-    auto* owners = header().token_owner;
+    auto* owners = view.readers->token_owner;
     for (std::uint32_t i = 0; i < count; ++i) {
       const std::uint32_t t = (token_scan_start + i) % count;
       std::uint64_t expected = 0;
@@ -579,14 +638,14 @@ struct ReaderCore {
 
   void release_token(std::uint32_t token) noexcept {
     std::lock_guard<std::mutex> lock(token_mutex);
-    header().token_owner[token].store(0, std::memory_order_release);
+    view.readers->token_owner[token].store(0, std::memory_order_release);
     --tokens_in_use;
   }
 
   // Sets the token's bit in the slot unless the writer is writing it, then
   // checks that the slot still holds the packet we want.
   bool pin(const Location& where, std::uint32_t token) noexcept {
-    auto& state = view.slot(where.slot).borrow_state;
+    auto& state = view.borrow_state(where.slot);
     const std::uint64_t bit = std::uint64_t{1} << token;
     std::uint64_t current = state.load(std::memory_order_relaxed);
     do {
@@ -599,7 +658,7 @@ struct ReaderCore {
   }
 
   void unpin(std::uint32_t slot, std::uint32_t token) noexcept {
-    view.slot(slot).borrow_state.fetch_and(~(std::uint64_t{1} << token), std::memory_order_release);
+    view.borrow_state(slot).fetch_and(~(std::uint64_t{1} << token), std::memory_order_release);
   }
 
   // ---- streamed copies
@@ -864,13 +923,13 @@ struct ReaderCore {
         return ReadStatus::ok;
       }
     }
-    SegmentHeader& shared = header();
+    ReaderArea& readers = *view.readers;
     const nanoseconds check_interval = options.liveness_check_interval;
     TimePoint last_check = start;
     ReadStatus result = ReadStatus::ok;
-    shared.sleeping_readers.fetch_add(1, std::memory_order_seq_cst);
+    readers.sleeping_readers.fetch_add(1, std::memory_order_seq_cst);
     for (;;) {
-      const std::uint32_t word = shared.wake_word.load(std::memory_order_seq_cst);
+      const std::uint32_t word = readers.wake_word.load(std::memory_order_seq_cst);
       if (wake_condition()) break;
       const TimePoint now = Clock::now();
       if (now >= deadline) {
@@ -888,11 +947,11 @@ struct ReaderCore {
       if (deadline != TimePoint::max()) sleep = std::min(sleep, nanoseconds(deadline - now));
       ++stats.futex_sleeps;
       const bool may_follow = follow_streams && !publisher_on_this_cpu();
-      futex_wait(&shared.wake_word, word, sleep,
+      futex_wait(&readers.wake_word, word, sleep,
                  layout::kWakeOnCommit | (may_follow ? layout::kWakeOnStreamStart : 0));
     }
-    shared.sleeping_readers.fetch_sub(1, std::memory_order_seq_cst);
-    if (result == ReadStatus::ok) learn_arrival(arrival_since(start, shared));
+    readers.sleeping_readers.fetch_sub(1, std::memory_order_seq_cst);
+    if (result == ReadStatus::ok) learn_arrival(arrival_since(start, header()));
     if (result == ReadStatus::timeout && !publisher_alive()) result = ReadStatus::publisher_gone;
     return result;
   }
@@ -992,7 +1051,7 @@ layout::Geometry validate_segment_info(const layout::SegmentInfo& info, std::siz
   }
   if (geometry.slot_count != info.slot_count || geometry.slot_stride != info.slot_stride ||
       geometry.ring_offset != info.ring_offset || geometry.slots_offset != info.slots_offset ||
-      geometry.total_size != info.total_size) {
+      geometry.shared_offset != info.shared_offset || geometry.total_size != info.total_size) {
     throw ShmError(ShmErrc::bad_layout, "segment header sizes are inconsistent");
   }
   if (geometry.total_size > file_size) {
@@ -1046,15 +1105,29 @@ ShmReader ShmReader::attach(int segment_fd, const ReaderOptions& options) {
     throw ShmError(ShmErrc::invalid_argument, "spin policy needs 0 <= min_spin <= max_spin");
   }
 
-  core->mapping = Mapping::map_shared(core->fd.get(), geometry.total_size);
-  core->view = SegmentView(core->mapping.data(), geometry);
+  // Write-protected: the publisher's part read-only, the reader area
+  // writable: a stray write of this process can then only disturb sleeping
+  // and borrowing (which the publisher survives, see ShmWriter), never the
+  // packets. With pages larger than the reader area's alignment, one
+  // writable mapping of everything.
+  std::byte* shared = nullptr;
+  if (options.write_protect && geometry.shared_offset % page_size() == 0) {
+    core->mapping = Mapping::map_shared(core->fd.get(), 0, geometry.shared_offset, false);
+    core->shared_mapping = Mapping::map_shared(core->fd.get(), geometry.shared_offset,
+                                               geometry.total_size - geometry.shared_offset, true);
+    shared = core->shared_mapping.data();
+  } else {
+    core->mapping = Mapping::map_shared(core->fd.get(), geometry.total_size);
+    shared = core->mapping.data() + geometry.shared_offset;
+  }
+  core->view = SegmentView(core->mapping.data(), shared, geometry);
   core->flags = info.flags;
   core->options = options;
   core->max_borrows = std::min(options.max_borrows, geometry.borrow_slots);
   if (core->own_description && geometry.borrow_slots != 0) {
     // An identity whose liveness the kernel maintains: our lock on byte 1 + ticket.
     const std::uint64_t ticket =
-        core->view.header->next_reader_ticket.fetch_add(1, std::memory_order_relaxed) + 1;
+        core->view.readers->next_reader_ticket.fetch_add(1, std::memory_order_relaxed) + 1;
     if (ticket < layout::kMaxReaderTicket &&
         try_lock_byte(core->fd.get(), layout::kFirstReaderLockByte + ticket)) {
       core->ticket = ticket;
@@ -1113,8 +1186,8 @@ bool ShmReader::has_new_data() const noexcept {
 void ShmReader::unblock() noexcept {
   core_->unblock_requested.store(true, std::memory_order_seq_cst);
   // Changing the futex word makes a reader that is just about to sleep return at once.
-  core_->header().wake_word.fetch_add(1, std::memory_order_seq_cst);
-  futex_wake_all(&core_->header().wake_word);
+  core_->view.readers->wake_word.fetch_add(1, std::memory_order_seq_cst);
+  futex_wake_all(&core_->view.readers->wake_word);
 }
 
 bool ShmReader::publisher_alive() const noexcept { return core_->publisher_alive(); }
@@ -1128,7 +1201,7 @@ ReaderStats ShmReader::stats() const noexcept { return core_->stats; }
 ShmWakeWatch ShmReader::watch_wake_word() const noexcept { return ShmWakeWatch(core_); }
 
 ShmWakeWatch::ShmWakeWatch(std::shared_ptr<detail::ReaderCore> core) noexcept : core_(std::move(core)) {
-  SegmentHeader& shared = core_->header();
+  ReaderArea& shared = *core_->view.readers;
   // The order of wait_for_packet: counted first, so that a writer that bumps
   // the word after our load also sees the count and wakes us.
   shared.sleeping_readers.fetch_add(1, std::memory_order_seq_cst);
@@ -1145,12 +1218,12 @@ ShmWakeWatch& ShmWakeWatch::operator=(ShmWakeWatch&& other) noexcept {
 }
 
 const std::atomic<std::uint32_t>* ShmWakeWatch::word() const noexcept {
-  return core_ ? &core_->header().wake_word : nullptr;
+  return core_ ? &core_->view.readers->wake_word : nullptr;
 }
 
 void ShmWakeWatch::withdraw() noexcept {
   if (!core_) return;
-  core_->header().sleeping_readers.fetch_sub(1, std::memory_order_seq_cst);
+  core_->view.readers->sleeping_readers.fetch_sub(1, std::memory_order_seq_cst);
   core_.reset();
 }
 

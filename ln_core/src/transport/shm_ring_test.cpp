@@ -30,6 +30,7 @@
 #include <vector>
 
 #include "transport/shm_ring.hpp"
+#include "testing/wait.hpp"
 
 namespace ln::transport {
 namespace {
@@ -65,14 +66,7 @@ bool pattern_intact(const void* source, std::size_t size, std::uint64_t sequence
   return true;
 }
 
-bool wait_until(const std::function<bool()>& condition, std::chrono::milliseconds timeout) {
-  const auto deadline = Clock::now() + timeout;
-  while (!condition()) {
-    if (Clock::now() >= deadline) return false;
-    std::this_thread::sleep_for(200us);  // polling interval of a bounded condition wait
-  }
-  return true;
-}
+using ln::test::wait_until;
 
 struct SocketPair {
   UniqueFd parent;
@@ -608,7 +602,9 @@ TEST(ShmRingSemantics, CorruptSharedStateGivesErrorsNotCrashes) {
   std::uint32_t saved = 0;
   std::memcpy(&saved, base + ring_offset + 4, sizeof(saved));  // ring[1] names packet 1's slot
   const std::uint32_t bogus = 0xffffffffu;
+  EXPECT_TRUE(writer.shared_state_intact());
   std::memcpy(base + ring_offset + 4, &bogus, sizeof(bogus));
+  EXPECT_FALSE(writer.shared_state_intact()) << "the writer notices (its owner then replaces the segment)";
 
   std::vector<std::byte> buffer(64);
   SampleInfo info;
@@ -616,8 +612,89 @@ TEST(ShmRingSemantics, CorruptSharedStateGivesErrorsNotCrashes) {
   BorrowedSample sample;
   EXPECT_EQ(reader.borrow(sample), ReadStatus::corrupt_segment);
   std::memcpy(base + ring_offset + 4, &saved, sizeof(saved));
+  EXPECT_TRUE(writer.shared_state_intact());
   EXPECT_EQ(reader.read(buffer.data(), buffer.size(), info), ReadStatus::ok);
+  std::uint64_t head = 0;
+  std::memcpy(&head, base + 128, sizeof head);  // SegmentHeader::head_sequence (its own cache line)
+  EXPECT_EQ(head, 1u);
+  const std::uint64_t wrong = 77;
+  std::memcpy(base + 128, &wrong, sizeof wrong);
+  EXPECT_FALSE(writer.shared_state_intact());
+  std::memcpy(base + 128, &head, sizeof head);
   ::munmap(raw, size);
+}
+
+TEST(ShmRingSemantics, WriteProtectedReadersCannotWriteThePublishersPart) {
+  ShmWriter writer = ShmWriter::create(config(64, 2));
+  ASSERT_EQ(writer.write(packet(64, 1).data(), 64), WriteStatus::ok);
+  // A subscriber that writes into a packet it may only read dies of it
+  // (SIGSEGV, reported here as exit code 42, also under the sanitizers),
+  // and the packet is unchanged for everyone else.
+  Child child([&] {
+    ::signal(SIGSEGV, [](int) { ::_exit(42); });
+    ReaderOptions options;
+    options.buffers = 2;
+    options.resume_after = 0;
+    options.write_protect = true;
+    ShmReader reader = ShmReader::attach(writer.fd(), options);
+    BorrowedSample sample;
+    if (reader.borrow(sample) != ReadStatus::ok) return 3;
+    std::memset(const_cast<void*>(sample.data()), 0xee, 64);
+    return 0;  // not reached: the page is read-only
+  });
+  EXPECT_EQ(child.wait(), 42);
+  ReaderOptions options;
+  options.resume_after = 0;
+  options.buffers = 2;
+  ShmReader reader = ShmReader::attach(writer.fd(), options);
+  std::vector<std::byte> buffer(64);
+  SampleInfo info;
+  ASSERT_EQ(reader.read(buffer.data(), buffer.size(), info), ReadStatus::ok);
+  EXPECT_EQ(buffer, packet(64, 1));
+}
+
+TEST(ShmRingSemantics, GarbageInTheReaderAreaStopsTheWriterWithoutHarm) {
+  ShmWriter writer = ShmWriter::create(config(64, 2));
+  ASSERT_EQ(writer.write(packet(64, 1).data(), 64), WriteStatus::ok);
+  // What a subscriber can write: every borrow state set, so every spare
+  // looks pinned. The writer refuses to write instead of overwriting a
+  // packet someone might read; its owner replaces the segment.
+  const std::size_t size = static_cast<std::size_t>(::lseek(writer.fd(), 0, SEEK_END));
+  void* raw = ::mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_SHARED, writer.fd(), 0);
+  ASSERT_NE(raw, MAP_FAILED);
+  std::uint64_t shared_offset = 0;
+  std::memcpy(&shared_offset, static_cast<unsigned char*>(raw) + 48, sizeof shared_offset);
+  ASSERT_GT(shared_offset, 0u);
+  ASSERT_LT(shared_offset, size);
+  std::memset(static_cast<unsigned char*>(raw) + shared_offset, 0xff, size - shared_offset);
+  EXPECT_EQ(writer.write(packet(64, 2).data(), 64), WriteStatus::no_free_slot);
+  EXPECT_EQ(writer.loan(), nullptr);
+  ::munmap(raw, size);
+  // The replacement continues the numbering; readers drain and follow.
+  RingConfig next = config(64, 2);
+  next.first_sequence = writer.last_sequence() + 1;
+  ShmWriter replacement = ShmWriter::create(next);
+  writer.close_replaced();
+  ASSERT_EQ(replacement.write(packet(64, 2).data(), 64), WriteStatus::ok);
+  EXPECT_EQ(replacement.last_sequence(), 2u);
+}
+
+TEST(ShmRingSemantics, ASegmentMadeAheadTakesOverTheNumbering) {
+  ShmWriter writer = ShmWriter::create(config(64, 2));
+  ASSERT_EQ(writer.write(packet(64, 1).data(), 64), WriteStatus::ok);
+  ShmWriter bigger = ShmWriter::create(config(64, 8));
+  ASSERT_TRUE(bigger.renumber(writer.last_sequence() + 1));
+  EXPECT_EQ(bigger.last_sequence(), 1u);
+  ReaderOptions options;
+  options.resume_after = 1;
+  ShmReader reader = ShmReader::attach(bigger.fd(), options);
+  ASSERT_EQ(bigger.write(packet(64, 2).data(), 64), WriteStatus::ok);
+  EXPECT_FALSE(bigger.renumber(5)) << "only before the first packet";
+  std::vector<std::byte> buffer(64);
+  SampleInfo info;
+  ASSERT_EQ(reader.read(buffer.data(), buffer.size(), info), ReadStatus::ok);
+  EXPECT_EQ(info.sequence, 2u);
+  EXPECT_EQ(info.lost, 0u);
 }
 
 // ------------------------------------------------------------------ borrowing

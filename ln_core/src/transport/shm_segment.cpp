@@ -86,9 +86,12 @@ Mapping::~Mapping() {
   if (data_ != nullptr) ::munmap(data_, size_);
 }
 
-Mapping Mapping::map_shared(int fd, std::size_t size) {
+Mapping Mapping::map_shared(int fd, std::size_t size) { return map_shared(fd, 0, size, true); }
+
+Mapping Mapping::map_shared(int fd, std::size_t offset, std::size_t size, bool writable) {
   if (size == 0) throw ShmError(ShmErrc::invalid_config, "cannot map an empty segment");
-  void* address = ::mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_POPULATE, fd, 0);
+  void* address = ::mmap(nullptr, size, PROT_READ | (writable ? PROT_WRITE : 0), MAP_SHARED | MAP_POPULATE, fd,
+                         static_cast<off_t>(offset));
   if (address == MAP_FAILED) throw_errno("mmap of shared-memory segment");
   Mapping mapping;
   mapping.data_ = static_cast<std::byte*>(address);

@@ -81,6 +81,9 @@ class Mapping {
   /// Maps `size` bytes of `fd` read-write and pre-faults them, so the first
   /// packet does not pay for page faults. Throws ShmError.
   static Mapping map_shared(int fd, std::size_t size);
+  /// The same for `size` bytes at `offset` (a multiple of the page size),
+  /// read-only unless `writable`.
+  static Mapping map_shared(int fd, std::size_t offset, std::size_t size, bool writable);
 
   std::byte* data() const noexcept { return data_; }
   std::size_t size() const noexcept { return size_; }

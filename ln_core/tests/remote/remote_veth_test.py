@@ -466,16 +466,8 @@ def main() -> int:
             f.write(f"instance\nname: ln_remote_test_{os.getpid()}\nmanager: :54414\n"
                     f"add_message_definition_dir: {tools.md_dir}\n")
         manager = Program(net.ns_a, [tools.manager, "-c", config, "--listen", f"{net.ip_a}:0"], env, "ln_manager")
-        line = None
-        deadline = time.monotonic() + 10
-        while time.monotonic() < deadline and line is None:
-            line = next((l for l in manager.err if "listening on" in l and re.search(r"\d+\.\d+\.\d+\.\d+:\d+", l)), None)
-            if manager.proc.poll() is not None:
-                break
-            time.sleep(0.05)
-        if line is None:
-            raise TestFailure(f"ln_manager did not start listening\n{manager.describe()}")
-        address = re.search(r"(\d+\.\d+\.\d+\.\d+:\d+)", line).group(1)
+        line = manager.wait_for_line(r"ln_manager: listening on \d+\.\d+\.\d+\.\d+:\d+$", 30)
+        address = line.rsplit(" ", 1)[-1]
         log(f"ln_manager in {net.ns_a} listens on {address}")
 
         cases = [("udp", "packet", 300, 0.002, "exit"),

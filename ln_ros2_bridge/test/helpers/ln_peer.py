@@ -2,7 +2,7 @@
 Prints one JSON object per event on stdout ("ready" first). Every loop is
 bounded by --duration.
 
-  ln_peer.py publish TOPIC [--count N] [--rate HZ] [--wait-subscriber]
+  ln_peer.py publish TOPIC [--count N] [--rate HZ] [--wait-subscriber] [--definition sample|joint_state|...]
   ln_peer.py subscribe TOPIC [--count N]
   ln_peer.py provide SERVICE [--mode echo|slow|fail] [--definition compute|plain|elevator]
   ln_peer.py call SERVICE --request JSON [--timeout S] [--definition ...]
@@ -18,7 +18,10 @@ import links_and_nodes as ln
 
 DEFS = {"sample": "bridgetest/sample", "compute": "bridgetest/compute", "plain": "bridgetest/plain",
         "elevator": "elevator/request/elevator_call", "unmapped": "bridgetest_extra/unmapped",
-        "point": "bridgetest_extra/point"}
+        "point": "bridgetest_extra/point",
+        # derived from standard ROS types (the bridge gives them to the manager)
+        "twist": "ros2/geometry_msgs/msg/Twist", "joint_state": "ros2/sensor_msgs/msg/JointState",
+        "string": "ros2/std_msgs/msg/String", "trigger": "ros2/std_srvs/srv/Trigger"}
 
 
 def emit(**event):
@@ -36,6 +39,21 @@ def sample_dict(packet):
             "small": int(packet.small), "flags": int(packet.flags), "label": text_of(packet.label)}
 
 
+def fill_joint_state(p, seq):
+    names = ["joint_%d" % i for i in range(3)]
+    p.header.stamp.sec, p.header.frame_id, p.header.frame_id_len = seq, "base", 4
+    p.name_len = p.position_len = len(names)
+    for i, name in enumerate(names):
+        p.name[i].data, p.name[i].data_len = name, len(name)
+        p.position[i] = seq + 0.25 * i
+
+
+def joint_state_dict(p):
+    return {"seq": int(p.header.stamp.sec), "frame": text_of(p.header.frame_id)[:int(p.header.frame_id_len)],
+            "names": [text_of(p.name[i].data)[:int(p.name[i].data_len)] for i in range(int(p.name_len))],
+            "position": [float(p.position[i]) for i in range(int(p.position_len))]}
+
+
 def publish(client, args):
     port = client.publish(args.name, DEFS[args.definition], buffers=4)
     deadline = time.monotonic() + args.duration
@@ -46,7 +64,9 @@ def publish(client, args):
     seq = 0
     while seq < args.count and time.monotonic() < deadline:
         p = port.packet
-        if args.definition != "point":
+        if args.definition == "joint_state":
+            fill_joint_state(p, seq)
+        elif args.definition != "point":
             p.seq = seq
         if args.definition == "point":
             p.time = 100.0 + seq * 0.5
@@ -82,6 +102,13 @@ def subscribe(client, args):
         elif args.definition == "point":
             fields = {"time": float(packet.time), "pos_mm": [float(v) for v in packet.pos_mm],
                       "frame": text_of(packet.frame)}
+        elif args.definition == "twist":
+            fields = {"linear": [float(packet.linear.x), float(packet.linear.y), float(packet.linear.z)],
+                      "angular_z": float(packet.angular.z)}
+        elif args.definition == "joint_state":
+            fields = joint_state_dict(packet)
+        elif args.definition == "string":
+            fields = {"data": text_of(packet.data)[:int(packet.data_len)]}
         else:
             fields = {"seq": int(packet.seq)}
         emit(event="packet", **fields)
@@ -106,6 +133,9 @@ def provide(client, args):
                 resp.error_message = "ok %d" % len(values)
         elif args.definition == "plain":
             resp.y = req.x * 2
+        elif args.definition == "trigger":
+            resp.success = 1
+            resp.message = "triggered in LN by %s" % client.name
         else:
             resp.reached_floor = req.target_floor
             resp.error_code = 0
@@ -131,8 +161,8 @@ def call(client, args):
         for key, value in request.items():
             setattr(svc.req, key, value)
         svc.call_with_timeout(timeout=args.timeout)
-        response = {f: getattr(svc.resp, f) for f in ("result", "error_code", "error_message", "y")
-                    if hasattr(svc.resp, f)}
+        response = {f: getattr(svc.resp, f) for f in ("result", "error_code", "error_message", "y", "success",
+                                                      "message") if hasattr(svc.resp, f)}
         emit(event="response", elapsed=time.monotonic() - start,
              **{k: (text_of(v) if isinstance(v, (str, bytes)) else float(v)) for k, v in response.items()})
     except Exception as error:

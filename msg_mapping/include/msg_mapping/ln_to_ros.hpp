@@ -70,6 +70,12 @@ class LnToRos {
   std::map<std::string, std::string> ros_owner_;  ///< ROS type (and file) names -> LN name
 };
 
+/// The .msg text of one mapped message type (a message, a service's request or
+/// response, an event part): its fields, each commented with its LN form, as
+/// in the type's file of packages() but without the file's header comment.
+/// What recordings embed as the type's schema (ln_bag).
+std::string msg_text(const PairedType& type);
+
 /// Definition names found under `dir` (every regular file, recursively,
 /// relative to `dir`, '/'-separated, sorted; hidden files and md.conf skipped).
 std::vector<std::string> definition_names_under(const std::string& dir);

@@ -11,9 +11,12 @@
 //
 // Each rule targets a ROS leaf: a number (also one element "a[2]" of a fixed
 // array), a whole numeric array/sequence (from an LN array), a string (from
-// an LN char array or a constant), or a builtin_interfaces Time/Duration
-// (convert: seconds_to_time from an LN number of seconds, nanoseconds_to_time
-// from an LN integer of nanoseconds). `scale`/`offset` apply ros = ln * scale
+// an LN char array or a constant), a whole array/sequence of strings, or a
+// builtin_interfaces Time/Duration (convert: seconds_to_time from an LN number
+// of seconds, nanoseconds_to_time from an LN integer of nanoseconds). A path
+// through an LN array of sub-types without an index, "joints.name", reads that
+// field of every element: one number, or one text (char array), per element of
+// the ROS array -- so sensor_msgs/msg/JointState keeps its joint names. `scale`/`offset` apply ros = ln * scale
 // + offset (and the inverse from ROS to LN). Numeric conversions that can lose
 // information (float -> int, narrowing, float64 -> float32, scaling into an
 // integer) need `lossy: true`. ROS fields without a rule are zero/empty; ROS

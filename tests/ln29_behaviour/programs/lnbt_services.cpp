@@ -29,6 +29,7 @@
 #include <string>
 #include <vector>
 
+#include "lnbt_errors.h"
 #include "ln_messages.h"
 
 namespace {
@@ -39,28 +40,7 @@ struct {
   char** argv = nullptr;
 } clnt_manager_args;
 
-// LN error names, enough for what services report.
-std::string error_name(int code) {
-  static const struct {
-    int code;
-    const char* name;
-  } names[] = {
-#define LNBT_E(x) {x, #x}
-      LNBT_E(LNE_CHECK_ERRNO), LNBT_E(LNE_REQUEST_FAILED), LNBT_E(LNE_SVC_IS_PROVIDER), LNBT_E(LNE_SVC_IS_CLIENT),
-      LNBT_E(LNE_SVC_RECV_RESP), LNBT_E(LNE_SVC_ALREADY_REGISTERED), LNBT_E(LNE_SVC_NOT_REGISTERED),
-      LNBT_E(LNE_SVC_HANDLER_NO_RESP), LNBT_E(LNE_USER_DEFINED_ERROR), LNBT_E(LNE_SVC_NO_HANDLER),
-      LNBT_E(LNE_NO_PROVIDER_FOUND), LNBT_E(LNE_NOT_YET_IMPLEMENTED), LNBT_E(LNE_INVALID_SIGNATURE),
-      LNBT_E(LNE_INVALID_PARAMETER), LNBT_E(LNE_SVC_GRP_UNKNOWN), LNBT_E(LNE_THREADP_INIT),
-      LNBT_E(LNE_NOT_ON_THIS_OS), LNBT_E(LNE_SVC_TIMEOUT), LNBT_E(LNE_CHECK_ERROR_CODE), LNBT_E(LNE_UNKNOWN),
-      LNBT_E(LNE_WRONG_MD_HASH), LNBT_E(LNE_GOT_INVALID_RESPONSE), LNBT_E(LNE_INTERNAL_ERROR),
-#undef LNBT_E
-  };
-  if (code < 0) code = -code;
-  if (code == 0) return "OK";
-  for (const auto& e : names)
-    if (e.code == code) return e.name;
-  return "LNE_#" + std::to_string(code);
-}
+using lnbt::error_name;
 
 struct Provider : lnbt::echo_base {
   Provider(ln::client& clnt, const std::string& name) { register_echo(&clnt, name); }

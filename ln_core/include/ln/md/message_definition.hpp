@@ -160,6 +160,15 @@ std::string fields_signature(const Definition& owner, const std::vector<Field>& 
 /// half with "name: " itself).
 std::string signature(const Definition& definition);
 
+// ------------------------------------------------- LN 2.9's Python notation
+
+/// The definition as LN 2.9's manager hands it to Python clients and writes
+/// it into logger data and recorder (pcap) files: the Python repr() of
+/// {'fields': [[type, name, count], ...], 'resp_fields': [...],
+///  'defines': {local name: fields, ...}} (defines depth first, in define
+/// order, a nested one of the same local name replacing the outer's fields).
+std::string python_dict_text(const Definition& definition);
+
 // ------------------------------------------------------------ search path
 
 /// The ordered list of directories where definition names are looked up;

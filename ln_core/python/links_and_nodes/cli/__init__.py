@@ -2,9 +2,15 @@
 
     ln topic list | info | echo | hz | bw | pub
     ln service list | info | call
+    ln param list | get | set | reset
     ln md show | find | generate
     ln client list
     ln manager status
+    ln record | play | bag info | bag convert   (the ln_bag package)
+    ln ros node list | topic list|info|echo|hz | service list|call   (the ROS 2 side; needs rclpy)
+    ln process list | info | start | stop | restart | output
+    ln state list | check | up | down
+    ln group list | start | stop | restart
     ln completion bash
 
 Every command takes --json (machine-readable output), --ln-manager HOST:PORT
@@ -22,7 +28,8 @@ import sys
 from .common import CliError, Session, describe_error
 
 #: The first arguments that belong to this `ln`; anything else is the system's ln.
-GROUPS = ("topic", "service", "md", "client", "manager", "completion")
+GROUPS = ("topic", "service", "param", "md", "client", "manager", "process", "state", "group", "ros",
+          "completion", "record", "play", "bag")
 OWN_FIRST_ARGUMENTS = GROUPS + ("__complete", "-h", "--help", "--json", "--ln-manager", "--color")
 SYSTEM_LN = ("/bin/ln", "/usr/bin/ln")
 
@@ -48,16 +55,16 @@ def common_options():
 
 
 def build_parser():
-    from . import clients, completion, manager, md, service, topic
+    from . import bag, clients, completion, manager, md, param, processes, ros, service, topic
     common = common_options()
     parser = ArgumentParser(
         prog="ln", parents=[common],
         description="Links and Nodes on the command line: inspect and use the topics, services, message "
-                    "definitions and clients of a running ln_manager.",
+                    "definitions, clients and processes of a running ln_manager.",
         epilog="Anything else (e.g. 'ln -s TARGET LINK') runs the system's ln. "
                "Each command has --help.")
     groups = parser.add_subparsers(dest="group", metavar="COMMAND")
-    for module in (topic, service, md, clients, manager, completion):
+    for module in (topic, service, param, md, clients, manager, processes, ros, bag, completion):
         module.register(groups, common)
     return parser
 

@@ -1,6 +1,8 @@
 """What every `ln` command shares: the session (options, output, the
 connection to the manager) and errors that become one line for the user."""
 
+import argparse
+import math
 import os
 import re
 
@@ -110,3 +112,25 @@ def find_by_name(items, name, what, list_command):
         if item.name == name:
             return item
     raise CliError("unknown %s '%s'" % (what, name), "see '%s'" % list_command)
+
+
+def positive_int(text):
+    """argparse type: a whole number >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError("'%s' is not a whole number" % text) from None
+    if value < 1:
+        raise argparse.ArgumentTypeError("must be at least 1, got %s" % text)
+    return value
+
+
+def positive_float(text):
+    """argparse type: a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError("'%s' is not a number" % text) from None
+    if not value > 0 or math.isinf(value):
+        raise argparse.ArgumentTypeError("must be a positive number, got %s" % text)
+    return value

@@ -123,7 +123,8 @@ def complete(line, bash_word, session):
 
 
 def _live(kind, manager, session):
-    """Names of topics, services, definitions or clients; [] when there is no manager."""
+    """Names of topics, services, definitions, clients, parameters, processes,
+    states or groups; [] when there is no manager."""
     if kind is None:
         return []
     from .common import connect
@@ -144,6 +145,12 @@ def _live(kind, manager, session):
             return [s.name for s in clnt.list_services()]
         if kind == "clients":
             return [c.name for c in clnt.list_clients() if c.name != clnt.name]
+        if kind == "parameters":
+            from .param import parameters
+            return list(parameters(clnt))
+        if kind in ("processes", "states", "groups"):
+            kinds = {"processes": ("process", "state"), "states": ("state",), "groups": ("group",)}[kind]
+            return [p.name for p in clnt.list_processes() if p.kind in kinds]
         if kind == "mds":
             return list(definitions_in(clnt.get_manager_status().message_definition_dirs))
     except Exception:  # noqa: BLE001

@@ -6,6 +6,7 @@ import time
 from collections import deque
 
 from .common import CliError, as_dict, find_by_name, introspect, lnerror_text
+from .common import positive_float as _positive_float, positive_int as _positive_int
 from .output import human_bytes, human_rate
 from . import values as V
 
@@ -49,13 +50,7 @@ def register(groups, common):
                                        "last --window messages (lost packets are counted too)." % what)
         p.add_argument("name", metavar="TOPIC").completer = "topics"
         _add_read_options(p)
-        p.add_argument("--window", "-w", type=_positive_int, default=100, metavar="N",
-                       help="messages to average over (default 100)")
-        p.add_argument("--period", type=_positive_float, default=1.0, metavar="SECONDS",
-                       help="seconds between reports (default 1)")
-        p.add_argument("--count", "-n", type=_positive_int, metavar="N", help="exit after N reports")
-        p.add_argument("--duration", "-d", type=_positive_float, metavar="SECONDS",
-                       help="measure this long, print one report and exit")
+        add_report_options(p)
         p.set_defaults(run=run)
 
     p = sub.add_parser("pub", parents=[common], help="publish messages on a topic",
@@ -78,26 +73,15 @@ def register(groups, common):
     p.set_defaults(run=cmd_pub)
 
 
-def _positive_int(text):
-    import argparse
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError("'%s' is not a whole number" % text) from None
-    if value < 1:
-        raise argparse.ArgumentTypeError("must be at least 1, got %s" % text)
-    return value
-
-
-def _positive_float(text):
-    import argparse
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError("'%s' is not a number" % text) from None
-    if not value > 0 or math.isinf(value):
-        raise argparse.ArgumentTypeError("must be a positive number, got %s" % text)
-    return value
+def add_report_options(p):
+    """--window, --period, --count, --duration of the commands that measure a topic (hz, bw)."""
+    p.add_argument("--window", "-w", type=_positive_int, default=100, metavar="N",
+                   help="messages to average over (default 100)")
+    p.add_argument("--period", type=_positive_float, default=1.0, metavar="SECONDS",
+                   help="seconds between reports (default 1)")
+    p.add_argument("--count", "-n", type=_positive_int, metavar="N", help="exit after N reports")
+    p.add_argument("--duration", "-d", type=_positive_float, metavar="SECONDS",
+                   help="measure this long, print one report and exit")
 
 
 def _add_read_options(p):
@@ -210,8 +194,9 @@ def cmd_echo(session):
 # -------------------------------------------------------------- hz and bw
 
 class RateMeter:
-    """Rate, interval statistics and losses over the last `window` messages,
-    from receive times and the publisher's sequence numbers."""
+    """Rate and interval statistics over the last `window` messages, from
+    receive times and the publisher's sequence numbers; messages received
+    and lost since the start."""
 
     def __init__(self, window):
         self.samples = deque(maxlen=window + 1)  # (receive time, sequence)
@@ -220,11 +205,12 @@ class RateMeter:
         self.lost = 0
 
     def add(self, now, sequence, lost):
+        """One message; `lost`: those skipped since the previous one (sample_info.lost)."""
         if self.samples and sequence == self.samples[-1][1] + 1:
             self.intervals.append(now - self.samples[-1][0])
         self.samples.append((now, sequence))
         self.total += 1
-        self.lost = lost
+        self.lost += lost
 
     def report(self):
         if len(self.samples) < 2:
@@ -256,7 +242,6 @@ def _measure(session, show):
     end = start + args.duration if args.duration else None
     next_report = start + (args.duration if args.duration else args.period)
     reports = 0
-    lost_before = None
     while True:
         now = time.monotonic()
         if now >= next_report:
@@ -275,10 +260,8 @@ def _measure(session, show):
             continue
         packet = port.read(min(0.2, max(0.0, next_report - now)))
         if packet is not None:
-            sequence, lost, _ = port.sample_info
-            if lost_before is None:
-                lost_before = lost  # losses before this command started are not ours
-            meter.add(time.monotonic(), sequence, lost - lost_before)
+            sequence, lost, _ = port.sample_info  # lost: skipped since the previous read
+            meter.add(time.monotonic(), sequence, lost)
 
 
 def cmd_hz(session):

@@ -87,7 +87,16 @@ def test_completion_script(manager):
 
 
 def test_completion_of_commands_and_options(manager):
-    assert complete(manager, "ln ") == ["client", "completion", "manager", "md", "service", "topic"]
+    assert complete(manager, "ln ") == ["bag", "client", "completion", "group", "manager", "md", "param", "play",
+                                        "process", "record", "ros", "service", "state", "topic"]
+    import importlib.util
+    if importlib.util.find_spec("ln_bag") is not None:   # recordings come from the ln_bag package
+        assert complete(manager, "ln bag ") == ["convert", "info"]
+        assert complete(manager, "ln record --e") == ["--exclude"]
+    else:
+        one_line_error(run_ln(manager, "record", "a.b"), "recordings need the ln_bag package", "colcon build")
+    assert complete(manager, "ln ros ") == ["node", "service", "topic"]
+    assert complete(manager, "ln ros topic ") == ["echo", "hz", "info", "list"]
     assert complete(manager, "ln to") == ["topic"]
     assert complete(manager, "ln topic ") == ["bw", "echo", "hz", "info", "list", "pub"]
     assert complete(manager, "ln topic echo --c") == ["--color", "--count", "--csv"]
@@ -167,3 +176,19 @@ def test_launcher_routes_the_same_words_as_the_package():
         case_line = next(line for line in f if line.strip().startswith('""|'))
     words = {w.rstrip("*").rstrip("=") for w in case_line.strip().rstrip(") ;").split("|") if w not in ('""',)}
     assert words == set(OWN_FIRST_ARGUMENTS)
+
+
+def test_ln_ros_without_rclpy_is_one_clear_line():
+    """`ln` never needs ROS; `ln ros ...` needs rclpy only when run, and says so when it is missing
+    (the rest of `ln ros` runs against ROS peers in ln_ros2_bridge/test/test_ln_ros_cli.py)."""
+    import sys
+    code = ("import sys; sys.modules['rclpy'] = None\n"   # as if rclpy were not installed
+            "import links_and_nodes.cli as cli\n"
+            "cli.build_parser()\n"
+            "assert not [m for m in sys.modules if m.startswith('rclpy') and sys.modules[m] is not None]\n"
+            "sys.exit(cli.main(sys.argv[1:]))")
+    result = subprocess.run([sys.executable, "-c", code, "ros", "topic", "list"], capture_output=True, text=True,
+                            timeout=60)
+    one_line_error(result, "'ln ros' needs ROS 2 Jazzy's Python packages (rclpy)", "source launchless_scripts/env.sh")
+    helped = subprocess.run([sys.executable, "-c", code, "ros", "--help"], capture_output=True, text=True, timeout=60)
+    assert helped.returncode == 0 and "node" in helped.stdout and "service" in helped.stdout

@@ -189,6 +189,18 @@ def test_hz_measures_rate_and_jitter(manager, live):
     assert text.startswith("rate: ") and " Hz " in text and "jitter: " in text and "window: " in text
 
 
+def test_hz_adds_up_the_losses_of_every_read():
+    # sample_info.lost counts the packets skipped since the previous read;
+    # taken for a running total, losses went missing and turned negative.
+    from links_and_nodes.cli.topic import RateMeter
+    meter = RateMeter(window=10)
+    for now, sequence, lost in ((0.0, 3, 2), (0.1, 4, 0), (0.2, 7, 2), (0.3, 8, 0), (0.4, 9, 0)):
+        meter.add(now, sequence, lost)
+    report = meter.report()
+    assert report["lost"] == 4 and report["received"] == 5
+    assert report["rate"] == pytest.approx((9 - 3) / 0.4)
+
+
 def test_bw_measures_bytes_per_second(manager, live):
     report = json_lines(run_ln(manager, "topic", "bw", live.all, "--duration", "1.5", "--json"))[0]
     assert report["message_size"] == 136
