@@ -7,11 +7,11 @@ from collections.abc import Mapping, Sequence
 from links_and_nodes import LNError as LNError
 
 
-LN_LIBRARY_VERSION: int
+LN_LIBRARY_VERSION: int = 32
 
-RATE_AS_PUBLISHED: int
+RATE_AS_PUBLISHED: int = -1
 
-RATE_ON_REQUEST_LAST: int
+RATE_ON_REQUEST_LAST: int = -2
 
 def format_error(arg: int, /) -> str: ...
 
@@ -115,7 +115,7 @@ class OutPort:
 
     def write(self, data: object, timestamp: float | None = None) -> None: ...
 
-    def has_subscriber(self) -> bool: ...
+    def has_subscriber(self) -> int: ...
 
     def unpublish(self) -> None: ...
 
@@ -170,6 +170,10 @@ class MultiWaiter:
 
     def can_read(self, arg: InPort, /) -> bool: ...
 
+    def start_pipe_notifier_thread(self) -> int: ...
+
+    def ack_pipe_notification(self) -> None: ...
+
 class Request:
     def data(self) -> bytes: ...
 
@@ -198,6 +202,8 @@ class Service:
     def poll_async(self, timeout: float = 0.0) -> object: ...
 
     def abort_async(self) -> None: ...
+
+    def async_notification_fd(self) -> int: ...
 
     def abort(self) -> None: ...
 
@@ -286,24 +292,24 @@ class ParameterBlockBridge:
 
     def registered(self) -> bool: ...
 
-LN_PARAM_DOUBLE: int
+LN_PARAM_DOUBLE: int = 0
 
-LN_PARAM_SINGLE: int
+LN_PARAM_SINGLE: int = 1
 
-LN_PARAM_INT8: int
+LN_PARAM_INT8: int = 2
 
-LN_PARAM_UINT8: int
+LN_PARAM_UINT8: int = 3
 
-LN_PARAM_INT16: int
+LN_PARAM_INT16: int = 4
 
-LN_PARAM_UINT16: int
+LN_PARAM_UINT16: int = 5
 
-LN_PARAM_INT32: int
+LN_PARAM_INT32: int = 6
 
-LN_PARAM_UINT32: int
+LN_PARAM_UINT32: int = 7
 
-LN_PARAM_BOOLEAN: int
+LN_PARAM_BOOLEAN: int = 8
 
-LN_PARAM_INT64: int
+LN_PARAM_INT64: int = 9
 
-LN_PARAM_UINT64: int
+LN_PARAM_UINT64: int = 10
