@@ -3,6 +3,7 @@
 A case is a module in bench/cases/ with a `run(ctx)` generator that yields Rows (or plain
 dicts with the same keys). See bench/README.md for the contract.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -14,8 +15,8 @@ import statistics
 import subprocess
 import sys
 import time
+from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import Iterable, Sequence
 
 BENCH_DIR = Path(__file__).resolve().parent
 REPO_ROOT = BENCH_DIR.parent
@@ -35,16 +36,16 @@ class ProbeError(RuntimeError):
 
 @dataclasses.dataclass
 class Row:
-    group: str                              # table section, e.g. "shm round trip, split cores"
-    name: str                               # what was measured, e.g. "ln_core pub/sub 64 B"
-    metric: str                             # statistic, e.g. "RTT median"
-    unit: str                               # "us", "GB/s", "msg/s", ...
+    group: str  # table section, e.g. "shm round trip, split cores"
+    name: str  # what was measured, e.g. "ln_core pub/sub 64 B"
+    metric: str  # statistic, e.g. "RTT median"
+    unit: str  # "us", "GB/s", "msg/s", ...
     value: float
-    reference_name: str = ""                # e.g. "LN 2.9 pub/sub 64 B", measured in the same run
+    reference_name: str = ""  # e.g. "LN 2.9 pub/sub 64 B", measured in the same run
     reference_value: float | None = None
-    better: str = ""                        # "lower" | "higher"; inferred from unit when empty
-    note: str = ""                          # free text for the CSV: counts, spread, placement
-    case: str = ""                          # filled in by the runner: the module that yielded it
+    better: str = ""  # "lower" | "higher"; inferred from unit when empty
+    note: str = ""  # free text for the CSV: counts, spread, placement
+    case: str = ""  # filled in by the runner: the module that yielded it
 
     def __post_init__(self) -> None:
         if not self.better:
@@ -63,7 +64,7 @@ class Row:
         return self.value / self.reference_value
 
     @classmethod
-    def coerce(cls, item: "Row | dict") -> "Row":
+    def coerce(cls, item: Row | dict) -> Row:
         return item if isinstance(item, Row) else cls(**item)
 
 
@@ -99,8 +100,9 @@ def spread_note(values: Sequence[float]) -> str:
 class Context:
     """Everything a case needs from the runner. One instance per run, shared by all cases."""
 
-    def __init__(self, *, quick: bool, out_dir: Path, build_dir: Path, cpus: Sequence[int],
-                 log_file, verbose: bool = False) -> None:
+    def __init__(
+        self, *, quick: bool, out_dir: Path, build_dir: Path, cpus: Sequence[int], log_file, verbose: bool = False
+    ) -> None:
         self.quick = quick
         self.out_dir = out_dir
         self.build_dir = build_dir
@@ -174,8 +176,9 @@ class Context:
         self.log_text(f"$ {shlex.join(cmd)}\n")
         full_env = None if env is None else {**os.environ, **env}
         # Own session, so a timeout can end the program's children too (probes fork).
-        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                                env=full_env, start_new_session=True)
+        proc = subprocess.Popen(
+            cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=full_env, start_new_session=True
+        )
         try:
             out, err = proc.communicate(timeout=timeout)
         except subprocess.TimeoutExpired as e:

@@ -1,4 +1,5 @@
 """Smoke and unit tests for bench/run. Run: pytest bench/test_bench_runner.py (bounded: <= 120 s)."""
+
 import csv
 import os
 import subprocess
@@ -16,8 +17,7 @@ from benchlib import Row  # noqa: E402
 def run_bench(*args, timeout=120):
     # the runner uses the interpreter running the tests unless the project chose one
     env = {**os.environ, "LN_BENCH_PYTHON": os.environ.get("LN_BENCH_PYTHON", sys.executable)}
-    return subprocess.run([str(BENCH / "run"), *args], capture_output=True, text=True,
-                          timeout=timeout, env=env)
+    return subprocess.run([str(BENCH / "run"), *args], capture_output=True, text=True, timeout=timeout, env=env)
 
 
 def test_quick_memcpy_run_writes_table_and_csv(tmp_path):
@@ -41,9 +41,18 @@ def test_unknown_case_pattern_is_an_error(tmp_path):
 
 
 def test_ratio_is_value_over_reference_and_printed():
-    rows = [Row(group="g", name="ln_core pub/sub 64 B", metric="RTT median", unit="us", value=2.0,
-                reference_name="LN 2.9 pub/sub 64 B", reference_value=8.0),
-            Row(group="g", name="ring", metric="rate", unit="msg/s", value=3e6)]
+    rows = [
+        Row(
+            group="g",
+            name="ln_core pub/sub 64 B",
+            metric="RTT median",
+            unit="us",
+            value=2.0,
+            reference_name="LN 2.9 pub/sub 64 B",
+            reference_value=8.0,
+        ),
+        Row(group="g", name="ring", metric="rate", unit="msg/s", value=3e6),
+    ]
     assert rows[0].ratio == 0.25 and rows[0].better == "lower"
     assert rows[1].ratio is None and rows[1].better == "higher"
     table = runner.render_table(rows)

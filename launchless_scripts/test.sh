@@ -71,6 +71,9 @@ timeout 4000 bash "$HERE/setup.sh" || { fail_step "setup.sh (exit $?; see above)
 . "$HERE/env.sh" || { fail_step "sourcing env.sh"; finish; }
 cd "$ROOT"
 
+step "format and lint (format.sh --check)"
+timeout 600 bash "$HERE/format.sh" --check || fail_step "format and lint: run launchless_scripts/format.sh"
+
 step "colcon test"
 colcon test-result --delete-yes > /dev/null 2>&1 || true
 rc=0; timeout 1800 colcon test --event-handlers desktop_notification- --ctest-args --timeout 300 || rc=$?

@@ -13,12 +13,13 @@ The reference of each row is the same figure without the hostile client, measure
 run, interleaved run by run: the ratio is the cost (goal <= 1.5x). On this 2-vCPU machine a
 flooding process takes a CPU from the measured ones, so "flood" also shows plain CPU sharing.
 """
+
 import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "ln"))
 
-import harness as H  # noqa: E402  (bench/ln/harness.py)
+import harness as H
 
 TITLE = "ln_core isolation (ln): normal clients' service and topic round trips while one client floods, stalls or idles"
 ORDER = 130
@@ -29,6 +30,7 @@ HOSTILE = Path(__file__).resolve().parent.parent / "ln" / "py" / "hostile.py"
 
 def run(ctx):
     from benchlib import Row, median, spread_note
+
     core = H.LnCore()
     try:
         core.prepare(ctx)
@@ -48,26 +50,65 @@ def run(ctx):
                     service = f"{name}.small"
                     if workload == "service":
                         server = [core.program("srv"), "provide", "--name", name]
-                        client = [core.program("srv"), "call", "--test", "rtt", "--name", name,
-                                  "--n", ctx.n(10000, 1000), "--warmup", ctx.n(300, 50)]
+                        client = [
+                            core.program("srv"),
+                            "call",
+                            "--test",
+                            "rtt",
+                            "--name",
+                            name,
+                            "--n",
+                            ctx.n(10000, 1000),
+                            "--warmup",
+                            ctx.n(300, 50),
+                        ]
                     else:
                         common = ["--size", 64, "--topic", name, "--mode", "copy"]
                         server = [core.program("pingpong"), "pong", *common]
-                        client = [core.program("pingpong"), "ping", *common, "--n", ctx.n(10000, 1000),
-                                  "--warmup", ctx.n(300, 50)]
+                        client = [
+                            core.program("pingpong"),
+                            "ping",
+                            *common,
+                            "--n",
+                            ctx.n(10000, 1000),
+                            "--warmup",
+                            ctx.n(300, 50),
+                        ]
                         # the hostile client attacks the service of a provider started alongside
                         service = f"{name}svc.small"
                     alongside = None
                     if mode != "alone":
-                        alongside = [sys.executable, HOSTILE, mode, "--manager", core.address,
-                                     "--service", service, "--seconds", 120]
+                        alongside = [
+                            sys.executable,
+                            HOSTILE,
+                            mode,
+                            "--manager",
+                            core.address,
+                            "--service",
+                            service,
+                            "--seconds",
+                            120,
+                        ]
                         if workload == "topic":
-                            alongside = ["sh", "-c", f'"$0" provide --name {name}svc & exec "$@"',
-                                         core.program("srv"), *map(str, alongside)]
+                            alongside = [
+                                "sh",
+                                "-c",
+                                f'"$0" provide --name {name}svc & exec "$@"',
+                                core.program("srv"),
+                                *map(str, alongside),
+                            ]
                     ctx.log(f"ln isolation {workload} {mode} run {rep + 1}/{ctx.reps}")
                     try:
-                        result = H.run_pair(ctx, core, server, client, cpus=cpus, timeout=150,
-                                            what=f"isolation {workload} {mode}", alongside=alongside)[0]
+                        result = H.run_pair(
+                            ctx,
+                            core,
+                            server,
+                            client,
+                            cpus=cpus,
+                            timeout=150,
+                            what=f"isolation {workload} {mode}",
+                            alongside=alongside,
+                        )[0]
                         runs.setdefault((workload, mode), []).append(result)
                     except (H.MeasureError, H.Unavailable) as e:
                         failures.append(str(e))
@@ -86,9 +127,15 @@ def run(ctx):
                 note = spread_note([r[key] for r in hostile])
                 if key == "median_us":
                     note += f"; goal <= {GOAL:g}x: {'met' if value <= GOAL * ref else 'NOT met'}"
-                yield Row(group=f"isolation: normal clients, {texts[workload]}, split cores",
-                          name=f"while one client {'holds 4000 idle connections' if mode == 'idle' else mode + 's'}",
-                          metric=metric, unit="us", value=value, reference_name="no misbehaving client",
-                          reference_value=ref, note=note)
+                yield Row(
+                    group=f"isolation: normal clients, {texts[workload]}, split cores",
+                    name=f"while one client {'holds 4000 idle connections' if mode == 'idle' else mode + 's'}",
+                    metric=metric,
+                    unit="us",
+                    value=value,
+                    reference_name="no misbehaving client",
+                    reference_value=ref,
+                    note=note,
+                )
     if failures:
         raise RuntimeError("; ".join(failures[:3]))

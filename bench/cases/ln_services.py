@@ -11,13 +11,14 @@ system's own manager, interleaved run by run, same CPU placement.
   pool sometimes stalls for good with 8 callers; such an attempt is retried (up to 3 in all)
   and counted in the note.
 """
+
 import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "ln"))
 
-import harness as H  # noqa: E402  (bench/ln/harness.py)
-from harness import compare_rows  # noqa: E402
+import harness as H
+from harness import compare_rows
 
 TITLE = "ln_core vs LN 2.9 (ln): C++ services: small round trip, 1 MiB response, 8 callers vs 2-thread pool"
 ORDER = 101
@@ -35,21 +36,59 @@ def run(ctx):
                 for system in cmp.systems:
                     ctx.log(f"ln service RTT small {placement} {system.label} run {rep + 1}/{ctx.reps}")
                     name = f"lnbench.srv.rtt{rep}{placement}"
-                    r = cmp.measure(system, lambda: H.run_pair(
-                        ctx, system, [system.program("srv"), "provide", "--name", name],
-                        [system.program("srv"), "call", "--test", "rtt", "--name", name,
-                         "--n", ctx.n(20000, 2000), "--warmup", ctx.n(500, 100)],
-                        cpus=cpus, timeout=90, what=f"service RTT {placement}")[0])
+                    r = cmp.measure(
+                        system,
+                        lambda: H.run_pair(
+                            ctx,
+                            system,
+                            [system.program("srv"), "provide", "--name", name],
+                            [
+                                system.program("srv"),
+                                "call",
+                                "--test",
+                                "rtt",
+                                "--name",
+                                name,
+                                "--n",
+                                ctx.n(20000, 2000),
+                                "--warmup",
+                                ctx.n(500, 100),
+                            ],
+                            cpus=cpus,
+                            timeout=90,
+                            what=f"service RTT {placement}",
+                        )[0],
+                    )
                     if r is not None:
                         rtt.setdefault((placement, system.key), []).append(r)
             for system in cmp.systems:
                 ctx.log(f"ln service 1 MiB response split {system.label} run {rep + 1}/{ctx.reps}")
                 name = f"lnbench.srv.blob{rep}"
-                r = cmp.measure(system, lambda: H.run_pair(
-                    ctx, system, [system.program("srv"), "provide", "--name", name],
-                    [system.program("srv"), "call", "--test", "blob", "--name", name, "--size", 1 << 20,
-                     "--n", ctx.n(500, 50), "--warmup", ctx.n(20, 5)],
-                    cpus=split, timeout=90, what="service 1 MiB response")[0])
+                r = cmp.measure(
+                    system,
+                    lambda: H.run_pair(
+                        ctx,
+                        system,
+                        [system.program("srv"), "provide", "--name", name],
+                        [
+                            system.program("srv"),
+                            "call",
+                            "--test",
+                            "blob",
+                            "--name",
+                            name,
+                            "--size",
+                            1 << 20,
+                            "--n",
+                            ctx.n(500, 50),
+                            "--warmup",
+                            ctx.n(20, 5),
+                        ],
+                        cpus=split,
+                        timeout=90,
+                        what="service 1 MiB response",
+                    )[0],
+                )
                 if r is not None:
                     blob.setdefault(system.key, []).append(r)
             for system in cmp.systems:
@@ -57,14 +96,31 @@ def run(ctx):
                     continue
                 attempts = 3 if system is cmp.ln29 else 1
                 for attempt in range(attempts):
-                    ctx.log(f"ln service throughput 8 callers / pool 2 split {system.label} run {rep + 1}/{ctx.reps}"
-                            + (f" (attempt {attempt + 1})" if attempt else ""))
+                    ctx.log(
+                        f"ln service throughput 8 callers / pool 2 split {system.label} run {rep + 1}/{ctx.reps}"
+                        + (f" (attempt {attempt + 1})" if attempt else "")
+                    )
                     name = f"lnbench.srv.tput{rep}.{attempt}"
                     call = lambda: H.run_pair(  # noqa: E731
-                        ctx, system, [system.program("srv"), "provide", "--name", name, "--pool", 2],
-                        [system.program("srv"), "call", "--test", "tput", "--name", name, "--threads", 8,
-                         "--seconds", ctx.n(2, 0.5)],
-                        cpus=split, timeout=60, what="service throughput")[0]
+                        ctx,
+                        system,
+                        [system.program("srv"), "provide", "--name", name, "--pool", 2],
+                        [
+                            system.program("srv"),
+                            "call",
+                            "--test",
+                            "tput",
+                            "--name",
+                            name,
+                            "--threads",
+                            8,
+                            "--seconds",
+                            ctx.n(2, 0.5),
+                        ],
+                        cpus=split,
+                        timeout=60,
+                        what="service throughput",
+                    )[0]
                     if attempt + 1 < attempts:
                         try:
                             r = call()
@@ -83,22 +139,49 @@ def run(ctx):
 
     ln29, core = cmp.ln29, cmp.core
     for placement in ctx.placements:
-        yield from compare_rows(cmp, f"ln: C++ service RTT, small request, {PLACEMENT_TEXT[placement]}",
-                                "service call", "LN 2.9 service call", rtt.get((placement, ln29.key), []),
-                                rtt.get((placement, core.key), []),
-                                [("median_us", "RTT median"), ("p99_us", "RTT p99")], "us", 0.7,
-                                extra=lambda runs: f"n={runs[0]['n']}")
-    yield from compare_rows(cmp, "ln: C++ service, 1 MiB dynamic response, split cores", "1 MiB response call",
-                            "LN 2.9 1 MiB response call", blob.get(ln29.key, []), blob.get(core.key, []),
-                            [("median_us", "RTT median"), ("p99_us", "RTT p99")], "us", None,
-                            extra=lambda runs: f"n={runs[0]['n']}")
+        yield from compare_rows(
+            cmp,
+            f"ln: C++ service RTT, small request, {PLACEMENT_TEXT[placement]}",
+            "service call",
+            "LN 2.9 service call",
+            rtt.get((placement, ln29.key), []),
+            rtt.get((placement, core.key), []),
+            [("median_us", "RTT median"), ("p99_us", "RTT p99")],
+            "us",
+            0.7,
+            extra=lambda runs: f"n={runs[0]['n']}",
+        )
+    yield from compare_rows(
+        cmp,
+        "ln: C++ service, 1 MiB dynamic response, split cores",
+        "1 MiB response call",
+        "LN 2.9 1 MiB response call",
+        blob.get(ln29.key, []),
+        blob.get(core.key, []),
+        [("median_us", "RTT median"), ("p99_us", "RTT p99")],
+        "us",
+        None,
+        extra=lambda runs: f"n={runs[0]['n']}",
+    )
 
     def tput_extra(runs):
-        return (f"calls per thread {runs[-1]['min_thread_calls']}..{runs[-1]['max_thread_calls']} (last run)")
-    note_stalls = "; ".join(f"{s.label}: {stalls[s.key]} stalled attempt(s) retried" for s in cmp.systems if stalls.get(s.key))
-    for row in compare_rows(cmp, "ln: C++ service throughput, 8 callers vs 2-thread pool, split cores",
-                            "8 callers", "LN 2.9 8 callers", tput.get(ln29.key, []), tput.get(core.key, []),
-                            [("calls_per_s", "calls/s")], "calls/s", 1.5, extra=tput_extra):
+        return f"calls per thread {runs[-1]['min_thread_calls']}..{runs[-1]['max_thread_calls']} (last run)"
+
+    note_stalls = "; ".join(
+        f"{s.label}: {stalls[s.key]} stalled attempt(s) retried" for s in cmp.systems if stalls.get(s.key)
+    )
+    for row in compare_rows(
+        cmp,
+        "ln: C++ service throughput, 8 callers vs 2-thread pool, split cores",
+        "8 callers",
+        "LN 2.9 8 callers",
+        tput.get(ln29.key, []),
+        tput.get(core.key, []),
+        [("calls_per_s", "calls/s")],
+        "calls/s",
+        1.5,
+        extra=tput_extra,
+    ):
         if note_stalls:
             row.note = "; ".join(x for x in (row.note, note_stalls) if x)
         yield row

@@ -27,9 +27,7 @@ namespace bench {
 
 using Clock = std::chrono::steady_clock;
 
-inline double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
+inline double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 // A measurement that cannot be trusted (wrong answer, lost echo, timeout).
 struct Failure : std::runtime_error {
@@ -212,8 +210,11 @@ int guarded_main(F&& f) {
   try {
     return f();
   } catch (const ln::exception& e) {
-    Json().boolean("ok", false).str("error", std::string("LN error: ") + e.what())
-        .boolean("not_implemented", is_not_implemented(e)).print();
+    Json()
+        .boolean("ok", false)
+        .str("error", std::string("LN error: ") + e.what())
+        .boolean("not_implemented", is_not_implemented(e))
+        .print();
   } catch (const std::exception& e) {
     Json().boolean("ok", false).str("error", e.what()).boolean("not_implemented", false).print();
   }
@@ -225,10 +226,14 @@ constexpr uint32_t kStop = 0xffffffffu;
 
 inline const char* md_for_size(long size) {
   switch (size) {
-    case 64: return "lnbench/p64";
-    case 4096: return "lnbench/p4k";
-    case 1048576: return "lnbench/p1m";
-    default: throw std::invalid_argument("size must be 64, 4096 or 1048576");
+    case 64:
+      return "lnbench/p64";
+    case 4096:
+      return "lnbench/p4k";
+    case 1048576:
+      return "lnbench/p1m";
+    default:
+      throw std::invalid_argument("size must be 64, 4096 or 1048576");
   }
 }
 

@@ -19,6 +19,7 @@ manager) and a temporary HOME/TMPDIR, so its DSA keys, generated files and daemo
 the real home. Both managers are started and stopped by tests/support/ln_testing.py (which ends
 LN 2.9's daemons by PID); /dev/shm segments named after PIDs started here are removed (README P2-P4).
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -40,6 +41,7 @@ LN_DIR = Path(__file__).resolve().parent
 REPO_ROOT = LN_DIR.parent.parent
 sys.path.insert(0, str(REPO_ROOT / "tests" / "support"))
 import ln_testing  # noqa: E402
+
 LN_CORE_SRC = REPO_ROOT / "ln_core"
 MSGDEFS = LN_DIR / "msgdefs"
 MESSAGES = ["lnbench/p64", "lnbench/p4k", "lnbench/p1m", "lnbench/small_srv", "lnbench/blob_srv"]
@@ -63,15 +65,24 @@ def _measured_environ() -> dict:
     and libln on PYTHONPATH / LD_LIBRARY_PATH, where LN 2.9's manager (a Python program) and
     programs linked with a RUNPATH would pick them up; LN_* variables (manager address, name
     mappings, definition dirs) would change what is measured. Each system adds what it needs."""
-    return {k: v for k, v in os.environ.items()
-            if k not in ("PYTHONPATH", "LD_LIBRARY_PATH", "LD_PRELOAD") and not k.startswith("LN_")}
+    return {
+        k: v
+        for k, v in os.environ.items()
+        if k not in ("PYTHONPATH", "LD_LIBRARY_PATH", "LD_PRELOAD") and not k.startswith("LN_")
+    }
 
 
 def _run(cmd, ctx, timeout, env=None, cwd=None) -> subprocess.CompletedProcess:
     ctx.log_text(f"$ {shlex.join(str(c) for c in cmd)}\n")
     try:
-        proc = subprocess.run([str(c) for c in cmd], capture_output=True, text=True, timeout=timeout,
-                              env=None if env is None else {**_measured_environ(), **env}, cwd=cwd)
+        proc = subprocess.run(
+            [str(c) for c in cmd],
+            capture_output=True,
+            text=True,
+            timeout=timeout,
+            env=None if env is None else {**_measured_environ(), **env},
+            cwd=cwd,
+        )
     except subprocess.TimeoutExpired as e:
         raise MeasureError(f"{Path(str(cmd[0])).name}: no result within {timeout} s") from e
     ctx.log_text(proc.stdout + proc.stderr)
@@ -189,8 +200,9 @@ class System:
                 ctx.log(f"ln bench: compiling {name}.cpp against {self.label}")
                 proc = _run(cmd, ctx, 300)
                 if proc.returncode != 0:
-                    raise Unavailable(f"bench/ln/{name}.cpp does not compile against {self.label}: "
-                                      f"{_first_error(proc.stderr)}")
+                    raise Unavailable(
+                        f"bench/ln/{name}.cpp does not compile against {self.label}: {_first_error(proc.stderr)}"
+                    )
                 exe_stamp.write_text(key)
             self.bin_dir = out
         except Unavailable as e:
@@ -262,9 +274,11 @@ class LN29(System):
         root = self.lib_root
         gen_home = ctx.build_dir / "ln" / "ln29-home"  # ln_generate may write into $HOME
         gen_home.mkdir(parents=True, exist_ok=True)
-        return ([str(self.venv / "bin" / "ln_generate")],
-                [f"-I{root / 'include'}", f"-L{root / 'lib'}", f"-Wl,-rpath,{root / 'lib'}", "-lln", "-lpthread"],
-                {"HOME": str(gen_home)})
+        return (
+            [str(self.venv / "bin" / "ln_generate")],
+            [f"-I{root / 'include'}", f"-L{root / 'lib'}", f"-Wl,-rpath,{root / 'lib'}", "-lln", "-lpthread"],
+            {"HOME": str(gen_home)},
+        )
 
     def _manager(self, work):
         return ln_testing.Ln29(work, base_env=_measured_environ(), venv=self.venv)
@@ -311,9 +325,23 @@ class LnCore(System):
         try:
             if not (build / "build.ninja").exists():
                 ctx.log(f"ln bench: configuring ln_core in {build}")
-                proc = _run(["cmake", "-G", "Ninja", "-S", src, "-B", build, "-DCMAKE_BUILD_TYPE=Release",
-                             "-DBUILD_TESTING=OFF", "-DLN_WERROR=OFF",
-                             f"-DLN_PYTHON_EXECUTABLE={self.python_interpreter()}"], ctx, 300)
+                proc = _run(
+                    [
+                        "cmake",
+                        "-G",
+                        "Ninja",
+                        "-S",
+                        src,
+                        "-B",
+                        build,
+                        "-DCMAKE_BUILD_TYPE=Release",
+                        "-DBUILD_TESTING=OFF",
+                        "-DLN_WERROR=OFF",
+                        f"-DLN_PYTHON_EXECUTABLE={self.python_interpreter()}",
+                    ],
+                    ctx,
+                    300,
+                )
                 if proc.returncode != 0:
                     raise Unavailable(f"ln_core does not configure: {_first_error(proc.stdout + proc.stderr)}")
             ctx.log("ln bench: building ln_core (ln, ln_manager, ln_generate)")
@@ -329,10 +357,13 @@ class LnCore(System):
             ctx.log("ln bench: building ln_core's Python module")
             proc = _run(["ninja", "-C", build, "ln_python"], ctx, 1200)
             if proc.returncode != 0:
-                LnCore._python_build_error = f"ln_core's Python module does not build: {_first_error(proc.stdout + proc.stderr)}"
+                LnCore._python_build_error = (
+                    f"ln_core's Python module does not build: {_first_error(proc.stdout + proc.stderr)}"
+                )
         else:
-            LnCore._python_build_error = (f"ln_core's Python module is not part of the build "
-                                          f"(no nanobind for {self.python_interpreter()}?)")
+            LnCore._python_build_error = (
+                f"ln_core's Python module is not part of the build (no nanobind for {self.python_interpreter()}?)"
+            )
         LnCore._built[key] = build
         return build
 
@@ -341,13 +372,19 @@ class LnCore(System):
         self.lib = self._find(self.build, "libln.so")
         self.manager_exe = self._find(self.build, "ln_manager")
         self.generate_exe = self._find(self.build, "ln_generate")
-        missing = [n for n, p in (("libln.so", self.lib), ("ln_manager", self.manager_exe),
-                                  ("ln_generate", self.generate_exe)) if p is None]
+        missing = [
+            n
+            for n, p in (("libln.so", self.lib), ("ln_manager", self.manager_exe), ("ln_generate", self.generate_exe))
+            if p is None
+        ]
         if missing:
             raise Unavailable(f"ln_core build in {self.build} lacks {', '.join(missing)}")
         libdir = self.lib.parent
-        return ([str(self.generate_exe)],
-                [f"-I{LN_CORE_SRC / 'include'}", f"-L{libdir}", f"-Wl,-rpath,{libdir}", "-lln", "-lpthread"], {})
+        return (
+            [str(self.generate_exe)],
+            [f"-I{LN_CORE_SRC / 'include'}", f"-L{libdir}", f"-Wl,-rpath,{libdir}", "-lln", "-lpthread"],
+            {},
+        )
 
     def _include_digest(self) -> str:
         return _digest(*[p.read_bytes() for p in sorted((LN_CORE_SRC / "include" / "ln").rglob("*.h"))])
@@ -418,8 +455,18 @@ def _check_results(system: System, what: str, results: list[dict], rc: int | Non
     return [r for r in results if r.get("ok")]
 
 
-def run_pair(ctx, system: System, server: list, client: list, *, cpus: tuple[int, int], timeout: float,
-             what: str, python: bool = False, alongside: list | None = None) -> tuple[dict, list[dict]]:
+def run_pair(
+    ctx,
+    system: System,
+    server: list,
+    client: list,
+    *,
+    cpus: tuple[int, int],
+    timeout: float,
+    what: str,
+    python: bool = False,
+    alongside: list | None = None,
+) -> tuple[dict, list[dict]]:
     """Starts `server` pinned to cpus[1], waits for its ready line, runs `client` pinned to
     cpus[0]; returns (the client's result, the server's result lines). Both bounded by `timeout`;
     a failure reported by either side raises. `alongside` (a command, not pinned) starts once the
@@ -435,8 +482,15 @@ def run_pair(ctx, system: System, server: list, client: list, *, cpus: tuple[int
     cli_cmd = ["taskset", "-c", str(cpus[0])] + prefix + [str(c) for c in client]
     ctx.log_text(f"$ [{system.label}] {shlex.join(srv_cmd)} &\n")
     deadline = time.monotonic() + timeout
-    srv = subprocess.Popen(srv_cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                           text=True, env=env, process_group=0)
+    srv = subprocess.Popen(
+        srv_cmd,
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env=env,
+        process_group=0,
+    )
     system.started_pids.add(srv.pid)
     q: queue.Queue = queue.Queue()
     threading.Thread(target=_reader, args=(srv.stdout, q), daemon=True).start()
@@ -451,8 +505,9 @@ def run_pair(ctx, system: System, server: list, client: list, *, cpus: tuple[int
         while not ready:
             left = deadline - time.monotonic()
             if left <= 0:
-                raise MeasureError(f"{system.label} {what}: server not ready within {timeout:g} s: "
-                                   f"{_tail(''.join(srv_lines))}")
+                raise MeasureError(
+                    f"{system.label} {what}: server not ready within {timeout:g} s: {_tail(''.join(srv_lines))}"
+                )
             try:
                 line = q.get(timeout=left)
             except queue.Empty:
@@ -468,8 +523,15 @@ def run_pair(ctx, system: System, server: list, client: list, *, cpus: tuple[int
         if alongside is not None:
             other = _start_alongside(ctx, system, alongside, env, deadline, what)
         ctx.log_text(f"$ [{system.label}] {shlex.join(cli_cmd)}\n")
-        cli = subprocess.Popen(cli_cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                               text=True, env=env, process_group=0)
+        cli = subprocess.Popen(
+            cli_cmd,
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+            env=env,
+            process_group=0,
+        )
         system.started_pids.add(cli.pid)
         try:
             cli_out, _ = cli.communicate(timeout=max(1.0, deadline - time.monotonic()))
@@ -477,7 +539,7 @@ def run_pair(ctx, system: System, server: list, client: list, *, cpus: tuple[int
             _kill_group(cli)
             cli_out, _ = cli.communicate()
             ctx.log_text(cli_out)
-            raise MeasureError(f"{system.label} {what}: no result within {timeout:g} s: {_tail(cli_out, 2)}")
+            raise MeasureError(f"{system.label} {what}: no result within {timeout:g} s: {_tail(cli_out, 2)}") from None
         ctx.log_text(cli_out)
         cli_results = _check_results(system, what, _json_lines(cli_out), cli.returncode, cli_out)
         if not cli_results:
@@ -506,8 +568,15 @@ def run_pair(ctx, system: System, server: list, client: list, *, cpus: tuple[int
 def _start_alongside(ctx, system: System, cmd: list, env: dict, deadline: float, what: str):
     full = [str(c) for c in cmd]
     ctx.log_text(f"$ [{system.label}] {shlex.join(full)} &\n")
-    proc = subprocess.Popen(full, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True, env=env, process_group=0)
+    proc = subprocess.Popen(
+        full,
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env=env,
+        process_group=0,
+    )
     system.started_pids.add(proc.pid)
     q: queue.Queue = queue.Queue()
     threading.Thread(target=_reader, args=(proc.stdout, q), daemon=True).start()
@@ -540,8 +609,15 @@ def run_single(ctx, system: System, cmd: list, *, cpu: int, timeout: float, what
     env = {**_measured_environ(), **system.env()}
     full = ["taskset", "-c", str(cpu)] + [str(c) for c in cmd]
     ctx.log_text(f"$ [{system.label}] {shlex.join(full)}\n")
-    proc = subprocess.Popen(full, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True, env=env, process_group=0)
+    proc = subprocess.Popen(
+        full,
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env=env,
+        process_group=0,
+    )
     system.started_pids.add(proc.pid)
     try:
         out, _ = proc.communicate(timeout=timeout)
@@ -549,7 +625,7 @@ def run_single(ctx, system: System, cmd: list, *, cpu: int, timeout: float, what
         _kill_group(proc)
         out, _ = proc.communicate()
         ctx.log_text(out)
-        raise MeasureError(f"{system.label} {what}: no result within {timeout:g} s")
+        raise MeasureError(f"{system.label} {what}: no result within {timeout:g} s") from None
     ctx.log_text(out)
     results = _check_results(system, what, _json_lines(out), proc.returncode, out)
     if not results:
@@ -570,7 +646,7 @@ class Comparison:
         self.core = LnCore()
         self.systems = [self.ln29, self.core]
         self.python = python
-        self.unavailable: dict[str, list[str]] = {}   # system label -> reasons
+        self.unavailable: dict[str, list[str]] = {}  # system label -> reasons
         self.failures: list[str] = []
         self.ready: dict[str, bool] = {}
 
@@ -626,17 +702,32 @@ class Comparison:
             more = f" (+{len(self.failures) - 3} more, see run.log)" if len(self.failures) > 3 else ""
             raise RuntimeError("; ".join(self.failures[:3]) + more)
         if self.unavailable:
-            self.ctx.skip("; ".join(f"{k} rows not available yet: {' | '.join(v)}" for k, v in self.unavailable.items()))
+            self.ctx.skip(
+                "; ".join(f"{k} rows not available yet: {' | '.join(v)}" for k, v in self.unavailable.items())
+            )
 
 
-def compare_rows(cmp: Comparison, group: str, name: str, ref_name: str, ref_runs: list[dict],
-                 core_runs: list[dict], metrics: list[tuple[str, str]], unit: str, target: float | None, *,
-                 extra=None, ref_only: bool = True, abs_target: tuple[float, str] | None = None):
+def compare_rows(
+    cmp: Comparison,
+    group: str,
+    name: str,
+    ref_name: str,
+    ref_runs: list[dict],
+    core_runs: list[dict],
+    metrics: list[tuple[str, str]],
+    unit: str,
+    target: float | None,
+    *,
+    extra=None,
+    ref_only: bool = True,
+    abs_target: tuple[float, str] | None = None,
+):
     """Rows "ln_core <name>" with LN 2.9's figure of the same run as reference (median over the
     runs of each per-run statistic); LN 2.9's figure alone (no reference) when ln_core has no
     result (yet), with the reason in the note. `target` (ratio) and `abs_target` (value, text)
     are checked on the first metric and reported in the note."""
     from benchlib import Row, median, spread_note
+
     better = "lower" if unit in ("us", "ms") else "higher"
     cmp_word = "<=" if better == "lower" else ">="
     for i, (key, metric) in enumerate(metrics):
@@ -659,13 +750,28 @@ def compare_rows(cmp: Comparison, group: str, name: str, ref_name: str, ref_runs
                 notes.append("ln_core " + extra(core_runs))
                 if ref_runs:
                     notes.append("LN 2.9 " + extra(ref_runs))
-            yield Row(group=group, name=f"ln_core {name}", metric=metric, unit=unit, value=value,
-                      reference_name=ref_name if ref_runs else "", reference_value=ref, better=better,
-                      note="; ".join(n for n in notes if n))
+            yield Row(
+                group=group,
+                name=f"ln_core {name}",
+                metric=metric,
+                unit=unit,
+                value=value,
+                reference_name=ref_name if ref_runs else "",
+                reference_value=ref,
+                better=better,
+                note="; ".join(n for n in notes if n),
+            )
         elif ref_runs and ref_only:
             notes.append(spread_note(ref_vals))
             notes.append(f"ln_core: {cmp.why_missing(cmp.core)}")
             if extra:
                 notes.append("LN 2.9 " + extra(ref_runs))
-            yield Row(group=group, name=ref_name, metric=metric, unit=unit, value=median(ref_vals), better=better,
-                      note="; ".join(n for n in notes if n))
+            yield Row(
+                group=group,
+                name=ref_name,
+                metric=metric,
+                unit=unit,
+                value=median(ref_vals),
+                better=better,
+                note="; ".join(n for n in notes if n),
+            )

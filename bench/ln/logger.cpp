@@ -12,8 +12,8 @@
 // result says how many of the N packets it holds.
 #include <time.h>
 
-#include "ln_messages.h"
 #include "common.hpp"
+#include "ln_messages.h"
 
 using namespace bench;
 

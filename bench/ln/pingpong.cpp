@@ -25,8 +25,8 @@
 // packet ends pong. (ln_core copies a large packet out while it is being
 // written only in such reads: a read that times out must leave the buffer
 // untouched.)
-#include "ln_messages.h"
 #include "common.hpp"
+#include "ln_messages.h"
 
 using namespace bench;
 
@@ -52,8 +52,7 @@ void check_mode() {
 #ifdef LN_CORE_EXTENSIONS
   if (g_mode == "borrow" || g_mode == "zc") return;
 #endif
-  throw ln::exception("mode '" + g_mode + "' needs ln_core's zero-copy read: not yet implemented here",
-                      LNE_UNKNOWN);
+  throw ln::exception("mode '" + g_mode + "' needs ln_core's zero-copy read: not yet implemented here", LNE_UNKNOWN);
 }
 
 int pong(ln::client& clnt, const Args& args) {
@@ -121,8 +120,8 @@ void send(Ports& p, std::vector<unsigned char>& local, long size, uint32_t seq) 
 
 // Waits for the echo of `seq`, checks it; false if none within `timeout`.
 // Echoes of other numbers are counted in *stale and skipped.
-bool receive(Ports& p, std::vector<unsigned char>& local, long size, uint32_t seq, double timeout,
-             long* stale, double* t_arrived, bool check) {
+bool receive(Ports& p, std::vector<unsigned char>& local, long size, uint32_t seq, double timeout, long* stale,
+             double* t_arrived, bool check) {
   const auto t0 = Clock::now();
   for (int attempt = 0; attempt < 1000; ++attempt) {
     const double left = timeout - seconds_since(t0);
@@ -168,7 +167,8 @@ int ping(ln::client& clnt, const Args& args) {
   const long n = args.integer("n", 20000);
   const long warmup = args.integer("warmup", 500);
   const double max_seconds = args.real("max-seconds", 60);
-  Ports p{clnt.publish(topic + ".ping", md_for_size(size), 1), clnt.subscribe(topic + ".pong", md_for_size(size), -1, 1)};
+  Ports p{clnt.publish(topic + ".ping", md_for_size(size), 1),
+          clnt.subscribe(topic + ".pong", md_for_size(size), -1, 1)};
   std::vector<unsigned char> local(p.out->message_size);
   long stale = 0;
   double dummy;

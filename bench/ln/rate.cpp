@@ -17,8 +17,8 @@
 // The publisher waits for has_subscriber(), writes as fast as it can for S
 // seconds (payload bytes = seq & 0xff), then writes a stop packet carrying the
 // number written and waits (bounded) for the subscriber to go away.
-#include "ln_messages.h"
 #include "common.hpp"
+#include "ln_messages.h"
 
 #include <thread>
 

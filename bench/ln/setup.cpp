@@ -4,8 +4,8 @@
 // unpublish, delete the client. Each step is checked to have worked.
 //
 //   ln_setup run --reps N [--topic T]
-#include "ln_messages.h"
 #include "common.hpp"
+#include "ln_messages.h"
 
 #include <unistd.h>
 
@@ -49,9 +49,9 @@ int main(int argc, char** argv) {
     }
     Json j;
     j.boolean("ok", true).str("test", "setup").integer("reps", reps);
-    const std::pair<const char*, std::vector<double>*> steps[] = {
-        {"register", &reg}, {"publish", &pub}, {"subscribe", &sub},
-        {"unsubscribe", &unsub}, {"unpublish", &unpub}, {"shutdown", &shutdown}};
+    const std::pair<const char*, std::vector<double>*> steps[] = {{"register", &reg},    {"publish", &pub},
+                                                                  {"subscribe", &sub},   {"unsubscribe", &unsub},
+                                                                  {"unpublish", &unpub}, {"shutdown", &shutdown}};
     for (const auto& step : steps) {
       const Stats s = stats_of(*step.second);
       j.num(std::string(step.first) + "_median_ms", s.median).num(std::string(step.first) + "_p90_ms", s.p90);

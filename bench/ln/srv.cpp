@@ -12,8 +12,8 @@
 //
 // Every answer is checked: small: resp.seq == seq, resp.y == 2 x + seq;
 // blob: seq, length and the payload pattern of the dynamic response.
-#include "ln_messages.h"
 #include "common.hpp"
+#include "ln_messages.h"
 
 #include <atomic>
 #include <condition_variable>
@@ -106,7 +106,8 @@ int provide(ln::client& clnt, const Args& args) {
       seen = provider.requests();
       t_active = Clock::now();
     }
-    if (seconds_since(t_active) > idle_limit) throw Failure("provider: no call for " + std::to_string(idle_limit) + " s");
+    if (seconds_since(t_active) > idle_limit)
+      throw Failure("provider: no call for " + std::to_string(idle_limit) + " s");
     if (seconds_since(t_start) > max_seconds) throw Failure("provider: no stop call within max-seconds");
   }
   if (pool > 0) clnt.remove_service_group_from_thread_pool(group);
@@ -126,8 +127,8 @@ void call_small(ln::service* svc, uint32_t seq, double x, double timeout = 0) {
   d.req.x = x;
   svc->call(&d, timeout);
   if (seq != kStop && (d.resp.seq != seq || d.resp.y != expected_y(seq, x)))
-    throw Failure("wrong answer to call " + std::to_string(seq) + ": seq " + std::to_string(d.resp.seq) +
-                  ", y " + std::to_string(d.resp.y));
+    throw Failure("wrong answer to call " + std::to_string(seq) + ": seq " + std::to_string(d.resp.seq) + ", y " +
+                  std::to_string(d.resp.y));
 }
 
 double us_since(Clock::time_point t0) { return std::chrono::duration<double, std::micro>(Clock::now() - t0).count(); }
@@ -171,7 +172,8 @@ int call(ln::client& clnt, const Args& args) {
       blob->call(&d);
       if (i >= warmup) rtt.push_back(us_since(t0));
       if (d.resp.seq != seq || d.resp.data_len != size || d.resp.data == nullptr)
-        throw Failure("wrong blob answer to call " + std::to_string(seq) + ": " + std::to_string(d.resp.data_len) + " bytes");
+        throw Failure("wrong blob answer to call " + std::to_string(seq) + ": " + std::to_string(d.resp.data_len) +
+                      " bytes");
       const std::string bad = check_stamp(d.resp.data, size, seq);
       if (!bad.empty()) throw Failure("blob payload: " + bad);
     }
@@ -216,8 +218,12 @@ int call(ln::client& clnt, const Args& args) {
       if (!e.empty()) throw Failure("caller thread: " + e);
     long long lo = counts[0], hi = counts[0];
     for (long long c : counts) lo = std::min(lo, c), hi = std::max(hi, c);
-    j.integer("threads", threads).integer("calls", total.load()).num("seconds", elapsed)
-        .num("calls_per_s", total.load() / elapsed).integer("min_thread_calls", lo).integer("max_thread_calls", hi);
+    j.integer("threads", threads)
+        .integer("calls", total.load())
+        .num("seconds", elapsed)
+        .num("calls_per_s", total.load() / elapsed)
+        .integer("min_thread_calls", lo)
+        .integer("max_thread_calls", hi);
   } else {
     throw std::invalid_argument("--test must be rtt, blob or tput");
   }

@@ -18,91 +18,92 @@
 #define PROBE_HARD_ALARM_S 90 /* no probe process outlives this, whatever its arguments */
 
 static inline uint64_t now_ns(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
+  struct timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
 }
 
 static inline void cpu_relax(void) {
 #if defined(__x86_64__) || defined(__i386__)
-    __builtin_ia32_pause();
+  __builtin_ia32_pause();
 #elif defined(__aarch64__)
-    __asm__ __volatile__("yield");
+  __asm__ __volatile__("yield");
 #endif
 }
 
 /* Pin the calling process; cpu < 0 leaves placement to the scheduler. */
 static inline int pin_to_cpu(int cpu) {
-    if (cpu < 0) return 0;
-    cpu_set_t set;
-    CPU_ZERO(&set);
-    CPU_SET(cpu, &set);
-    return sched_setaffinity(0, sizeof set, &set);
+  if (cpu < 0) return 0;
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  CPU_SET(cpu, &set);
+  return sched_setaffinity(0, sizeof set, &set);
 }
 
 /* Errors go to stderr as text and the exit code is non-zero: the runner shows both. */
-static inline __attribute__((noreturn, format(printf, 1, 2))) void die(const char *fmt, ...) {
-    va_list ap;
-    va_start(ap, fmt);
-    fputs("probe error: ", stderr);
-    vfprintf(stderr, fmt, ap);
-    fputc('\n', stderr);
-    va_end(ap);
-    exit(1);
+static inline __attribute__((noreturn, format(printf, 1, 2))) void die(const char* fmt, ...) {
+  va_list ap;
+  va_start(ap, fmt);
+  fputs("probe error: ", stderr);
+  vfprintf(stderr, fmt, ap);
+  fputc('\n', stderr);
+  va_end(ap);
+  exit(1);
 }
 
 /* --- "--key value" arguments: tiny on purpose, every probe takes only a few options --- */
-static inline const char *arg_str(int argc, char **argv, const char *key, const char *dflt) {
-    for (int i = 1; i + 1 < argc; i++)
-        if (strcmp(argv[i], key) == 0) return argv[i + 1];
-    return dflt;
+static inline const char* arg_str(int argc, char** argv, const char* key, const char* dflt) {
+  for (int i = 1; i + 1 < argc; i++)
+    if (strcmp(argv[i], key) == 0) return argv[i + 1];
+  return dflt;
 }
-static inline long arg_long(int argc, char **argv, const char *key, long dflt) {
-    const char *s = arg_str(argc, argv, key, NULL);
-    if (!s) return dflt;
-    char *end;
-    long v = strtol(s, &end, 10);
-    if (*s == '\0' || *end != '\0') die("option %s wants an integer, got '%s'", key, s);
-    return v;
+static inline long arg_long(int argc, char** argv, const char* key, long dflt) {
+  const char* s = arg_str(argc, argv, key, NULL);
+  if (!s) return dflt;
+  char* end;
+  long v = strtol(s, &end, 10);
+  if (*s == '\0' || *end != '\0') die("option %s wants an integer, got '%s'", key, s);
+  return v;
 }
 /* "--cpus A,B": placement of the two processes (A = initiator, B = responder). */
-static inline void arg_cpus(int argc, char **argv, int *a, int *b) {
-    const char *s = arg_str(argc, argv, "--cpus", "0,1");
-    if (sscanf(s, "%d,%d", a, b) != 2) die("--cpus wants A,B (e.g. 0,1 or 0,0), got '%s'", s);
+static inline void arg_cpus(int argc, char** argv, int* a, int* b) {
+  const char* s = arg_str(argc, argv, "--cpus", "0,1");
+  if (sscanf(s, "%d,%d", a, b) != 2) die("--cpus wants A,B (e.g. 0,1 or 0,0), got '%s'", s);
 }
 
 /* --- statistics over round-trip samples (ns); sorts in place --- */
 struct rtt_stats {
-    size_t n;
-    double min_us, median_us, mean_us, p99_us, p999_us, max_us;
+  size_t n;
+  double min_us, median_us, mean_us, p99_us, p999_us, max_us;
 };
 
-static int cmp_u64(const void *x, const void *y) {
-    uint64_t a = *(const uint64_t *)x, b = *(const uint64_t *)y;
-    return (a > b) - (a < b);
+static int cmp_u64(const void* x, const void* y) {
+  uint64_t a = *(const uint64_t*)x, b = *(const uint64_t*)y;
+  return (a > b) - (a < b);
 }
 
-static inline struct rtt_stats rtt_stats_of(uint64_t *s, size_t n) {
-    struct rtt_stats r = {0};
-    if (n == 0) return r;
-    qsort(s, n, sizeof *s, cmp_u64);
-    long double sum = 0;
-    for (size_t i = 0; i < n; i++) sum += s[i];
-    r.n = n;
-    r.min_us = s[0] / 1e3;
-    r.median_us = s[n / 2] / 1e3;
-    r.mean_us = (double)(sum / n) / 1e3;
-    r.p99_us = s[(size_t)((n - 1) * 0.99)] / 1e3;
-    r.p999_us = s[(size_t)((n - 1) * 0.999)] / 1e3;
-    r.max_us = s[n - 1] / 1e3;
-    return r;
+static inline struct rtt_stats rtt_stats_of(uint64_t* s, size_t n) {
+  struct rtt_stats r = {0};
+  if (n == 0) return r;
+  qsort(s, n, sizeof *s, cmp_u64);
+  long double sum = 0;
+  for (size_t i = 0; i < n; i++) sum += s[i];
+  r.n = n;
+  r.min_us = s[0] / 1e3;
+  r.median_us = s[n / 2] / 1e3;
+  r.mean_us = (double)(sum / n) / 1e3;
+  r.p99_us = s[(size_t)((n - 1) * 0.99)] / 1e3;
+  r.p999_us = s[(size_t)((n - 1) * 0.999)] / 1e3;
+  r.max_us = s[n - 1] / 1e3;
+  return r;
 }
 
 /* Prints the statistics as JSON members (no braces) so each probe can add its own. */
-static inline void print_rtt_stats_json(const struct rtt_stats *r) {
-    printf("\"n\": %zu, \"min_us\": %.4f, \"median_us\": %.4f, \"mean_us\": %.4f, "
-           "\"p99_us\": %.4f, \"p999_us\": %.4f, \"max_us\": %.4f",
-           r->n, r->min_us, r->median_us, r->mean_us, r->p99_us, r->p999_us, r->max_us);
+static inline void print_rtt_stats_json(const struct rtt_stats* r) {
+  printf(
+      "\"n\": %zu, \"min_us\": %.4f, \"median_us\": %.4f, \"mean_us\": %.4f, "
+      "\"p99_us\": %.4f, \"p999_us\": %.4f, \"max_us\": %.4f",
+      r->n, r->min_us, r->median_us, r->mean_us, r->p99_us, r->p999_us, r->max_us);
 }
 
 #endif

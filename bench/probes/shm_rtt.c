@@ -17,10 +17,11 @@
  * Prints one JSON line with the RTT statistics (µs) and, for the futex modes, how often the
  * waits slept, how many wake calls were made and how many 1 s futex timeouts happened
  * (a timeout in adaptive mode would be a lost wake-up, i.e. a protocol bug). */
-#include "probe.h"
+#include "probe.h"  // first: it defines _GNU_SOURCE
+
 #include <errno.h>
-#include <sched.h>
 #include <linux/futex.h>
+#include <sched.h>
 #include <signal.h>
 #include <stdatomic.h>
 #include <sys/mman.h>
@@ -34,191 +35,208 @@ enum mode { M_SPIN, M_FUTEX, M_ADAPTIVE, M_YIELD };
 /* One direction of the ping-pong. seq and sleeping share a line on purpose: the sender
  * writes seq then reads sleeping, so one cache-line transfer serves both. */
 struct channel {
-    _Alignas(64) _Atomic uint32_t seq;
-    _Atomic uint32_t sleeping;
+  _Alignas(64) _Atomic uint32_t seq;
+  _Atomic uint32_t sleeping;
 };
 
 struct wait_counters {
-    uint64_t waits, sleeps, wakes, timeouts;
+  uint64_t waits, sleeps, wakes, timeouts;
 };
 
 struct shared {
-    struct channel a2b, b2a;
-    _Alignas(64) _Atomic int abort_flag;
-    struct wait_counters b_counters; /* B's, read by A after B exited */
-    _Alignas(64) char a2b_data[MAX_PAYLOAD];
-    _Alignas(64) char b2a_data[MAX_PAYLOAD];
+  struct channel a2b, b2a;
+  _Alignas(64) _Atomic int abort_flag;
+  struct wait_counters b_counters; /* B's, read by A after B exited */
+  _Alignas(64) char a2b_data[MAX_PAYLOAD];
+  _Alignas(64) char b2a_data[MAX_PAYLOAD];
 };
 
 struct side {
-    struct shared *sh;
-    enum mode mode;
-    long spin_iters;
-    uint64_t deadline;
-    struct wait_counters c;
+  struct shared* sh;
+  enum mode mode;
+  long spin_iters;
+  uint64_t deadline;
+  struct wait_counters c;
 };
 
-static long futex(_Atomic uint32_t *addr, int op, uint32_t val, const struct timespec *timeout) {
-    /* shared (not PRIVATE) futex: the two processes map the word at different mm's */
-    return syscall(SYS_futex, (uint32_t *)addr, op, val, timeout, NULL, 0);
+static long futex(_Atomic uint32_t* addr, int op, uint32_t val, const struct timespec* timeout) {
+  /* shared (not PRIVATE) futex: the two processes map the word at different mm's */
+  return syscall(SYS_futex, (uint32_t*)addr, op, val, timeout, NULL, 0);
 }
 
-static int expired(struct side *s) {
-    return now_ns() > s->deadline || atomic_load_explicit(&s->sh->abort_flag, memory_order_relaxed);
+static int expired(struct side* s) {
+  return now_ns() > s->deadline || atomic_load_explicit(&s->sh->abort_flag, memory_order_relaxed);
 }
 
-static void signal_peer(struct side *s, struct channel *ch, uint32_t value) {
-    if (s->mode == M_SPIN || s->mode == M_YIELD) {
-        atomic_store_explicit(&ch->seq, value, memory_order_release);
-    } else if (s->mode == M_FUTEX) {
-        atomic_store_explicit(&ch->seq, value, memory_order_release);
-        futex(&ch->seq, FUTEX_WAKE, 1, NULL);
-        s->c.wakes++;
-    } else {
-        /* seq_cst store then load pairs with the waiter's seq_cst store of `sleeping` then load of
-         * `seq` (Dekker): at least one side sees the other's write, so no wake-up is lost. */
-        atomic_store(&ch->seq, value);
-        if (atomic_load(&ch->sleeping)) {
-            futex(&ch->seq, FUTEX_WAKE, 1, NULL);
-            s->c.wakes++;
-        }
+static void signal_peer(struct side* s, struct channel* ch, uint32_t value) {
+  if (s->mode == M_SPIN || s->mode == M_YIELD) {
+    atomic_store_explicit(&ch->seq, value, memory_order_release);
+  } else if (s->mode == M_FUTEX) {
+    atomic_store_explicit(&ch->seq, value, memory_order_release);
+    futex(&ch->seq, FUTEX_WAKE, 1, NULL);
+    s->c.wakes++;
+  } else {
+    /* seq_cst store then load pairs with the waiter's seq_cst store of `sleeping` then load of
+     * `seq` (Dekker): at least one side sees the other's write, so no wake-up is lost. */
+    atomic_store(&ch->seq, value);
+    if (atomic_load(&ch->sleeping)) {
+      futex(&ch->seq, FUTEX_WAKE, 1, NULL);
+      s->c.wakes++;
     }
+  }
 }
 
 /* Wait until ch->seq == want. Returns 0, or -1 when the deadline passed or the peer gave up. */
-static int wait_peer(struct side *s, struct channel *ch, uint32_t want) {
-    s->c.waits++;
-    if (s->mode == M_YIELD) {
-        for (long n = 1; atomic_load_explicit(&ch->seq, memory_order_acquire) != want; n++) {
-            sched_yield();
-            if ((n & 0xff) == 0 && expired(s)) return -1;
-        }
-        return 0;
+static int wait_peer(struct side* s, struct channel* ch, uint32_t want) {
+  s->c.waits++;
+  if (s->mode == M_YIELD) {
+    for (long n = 1; atomic_load_explicit(&ch->seq, memory_order_acquire) != want; n++) {
+      sched_yield();
+      if ((n & 0xff) == 0 && expired(s)) return -1;
     }
-    if (s->mode != M_FUTEX) {
-        long limit = s->mode == M_SPIN ? -1 : s->spin_iters;
-        for (long n = 1; atomic_load_explicit(&ch->seq, memory_order_acquire) != want; n++) {
-            if (n == limit) goto sleep;
-            cpu_relax();
-            if ((n & 0x3fff) == 0 && expired(s)) return -1;
-        }
-        return 0;
-    }
-sleep:;
-    const struct timespec timeout = {1, 0}; /* only a safety net: counted, never expected */
-    uint32_t cur;
-    int slept = 0;
-    for (;;) {
-        if (s->mode == M_ADAPTIVE) atomic_store(&ch->sleeping, 1);
-        if ((cur = atomic_load(&ch->seq)) == want) break;
-        if (!slept++) s->c.sleeps++; /* counts waits that slept, not futex calls */
-        /* returns at once (EAGAIN) if seq already moved past cur */
-        if (futex(&ch->seq, FUTEX_WAIT, cur, &timeout) != 0 && errno == ETIMEDOUT) s->c.timeouts++;
-        if (expired(s)) return -1;
-    }
-    if (s->mode == M_ADAPTIVE) atomic_store_explicit(&ch->sleeping, 0, memory_order_relaxed);
     return 0;
+  }
+  if (s->mode != M_FUTEX) {
+    long limit = s->mode == M_SPIN ? -1 : s->spin_iters;
+    for (long n = 1; atomic_load_explicit(&ch->seq, memory_order_acquire) != want; n++) {
+      if (n == limit) goto sleep;
+      cpu_relax();
+      if ((n & 0x3fff) == 0 && expired(s)) return -1;
+    }
+    return 0;
+  }
+sleep:;
+  const struct timespec timeout = {1, 0}; /* only a safety net: counted, never expected */
+  uint32_t cur;
+  int slept = 0;
+  for (;;) {
+    if (s->mode == M_ADAPTIVE) atomic_store(&ch->sleeping, 1);
+    if ((cur = atomic_load(&ch->seq)) == want) break;
+    if (!slept++) s->c.sleeps++; /* counts waits that slept, not futex calls */
+    /* returns at once (EAGAIN) if seq already moved past cur */
+    if (futex(&ch->seq, FUTEX_WAIT, cur, &timeout) != 0 && errno == ETIMEDOUT) s->c.timeouts++;
+    if (expired(s)) return -1;
+  }
+  if (s->mode == M_ADAPTIVE) atomic_store_explicit(&ch->sleeping, 0, memory_order_relaxed);
+  return 0;
 }
 
 /* What one spin iteration costs here (pause latency differs ~10x between CPU models), so a
  * reader can turn --spin-iters into time. */
 static double ns_per_spin_iteration(void) {
-    const int n = 20000;
-    uint64_t t0 = now_ns();
-    for (int i = 0; i < n; i++) cpu_relax();
-    return (double)(now_ns() - t0) / n;
+  const int n = 20000;
+  uint64_t t0 = now_ns();
+  for (int i = 0; i < n; i++) cpu_relax();
+  return (double)(now_ns() - t0) / n;
 }
 
 static char scratch[MAX_PAYLOAD];
 
-static void responder(struct side *s, int cpu, long total, size_t payload) {
-    alarm(PROBE_HARD_ALARM_S);
-    struct shared *sh = s->sh;
-    /* on any failure raise abort_flag, so A stops waiting now rather than at its deadline */
-    if (pin_to_cpu(cpu)) { atomic_store(&sh->abort_flag, 1); _exit(4); }
-    for (long i = 1; i <= total; i++) {
-        if (wait_peer(s, &sh->a2b, (uint32_t)i)) { atomic_store(&sh->abort_flag, 1); _exit(3); }
-        if (payload) {
-            memcpy(scratch, sh->a2b_data, payload);
-            memcpy(sh->b2a_data, scratch, payload);
-        }
-        signal_peer(s, &sh->b2a, (uint32_t)i);
+static void responder(struct side* s, int cpu, long total, size_t payload) {
+  alarm(PROBE_HARD_ALARM_S);
+  struct shared* sh = s->sh;
+  /* on any failure raise abort_flag, so A stops waiting now rather than at its deadline */
+  if (pin_to_cpu(cpu)) {
+    atomic_store(&sh->abort_flag, 1);
+    _exit(4);
+  }
+  for (long i = 1; i <= total; i++) {
+    if (wait_peer(s, &sh->a2b, (uint32_t)i)) {
+      atomic_store(&sh->abort_flag, 1);
+      _exit(3);
     }
-    sh->b_counters = s->c;
-    _exit(0);
+    if (payload) {
+      memcpy(scratch, sh->a2b_data, payload);
+      memcpy(sh->b2a_data, scratch, payload);
+    }
+    signal_peer(s, &sh->b2a, (uint32_t)i);
+  }
+  sh->b_counters = s->c;
+  _exit(0);
 }
 
-int main(int argc, char **argv) {
-    alarm(PROBE_HARD_ALARM_S);
-    const char *mode_name = arg_str(argc, argv, "--mode", "spin");
-    int cpu_a, cpu_b;
-    arg_cpus(argc, argv, &cpu_a, &cpu_b);
-    long iters = arg_long(argc, argv, "--iters", 20000);
-    long warmup = arg_long(argc, argv, "--warmup", 2000);
-    long payload = arg_long(argc, argv, "--payload", 64);
-    long spin_iters = arg_long(argc, argv, "--spin-iters", 200);
-    long deadline_s = arg_long(argc, argv, "--deadline-s", 20);
+int main(int argc, char** argv) {
+  alarm(PROBE_HARD_ALARM_S);
+  const char* mode_name = arg_str(argc, argv, "--mode", "spin");
+  int cpu_a, cpu_b;
+  arg_cpus(argc, argv, &cpu_a, &cpu_b);
+  long iters = arg_long(argc, argv, "--iters", 20000);
+  long warmup = arg_long(argc, argv, "--warmup", 2000);
+  long payload = arg_long(argc, argv, "--payload", 64);
+  long spin_iters = arg_long(argc, argv, "--spin-iters", 200);
+  long deadline_s = arg_long(argc, argv, "--deadline-s", 20);
 
-    enum mode mode;
-    if (!strcmp(mode_name, "spin")) mode = M_SPIN;
-    else if (!strcmp(mode_name, "futex")) mode = M_FUTEX;
-    else if (!strcmp(mode_name, "adaptive")) mode = M_ADAPTIVE;
-    else if (!strcmp(mode_name, "yield")) mode = M_YIELD;
-    else die("unknown --mode '%s' (spin, futex, adaptive, yield)", mode_name);
-    if (iters < 1 || iters > 10000000 || warmup < 0 || warmup > 1000000) die("bad --iters/--warmup");
-    if (payload < 0 || payload > MAX_PAYLOAD) die("--payload must be 0..%d", MAX_PAYLOAD);
-    if (spin_iters < 1) die("--spin-iters must be >= 1");
-    if (deadline_s < 1 || deadline_s > PROBE_HARD_ALARM_S - 10) die("--deadline-s out of range");
-    /* Both spinners on one CPU only progress when the scheduler preempts one: milliseconds per hop. */
-    if (mode == M_SPIN && cpu_a == cpu_b && cpu_a >= 0) die("spin with both processes on cpu %d cannot make progress", cpu_a);
+  enum mode mode;
+  if (!strcmp(mode_name, "spin"))
+    mode = M_SPIN;
+  else if (!strcmp(mode_name, "futex"))
+    mode = M_FUTEX;
+  else if (!strcmp(mode_name, "adaptive"))
+    mode = M_ADAPTIVE;
+  else if (!strcmp(mode_name, "yield"))
+    mode = M_YIELD;
+  else
+    die("unknown --mode '%s' (spin, futex, adaptive, yield)", mode_name);
+  if (iters < 1 || iters > 10000000 || warmup < 0 || warmup > 1000000) die("bad --iters/--warmup");
+  if (payload < 0 || payload > MAX_PAYLOAD) die("--payload must be 0..%d", MAX_PAYLOAD);
+  if (spin_iters < 1) die("--spin-iters must be >= 1");
+  if (deadline_s < 1 || deadline_s > PROBE_HARD_ALARM_S - 10) die("--deadline-s out of range");
+  /* Both spinners on one CPU only progress when the scheduler preempts one: milliseconds per hop. */
+  if (mode == M_SPIN && cpu_a == cpu_b && cpu_a >= 0)
+    die("spin with both processes on cpu %d cannot make progress", cpu_a);
 
-    struct shared *sh = mmap(NULL, sizeof *sh, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
-    if (sh == MAP_FAILED) die("mmap failed");
-    memset(sh, 0, sizeof *sh);
-    memset(scratch, 1, sizeof scratch);
-    struct side me = {.sh = sh, .mode = mode, .spin_iters = spin_iters,
-                      .deadline = now_ns() + (uint64_t)deadline_s * 1000000000ull};
-    const long total = warmup + iters;
+  struct shared* sh = mmap(NULL, sizeof *sh, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
+  if (sh == MAP_FAILED) die("mmap failed");
+  memset(sh, 0, sizeof *sh);
+  memset(scratch, 1, sizeof scratch);
+  struct side me = {
+      .sh = sh, .mode = mode, .spin_iters = spin_iters, .deadline = now_ns() + (uint64_t)deadline_s * 1000000000ull};
+  const long total = warmup + iters;
 
-    pid_t pid = fork();
-    if (pid < 0) die("fork failed");
-    if (pid == 0) responder(&me, cpu_b, total, (size_t)payload);
+  pid_t pid = fork();
+  if (pid < 0) die("fork failed");
+  if (pid == 0) responder(&me, cpu_b, total, (size_t)payload);
 
-    if (pin_to_cpu(cpu_a)) { kill(pid, SIGKILL); die("cannot pin to cpu %d", cpu_a); }
-    uint64_t *samples = calloc((size_t)iters, sizeof *samples);
-    if (!samples) die("out of memory");
-    int failed = 0;
-    for (long i = 1; i <= total && !failed; i++) {
-        uint64_t t0 = now_ns();
-        if (payload) memcpy(sh->a2b_data, scratch, (size_t)payload);
-        signal_peer(&me, &sh->a2b, (uint32_t)i);
-        failed = wait_peer(&me, &sh->b2a, (uint32_t)i);
-        if (payload) memcpy(scratch, sh->b2a_data, (size_t)payload);
-        uint64_t t1 = now_ns();
-        if (i > warmup) samples[i - warmup - 1] = t1 - t0;
-    }
-    if (failed) {
-        atomic_store(&sh->abort_flag, 1);
-        kill(pid, SIGKILL);
-    }
-    int status = 0;
-    waitpid(pid, &status, 0);
-    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
-        die("responder failed (%s)", WIFEXITED(status) && WEXITSTATUS(status) == 4 ? "cannot pin it to its cpu" : "deadline or signal");
-    if (failed) die("%s: deadline of %ld s passed", mode_name, deadline_s);
+  if (pin_to_cpu(cpu_a)) {
+    kill(pid, SIGKILL);
+    die("cannot pin to cpu %d", cpu_a);
+  }
+  uint64_t* samples = calloc((size_t)iters, sizeof *samples);
+  if (!samples) die("out of memory");
+  int failed = 0;
+  for (long i = 1; i <= total && !failed; i++) {
+    uint64_t t0 = now_ns();
+    if (payload) memcpy(sh->a2b_data, scratch, (size_t)payload);
+    signal_peer(&me, &sh->a2b, (uint32_t)i);
+    failed = wait_peer(&me, &sh->b2a, (uint32_t)i);
+    if (payload) memcpy(scratch, sh->b2a_data, (size_t)payload);
+    uint64_t t1 = now_ns();
+    if (i > warmup) samples[i - warmup - 1] = t1 - t0;
+  }
+  if (failed) {
+    atomic_store(&sh->abort_flag, 1);
+    kill(pid, SIGKILL);
+  }
+  int status = 0;
+  waitpid(pid, &status, 0);
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    die("responder failed (%s)",
+        WIFEXITED(status) && WEXITSTATUS(status) == 4 ? "cannot pin it to its cpu" : "deadline or signal");
+  if (failed) die("%s: deadline of %ld s passed", mode_name, deadline_s);
 
-    struct rtt_stats st = rtt_stats_of(samples, (size_t)iters);
-    struct wait_counters b = sh->b_counters;
-    uint64_t waits = me.c.waits + b.waits, sleeps = me.c.sleeps + b.sleeps;
-    printf("{\"probe\": \"shm_rtt\", \"mode\": \"%s\", \"cpus\": [%d, %d], \"payload\": %ld, "
-           "\"warmup\": %ld, \"spin_iters\": %ld, \"ns_per_spin_iter\": %.2f, ",
-           mode_name, cpu_a, cpu_b, payload, warmup, mode == M_ADAPTIVE ? spin_iters : 0,
-           ns_per_spin_iteration());
-    print_rtt_stats_json(&st);
-    printf(", \"waits\": %llu, \"sleeps\": %llu, \"sleep_share\": %.4f, \"wakes\": %llu, "
-           "\"futex_timeouts\": %llu}\n",
-           (unsigned long long)waits, (unsigned long long)sleeps, waits ? (double)sleeps / waits : 0.0,
-           (unsigned long long)(me.c.wakes + b.wakes), (unsigned long long)(me.c.timeouts + b.timeouts));
-    free(samples);
-    return 0;
+  struct rtt_stats st = rtt_stats_of(samples, (size_t)iters);
+  struct wait_counters b = sh->b_counters;
+  uint64_t waits = me.c.waits + b.waits, sleeps = me.c.sleeps + b.sleeps;
+  printf(
+      "{\"probe\": \"shm_rtt\", \"mode\": \"%s\", \"cpus\": [%d, %d], \"payload\": %ld, "
+      "\"warmup\": %ld, \"spin_iters\": %ld, \"ns_per_spin_iter\": %.2f, ",
+      mode_name, cpu_a, cpu_b, payload, warmup, mode == M_ADAPTIVE ? spin_iters : 0, ns_per_spin_iteration());
+  print_rtt_stats_json(&st);
+  printf(
+      ", \"waits\": %llu, \"sleeps\": %llu, \"sleep_share\": %.4f, \"wakes\": %llu, "
+      "\"futex_timeouts\": %llu}\n",
+      (unsigned long long)waits, (unsigned long long)sleeps, waits ? (double)sleeps / waits : 0.0,
+      (unsigned long long)(me.c.wakes + b.wakes), (unsigned long long)(me.c.timeouts + b.timeouts));
+  free(samples);
+  return 0;
 }

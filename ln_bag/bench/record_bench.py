@@ -31,6 +31,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parents[1] / "tests" / "support"))
 import ln_testing  # noqa: E402
+
 MSGDEFS = HERE / "msgdefs"
 SCENARIOS = {"topics": ("lnbagbench/sample64", 50, 1000.0), "images": ("lnbagbench/image1m", 1, 30.0)}
 
@@ -42,8 +43,10 @@ def topic_names(scenario):
 
 # ------------------------------------------------------------------ publisher
 
+
 def publish(args):
     import links_and_nodes as ln
+
     md, _, rate = SCENARIOS[args.scenario]
     client = ln.client("lnbagbench_publisher")
     ports = [client.publish(name, md) for name in topic_names(args.scenario)]
@@ -71,11 +74,14 @@ def publish(args):
 
 # ------------------------------------------------------- the Python reference
 
+
 def pyrecord(args):
     """A recorder as one would write it in Python: multi-waiter, read(), codec, mcap writer."""
     import links_and_nodes as ln
-    import msg_mapping
     from mcap.writer import CompressionType, Writer
+
+    import msg_mapping
+
     md, _, rate = SCENARIOS[args.scenario]
     client = ln.client("lnbagbench_pyrecord")
     library = msg_mapping.Library([str(MSGDEFS)])
@@ -102,12 +108,18 @@ def pyrecord(args):
                 while port.read(False) is not None:
                     sequence, _, stamp = port.sample_info
                     now = time.time_ns()
-                    writer.add_message(channel, now, codec.ln_to_cdr(port.packet._buf), int(stamp * 1e9),
-                                       sequence=sequence & 0xFFFFFFFF)
+                    writer.add_message(
+                        channel,
+                        now,
+                        codec.ln_to_cdr(port.packet._buf),
+                        int(stamp * 1e9),
+                        sequence=sequence & 0xFFFFFFFF,
+                    )
         writer.finish()
 
 
 # --------------------------------------------------------------------- driver
+
 
 def ln_core_manager():
     try:
@@ -124,6 +136,7 @@ def cpu_seconds(pid):
 
 def read_line(process, what, timeout=60):
     import select
+
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         if select.select([process.stdout], [], [], 0.5)[0]:
@@ -137,6 +150,7 @@ def read_line(process, what, timeout=60):
 
 def count_messages(path):
     from mcap.stream_reader import StreamReader
+
     counts, channels = {}, {}
     with open(path, "rb") as f:
         for record in StreamReader(f).records:
@@ -181,8 +195,9 @@ def run(args):
     started = []
 
     def spawn(argv, **kw):
-        p = subprocess.Popen([str(a) for a in argv], env=env, text=True, stdin=subprocess.PIPE,
-                             stdout=subprocess.PIPE, **kw)
+        p = subprocess.Popen(
+            [str(a) for a in argv], env=env, text=True, stdin=subprocess.PIPE, stdout=subprocess.PIPE, **kw
+        )
         started.append(p)
         return p
 
@@ -192,11 +207,21 @@ def run(args):
     if output.exists():
         output.unlink()
     try:
-        publisher = spawn([sys.executable, __file__, "publish", "--scenario", args.scenario,
-                           "--seconds", args.seconds])
+        publisher = spawn([sys.executable, __file__, "publish", "--scenario", args.scenario, "--seconds", args.seconds])
         if args.recorder == "ln":
-            recorder = spawn([sys.executable, "-m", "links_and_nodes.cli", "record", *topic_names(args.scenario),
-                              "-o", output, "--json"], stderr=subprocess.DEVNULL)
+            recorder = spawn(
+                [
+                    sys.executable,
+                    "-m",
+                    "links_and_nodes.cli",
+                    "record",
+                    *topic_names(args.scenario),
+                    "-o",
+                    output,
+                    "--json",
+                ],
+                stderr=subprocess.DEVNULL,
+            )
         else:
             recorder = spawn([sys.executable, __file__, "pyrecord", "--scenario", args.scenario, "--output", output])
         read_line(publisher, "subscribed")
@@ -212,11 +237,17 @@ def run(args):
         summary = json.loads(out) if args.recorder == "ln" and out.strip().startswith("{") else {}
         counts = count_messages(output)
         recorded = sum(counts.values())
-        result = {"scenario": args.scenario, "recorder": args.recorder, "published": published["published"],
-                  "recorded": recorded, "lost": published["published"] - recorded,
-                  "publish_seconds": published["seconds"], "recorder_cpu_seconds": cpu,
-                  "cpu_us_per_message": cpu / max(1, published["published"]) * 1e6,
-                  "file_bytes": output.stat().st_size}
+        result = {
+            "scenario": args.scenario,
+            "recorder": args.recorder,
+            "published": published["published"],
+            "recorded": recorded,
+            "lost": published["published"] - recorded,
+            "publish_seconds": published["seconds"],
+            "recorder_cpu_seconds": cpu,
+            "cpu_us_per_message": cpu / max(1, published["published"]) * 1e6,
+            "file_bytes": output.stat().st_size,
+        }
         if summary:
             result["write_seconds"] = summary["write_seconds"]
             result["write_mb_per_s"] = result["file_bytes"] / max(1e-9, summary["write_seconds"]) / 1e6

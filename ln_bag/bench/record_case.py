@@ -11,6 +11,7 @@ measures, inside one process tree each: manager, publisher, recorder):
 
 Hook-up: bench/cases/ln_record.py imports TITLE, ORDER and run from this file.
 """
+
 import sys
 from pathlib import Path
 
@@ -28,9 +29,10 @@ PYTHON_RECORDER = "Python recorder (links_and_nodes + msg_mapping + mcap)"
 
 def run(ctx):
     try:
-        import ln_bag  # noqa: F401
         import links_and_nodes  # noqa: F401
         import mcap  # noqa: F401
+
+        import ln_bag  # noqa: F401
     except ImportError as error:
         ctx.skip("needs ln_bag, links_and_nodes and mcap (. launchless_scripts/env.sh): %s" % error)
     seconds = ctx.n(5, 1.5)
@@ -39,22 +41,63 @@ def run(ctx):
         for scenario in GROUPS:
             for recorder in ("ln", "python"):
                 ctx.log("ln record bench: %s, %s recorder, run %d/%d" % (scenario, recorder, rep + 1, ctx.reps))
-                r = ctx.run_json([sys.executable, DRIVER, "run", "--scenario", scenario, "--recorder", recorder,
-                                  "--seconds", seconds, "--dir", ctx.out_dir / "ln_record"], timeout=seconds + 180)
+                r = ctx.run_json(
+                    [
+                        sys.executable,
+                        DRIVER,
+                        "run",
+                        "--scenario",
+                        scenario,
+                        "--recorder",
+                        recorder,
+                        "--seconds",
+                        seconds,
+                        "--dir",
+                        ctx.out_dir / "ln_record",
+                    ],
+                    timeout=seconds + 180,
+                )
                 results.setdefault((scenario, recorder), []).append(r[-1])
     for scenario, group in GROUPS.items():
         ours, python = results[(scenario, "ln")], results[(scenario, "python")]
         lost = [r["lost"] for r in ours]
-        yield Row(group=group, name="ln record", metric="messages lost", unit="msgs", value=max(lost), better="lower",
-                  note="goal 0; worst of %d runs of %d messages each" % (len(ours), ours[0]["published"]))
-        yield Row(group=group, name=PYTHON_RECORDER, metric="messages lost", unit="msgs",
-                  value=max(r["lost"] for r in python), better="lower", note="the reference recorder, same load")
+        yield Row(
+            group=group,
+            name="ln record",
+            metric="messages lost",
+            unit="msgs",
+            value=max(lost),
+            better="lower",
+            note="goal 0; worst of %d runs of %d messages each" % (len(ours), ours[0]["published"]),
+        )
+        yield Row(
+            group=group,
+            name=PYTHON_RECORDER,
+            metric="messages lost",
+            unit="msgs",
+            value=max(r["lost"] for r in python),
+            better="lower",
+            note="the reference recorder, same load",
+        )
         values = [r["cpu_us_per_message"] for r in ours]
-        yield Row(group=group, name="ln record", metric="recorder CPU per message", unit="us", value=median(values),
-                  reference_name=PYTHON_RECORDER,
-                  reference_value=median(r["cpu_us_per_message"] for r in python), note=spread_note(values))
+        yield Row(
+            group=group,
+            name="ln record",
+            metric="recorder CPU per message",
+            unit="us",
+            value=median(values),
+            reference_name=PYTHON_RECORDER,
+            reference_value=median(r["cpu_us_per_message"] for r in python),
+            note=spread_note(values),
+        )
         values = [r["write_mb_per_s"] for r in ours]
-        yield Row(group=group, name="ln record", metric="write bandwidth", unit="MB/s", value=median(values),
-                  reference_name="plain sequential write of the same bytes",
-                  reference_value=median(r["plain_write_mb_per_s"] for r in ours),
-                  note="I/O thread: CRC + write() per chunk; " + spread_note(values))
+        yield Row(
+            group=group,
+            name="ln record",
+            metric="write bandwidth",
+            unit="MB/s",
+            value=median(values),
+            reference_name="plain sequential write of the same bytes",
+            reference_value=median(r["plain_write_mb_per_s"] for r in ours),
+            note="I/O thread: CRC + write() per chunk; " + spread_note(values),
+        )

@@ -35,7 +35,7 @@ __attribute__((target("pclmul,sse4.1"))) inline __m128i load(const std::uint8_t*
 }
 
 __attribute__((target("pclmul,sse4.1"))) std::uint32_t clmul_crc32(std::uint32_t running, const std::uint8_t* p,
-                                                                     std::size_t n) {
+                                                                   std::size_t n) {
   const __m128i by512 = _mm_set_epi64x(0x1c6e41596, 0x154442bd4);
   const __m128i by128 = _mm_set_epi64x(0x0ccaa009e, 0x1751997d0);
   __m128i x1 = _mm_xor_si128(load(p), _mm_cvtsi32_si128(static_cast<int>(~running)));

@@ -216,9 +216,15 @@ struct McapWriter::Impl {
       blob_crc = crc32_combine(blob_crc, records_crc, blob.records_size);
       blob_crc = crc32_combine(blob_crc, crc32(0, bytes + blob.chunk_record_size, tail), tail);
       data_crc = crc32_combine(data_crc, blob_crc, blob.bytes.size());
-      ChunkIndexInfo index{blob.start_time, blob.end_time, file_offset, blob.chunk_record_size,
-                           blob.bytes.size() - blob.chunk_record_size, blob.records_size, {}};
-      for (const auto& [channel, offset] : blob.index_offsets) index.index_offsets.emplace_back(channel, file_offset + offset);
+      ChunkIndexInfo index{blob.start_time,
+                           blob.end_time,
+                           file_offset,
+                           blob.chunk_record_size,
+                           blob.bytes.size() - blob.chunk_record_size,
+                           blob.records_size,
+                           {}};
+      for (const auto& [channel, offset] : blob.index_offsets)
+        index.index_offsets.emplace_back(channel, file_offset + offset);
       chunk_indexes.push_back(std::move(index));
       for (const auto& [channel, count] : blob.channel_counts) channel_counts[channel] += count;
       if (blob.messages) {

@@ -79,8 +79,8 @@ NB_MODULE(_native, m) {
           nb::arg("path"), nb::arg("chunk_size") = WriterOptions{}.chunk_size,
           nb::arg("queue_bytes") = WriterOptions{}.queue_bytes)
       .def("add_schema", &McapWriter::add_schema, nb::arg("name"), nb::arg("encoding"), nb::arg("data"))
-      .def("add_channel", &McapWriter::add_channel, nb::arg("schema_id"), nb::arg("topic"),
-           nb::arg("message_encoding"), nb::arg("metadata"))
+      .def("add_channel", &McapWriter::add_channel, nb::arg("schema_id"), nb::arg("topic"), nb::arg("message_encoding"),
+           nb::arg("metadata"))
       .def(
           "add_message",
           [](McapWriter& w, std::uint16_t channel, std::uint32_t sequence, std::uint64_t log_time,
@@ -122,7 +122,8 @@ NB_MODULE(_native, m) {
       .def("ln_to_cdr",
            [](const TopicMapping& t, nb::handle ln) {
              BufferView view(ln);
-             return to_bytes(guarded("'" + t.ln_name() + "' LN -> CDR", [&] { return t.codec().ln_to_cdr(view.bytes()); }));
+             return to_bytes(
+                 guarded("'" + t.ln_name() + "' LN -> CDR", [&] { return t.codec().ln_to_cdr(view.bytes()); }));
            })
       .def("cdr_to_ln", [](const TopicMapping& t, nb::handle cdr) {
         BufferView view(cdr);

@@ -32,7 +32,8 @@ double monotonic_seconds() {
 std::uint64_t timestamp_ns(double seconds) {
   if (!(seconds > 0) || !std::isfinite(seconds) || seconds >= 1.8e10) return 0;
   const double whole = std::floor(seconds);
-  return static_cast<std::uint64_t>(whole) * 1000000000u + static_cast<std::uint64_t>(std::llround((seconds - whole) * 1e9));
+  return static_cast<std::uint64_t>(whole) * 1000000000u +
+         static_cast<std::uint64_t>(std::llround((seconds - whole) * 1e9));
 }
 
 std::string ln_failure(ln_client client, int code) {
@@ -81,7 +82,7 @@ struct Recorder::Impl {
   mutable std::mutex mutex;
   std::condition_variable changed;
   std::deque<Command> commands;
-  std::vector<std::unique_ptr<Topic>> topics;  // appended by the recording thread (or before it runs)
+  std::vector<std::unique_ptr<Topic>> topics;    // appended by the recording thread (or before it runs)
   std::map<std::string, std::uint16_t> schemas;  // ROS type + schema text -> schema id
   std::atomic<bool> stop_requested{false};
   bool running = false, finished = false;
@@ -127,7 +128,8 @@ struct Recorder::Impl {
     const std::string schema_key = mapping.ros_type() + '\n' + mapping.schema();
     auto schema = schemas.find(schema_key);
     if (schema == schemas.end())
-      schema = schemas.emplace(schema_key, writer.add_schema(mapping.ros_type(), ros2msg_encoding, mapping.schema())).first;
+      schema =
+          schemas.emplace(schema_key, writer.add_schema(mapping.ros_type(), ros2msg_encoding, mapping.schema())).first;
     return writer.add_channel(schema->second, ros_topic, "cdr", metadata);
   }
 
@@ -222,7 +224,8 @@ struct Recorder::Impl {
           std::this_thread::sleep_for(batch);
         } else {
           double wait = 0.05;
-          if (options.max_seconds > 0) wait = std::min(wait, std::max(0.0, start + options.max_seconds - monotonic_seconds()));
+          if (options.max_seconds > 0)
+            wait = std::min(wait, std::max(0.0, start + options.max_seconds - monotonic_seconds()));
           ln_multi_waiter_wait(waiter, wait);  // also returns at once while it has no port
           if (topics.empty()) std::this_thread::sleep_for(std::chrono::duration<double>(wait));
         }
@@ -241,7 +244,8 @@ struct Recorder::Impl {
   }
 };
 
-Recorder::Recorder(McapWriter& writer, RecorderOptions options) : impl_(std::make_unique<Impl>(writer, std::move(options))) {
+Recorder::Recorder(McapWriter& writer, RecorderOptions options)
+    : impl_(std::make_unique<Impl>(writer, std::move(options))) {
   Impl& m = *impl_;
   int r = ln_init_to_manager(&m.client, m.options.client_name.c_str(), m.options.manager.c_str());
   if (r < 0) {

@@ -73,7 +73,8 @@ TopicMapping::TopicMapping(const std::string& name, const std::map<std::string, 
       for (const auto& field : t.fields) {
         const msg_mapping::PairedType* used = field.struct_type;
         if (!used || !appended.insert(used).second) continue;
-        schema_ += std::string(80, '=') + "\nMSG: " + short_ros_name(used->ros_name) + "\n" + msg_mapping::msg_text(*used);
+        schema_ +=
+            std::string(80, '=') + "\nMSG: " + short_ros_name(used->ros_name) + "\n" + msg_mapping::msg_text(*used);
         append_used(*used);
       }
     };

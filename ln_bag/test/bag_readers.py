@@ -30,8 +30,18 @@ def mcap_messages(path, validate=True):
         summary = reader.get_summary()
         assert summary is not None and summary.statistics is not None, "%s has no summary" % path
         for schema, channel, message, decoded in reader.iter_decoded_messages(log_time_order=False):
-            out.append(Read(channel.topic, schema.name, dict(channel.metadata), message.sequence, message.log_time,
-                            message.publish_time, bytes(message.data), decoded))
+            out.append(
+                Read(
+                    channel.topic,
+                    schema.name,
+                    dict(channel.metadata),
+                    message.sequence,
+                    message.log_time,
+                    message.publish_time,
+                    bytes(message.data),
+                    decoded,
+                )
+            )
     return out
 
 
@@ -54,10 +64,21 @@ def mcap_stream(path):
                     channel = channels[record.channel_id]
                     schema = schemas[channel.schema_id]
                     decode = decoders.get(schema.id) or decoders.setdefault(
-                        schema.id, factory.decoder_for(channel.message_encoding, schema))
-                    out.append(Read(channel.topic, schema.name, dict(channel.metadata), record.sequence,
-                                    record.log_time, record.publish_time, bytes(record.data), decode(record.data)))
-        except Exception as e:  # noqa: BLE001 - the caller asserts what it expects
+                        schema.id, factory.decoder_for(channel.message_encoding, schema)
+                    )
+                    out.append(
+                        Read(
+                            channel.topic,
+                            schema.name,
+                            dict(channel.metadata),
+                            record.sequence,
+                            record.log_time,
+                            record.publish_time,
+                            bytes(record.data),
+                            decode(record.data),
+                        )
+                    )
+        except Exception as e:
             error = e
     return out, error
 
@@ -78,8 +99,9 @@ def rosbags_messages(bag_dir):
             types.update({name.replace("/srv/msg/", "/srv/"): t for name, t in found.items()})
         store.register(types)
         for connection, timestamp, raw in reader.messages():
-            out.append((connection.topic, connection.msgtype, timestamp,
-                        store.deserialize_cdr(raw, connection.msgtype)))
+            out.append(
+                (connection.topic, connection.msgtype, timestamp, store.deserialize_cdr(raw, connection.msgtype))
+            )
     return out
 
 

@@ -22,8 +22,9 @@ LN_CORE_TESTS = os.path.join(HERE, "..", "..", "ln_core", "python", "tests")
 
 if os.environ.get("LN_BAG_PYTHONPATH"):
     sys.path.insert(0, os.environ["LN_BAG_PYTHONPATH"])
-    os.environ["PYTHONPATH"] = os.pathsep.join(p for p in (os.environ["LN_BAG_PYTHONPATH"],
-                                                          os.environ.get("PYTHONPATH")) if p)
+    os.environ["PYTHONPATH"] = os.pathsep.join(
+        p for p in (os.environ["LN_BAG_PYTHONPATH"], os.environ.get("PYTHONPATH")) if p
+    )
 sys.path.insert(0, os.path.join(LN_CORE_TESTS, "cli"))
 sys.path.insert(0, HERE)
 
@@ -42,4 +43,5 @@ def manager(tmp_path_factory):
 @pytest.fixture
 def unique():
     import uuid
+
     return "u" + uuid.uuid4().hex[:8]  # a ROS name token must not start with a digit

@@ -47,10 +47,12 @@ def provide(service):
         resp.text = "sum of " + req.text
         request.respond()
         return 0
+
     provider.set_handler(handler)
     provider.do_register()
     print("providing", flush=True)
     import select
+
     while not select.select([sys.stdin], [], [], 0)[0]:
         client.wait_and_handle_service_group_requests(None, 0.05)
 
@@ -69,9 +71,11 @@ def logger(topic, prefix, n, rate):
     """Runs the publisher itself: LN 2.9's logger client only works reliably in
     this order (its client first, the topic published, then the logger)."""
     import subprocess
+
     client = ln.client("ln29_logger")
-    publisher = subprocess.Popen([sys.executable, __file__, "publish", topic, n, rate], stdin=subprocess.PIPE,
-                                 stdout=subprocess.PIPE, text=True)
+    publisher = subprocess.Popen(
+        [sys.executable, __file__, "publish", topic, n, rate], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True
+    )
     print("publisher %d" % publisher.pid, flush=True)  # its /dev/shm segments are named after it
     assert publisher.stdout.readline().strip() == "ready"
     time.sleep(1.0)
@@ -106,11 +110,15 @@ def _plain(value):
 def decode(kind, path):
     if kind == "pcap":
         from links_and_nodes.lnrecorder.lnrecorder_log import lnrecorder_log
+
         log = lnrecorder_log(path)
         for p in log.iter_packets():
             d = log.decode_packet(p, with_meta=False)
-            item = {"name": _plain(d["name"]), "log_time": p.header.sec + p.header.nsec / 1e9,
-                    "data": _plain(dict(d["data"]))}
+            item = {
+                "name": _plain(d["name"]),
+                "log_time": p.header.sec + p.header.nsec / 1e9,
+                "data": _plain(dict(d["data"])),
+            }
             if d["type"] == "topic packet":
                 item.update(kind="topic", publish_time=p.publisher_timestamp)
             else:
@@ -118,16 +126,29 @@ def decode(kind, path):
             print(json.dumps(item))
     else:
         import lnrdb
+
         db = lnrdb.Db(path)
         for name, table in sorted(db.tables.items()):
             if not name.startswith("topics/"):
                 continue
             for row in table.mmap():
-                data = {field: _plain(row[field]) for field in row.dtype.names
-                        if field not in ("timestamp", "publisher_timestamp")}
+                data = {
+                    field: _plain(row[field])
+                    for field in row.dtype.names
+                    if field not in ("timestamp", "publisher_timestamp")
+                }
                 data["position"] = dict(zip(("x", "y", "z"), data["position"]))
-                print(json.dumps({"kind": "topic", "name": table.meta["topic.name"], "log_time": float(row.timestamp),
-                                  "publish_time": float(row.publisher_timestamp), "data": data}))
+                print(
+                    json.dumps(
+                        {
+                            "kind": "topic",
+                            "name": table.meta["topic.name"],
+                            "log_time": float(row.timestamp),
+                            "publish_time": float(row.publisher_timestamp),
+                            "data": data,
+                        }
+                    )
+                )
 
 
 if __name__ == "__main__":

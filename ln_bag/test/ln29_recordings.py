@@ -80,8 +80,17 @@ def _session(system, work, recording=None, logger_prefix=None):
     env = dict(env, LN_MANAGER=manager.address)
     python = python_of(system)
     # line-buffered, so its "ready" arrives when it is (a pipe would hold it back until exit)
-    recorder_argv = [shutil.which("stdbuf") or "stdbuf", "-oL", str(system.ln_manager.parent / "lnrecorder"),
-                     "record", str(recording)] if recording else None
+    recorder_argv = (
+        [
+            shutil.which("stdbuf") or "stdbuf",
+            "-oL",
+            str(system.ln_manager.parent / "lnrecorder"),
+            "record",
+            str(recording),
+        ]
+        if recording
+        else None
+    )
     started = []
 
     def start(argv, stdin=False):
@@ -91,8 +100,9 @@ def _session(system, work, recording=None, logger_prefix=None):
 
     def expect(program, line, timeout=30):
         if program.wait_for_line(line, timeout) is None:
-            raise RuntimeError("LN 2.9: no %r from\n%s\n--- manager ---\n%s"
-                               % (line, program.describe(), manager.log_tail(3000)))
+            raise RuntimeError(
+                "LN 2.9: no %r from\n%s\n--- manager ---\n%s" % (line, program.describe(), manager.log_tail(3000))
+            )
 
     try:
         if logger_prefix:
@@ -117,8 +127,9 @@ def _session(system, work, recording=None, logger_prefix=None):
         time.sleep(0.5)
         _stop(recorder)
     except (OSError, RuntimeError) as error:
-        raise RuntimeError("LN 2.9 session for %s failed: %s\n%s" % (
-            recording, error, "\n".join(p.describe() for p in started))) from None
+        raise RuntimeError(
+            "LN 2.9 session for %s failed: %s\n%s" % (recording, error, "\n".join(p.describe() for p in started))
+        ) from None
     finally:
         for program in started:
             program.finish(10) if program.proc.stdin else _stop(program)
@@ -129,8 +140,13 @@ def _session(system, work, recording=None, logger_prefix=None):
 def decode(system, kind, path):
     """What LN 2.9's own code reads from a recording: [{kind, name, log_time, publish_time, data}]."""
     env = support.base_environment(Path(path).parent, Path(path).parent)
-    out = subprocess.run([python_of(system), str(PROGRAMS), "decode", kind, str(path)], env=env, capture_output=True,
-                         text=True, timeout=60)
+    out = subprocess.run(
+        [python_of(system), str(PROGRAMS), "decode", kind, str(path)],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     if out.returncode != 0:
         raise RuntimeError("LN 2.9 cannot read %s:\n%s" % (path, out.stderr[-3000:]))
     return [json.loads(line) for line in out.stdout.splitlines() if line.startswith("{")]

@@ -9,8 +9,18 @@ import ctypes.util
 import numpy as np
 
 MAT_FT_MAT5 = 0x0100
-_CLASSES = {"f8": (6, 9), "f4": (7, 7), "i1": (8, 1), "u1": (9, 2), "i2": (10, 3), "u2": (11, 4), "i4": (12, 5),
-            "u4": (13, 6), "i8": (14, 12), "u8": (15, 13)}
+_CLASSES = {
+    "f8": (6, 9),
+    "f4": (7, 7),
+    "i1": (8, 1),
+    "u1": (9, 2),
+    "i2": (10, 3),
+    "u2": (11, 4),
+    "i4": (12, 5),
+    "u4": (13, 6),
+    "i8": (14, 12),
+    "u8": (15, 13),
+}
 MAT_C_CELL, MAT_T_CELL = 1, 21
 
 
@@ -19,8 +29,15 @@ def _library():
     lib.Mat_CreateVer.restype = ctypes.c_void_p
     lib.Mat_CreateVer.argtypes = [ctypes.c_char_p, ctypes.c_char_p, ctypes.c_int]
     lib.Mat_VarCreate.restype = ctypes.c_void_p
-    lib.Mat_VarCreate.argtypes = [ctypes.c_char_p, ctypes.c_int, ctypes.c_int, ctypes.c_int,
-                                  ctypes.POINTER(ctypes.c_size_t), ctypes.c_void_p, ctypes.c_int]
+    lib.Mat_VarCreate.argtypes = [
+        ctypes.c_char_p,
+        ctypes.c_int,
+        ctypes.c_int,
+        ctypes.c_int,
+        ctypes.POINTER(ctypes.c_size_t),
+        ctypes.c_void_p,
+        ctypes.c_int,
+    ]
     lib.Mat_VarSetCell.restype = ctypes.c_void_p
     lib.Mat_VarSetCell.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p]
     lib.Mat_VarWrite.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int]

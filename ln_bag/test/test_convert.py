@@ -11,9 +11,8 @@ import struct
 from fractions import Fraction
 from pathlib import Path
 
-import pytest
-
 import ln29_recordings
+import pytest
 from bag_readers import mcap_messages, rosbags_messages
 from cli_helpers import ok, one_line_error, run_ln
 from conftest import MSGDEFS
@@ -50,8 +49,9 @@ def assert_pose(decoded, reference):
     assert list(decoded.orientation) == reference["orientation"]
     assert list(decoded.flags) == reference["flags"]
     frame = reference["frame"]
-    assert bytes(decoded.frame) == (frame.encode("latin-1").ljust(16, b"\0") if isinstance(frame, str)
-                                    else bytes(v & 0xFF for v in frame))
+    assert bytes(decoded.frame) == (
+        frame.encode("latin-1").ljust(16, b"\0") if isinstance(frame, str) else bytes(v & 0xFF for v in frame)
+    )
 
 
 def check_against_ln29(messages, reference, with_services=True):
@@ -114,17 +114,20 @@ def test_lnrdb_directory_converts_to_what_ln29_reads(ln29, tmp_path):
     topics = by_topic(messages)
     requests, responses = topics["/ln29/add/_request"], topics["/ln29/add/_response"]
     calls = ln29_recordings.CALLS
-    assert [(m.decoded.a, m.decoded.b, m.decoded.text) for m in requests] == \
-        [(i, 10, "call %d" % i) for i in range(calls)]
-    assert [(m.decoded.sum, m.decoded.text) for m in responses] == \
-        [(i + 10, "sum of call %d" % i) for i in range(calls)]
+    assert [(m.decoded.a, m.decoded.b, m.decoded.text) for m in requests] == [
+        (i, 10, "call %d" % i) for i in range(calls)
+    ]
+    assert [(m.decoded.sum, m.decoded.text) for m in responses] == [
+        (i + 10, "sum of call %d" % i) for i in range(calls)
+    ]
 
 
 def test_logger_files_pcap_and_pickle(ln29, tmp_path):
     from_pcap, from_pickle = tmp_path / "logger_pcap.mcap", tmp_path / "logger_pickle.mcap"
     ok(convert(DATA / "logger.pcap", from_pcap))
-    check_against_ln29(mcap_messages(str(from_pcap)), ln29_recordings.decode(ln29, "pcap", DATA / "logger.pcap"),
-                       with_services=False)
+    check_against_ln29(
+        mcap_messages(str(from_pcap)), ln29_recordings.decode(ln29, "pcap", DATA / "logger.pcap"), with_services=False
+    )
     one_line_error(convert(DATA / "logger.pickle", from_pickle), "ln29.pose", "--topic TOPIC:DEFINITION")
     ok(convert(DATA / "logger.pickle", from_pickle, "--topic", "ln29.pose:bagtest/pose", "--md-dir", MSGDEFS))
     pcap_poses, pickle_poses = mcap_messages(str(from_pcap)), mcap_messages(str(from_pickle))
@@ -161,10 +164,11 @@ def test_a_fresh_lnrecorder_recording(ln29, tmp_path):
 
 # ----------------------------------------------------------------- damaged input
 
+
 def test_a_cut_off_pcap_converts_up_to_the_cut(tmp_path):
     cut = tmp_path / "cut.pcap"
     data = (DATA / "recorder.pcap").read_bytes()
-    cut.write_bytes(data[:len(data) - 50])
+    cut.write_bytes(data[: len(data) - 50])
     out = tmp_path / "cut.mcap"
     result = convert(cut, out)
     assert result.returncode == 0, result.stderr
@@ -173,7 +177,7 @@ def test_a_cut_off_pcap_converts_up_to_the_cut(tmp_path):
     complete = mcap_messages(str(tmp_path / "all.mcap"))
     converted = mcap_messages(str(out))
     assert 0 < len(converted) < len(complete)
-    assert [m.data for m in converted] == [m.data for m in complete[:len(converted)]]
+    assert [m.data for m in converted] == [m.data for m in complete[: len(converted)]]
 
 
 def test_damaged_and_unknown_inputs_get_one_clear_error(tmp_path):
@@ -190,11 +194,12 @@ def test_damaged_and_unknown_inputs_get_one_clear_error(tmp_path):
     one_line_error(convert(wrong_link, tmp_path / "o.mcap"), str(wrong_link), "not an LN recording", "link type 1")
 
     broken = bytearray(data)
-    broken[24 + 8:24 + 12] = struct.pack("<I", 0xFFFFFFF0)  # the first frame's length
+    broken[24 + 8 : 24 + 12] = struct.pack("<I", 0xFFFFFFF0)  # the first frame's length
     broken_path = tmp_path / "broken.pcap"
     broken_path.write_bytes(bytes(broken))
-    one_line_error(convert(broken_path, tmp_path / "b.mcap"), str(broken_path), "frame at byte 24",
-                   "impossible frame length")
+    one_line_error(
+        convert(broken_path, tmp_path / "b.mcap"), str(broken_path), "frame at byte 24", "impossible frame length"
+    )
 
     wrong_hash = bytearray(data)
     at = bytes(wrong_hash).index(b"ln29.pose")  # the topic's frame: name, definition, text, publisher, hash
@@ -203,7 +208,7 @@ def test_damaged_and_unknown_inputs_get_one_clear_error(tmp_path):
     wrong_path = tmp_path / "wrong_hash.pcap"
     wrong_path.write_bytes(bytes(wrong_hash))
     line = one_line_error(convert(wrong_path, tmp_path / "w.mcap"), "definition 'bagtest/pose'", "--md-dir")
-    assert "names hash %s" % bytes(wrong_hash[hash_at:hash_at + 64]).decode() in line
+    assert "names hash %s" % bytes(wrong_hash[hash_at : hash_at + 64]).decode() in line
 
     existing = tmp_path / "existing.mcap"
     existing.write_bytes(b"keep me")
@@ -229,6 +234,7 @@ def test_a_pickle_that_wants_more_than_arrays_is_refused(tmp_path):
     class Sneaky:
         def __reduce__(self):
             return (os.system, ("echo owned > %s" % (tmp_path / "owned"),))
+
     evil = tmp_path / "evil.pickle"
     evil.write_bytes(pickle.dumps({"t": {"_packet_counter": Sneaky()}}, protocol=2))
     one_line_error(convert(evil, tmp_path / "e.mcap", "--topic", "t:bagtest/counter"), str(evil), "posix.system")
@@ -237,6 +243,7 @@ def test_a_pickle_that_wants_more_than_arrays_is_refused(tmp_path):
 
 def test_an_mcap_file_cut_off_while_recording_is_rewritten_with_its_index(tmp_path):
     import ln_bag
+
     path = tmp_path / "source.mcap"
     mapping = ln_bag.TopicMapping("bagtest/counter", md_dirs=[MSGDEFS])
     writer = ln_bag.McapWriter(str(path), chunk_size=4096)
@@ -246,11 +253,11 @@ def test_an_mcap_file_cut_off_while_recording_is_rewritten_with_its_index(tmp_pa
     writer.close()
     data = path.read_bytes()
     cut = tmp_path / "cut.mcap"
-    cut.write_bytes(data[:len(data) * 2 // 3])
+    cut.write_bytes(data[: len(data) * 2 // 3])
     fixed = tmp_path / "fixed.mcap"
     result = convert(cut, fixed)
     assert result.returncode == 0 and "cut off" in result.stderr
-    messages = mcap_messages(str(fixed))   # indexed: the summary is there
+    messages = mcap_messages(str(fixed))  # indexed: the summary is there
     counts = [m.decoded.count for m in messages]
     assert 100 < len(counts) < 500 and counts == list(range(len(counts)))
     assert [m.sequence for m in messages] == counts
@@ -260,30 +267,54 @@ def test_logger_mat_files_of_one_and_of_several_topics(tmp_path):
     """LN 2.9's logger .mat files, written here by libmatio from LN 2.9's own logger data (its pickle),
     convert to the same messages as the pickle."""
     from mat_writer import logger_variables, write_mat
+
     with open(DATA / "logger.pickle", "rb") as f:
         columns = pickle.load(f)["ln29.pose"]
-    ok(convert(DATA / "logger.pickle", tmp_path / "pickle.mcap", "--topic", "ln29.pose:bagtest/pose",
-               "--md-dir", MSGDEFS))
+    ok(
+        convert(
+            DATA / "logger.pickle", tmp_path / "pickle.mcap", "--topic", "ln29.pose:bagtest/pose", "--md-dir", MSGDEFS
+        )
+    )
     expected = [(m.data, m.log_time, m.publish_time, m.sequence) for m in mcap_messages(str(tmp_path / "pickle.mcap"))]
 
     one = tmp_path / "one.mat"
     write_mat(one, logger_variables(columns))
     ok(convert(one, tmp_path / "one.mcap", "--topic", "ln29.pose:bagtest/pose", "--md-dir", MSGDEFS))
-    assert [(m.data, m.log_time, m.publish_time, m.sequence) for m in mcap_messages(str(tmp_path / "one.mcap"))] \
-        == expected
+    assert [
+        (m.data, m.log_time, m.publish_time, m.sequence) for m in mcap_messages(str(tmp_path / "one.mcap"))
+    ] == expected
 
     several = tmp_path / "several.mat"
-    write_mat(several, dict(logger_variables(columns, "ln29_pose"), **logger_variables(columns, "other_pose")),
-              compressed=True)
-    one_line_error(convert(several, tmp_path / "x.mcap", "--topic", "ln29.pose:bagtest/pose", "--md-dir", MSGDEFS),
-                   "other_pose", "--topic TOPIC:DEFINITION")
-    ok(convert(several, tmp_path / "several.mcap", "--topic", "ln29.pose:bagtest/pose", "--topic",
-               "other.pose:bagtest/pose", "--md-dir", MSGDEFS))
+    write_mat(
+        several,
+        dict(logger_variables(columns, "ln29_pose"), **logger_variables(columns, "other_pose")),
+        compressed=True,
+    )
+    one_line_error(
+        convert(several, tmp_path / "x.mcap", "--topic", "ln29.pose:bagtest/pose", "--md-dir", MSGDEFS),
+        "other_pose",
+        "--topic TOPIC:DEFINITION",
+    )
+    ok(
+        convert(
+            several,
+            tmp_path / "several.mcap",
+            "--topic",
+            "ln29.pose:bagtest/pose",
+            "--topic",
+            "other.pose:bagtest/pose",
+            "--md-dir",
+            MSGDEFS,
+        )
+    )
     topics = by_topic(mcap_messages(str(tmp_path / "several.mcap")))
     assert sorted(topics) == ["/ln29/pose", "/other/pose"]
     assert [m.data for m in topics["/other/pose"]] == [e[0] for e in expected]
 
     damaged = tmp_path / "damaged.mat"
     damaged.write_bytes(one.read_bytes()[:-100])
-    one_line_error(convert(damaged, tmp_path / "d.mcap", "--topic", "ln29.pose:bagtest/pose", "--md-dir", MSGDEFS),
-                   str(damaged), "cut off")
+    one_line_error(
+        convert(damaged, tmp_path / "d.mcap", "--topic", "ln29.pose:bagtest/pose", "--md-dir", MSGDEFS),
+        str(damaged),
+        "cut off",
+    )

@@ -4,11 +4,11 @@ CRCs, statistics, chunk and message indexes, large messages, many channels."""
 import io
 
 import pytest
-
-from ln_bag import BagError, McapWriter
 from mcap.reader import make_reader
 from mcap.records import Channel, Chunk, ChunkIndex, Message, MessageIndex, Schema, Statistics
 from mcap.stream_reader import StreamReader
+
+from ln_bag import BagError, McapWriter
 
 
 def write(path, messages, channels=3, chunk_size=4096):
@@ -29,8 +29,10 @@ def read_indexed(path):
     with open(path, "rb") as f:
         reader = make_reader(f, validate_crcs=True)
         summary = reader.get_summary()
-        messages = [(c.topic, m.sequence, m.log_time, m.publish_time, bytes(m.data))
-                    for _, c, m in reader.iter_messages(log_time_order=False)]
+        messages = [
+            (c.topic, m.sequence, m.log_time, m.publish_time, bytes(m.data))
+            for _, c, m in reader.iter_messages(log_time_order=False)
+        ]
     return summary, messages
 
 
@@ -58,8 +60,9 @@ def test_message_indexes_point_at_their_messages(tmp_path):
         summary = make_reader(f).get_summary()
     checked = 0
     for chunk_index in summary.chunk_indexes:
-        chunk = next(StreamReader(io.BytesIO(data[chunk_index.chunk_start_offset:]), skip_magic=True,
-                                  emit_chunks=True).records)
+        chunk = next(
+            StreamReader(io.BytesIO(data[chunk_index.chunk_start_offset :]), skip_magic=True, emit_chunks=True).records
+        )
         assert isinstance(chunk, Chunk)
         records = chunk.data
         for channel_id, offset in chunk_index.message_index_offsets.items():
@@ -117,6 +120,7 @@ def test_checksums_of_chunks_of_every_size(tmp_path):
     """Chunks from a few bytes to 100 KB at every alignment: the CRCs (computed with carry-less
     multiplication where the CPU has it) agree with zlib's, as the reader checks them."""
     import random
+
     rng = random.Random(17)
     for chunk_size in (1, 63, 64, 65, 200, 4099, 100_003):
         path = tmp_path / ("crc_%d.mcap" % chunk_size)

@@ -24,8 +24,14 @@ def start_ln(manager, *args, **popen):
     """`ln ARGS...` running in the background (stdout/stderr captured)."""
     env = manager.env()
     env.pop("LN_CLI_DEBUG", None)
-    return subprocess.Popen([sys.executable, "-m", "links_and_nodes.cli", *args], env=env, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, **popen)
+    return subprocess.Popen(
+        [sys.executable, "-m", "links_and_nodes.cli", *args],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        **popen,
+    )
 
 
 def finish(process, timeout=30):
@@ -93,8 +99,7 @@ def test_records_every_message_with_its_ln_definition(manager, unique, tmp_path)
     pose, counter = "bag.%s.pose" % unique, "bag.%s.counter" % unique
     out = str(tmp_path / "two.mcap")
     n = 300
-    record = start_ln(manager, "record", pose, counter, "-o", out, "--count", str(2 * n), "--duration", "25",
-                      "--json")
+    record = start_ln(manager, "record", pose, counter, "-o", out, "--count", str(2 * n), "--duration", "25", "--json")
     sources = [Source(pose, "bagtest/pose", fill_pose, n), Source(counter, "bagtest/counter", fill_counter, n)]
     try:
         for s in sources:
@@ -124,7 +129,7 @@ def test_records_every_message_with_its_ln_definition(manager, unique, tmp_path)
     assert json.loads(metadata["ln.uses"]) == {"bagtest/vec3": md_text("bagtest/vec3")}
     for i, m in enumerate(poses):
         assert m.publish_time == round(Fraction(EPOCH + i / 1000.0) * 10**9)  # the LN timestamp, to the ns
-        assert abs(m.log_time / 1e9 - time.time()) < 120            # when it was received
+        assert abs(m.log_time / 1e9 - time.time()) < 120  # when it was received
         d = m.decoded
         assert (d.time, d.counter, d.position.x, d.position.y, d.position.z) == (i * 0.01, i, i, -i, 0.5)
         assert list(d.orientation) == [0, 0, 0, 1] and list(d.flags) == [1, -1, i % 100]
@@ -188,12 +193,26 @@ def test_sigkill_leaves_everything_up_to_the_last_chunk_readable(manager, unique
 def test_all_topics_except_excluded_ones_also_those_appearing_later(manager, unique, tmp_path):
     keep, skip, late = ("bag.%s.%s" % (unique, s) for s in ("keep", "skip", "late"))
     out = str(tmp_path / "all.mcap")
-    early = [Source(keep, "bagtest/counter", fill_counter, 10**6, rate=100),
-             Source(skip, "bagtest/counter", fill_counter, 10**6, rate=100)]
+    early = [
+        Source(keep, "bagtest/counter", fill_counter, 10**6, rate=100),
+        Source(skip, "bagtest/counter", fill_counter, 10**6, rate=100),
+    ]
     sources = list(early)
     try:
-        record = start_ln(manager, "record", "--all", "--exclude", "*.skip", "--exclude", "other.*", "-o", out,
-                          "--duration", "4", "--json")
+        record = start_ln(
+            manager,
+            "record",
+            "--all",
+            "--exclude",
+            "*.skip",
+            "--exclude",
+            "other.*",
+            "-o",
+            out,
+            "--duration",
+            "4",
+            "--json",
+        )
         early[0].wait_for_subscriber().start()
         early[1].start()
         time.sleep(1.0)
@@ -235,12 +254,16 @@ def test_refuses_to_overwrite_and_reports_bad_arguments(manager, unique, tmp_pat
     one_line_error(run_ln(manager, "record", "a.b", "-o", str(existing)), str(existing), "already exists")
     assert existing.read_bytes() == b"precious"
     one_line_error(run_ln(manager, "record", "-o", str(tmp_path / "x.mcap")), "no topics", "--all")
-    one_line_error(run_ln(manager, "record", "a.b", "-o", str(tmp_path / "y.mcap"), "--rosbag2", str(tmp_path / "d")),
-                   "not both")
+    one_line_error(
+        run_ln(manager, "record", "a.b", "-o", str(tmp_path / "y.mcap"), "--rosbag2", str(tmp_path / "d")), "not both"
+    )
     (tmp_path / "d").mkdir()
     one_line_error(run_ln(manager, "record", "a.b", "--rosbag2", str(tmp_path / "d")), "already exists")
-    one_line_error(run_ln(manager, "record", "a.b", "-o", str(tmp_path / "no" / "dir.mcap"), "--count", "1"),
-                   "cannot create", "no/dir.mcap")
+    one_line_error(
+        run_ln(manager, "record", "a.b", "-o", str(tmp_path / "no" / "dir.mcap"), "--count", "1"),
+        "cannot create",
+        "no/dir.mcap",
+    )
     unreachable = run_ln(manager, "record", "a.b", "-o", str(tmp_path / "z.mcap"), "--ln-manager", "127.0.0.1:1")
     one_line_error(unreachable, "cannot reach the ln_manager at 127.0.0.1:1")
     assert not (tmp_path / "z.mcap").exists()
@@ -273,8 +296,10 @@ def test_a_full_disk_ends_the_recording_with_a_clear_error_and_keeps_the_file(ma
 def test_a_topic_without_ros_type_is_named_and_the_others_are_recorded(manager, unique, tmp_path):
     good, clash = "bag.%s.good" % unique, "bag.%s.clash" % unique
     out = str(tmp_path / "partly.mcap")
-    sources = [Source(good, "bagtest/counter", fill_counter, 10**6, rate=100),
-               Source(clash, "bagtest/clash", lambda p, i: None, 10**6, rate=100)]
+    sources = [
+        Source(good, "bagtest/counter", fill_counter, 10**6, rate=100),
+        Source(clash, "bagtest/clash", lambda p, i: None, 10**6, rate=100),
+    ]
     try:
         record = start_ln(manager, "record", good, clash, "-o", out, "--duration", "2", "--json")
         sources[0].wait_for_subscriber().start()

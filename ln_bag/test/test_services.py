@@ -30,8 +30,10 @@ def response_payload(total, text, status=0):
 def test_service_calls_go_to_request_and_response_channels(manager, unique, tmp_path):
     """What --services does with each call the manager's service logging reports (independent of how
     the report arrives): the calls of bagtest/add as LN sends them, decoded by mcap-ros2-support."""
-    from ln_bag import McapWriter, Recorder
     from ln_bag.record import Definitions, ServiceCallWriter
+
+    from ln_bag import McapWriter, Recorder
+
     path = str(tmp_path / "calls.mcap")
     writer = McapWriter(path)
     with ln.client("bag_service_test") as clnt:
@@ -41,10 +43,26 @@ def test_service_calls_go_to_request_and_response_channels(manager, unique, tmp_
         recorder.start()
         service = "bag.%s.add" % unique
         for i in range(3):
-            calls.record(service, "bagtest/add", "caller", 0, 2, 100 + i, 1_600_000_000.0 + i,
-                         request_payload(100 + i, i, 10, "call %d" % i))
-            calls.record(service, "bagtest/add", "provider", 1, 0, 100 + i, 1_600_000_000.5 + i,
-                         response_payload(i + 10, "sum of call %d" % i))
+            calls.record(
+                service,
+                "bagtest/add",
+                "caller",
+                0,
+                2,
+                100 + i,
+                1_600_000_000.0 + i,
+                request_payload(100 + i, i, 10, "call %d" % i),
+            )
+            calls.record(
+                service,
+                "bagtest/add",
+                "provider",
+                1,
+                0,
+                100 + i,
+                1_600_000_000.5 + i,
+                response_payload(i + 10, "sum of call %d" % i),
+            )
         recorder.stop()
     writer.close()
     by_topic = {}
@@ -70,6 +88,7 @@ def test_ln_record_services_records_every_call(manager, unique, tmp_path):
         resp.text = "sum of " + req.text
         request.respond()
         return 0
+
     providers.provide(service, "bagtest/add", handler)
     providers.start()
     path = str(tmp_path / "services.mcap")

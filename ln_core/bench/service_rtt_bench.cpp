@@ -182,8 +182,8 @@ int add_handler(void*, void* request, void*) {
       d.resp.sum = d.req.a + d.req.b;
       std::string response_flat;
       flatten(signature->response(), &d.resp, {}, response_flat);
-      const std::string frame = ln::protocol::encode(
-          ln::protocol::Message::response_to(*request).set("response", std::move(response_flat)));
+      const std::string frame =
+          ln::protocol::encode(ln::protocol::Message::response_to(*request).set("response", std::move(response_flat)));
       if (io::send_all(fd, frame.data(), frame.size(), io::Deadline()).outcome != io::Outcome::Done) _exit(0);
     }
   }
@@ -243,8 +243,8 @@ OneCall message_caller(int fd) {
     d.req.b = 1;
     std::string flat;
     flatten(state->signature->request(), &d, {}, flat);
-    const std::string frame =
-        ln::protocol::encode(ln::protocol::Message::request(state->id, "call").set("service_id", 1).set("request", flat));
+    const std::string frame = ln::protocol::encode(
+        ln::protocol::Message::request(state->id, "call").set("service_id", 1).set("request", flat));
     if (io::send_all(fd, frame.data(), frame.size(), io::Deadline()).outcome != io::Outcome::Done) return false;
     for (;;) {
       if (auto response = state->reader.next()) {
@@ -353,8 +353,8 @@ void measure_codec(const Options& options) {
     frames::parse_request(request, head);
     svc_test_add_t p;
     arena.clear();
-    unflatten(signature->request(), request.data() + frames::header_size, request.size() - frames::header_size, &p,
-              {}, arena);
+    unflatten(signature->request(), request.data() + frames::header_size, request.size() - frames::header_size, &p, {},
+              arena);
     // Provider: response frame; caller: its data.
     flat_size(signature->response(), &d.resp, {}, body);
     out.resize(frames::response_overhead({}) + body);
@@ -398,13 +398,20 @@ int main(int argc, char** argv) {
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string key = argv[i];
     const std::string value = argv[i + 1];
-    if (key == "--modes") options.modes = split_list(value);
-    else if (key == "--cpus") options.cpus = split_list(value);
-    else if (key == "--n") options.n = std::max(1, std::atoi(value.c_str()));
-    else if (key == "--warmup") options.warmup = std::max(0, std::atoi(value.c_str()));
-    else if (key == "--runs") options.runs = std::max(1, std::atoi(value.c_str()));
-    else if (key == "--spin-us") options.spin_us = static_cast<unsigned>(std::max(0, std::atoi(value.c_str())));
-    else if (key == "--gap-us") options.gap_us = static_cast<unsigned>(std::max(0, std::atoi(value.c_str())));
+    if (key == "--modes")
+      options.modes = split_list(value);
+    else if (key == "--cpus")
+      options.cpus = split_list(value);
+    else if (key == "--n")
+      options.n = std::max(1, std::atoi(value.c_str()));
+    else if (key == "--warmup")
+      options.warmup = std::max(0, std::atoi(value.c_str()));
+    else if (key == "--runs")
+      options.runs = std::max(1, std::atoi(value.c_str()));
+    else if (key == "--spin-us")
+      options.spin_us = static_cast<unsigned>(std::max(0, std::atoi(value.c_str())));
+    else if (key == "--gap-us")
+      options.gap_us = static_cast<unsigned>(std::max(0, std::atoi(value.c_str())));
     else {
       std::fprintf(stderr, "unknown option %s\n", key.c_str());
       return 2;

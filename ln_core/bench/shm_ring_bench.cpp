@@ -69,8 +69,8 @@ std::vector<double> cpu_busy_shares(std::chrono::milliseconds window) {
       while (std::fgets(line, sizeof(line), stat) != nullptr) {
         if (std::strncmp(line, "cpu", 3) != 0 || line[3] < '0' || line[3] > '9') continue;
         unsigned long long v[8] = {};
-        std::sscanf(line, "%*s %llu %llu %llu %llu %llu %llu %llu %llu", &v[0], &v[1], &v[2], &v[3], &v[4],
-                    &v[5], &v[6], &v[7]);
+        std::sscanf(line, "%*s %llu %llu %llu %llu %llu %llu %llu %llu", &v[0], &v[1], &v[2], &v[3], &v[4], &v[5],
+                    &v[6], &v[7]);
         const unsigned long long idle = v[3] + v[4];
         unsigned long long total = 0;
         for (unsigned long long x : v) total += x;
@@ -168,8 +168,7 @@ pid_t spawn(Body body) {
 
 bool has_exited(pid_t pid) {
   siginfo_t info{};
-  return ::waitid(P_PID, static_cast<id_t>(pid), &info, WEXITED | WNOHANG | WNOWAIT) == 0 &&
-         info.si_pid == pid;
+  return ::waitid(P_PID, static_cast<id_t>(pid), &info, WEXITED | WNOHANG | WNOWAIT) == 0 && info.si_pid == pid;
 }
 
 // Waits until `pid` exits or the deadline passes, without periodic wake-ups
@@ -211,8 +210,8 @@ double steal_ms() {
   double steal = 0;
   if (std::FILE* stat = std::fopen("/proc/stat", "r")) {
     unsigned long long v[8] = {};
-    if (std::fscanf(stat, "cpu %llu %llu %llu %llu %llu %llu %llu %llu", &v[0], &v[1], &v[2], &v[3], &v[4],
-                    &v[5], &v[6], &v[7]) == 8) {
+    if (std::fscanf(stat, "cpu %llu %llu %llu %llu %llu %llu %llu %llu", &v[0], &v[1], &v[2], &v[3], &v[4], &v[5],
+                    &v[6], &v[7]) == 8) {
       steal = static_cast<double>(v[7]) * 10.0;
     }
     std::fclose(stat);
@@ -262,8 +261,7 @@ int rtt_echo(int socket, std::uint32_t size, const std::string& mode, int cpu) {
   }
 }
 
-int rtt_measure(int socket, std::uint32_t size, const std::string& mode, const Placement& placement,
-                int iterations) {
+int rtt_measure(int socket, std::uint32_t size, const std::string& mode, const Placement& placement, int iterations) {
   const bool pinned = pin_to_cpu(placement.measuring_cpu);
   Link link = connect(socket, RingConfig{size, 1, 2, 1, "bench_ping"}, rtt_reader_options(mode));
   const int warmup = size > 65536 ? 50 : 2000;
@@ -317,17 +315,14 @@ int rtt_measure(int socket, std::uint32_t size, const std::string& mode, const P
       "\"quiet\":%s,\"max_spin_us\":%ld,\"n\":%d,"
       "\"median_us\":%.3f,\"p99_us\":%.3f,\"mean_us\":%.3f,\"min_us\":%.3f,\"max_us\":%.1f,"
       "\"mismatches\":%d,\"steal_ms\":%.0f,\"spin_wakeups\":%llu,\"futex_sleeps\":%llu,\"yield_backoffs\":%llu}\n",
-      size, mode.c_str(), placement.name.c_str(), pinned ? "true" : "false", g_quiet ? "true" : "false",
-      g_max_spin_us, iterations, p50, p99, mean,
-      microseconds.front(), microseconds.back(), mismatches, steal,
-      static_cast<unsigned long long>(stats.spin_wakeups),
-      static_cast<unsigned long long>(stats.futex_sleeps),
+      size, mode.c_str(), placement.name.c_str(), pinned ? "true" : "false", g_quiet ? "true" : "false", g_max_spin_us,
+      iterations, p50, p99, mean, microseconds.front(), microseconds.back(), mismatches, steal,
+      static_cast<unsigned long long>(stats.spin_wakeups), static_cast<unsigned long long>(stats.futex_sleeps),
       static_cast<unsigned long long>(stats.yield_backoffs));
   return mismatches == 0 ? 0 : 3;
 }
 
-bool run_rtt(std::uint32_t size, const std::string& mode, const std::string& placement_name,
-             int iterations) {
+bool run_rtt(std::uint32_t size, const std::string& mode, const std::string& placement_name, int iterations) {
   const Placement placement = placement_named(placement_name);
   g_quiet = wait_for_quiet_cpus();
   int sockets[2];
@@ -395,8 +390,8 @@ int rate_publish(int socket, std::uint32_t size, std::uint32_t buffers, int cpu,
   return 0;
 }
 
-int rate_receive(int socket, std::uint32_t size, std::uint32_t buffers, const Placement& placement,
-                 double seconds, double messages_per_second) {
+int rate_receive(int socket, std::uint32_t size, std::uint32_t buffers, const Placement& placement, double seconds,
+                 double messages_per_second) {
   const bool pinned = pin_to_cpu(placement.measuring_cpu);
   ReaderOptions options;
   options.buffers = buffers;
@@ -450,27 +445,24 @@ int rate_receive(int socket, std::uint32_t size, std::uint32_t buffers, const Pl
       "\"publisher_longest_gap_us\":%.0f,\"steal_ms\":%.0f,"
       "\"torn\":%llu,\"out_of_order\":%llu,\"spin_wakeups\":%llu,\"futex_sleeps\":%llu,"
       "\"yield_backoffs\":%llu,\"torn_copies_retried\":%llu}\n",
-      size, buffers, placement.name.c_str(), pinned ? "true" : "false", g_quiet ? "true" : "false",
-      g_max_spin_us, g_lag_policy == LagPolicy::skip_to_newest ? "newest" : "window",
-      messages_per_second > 0 ? "paced" : "flood", messages_per_second, seconds,
-      static_cast<unsigned long long>(report.written), static_cast<double>(report.written) / report.seconds,
-      static_cast<unsigned long long>(received),
+      size, buffers, placement.name.c_str(), pinned ? "true" : "false", g_quiet ? "true" : "false", g_max_spin_us,
+      g_lag_policy == LagPolicy::skip_to_newest ? "newest" : "window", messages_per_second > 0 ? "paced" : "flood",
+      messages_per_second, seconds, static_cast<unsigned long long>(report.written),
+      static_cast<double>(report.written) / report.seconds, static_cast<unsigned long long>(received),
       receive_seconds > 0 ? static_cast<double>(received) / receive_seconds : 0.0,
       static_cast<unsigned long long>(lost),
       report.written ? static_cast<double>(received) / static_cast<double>(report.written) : 0.0,
       static_cast<unsigned long long>(loss_events), static_cast<unsigned long long>(losses_after_sleep),
       static_cast<unsigned long long>(largest_gap), std::chrono::duration<double, std::micro>(longest_stall).count(),
-      report.longest_write_gap_us, steal,
-      static_cast<unsigned long long>(torn), static_cast<unsigned long long>(out_of_order),
-      static_cast<unsigned long long>(stats.spin_wakeups),
-      static_cast<unsigned long long>(stats.futex_sleeps),
-      static_cast<unsigned long long>(stats.yield_backoffs),
+      report.longest_write_gap_us, steal, static_cast<unsigned long long>(torn),
+      static_cast<unsigned long long>(out_of_order), static_cast<unsigned long long>(stats.spin_wakeups),
+      static_cast<unsigned long long>(stats.futex_sleeps), static_cast<unsigned long long>(stats.yield_backoffs),
       static_cast<unsigned long long>(stats.torn_copies));
   return torn == 0 && out_of_order == 0 ? 0 : 3;
 }
 
-bool run_rate(std::uint32_t size, std::uint32_t buffers, const std::string& placement_name,
-              double seconds, double messages_per_second) {
+bool run_rate(std::uint32_t size, std::uint32_t buffers, const std::string& placement_name, double seconds,
+              double messages_per_second) {
   const Placement placement = placement_named(placement_name);
   g_quiet = wait_for_quiet_cpus();
   int sockets[2];
@@ -515,9 +507,8 @@ int main(int argc, char** argv) {
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   std::vector<std::string> args(argv + 1, argv + argc);
   int repeat = 1;
-  while (args.size() >= 2 &&
-         (args[0] == "--repeat" || args[0] == "--max-spin-us" || args[0] == "--lag-policy" ||
-          args[0] == "--wait-quiet")) {
+  while (args.size() >= 2 && (args[0] == "--repeat" || args[0] == "--max-spin-us" || args[0] == "--lag-policy" ||
+                              args[0] == "--wait-quiet")) {
     if (args[0] == "--repeat") repeat = std::max(1, std::atoi(args[1].c_str()));
     if (args[0] == "--max-spin-us") g_max_spin_us = std::max(0L, std::atol(args[1].c_str()));
     if (args[0] == "--wait-quiet") g_wait_quiet_s = std::max(0L, std::atol(args[1].c_str()));
@@ -535,15 +526,18 @@ int main(int argc, char** argv) {
     if (args[0] == "rtt" && args.size() >= 4) {
       const int iterations = args.size() >= 5 ? std::atoi(args[4].c_str()) : 20000;
       ok = run_rtt(static_cast<std::uint32_t>(std::strtoul(args[1].c_str(), nullptr, 0)), args[2], args[3],
-                   iterations) && ok;
+                   iterations) &&
+           ok;
     } else if (args[0] == "rate" && args.size() >= 5) {
       const double pace = args.size() >= 6 ? std::atof(args[5].c_str()) : 0.0;
       ok = run_rate(static_cast<std::uint32_t>(std::strtoul(args[1].c_str(), nullptr, 0)),
                     static_cast<std::uint32_t>(std::strtoul(args[2].c_str(), nullptr, 0)), args[3],
-                    std::atof(args[4].c_str()), pace) && ok;
+                    std::atof(args[4].c_str()), pace) &&
+           ok;
     } else {
       std::fprintf(stderr,
-                   "usage: shm_ring_bench [--repeat N] [--max-spin-us N] [--lag-policy newest|window] [--wait-quiet S] [rtt SIZE copy|zero_copy|write_borrow|copy_nospin "
+                   "usage: shm_ring_bench [--repeat N] [--max-spin-us N] [--lag-policy newest|window] [--wait-quiet S] "
+                   "[rtt SIZE copy|zero_copy|write_borrow|copy_nospin "
                    "same|split [N] | rate SIZE BUFFERS same|split SECONDS [MSGS_PER_S]]\n");
       return 2;
     }

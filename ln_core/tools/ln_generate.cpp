@@ -103,8 +103,7 @@ Options parse_arguments(int argc, char** argv) {
       o.force = true;
     } else if (arg == "--output-format") {
       const std::string format = value();
-      if (format != "c++")
-        throw UsageError("output format '" + format + "' is not supported by ln_core (only c++)");
+      if (format != "c++") throw UsageError("output format '" + format + "' is not supported by ln_core (only c++)");
     } else if (arg == "--map-service-base") {
       const std::string mapping = value();
       const auto eq = mapping.find('=');
@@ -116,8 +115,8 @@ Options parse_arguments(int argc, char** argv) {
     } else if (arg == "--prefix-ns-define") {
       o.header.prefix_namespace_define = value();
     } else if (arg == "--sfunction-parameter" || arg == "-sfunction_parameter" ||
-               arg == "--sfunction-parameter-with-hash" || arg == "--idf" || arg == "-idf" ||
-               arg == "--java-package" || arg == "--jna-skip-builtin") {
+               arg == "--sfunction-parameter-with-hash" || arg == "--idf" || arg == "-idf" || arg == "--java-package" ||
+               arg == "--jna-skip-builtin") {
       throw UsageError("option " + arg + " (Simulink/IDF/Java output) is not supported by ln_core");
     } else if (!arg.empty() && arg[0] == '-' && arg != "-") {
       throw UsageError("unknown option " + arg);
@@ -141,8 +140,10 @@ void collect_files_below(const std::string& base, const std::string& relative, s
     const std::string rel = relative.empty() ? entry : relative + "/" + entry;
     struct stat st;
     if (::stat((base + "/" + rel).c_str(), &st) != 0) continue;
-    if (S_ISDIR(st.st_mode)) collect_files_below(base, rel, out);
-    else if (S_ISREG(st.st_mode) && entry != "md.conf") out.push_back(rel);
+    if (S_ISDIR(st.st_mode))
+      collect_files_below(base, rel, out);
+    else if (S_ISREG(st.st_mode) && entry != "md.conf")
+      out.push_back(rel);
   }
 }
 

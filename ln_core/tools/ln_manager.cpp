@@ -215,11 +215,15 @@ int print_check(const ManagerOptions& options) {
   for (const ProcessConfig& p : system.processes) {
     std::printf("\nprocess %s (%s)\n", p.name.c_str(), p.place.text().c_str());
     std::string problem;
-    if (!p.remote_host.empty()) problem = "runs on host '" + p.remote_host + "', not this one";
-    else if (p.command.empty()) problem = "has no command";
-    else process_argv(p, p.command, problem);
+    if (!p.remote_host.empty())
+      problem = "runs on host '" + p.remote_host + "', not this one";
+    else if (p.command.empty())
+      problem = "has no command";
+    else
+      process_argv(p, p.command, problem);
     std::printf("  command: %s\n", p.command.empty() ? "(none)" : p.command.c_str());
-    for (const auto& [name, command] : p.alt_commands) std::printf("  alt_command %s: %s\n", name.c_str(), command.c_str());
+    for (const auto& [name, command] : p.alt_commands)
+      std::printf("  alt_command %s: %s\n", name.c_str(), command.c_str());
     for (const auto& entry : process_environment(p, context)) std::printf("  env %s\n", entry.c_str());
     if (!p.change_directory.empty()) std::printf("  directory: %s\n", p.change_directory.c_str());
     if (!p.depends_on.empty()) std::printf("  depends_on: %s\n", joined(p.depends_on).c_str());
@@ -261,8 +265,10 @@ struct SignalWaiter {
       sigwait(self.signals, &received);
       if (self.finished.load()) return nullptr;
       const std::string name = received == SIGINT ? "SIGINT" : "SIGTERM";
-      if (self.received_count.fetch_add(1) == 0) (*self.log)(LogLevel::Info, "received " + name);
-      else (*self.log)(LogLevel::Warning, "received " + name + " again");
+      if (self.received_count.fetch_add(1) == 0)
+        (*self.log)(LogLevel::Info, "received " + name);
+      else
+        (*self.log)(LogLevel::Warning, "received " + name + " again");
       self.manager->stop();
     }
   }
@@ -342,7 +348,8 @@ int main(int argc, char** argv) {
   options.port = default_port;
   if (!config_file.empty()) {
     try {
-      auto settings = std::make_shared<LncSettings>(read_lnc_file(config_file, log, config_context(instance_name, prefix)));
+      auto settings =
+          std::make_shared<LncSettings>(read_lnc_file(config_file, log, config_context(instance_name, prefix)));
       if (!settings->instance_name.empty()) options.instance_name = settings->instance_name;
       if (settings->manager_host && !settings->manager_host->empty()) options.listen_host = *settings->manager_host;
       if (settings->manager_port) options.port = *settings->manager_port;
@@ -391,7 +398,8 @@ int main(int argc, char** argv) {
   processes.keep_processes = keep_processes;
   char exe[PATH_MAX] = "";
   if (const ssize_t n = ::readlink("/proc/self/exe", exe, sizeof exe - 1); n > 0)
-    processes.keeper_command = {std::string(exe, static_cast<std::size_t>(n)), "--process-keeper", options.instance_name};
+    processes.keeper_command = {std::string(exe, static_cast<std::size_t>(n)), "--process-keeper",
+                                options.instance_name};
 
   // Signals are taken by sigwait() below, never by a handler that
   // interrupts the manager's thread.

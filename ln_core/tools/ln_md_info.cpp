@@ -32,9 +32,12 @@ std::string json_string(const std::string& s) {
 
 const char* kind_name(Kind kind) {
   switch (kind) {
-    case Kind::Plain: return "plain";
-    case Kind::Service: return "service";
-    case Kind::Event: return "event";
+    case Kind::Plain:
+      return "plain";
+    case Kind::Service:
+      return "service";
+    case Kind::Event:
+      return "event";
   }
   return "?";
 }
@@ -45,8 +48,7 @@ void print_section(std::ostream& out, const std::string& label, const std::strin
                    const std::string& member_prefix, const std::vector<Field>& fields) {
   const StructLayout layout = struct_layout(fields);
   out << "{\"section\": " << json_string(label) << ", \"c_type\": " << json_string(c_type)
-      << ", \"member_prefix\": " << json_string(member_prefix) << ", \"size\": " << layout.size
-      << ", \"fields\": [";
+      << ", \"member_prefix\": " << json_string(member_prefix) << ", \"size\": " << layout.size << ", \"fields\": [";
   for (std::size_t i = 0; i < fields.size(); ++i) {
     const Field& f = fields[i];
     const std::size_t next = i + 1 < fields.size() ? layout.offsets[i + 1] : layout.size;
@@ -60,10 +62,10 @@ void print_section(std::ostream& out, const std::string& label, const std::strin
 
 void print_definition(std::ostream& out, const Definition& def) {
   const std::string id = identifier_from_name(def.name);
-  out << "{\"name\": " << json_string(def.name) << ", \"path\": " << json_string(def.path)
-      << ", \"kind\": \"" << kind_name(def.kind) << "\", \"hash\": " << json_string(def.hash)
-      << ", \"signature\": " << json_string(signature(def)) << ", \"packet_size\": "
-      << (def.kind == Kind::Plain ? std::to_string(packet_size(def)) : std::string("null"))
+  out << "{\"name\": " << json_string(def.name) << ", \"path\": " << json_string(def.path) << ", \"kind\": \""
+      << kind_name(def.kind) << "\", \"hash\": " << json_string(def.hash)
+      << ", \"signature\": " << json_string(signature(def))
+      << ", \"packet_size\": " << (def.kind == Kind::Plain ? std::to_string(packet_size(def)) : std::string("null"))
       << ", \"defines\": [";
   for (std::size_t i = 0; i < def.defines.size(); ++i)
     out << (i ? ", " : "") << "{\"local_name\": " << json_string(def.defines[i].local_name)

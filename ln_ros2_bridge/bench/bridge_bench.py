@@ -46,8 +46,10 @@ import ln_testing  # noqa: E402
 import ros_testing  # noqa: E402
 
 MSGDEFS = HERE / "msgdefs"
-KINDS = {"stamped": ("bridgebench/stamped", "bridgebench_ln_msgs/msg/Stamped", 64),
-         "image": ("bridgebench/image", "bridgebench_ln_msgs/msg/Image", 1048576 + 24)}
+KINDS = {
+    "stamped": ("bridgebench/stamped", "bridgebench_ln_msgs/msg/Stamped", 64),
+    "image": ("bridgebench/image", "bridgebench_ln_msgs/msg/Image", 1048576 + 24),
+}
 # CDR offsets (after the 4-byte encapsulation): stamp (float64) at 4, seq (uint32) at 12
 STAMP_AT, SEQ_AT = 4, 12
 
@@ -62,21 +64,23 @@ def ln_source(args):
     """Publishes on args.topics LN topics (args.topic, or with "0", "1", ... appended),
     round robin, args.rate packets/s in total, once each has a subscriber."""
     import links_and_nodes as ln
+
     client = ln.client("bench_source", os.environ["LN_MANAGER"])
     md_name = KINDS[args.kind][0]
     ports = [client.publish(topic, md_name, buffers=4) for topic in _topics(args.topic, args.topics)]
     deadline = time.monotonic() + args.timeout
     while not all(p.has_subscriber() for p in ports) and time.monotonic() < deadline:
-        time.sleep(0.005)   # polling the subscriber flags, bounded
+        time.sleep(0.005)  # polling the subscriber flags, bounded
     writes = [(p.port.write, p.packet._data if hasattr(p.packet, "_data") else p.packet._buf) for p in ports]
     emit(event="ready")
-    time.sleep(args.start_delay)   # the driver measures the bridge's idle CPU meanwhile
+    time.sleep(args.start_delay)  # the driver measures the bridge's idle CPU meanwhile
     emit(event="start")
 
     def write(seq):
         write_port, buffer = writes[seq % len(writes)]
         _stamp(buffer, 0, 8, seq // len(writes))
         write_port(buffer)
+
     send(write, args)
 
 
@@ -89,8 +93,9 @@ def ros_source(args):
     """Publishes on args.topics topics (args.topic, or args.topic + "0", "1", ... when
     there are several), round robin, args.rate messages/s in total."""
     import rclpy
-    from rclpy.serialization import serialize_message
     from rclpy.qos import QoSProfile
+    from rclpy.serialization import serialize_message
+
     rclpy.init()
     node = rclpy.create_node("bench_source")
     cls = _ros_class(KINDS[args.kind][1])
@@ -99,16 +104,17 @@ def ros_source(args):
     buffer = bytearray(serialize_message(cls()))
     deadline = time.monotonic() + args.timeout
     while any(p.get_subscription_count() == 0 for p in publishers) and time.monotonic() < deadline:
-        time.sleep(0.005)   # discovery: wait for the sink to match, bounded
+        time.sleep(0.005)  # discovery: wait for the sink to match, bounded
     emit(event="ready")
-    time.sleep(args.start_delay)   # the driver measures the others' idle CPU meanwhile
+    time.sleep(args.start_delay)  # the driver measures the others' idle CPU meanwhile
     emit(event="start")
 
     def publish(seq):
         _stamp(buffer, STAMP_AT, SEQ_AT, seq // len(publishers))
         publishers[seq % len(publishers)].publish(bytes(buffer))
+
     send(publish, args)
-    time.sleep(0.5)   # reliable: let the last ones be acknowledged before the publishers go
+    time.sleep(0.5)  # reliable: let the last ones be acknowledged before the publishers go
     node.destroy_node()
     rclpy.shutdown()
 
@@ -142,6 +148,7 @@ def ln_sink(args):
     machine, which are not the bridge's losses) and reports the sequence
     numbers that arrived per topic."""
     import links_and_nodes as ln
+
     client = ln.client("bench_sink", os.environ["LN_MANAGER"])
     topics = _topics(args.topic, args.topics)
     ports = [client.subscribe(topic, KINDS[args.kind][0], buffers=512) for topic in topics]
@@ -159,7 +166,7 @@ def ln_sink(args):
         if got:
             last_change = time.monotonic()
         elif any(seqs) and time.monotonic() - last_change > args.idle:
-            break   # the sender is done
+            break  # the sender is done
         else:
             time.sleep(0.0005)
     emit(event="received", counts=[len(s) for s in seqs], max_seq=[max(s) if s else -1 for s in seqs])
@@ -168,6 +175,7 @@ def ln_sink(args):
 def ros_sink(args):
     import rclpy
     from rclpy.qos import QoSProfile
+
     rclpy.init()
     node = rclpy.create_node("bench_sink")
     latencies, arrivals, seqs = [], [], set()
@@ -181,12 +189,13 @@ def ros_sink(args):
         latencies.append(now - struct.unpack_from("<d", data, STAMP_AT)[0])
         arrivals.append(now)
 
-    subscription = node.create_subscription(_ros_class(KINDS[args.kind][1]), args.topic, on_message,
-                                            QoSProfile(depth=10), raw=True)
+    subscription = node.create_subscription(
+        _ros_class(KINDS[args.kind][1]), args.topic, on_message, QoSProfile(depth=10), raw=True
+    )
     emit(event="ready")
     deadline = time.monotonic() + args.timeout
     while subscription.get_publisher_count() == 0 and time.monotonic() < deadline:
-        rclpy.spin_once(node, timeout_sec=0.01)   # discovery: the sender starts once we are matched
+        rclpy.spin_once(node, timeout_sec=0.01)  # discovery: the sender starts once we are matched
     emit(event="matched")
     last_change, last_count = time.monotonic(), 0
     while len(seqs) < args.count and time.monotonic() < deadline:
@@ -194,7 +203,7 @@ def ros_sink(args):
         if len(seqs) != last_count:
             last_change, last_count = time.monotonic(), len(seqs)
         elif seqs and time.monotonic() - last_change > args.idle:
-            break   # the sender is done
+            break  # the sender is done
     emit(event="received", count=len(seqs), latencies=latencies, arrivals=arrivals)
     node.destroy_node()
     rclpy.shutdown()
@@ -202,6 +211,7 @@ def ros_sink(args):
 
 def _ros_class(ros_type):
     import importlib
+
     package, kind, name = ros_type.split("/")
     return getattr(importlib.import_module("%s.%s" % (package, kind)), name)
 
@@ -239,9 +249,21 @@ class Run:
     def bridge(self, config_text, name="bridge"):
         config = self.work / (name + ".yaml")
         config.write_text(config_text)
-        proc = self.start(name, [sys.executable, "-m", "ln_ros2_bridge", "--config", config,
-                                     "--ln-manager", self.ln().address, "--log-level", "warning"],
-                          self.ln().env(self.env))
+        proc = self.start(
+            name,
+            [
+                sys.executable,
+                "-m",
+                "ln_ros2_bridge",
+                "--config",
+                config,
+                "--ln-manager",
+                self.ln().address,
+                "--log-level",
+                "warning",
+            ],
+            self.ln().env(self.env),
+        )
         return proc
 
     def events(self, name, event, timeout):
@@ -255,6 +277,7 @@ class Run:
             if proc.poll() is not None:
                 raise RuntimeError("%s exited before '%s':\n%s" % (name, event, ln_testing.tail(path)))
             return None
+
         return ln_testing.wait_for(found, timeout, "%s: %s" % (name, event), interval=0.01)
 
     def close(self):
@@ -264,6 +287,7 @@ class Run:
         if self.system is not None:
             self.system.stop()
         import shutil
+
         shutil.rmtree(self.work, ignore_errors=True)
 
 
@@ -271,7 +295,9 @@ def bridge_config(topic, kind, direction="ln_to_ros", topics=1, depth=10, reliab
     ln_name = KINDS[kind][0]
     return "topics:\n" + "".join(
         "  - {ln: %s, ros: /%s, type: %s, direction: %s, qos: {depth: %d, reliability: %s}, ln_port: {buffers: 16}}\n"
-        % (t, t.replace(".", "/"), ln_name, direction, depth, reliability) for t in _topics(topic, topics))
+        % (t, t.replace(".", "/"), ln_name, direction, depth, reliability)
+        for t in _topics(topic, topics)
+    )
 
 
 class CpuMeter:
@@ -287,7 +313,7 @@ class CpuMeter:
         """`also`: another CpuMeter measured over the same window."""
         meters = [self] + ([also] if also else [])
         starts = [(_cpu_seconds(m.pid), time.monotonic()) for m in meters]
-        time.sleep(seconds)   # a measurement window, not a wait for the other side
+        time.sleep(seconds)  # a measurement window, not a wait for the other side
         for m, (cpu, wall) in zip(meters, starts):
             m._mark = (_cpu_seconds(m.pid), time.monotonic())
             m.idle_share = (m._mark[0] - cpu) / (m._mark[1] - wall)
@@ -298,7 +324,7 @@ class CpuMeter:
         return cpu, wall, max(0.0, cpu - self.idle_share * wall)
 
 
-IDLE_WINDOW = 1.0   # seconds of the bridge's idle CPU measured before the sender starts
+IDLE_WINDOW = 1.0  # seconds of the bridge's idle CPU measured before the sender starts
 
 
 def measure_flow(args, kind, rate, count, seconds, idle):
@@ -307,21 +333,65 @@ def measure_flow(args, kind, rate, count, seconds, idle):
     try:
         topic = "bench.%s" % kind
         ros_topic = "/" + topic.replace(".", "/")
-        sink = run.role("sink", "ros-sink", "--kind", kind, "--topic", ros_topic, "--count", count,
-                        "--timeout", args.timeout, "--idle", idle)
+        sink = run.role(
+            "sink",
+            "ros-sink",
+            "--kind",
+            kind,
+            "--topic",
+            ros_topic,
+            "--count",
+            count,
+            "--timeout",
+            args.timeout,
+            "--idle",
+            idle,
+        )
         run.events("sink", "ready", 60)
         bridge = meter = None
         delay = IDLE_WINDOW + 0.5
         if args.via == "bridge":
             bridge = run.bridge(bridge_config(topic, kind))
-            run.events("sink", "matched", 60)   # the bridge's ROS publisher exists: no start-up losses
-            source = run.role("source", "ln-source", "--kind", kind, "--topic", topic, "--count", count,
-                              "--rate", rate, "--seconds", seconds, "--timeout", args.timeout,
-                              "--start-delay", delay, ln_env=True, python=run.ln().peer_python())
+            run.events("sink", "matched", 60)  # the bridge's ROS publisher exists: no start-up losses
+            source = run.role(
+                "source",
+                "ln-source",
+                "--kind",
+                kind,
+                "--topic",
+                topic,
+                "--count",
+                count,
+                "--rate",
+                rate,
+                "--seconds",
+                seconds,
+                "--timeout",
+                args.timeout,
+                "--start-delay",
+                delay,
+                ln_env=True,
+                python=run.ln().peer_python(),
+            )
         else:
-            source = run.role("source", "ros-source", "--kind", kind, "--topic", ros_topic, "--count", count,
-                              "--rate", rate, "--seconds", seconds, "--timeout", args.timeout,
-                              "--start-delay", delay)
+            source = run.role(
+                "source",
+                "ros-source",
+                "--kind",
+                kind,
+                "--topic",
+                ros_topic,
+                "--count",
+                count,
+                "--rate",
+                rate,
+                "--seconds",
+                seconds,
+                "--timeout",
+                args.timeout,
+                "--start-delay",
+                delay,
+            )
         run.events("source", "ready", 60)
         if bridge:
             meter = CpuMeter(bridge.pid)
@@ -329,8 +399,14 @@ def measure_flow(args, kind, rate, count, seconds, idle):
         sent = run.events("source", "sent", args.timeout + 30)
         cpu = meter.flow() if meter else (0.0, 0.0, 0.0)
         received = run.events("sink", "received", args.timeout + 30)
-        received.update(sent=sent["count"], send_seconds=sent["seconds"], bridge_cpu=cpu[0], wall=cpu[1],
-                        bridge_cpu_beyond_idle=cpu[2], bridge_idle_share=meter.idle_share if meter else 0.0)
+        received.update(
+            sent=sent["count"],
+            send_seconds=sent["seconds"],
+            bridge_cpu=cpu[0],
+            wall=cpu[1],
+            bridge_cpu_beyond_idle=cpu[2],
+            bridge_idle_share=meter.idle_share if meter else 0.0,
+        )
         sink.wait(timeout=30)
         source.wait(timeout=30)
         return received
@@ -345,21 +421,55 @@ def measure_ln_to_ros(args):
     run = Run(args.ln)
     try:
         source_topic, sink_topic, ros_topic = "bench.s", "bench.r", "/bench/s"
-        sink = run.role("sink", "ln-sink", "--topic", sink_topic, "--topics", args.topics, "--timeout", args.timeout,
-                        "--idle", 2.0, ln_env=True, python=run.ln().peer_python())
+        sink = run.role(
+            "sink",
+            "ln-sink",
+            "--topic",
+            sink_topic,
+            "--topics",
+            args.topics,
+            "--timeout",
+            args.timeout,
+            "--idle",
+            2.0,
+            ln_env=True,
+            python=run.ln().peer_python(),
+        )
         run.events("sink", "ready", 60)
-        entries = "".join("  - {ln: %s, ros: %s, type: %s, direction: ros_to_ln, qos: {depth: 100, reliability: %s}}\n"
-                          % (ln_name, ros_name, KINDS["stamped"][0], args.reliability) for ln_name, ros_name in
-                          zip(_topics(sink_topic, args.topics), _topics(ros_topic, args.topics)))
-        run.bridge("ln: {client_name: bench_forwarder}\nros: {node_name: bench_forwarder}\n"
-                   "loop_prevention: {bridge_names: [bench_forwarder]}\ntopics:\n" + entries, name="forwarder")
-        bridge = run.bridge(bridge_config(source_topic, "stamped", "ln_to_ros", args.topics, depth=100,
-                                          reliability=args.reliability))
-        source = run.role("source", "ln-source", "--topic", source_topic, "--topics", args.topics,
-                          "--count", 10 ** 9, "--rate", args.rate, "--seconds", args.seconds,
-                          "--timeout", args.timeout, "--start-delay", IDLE_WINDOW + 2.0,
-                          ln_env=True, python=run.ln().peer_python())
-        run.events("source", "ready", 60)   # the measured bridge subscribed every topic
+        entries = "".join(
+            "  - {ln: %s, ros: %s, type: %s, direction: ros_to_ln, qos: {depth: 100, reliability: %s}}\n"
+            % (ln_name, ros_name, KINDS["stamped"][0], args.reliability)
+            for ln_name, ros_name in zip(_topics(sink_topic, args.topics), _topics(ros_topic, args.topics))
+        )
+        run.bridge(
+            "ln: {client_name: bench_forwarder}\nros: {node_name: bench_forwarder}\n"
+            "loop_prevention: {bridge_names: [bench_forwarder]}\ntopics:\n" + entries,
+            name="forwarder",
+        )
+        bridge = run.bridge(
+            bridge_config(source_topic, "stamped", "ln_to_ros", args.topics, depth=100, reliability=args.reliability)
+        )
+        source = run.role(
+            "source",
+            "ln-source",
+            "--topic",
+            source_topic,
+            "--topics",
+            args.topics,
+            "--count",
+            10**9,
+            "--rate",
+            args.rate,
+            "--seconds",
+            args.seconds,
+            "--timeout",
+            args.timeout,
+            "--start-delay",
+            IDLE_WINDOW + 2.0,
+            ln_env=True,
+            python=run.ln().peer_python(),
+        )
+        run.events("source", "ready", 60)  # the measured bridge subscribed every topic
         meter = CpuMeter(bridge.pid)
         meter.idle(IDLE_WINDOW)
         sent = run.events("source", "sent", args.timeout + 30)
@@ -369,9 +479,15 @@ def measure_ln_to_ros(args):
         lost = sum(max(0, n - got) for n, got in zip(per_topic, received["counts"]))
         sink.wait(timeout=30)
         source.wait(timeout=30)
-        return dict(sent=sent["count"], rate=sent["count"] / max(1e-9, sent["seconds"]),
-                    received=sum(received["counts"]), lost=lost, bridge_cpu_share=cpu / max(1e-9, wall),
-                    bridge_idle_share=meter.idle_share, cpu_us_per_msg=1e6 * beyond / max(1, sent["count"]))
+        return dict(
+            sent=sent["count"],
+            rate=sent["count"] / max(1e-9, sent["seconds"]),
+            received=sum(received["counts"]),
+            lost=lost,
+            bridge_cpu_share=cpu / max(1e-9, wall),
+            bridge_idle_share=meter.idle_share,
+            cpu_us_per_msg=1e6 * beyond / max(1, sent["count"]),
+        )
     finally:
         run.close()
 
@@ -381,28 +497,63 @@ def measure_ros_to_ln(args):
     run = Run(args.ln)
     try:
         topic, ros_topic = "bench.s", "/bench/s"
-        sink = run.role("sink", "ln-sink", "--topic", topic, "--topics", args.topics, "--timeout", args.timeout,
-                        "--idle", 2.0, ln_env=True, python=run.ln().peer_python())
+        sink = run.role(
+            "sink",
+            "ln-sink",
+            "--topic",
+            topic,
+            "--topics",
+            args.topics,
+            "--timeout",
+            args.timeout,
+            "--idle",
+            2.0,
+            ln_env=True,
+            python=run.ln().peer_python(),
+        )
         run.events("sink", "ready", 60)
         bridge = run.bridge(bridge_config(topic, "stamped", "ros_to_ln", args.topics, depth=100))
-        source = run.role("source", "ros-source", "--topic", ros_topic, "--topics", args.topics, "--depth", 100,
-                          "--count", 10 ** 9, "--rate", args.rate, "--seconds", args.seconds,
-                          "--timeout", args.timeout, "--start-delay", IDLE_WINDOW + 1.0)
-        run.events("source", "ready", 60)   # every topic matched by the bridge
+        source = run.role(
+            "source",
+            "ros-source",
+            "--topic",
+            ros_topic,
+            "--topics",
+            args.topics,
+            "--depth",
+            100,
+            "--count",
+            10**9,
+            "--rate",
+            args.rate,
+            "--seconds",
+            args.seconds,
+            "--timeout",
+            args.timeout,
+            "--start-delay",
+            IDLE_WINDOW + 1.0,
+        )
+        run.events("source", "ready", 60)  # every topic matched by the bridge
         meter, source_meter = CpuMeter(bridge.pid), CpuMeter(source.pid)
         meter.idle(IDLE_WINDOW, also=source_meter)
         sent = run.events("source", "sent", args.timeout + 30)
         cpu, wall, beyond = meter.flow()
         source_beyond = source_meter.flow()[2]
         received = run.events("sink", "received", args.timeout + 30)
-        per_topic = [len(range(t, sent["count"], args.topics)) for t in range(args.topics)]   # round robin
+        per_topic = [len(range(t, sent["count"], args.topics)) for t in range(args.topics)]  # round robin
         lost = sum(max(0, n - got) for n, got in zip(per_topic, received["counts"]))
         sink.wait(timeout=30)
         source.wait(timeout=30)
-        return dict(sent=sent["count"], rate=sent["count"] / max(1e-9, sent["seconds"]), received=sum(received["counts"]),
-                    lost=lost, bridge_cpu_share=cpu / max(1e-9, wall), bridge_idle_share=meter.idle_share,
-                    cpu_us_per_msg=1e6 * beyond / max(1, sum(received["counts"])),
-                    source_cpu_us_per_msg=1e6 * source_beyond / max(1, sent["count"]))
+        return dict(
+            sent=sent["count"],
+            rate=sent["count"] / max(1e-9, sent["seconds"]),
+            received=sum(received["counts"]),
+            lost=lost,
+            bridge_cpu_share=cpu / max(1e-9, wall),
+            bridge_idle_share=meter.idle_share,
+            cpu_us_per_msg=1e6 * beyond / max(1, sum(received["counts"])),
+            source_cpu_us_per_msg=1e6 * source_beyond / max(1, sent["count"]),
+        )
     finally:
         run.close()
 
@@ -420,8 +571,21 @@ def percentile(values, q):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("mode", choices=["latency", "image", "image-latency", "cpu", "ros-to-ln", "ln-to-ros", "ln-source",
-                                         "ros-source", "ros-sink", "ln-sink"])
+    parser.add_argument(
+        "mode",
+        choices=[
+            "latency",
+            "image",
+            "image-latency",
+            "cpu",
+            "ros-to-ln",
+            "ln-to-ros",
+            "ln-source",
+            "ros-source",
+            "ros-sink",
+            "ln-sink",
+        ],
+    )
     parser.add_argument("--via", default="bridge", choices=["bridge", "direct"])
     parser.add_argument("--ln", default="ln29", choices=["ln29", "ln_core"])
     parser.add_argument("--kind", default="stamped", choices=list(KINDS))
@@ -442,35 +606,75 @@ def main():
         return roles[args.mode](args)
     if args.mode == "latency":
         report = measure_flow(args, "stamped", args.rate or 200.0, args.count, 0, 1.0)
-        lat = [v * 1e6 for v in report["latencies"][min(50, len(report["latencies"]) // 10):]]  # skip warm-up
-        emit(mode="latency", via=args.via, ln=args.ln, n=len(lat), sent=report["sent"], received=report["count"],
-             median_us=statistics.median(lat), p90_us=percentile(lat, 0.9), p99_us=percentile(lat, 0.99))
+        lat = [v * 1e6 for v in report["latencies"][min(50, len(report["latencies"]) // 10) :]]  # skip warm-up
+        emit(
+            mode="latency",
+            via=args.via,
+            ln=args.ln,
+            n=len(lat),
+            sent=report["sent"],
+            received=report["count"],
+            median_us=statistics.median(lat),
+            p90_us=percentile(lat, 0.9),
+            p99_us=percentile(lat, 0.99),
+        )
     elif args.mode == "image":
-        report = measure_flow(args, "image", args.rate or 1000.0, 10 ** 9, args.seconds or 5.0, 1.0)
+        report = measure_flow(args, "image", args.rate or 1000.0, 10**9, args.seconds or 5.0, 1.0)
         arrivals = report["arrivals"]
         rate = (len(arrivals) - 1) / (arrivals[-1] - arrivals[0]) if len(arrivals) > 1 else 0.0
-        emit(mode="image", via=args.via, ln=args.ln, received=report["count"], sent=report["sent"],
-             rate=rate, sender_rate=report["sent"] / max(1e-9, report["send_seconds"]),
-             median_latency_ms=statistics.median(report["latencies"]) * 1e3 if report["latencies"] else None)
+        emit(
+            mode="image",
+            via=args.via,
+            ln=args.ln,
+            received=report["count"],
+            sent=report["sent"],
+            rate=rate,
+            sender_rate=report["sent"] / max(1e-9, report["send_seconds"]),
+            median_latency_ms=statistics.median(report["latencies"]) * 1e3 if report["latencies"] else None,
+        )
     elif args.mode == "image-latency":
         report = measure_flow(args, "image", args.rate or 20.0, args.count, 0, 1.0)
-        lat = [v * 1e3 for v in report["latencies"][min(5, len(report["latencies"]) // 10):]]  # skip warm-up
-        emit(mode="image-latency", via=args.via, ln=args.ln, n=len(lat), sent=report["sent"],
-             received=report["count"], median_ms=statistics.median(lat), p90_ms=percentile(lat, 0.9))
+        lat = [v * 1e3 for v in report["latencies"][min(5, len(report["latencies"]) // 10) :]]  # skip warm-up
+        emit(
+            mode="image-latency",
+            via=args.via,
+            ln=args.ln,
+            n=len(lat),
+            sent=report["sent"],
+            received=report["count"],
+            median_ms=statistics.median(lat),
+            p90_ms=percentile(lat, 0.9),
+        )
     elif args.mode == "cpu":
-        report = measure_flow(args, "stamped", args.rate or 1000.0, 10 ** 9, args.seconds or 5.0, 1.0)
-        emit(mode="cpu", ln=args.ln, rate=args.rate, delivered_rate=report["count"] / max(1e-9, report["send_seconds"]),
-             bridge_cpu_share=report["bridge_cpu"] / max(1e-9, report["wall"]),
-             bridge_idle_share=report["bridge_idle_share"],
-             cpu_us_per_msg=1e6 * report["bridge_cpu_beyond_idle"] / max(1, report["count"]))
+        report = measure_flow(args, "stamped", args.rate or 1000.0, 10**9, args.seconds or 5.0, 1.0)
+        emit(
+            mode="cpu",
+            ln=args.ln,
+            rate=args.rate,
+            delivered_rate=report["count"] / max(1e-9, report["send_seconds"]),
+            bridge_cpu_share=report["bridge_cpu"] / max(1e-9, report["wall"]),
+            bridge_idle_share=report["bridge_idle_share"],
+            cpu_us_per_msg=1e6 * report["bridge_cpu_beyond_idle"] / max(1, report["count"]),
+        )
     elif args.mode == "ln-to-ros":
-        emit(mode="ln-to-ros", ln=args.ln, topics=args.topics, reliability=args.reliability,
-             **measure_ln_to_ros(argparse.Namespace(**dict(vars(args), rate=args.rate or 2000.0,
-                                                           seconds=args.seconds or 5.0))))
+        emit(
+            mode="ln-to-ros",
+            ln=args.ln,
+            topics=args.topics,
+            reliability=args.reliability,
+            **measure_ln_to_ros(
+                argparse.Namespace(**dict(vars(args), rate=args.rate or 2000.0, seconds=args.seconds or 5.0))
+            ),
+        )
     elif args.mode == "ros-to-ln":
-        emit(mode="ros-to-ln", ln=args.ln, topics=args.topics,
-             **measure_ros_to_ln(argparse.Namespace(**dict(vars(args), rate=args.rate or 2000.0,
-                                                           seconds=args.seconds or 5.0))))
+        emit(
+            mode="ros-to-ln",
+            ln=args.ln,
+            topics=args.topics,
+            **measure_ros_to_ln(
+                argparse.Namespace(**dict(vars(args), rate=args.rate or 2000.0, seconds=args.seconds or 5.0))
+            ),
+        )
     return 0
 
 

@@ -23,6 +23,7 @@ the direct hop does not involve LN and is measured once per rep.
 
 Hook-up: bench/cases/ros2_bridge.py imports TITLE, ORDER and run from this file.
 """
+
 import shutil
 import sys
 import tempfile
@@ -32,9 +33,9 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 sys.path.insert(0, str(HERE.parents[1] / "tests" / "support"))
 
-from benchlib import Row, median, spread_note  # noqa: E402  (bench/ is on sys.path under bench/run)
 import ln_testing  # noqa: E402
 import ros_testing  # noqa: E402
+from benchlib import Row, median, spread_note  # noqa: E402  (bench/ is on sys.path under bench/run)
 
 TITLE = "ln_ros2_bridge vs a direct ROS 2 hop and its targets: latency, 1 MiB images, CPU, ROS 2 -> LN"
 ORDER = 300
@@ -48,7 +49,7 @@ def _systems():
     probe_dir = tempfile.mkdtemp(prefix="ln_ros2_bridge_probe-")
     for kind in ("ln29", "ln_core"):
         try:
-            ln_testing.ln_system(kind, probe_dir)   # raises Unavailable when not installed
+            ln_testing.ln_system(kind, probe_dir)  # raises Unavailable when not installed
             found.append(kind)
         except ln_testing.Unavailable as error:
             print("ros2 bridge bench: no %s: %s" % (kind, error), file=sys.stderr)
@@ -58,8 +59,9 @@ def _systems():
 
 def run(ctx):
     try:
-        import msg_mapping  # noqa: F401
         import rclpy  # noqa: F401
+
+        import msg_mapping  # noqa: F401
     except ImportError as error:
         ctx.skip("needs rclpy and msg_mapping (. launchless_scripts/env.sh): %s" % error)
     systems = _systems()
@@ -74,7 +76,7 @@ def run(ctx):
         return ctx.run_json(prefix + [python, DRIVER, *map(str, args)], timeout=timeout, env=env)[-1]
 
     if ctx.quick:
-        systems = systems[:1]   # --quick: one LN system, short runs
+        systems = systems[:1]  # --quick: one LN system, short runs
     n, seconds, images = ctx.n(3000, 300), ctx.n(4, 1.5), ctx.n(100, 20)
     results = {}
 
@@ -92,12 +94,25 @@ def run(ctx):
             add(("image", kind), measure("image", "--via", "bridge", *ln, "--seconds", seconds))
             add(("image-latency", kind), measure("image-latency", "--via", "bridge", *ln, "--n", images))
             add(("ln-to-ros", kind), measure("ln-to-ros", *ln, "--topics", 20, "--rate", 10000, "--seconds", seconds))
-            add(("ln-to-ros best effort", kind), measure("ln-to-ros", *ln, "--topics", 20, "--rate", 10000,
-                                                         "--seconds", seconds, "--reliability", "best_effort"))
-            add(("ros-to-ln 20", kind), measure("ros-to-ln", *ln, "--topics", 20, "--rate", 10000,
-                                               "--seconds", seconds))
-            add(("ros-to-ln 1", kind), measure("ros-to-ln", *ln, "--topics", 1, "--rate", 2000,
-                                              "--seconds", seconds))
+            add(
+                ("ln-to-ros best effort", kind),
+                measure(
+                    "ln-to-ros",
+                    *ln,
+                    "--topics",
+                    20,
+                    "--rate",
+                    10000,
+                    "--seconds",
+                    seconds,
+                    "--reliability",
+                    "best_effort",
+                ),
+            )
+            add(
+                ("ros-to-ln 20", kind), measure("ros-to-ln", *ln, "--topics", 20, "--rate", 10000, "--seconds", seconds)
+            )
+            add(("ros-to-ln 1", kind), measure("ros-to-ln", *ln, "--topics", 1, "--rate", 2000, "--seconds", seconds))
 
     def values(key, field):
         return [r[field] for r in results[key]]
@@ -107,39 +122,79 @@ def run(ctx):
         group = "ROS 2 bridge: one-way latency 64 B @ 200 Hz"
         for metric, field, note in (("median", "median_us", "target <= 1.2x; "), ("p90", "p90_us", "")):
             v = values(("latency", kind), field)
-            yield Row(group=group, name=name, metric=metric, unit="us", value=median(v),
-                      reference_name="rclpy -> rclpy", reference_value=median(values("latency direct", field)),
-                      note=note + spread_note(v))
+            yield Row(
+                group=group,
+                name=name,
+                metric=metric,
+                unit="us",
+                value=median(v),
+                reference_name="rclpy -> rclpy",
+                reference_value=median(values("latency direct", field)),
+                note=note + spread_note(v),
+            )
         group = "ROS 2 bridge: 1 MiB images LN -> ROS 2"
         v = values(("image", kind), "rate")
-        yield Row(group=group, name=name, metric="delivered, 1000/s offered", unit="msg/s", value=median(v),
-                  reference_name="rclpy -> rclpy", reference_value=median(values("image direct", "rate")),
-                  note="target >= 1.0x; " + spread_note(v))
+        yield Row(
+            group=group,
+            name=name,
+            metric="delivered, 1000/s offered",
+            unit="msg/s",
+            value=median(v),
+            reference_name="rclpy -> rclpy",
+            reference_value=median(values("image direct", "rate")),
+            note="target >= 1.0x; " + spread_note(v),
+        )
         v = values(("image-latency", kind), "median_ms")
-        yield Row(group=group, name=name, metric="latency median at 20/s", unit="ms", value=median(v),
-                  reference_name="rclpy -> rclpy", reference_value=median(values("image-latency direct", "median_ms")),
-                  note="target <= 1.0x; bridge: 32 MiB shared-memory segment; " + spread_note(v))
+        yield Row(
+            group=group,
+            name=name,
+            metric="latency median at 20/s",
+            unit="ms",
+            value=median(v),
+            reference_name="rclpy -> rclpy",
+            reference_value=median(values("image-latency direct", "median_ms")),
+            note="target <= 1.0x; bridge: 32 MiB shared-memory segment; " + spread_note(v),
+        )
         group = "ROS 2 bridge: CPU per 64 B message, 10 kHz over 20 topics"
         publisher = median(values(("ros-to-ln 20", kind), "source_cpu_us_per_msg"))
         for key, what, reference in (
-                ("ln-to-ros", "%s -> bridge -> ROS 2, reliable" % LABEL[kind], "rclpy publisher, reliable"),
-                ("ln-to-ros best effort", "%s -> bridge -> ROS 2, best effort" % LABEL[kind], ""),
-                ("ros-to-ln 20", "rclpy -> bridge -> %s, reliable" % LABEL[kind], "")):
+            ("ln-to-ros", "%s -> bridge -> ROS 2, reliable" % LABEL[kind], "rclpy publisher, reliable"),
+            ("ln-to-ros best effort", "%s -> bridge -> ROS 2, best effort" % LABEL[kind], ""),
+            ("ros-to-ln 20", "rclpy -> bridge -> %s, reliable" % LABEL[kind], ""),
+        ):
             v = values((key, kind), "cpu_us_per_msg")
             shares = values((key, kind), "bridge_cpu_share")
-            yield Row(group=group, name=what, metric="bridge CPU beyond idle", unit="us", value=median(v),
-                      reference_name=reference, reference_value=publisher if reference else None,
-                      note="target <= 10 us; bridge %.0f %% of a core in all, idle %.1f %%; %s"
-                      % (100 * median(shares), 100 * median(values((key, kind), "bridge_idle_share")),
-                         spread_note(v)))
+            yield Row(
+                group=group,
+                name=what,
+                metric="bridge CPU beyond idle",
+                unit="us",
+                value=median(v),
+                reference_name=reference,
+                reference_value=publisher if reference else None,
+                note="target <= 10 us; bridge %.0f %% of a core in all, idle %.1f %%; %s"
+                % (100 * median(shares), 100 * median(values((key, kind), "bridge_idle_share")), spread_note(v)),
+            )
         group = "ROS 2 bridge: ROS 2 -> LN, reliable, nothing lost"
         for key, what in (("ros-to-ln 1", "2 kHz, 1 topic"), ("ros-to-ln 20", "10 kHz, 20 topics")):
             lost = values((key, kind), "lost")
             sent = values((key, kind), "sent")
-            yield Row(group=group, name="rclpy -> bridge -> %s, %s" % (LABEL[kind], what), metric="lost",
-                      unit="msg", value=max(lost), better="lower",
-                      note="target 0; worst of %d runs of %s messages" % (len(lost), "/".join(map(str, sent))))
+            yield Row(
+                group=group,
+                name="rclpy -> bridge -> %s, %s" % (LABEL[kind], what),
+                metric="lost",
+                unit="msg",
+                value=max(lost),
+                better="lower",
+                note="target 0; worst of %d runs of %s messages" % (len(lost), "/".join(map(str, sent))),
+            )
             shares = values((key, kind), "bridge_cpu_share")
-            yield Row(group=group, name="rclpy -> bridge -> %s, %s" % (LABEL[kind], what), metric="bridge CPU",
-                      unit="%cpu", value=100 * median(shares), note="target < 50 %% of a core; %.1f us per message; %s"
-                      % (median(values((key, kind), "cpu_us_per_msg")), spread_note([100 * s for s in shares])))
+            yield Row(
+                group=group,
+                name="rclpy -> bridge -> %s, %s" % (LABEL[kind], what),
+                metric="bridge CPU",
+                unit="%cpu",
+                value=100 * median(shares),
+                note="target < 50 %% of a core; %.1f us per message; %s"
+                % (median(values((key, kind), "cpu_us_per_msg")), spread_note([100 * s for s in shares])),
+            )

@@ -35,10 +35,10 @@ import time
 from dataclasses import dataclass, replace
 
 from .config import BUILTIN_DENY_LN, BUILTIN_DENY_ROS, ServiceEntry, TopicEntry, ln_to_ros_name, ros_to_ln_name
+from .diagnostics import Diagnostics
 from .ln_adapter import LnConnection
 from .ln_introspection import IntrospectionError, open_introspection
 from .services import LnToRosService, RosToLnService
-from .diagnostics import Diagnostics
 from .topics import LnToRosTopic, RosToLnTopic
 from .types import RosCapacities, TypeRegistry, UnknownType
 
@@ -47,29 +47,31 @@ log = logging.getLogger("ln_ros2_bridge")
 
 @dataclass
 class RosGraph:
-    nodes: list           # fully qualified node names
-    topics: dict          # ROS topic -> list of type names
-    publishers: dict      # ROS topic -> [node fq name] of its publishers
-    servers: dict         # ROS service -> [(node fq name, type)]
+    nodes: list  # fully qualified node names
+    topics: dict  # ROS topic -> list of type names
+    publishers: dict  # ROS topic -> [node fq name] of its publishers
+    servers: dict  # ROS service -> [(node fq name, type)]
 
 
 class Bridge:
-    SETTLE = 1.5   # seconds: how long ROS discovery is given before automatic decisions (see _should_take)
-    RETRY = 5.0    # seconds before an entry that failed to start is tried again
-    POLL = 0.5     # seconds between looks at what the topic paths did
+    SETTLE = 1.5  # seconds: how long ROS discovery is given before automatic decisions (see _should_take)
+    RETRY = 5.0  # seconds before an entry that failed to start is tried again
+    POLL = 0.5  # seconds between looks at what the topic paths did
 
     def __init__(self, config, node, connect=None):
         self.config = config
         self.node = node
-        self.types = TypeRegistry(config.ln_definition_dirs, config.rule_files,
-                                  fetch_definition=self._fetch_definition,
-                                  capacities=RosCapacities(config.string_capacity, config.sequence_capacity,
-                                                           dict(config.capacities)))
+        self.types = TypeRegistry(
+            config.ln_definition_dirs,
+            config.rule_files,
+            fetch_definition=self._fetch_definition,
+            capacities=RosCapacities(config.string_capacity, config.sequence_capacity, dict(config.capacities)),
+        )
         self._connect = connect or (lambda: LnConnection(config.ln_client_name, config.ln_manager))
         self.ln = None
         self._introspection = None
-        self.active = {}            # key -> running bridge object
-        self._reported = {}         # key -> last failure text (reported once)
+        self.active = {}  # key -> running bridge object
+        self._reported = {}  # key -> last failure text (reported once)
         self._lock = threading.RLock()
         self._stop = threading.Event()
         self._wake = threading.Event()
@@ -79,12 +81,12 @@ class Bridge:
         self._ln_retry_delay = 0.2
         self.node_fq_name = self._fq(node.get_namespace(), node.get_name())
         self._started_at = time.monotonic()
-        self._waiting_since = {}   # automatic entry -> when it was first seen waiting for another bridge
-        self._retry_at = {}        # entry that failed to start -> when to try again
-        self._claims = {}          # automatic entry -> the LN service that claims it (see _should_take)
+        self._waiting_since = {}  # automatic entry -> when it was first seen waiting for another bridge
+        self._retry_at = {}  # entry that failed to start -> when to try again
+        self._claims = {}  # automatic entry -> the LN service that claims it (see _should_take)
         self._claims_supported = True
         self._claim_type_ready = False
-        self._failed = {}          # desired entry that does not run -> (entry, why), for the diagnostics
+        self._failed = {}  # desired entry that does not run -> (entry, why), for the diagnostics
         self.diagnostics = Diagnostics(node)
 
     # -- life cycle -------------------------------------------------------------
@@ -110,7 +112,7 @@ class Bridge:
         while not self._stop.is_set():
             try:
                 self.reconcile()
-            except Exception:   # a bug in one pass must not end the bridge
+            except Exception:  # a bug in one pass must not end the bridge
                 log.exception("reconciliation failed; retrying at the next period")
             period = self.config.auto.period
             introspection = self._introspection
@@ -160,33 +162,41 @@ class Bridge:
                     raise IntrospectionError(str(self._introspection.error))
                 return True
             except Exception as error:
-                log.warning("LN manager unreachable (%s): stopping the bridges that use it, reconnecting",
-                            str(error).strip())
+                log.warning(
+                    "LN manager unreachable (%s): stopping the bridges that use it, reconnecting", str(error).strip()
+                )
                 self._stop_all()
                 self._disconnect_ln()
         if time.monotonic() < self._ln_retry_at:
             return False
         try:
             self.ln = self._connect()
-            self._introspection = open_introspection(self.ln, [t.ln for t in self.config.topics],
-                                                     [s.ln for s in self.config.services])
+            self._introspection = open_introspection(
+                self.ln, [t.ln for t in self.config.topics], [s.ln for s in self.config.services]
+            )
             self.ln.data_client()
             self._broken.clear()
             self._ln_retry_delay = 0.2
-            log.info("connected to the LN manager at %s as %r (%s)", self.ln.manager_address, self.ln.name,
-                     self.ln.flavor)
+            log.info(
+                "connected to the LN manager at %s as %r (%s)", self.ln.manager_address, self.ln.name, self.ln.flavor
+            )
             for name in sorted(self.ln.own_names):
                 if not self.config.is_bridge_name(name):
-                    log.error("the LN manager named this client %r, which loop_prevention.bridge_names does not "
-                              "match: other bridges would re-bridge its topics (use a pattern such as 'name*')",
-                              name)
+                    log.error(
+                        "the LN manager named this client %r, which loop_prevention.bridge_names does not "
+                        "match: other bridges would re-bridge its topics (use a pattern such as 'name*')",
+                        name,
+                    )
             return True
         except Exception as error:
             self._disconnect_ln()
             self._ln_retry_at = time.monotonic() + self._ln_retry_delay
             self._ln_retry_delay = min(self._ln_retry_delay * 2, 5.0)
-            self._report(("ln-connect",), "cannot connect to the LN manager at %s: %s"
-                         % (self.config.ln_manager or "$LN_MANAGER", str(error).strip()))
+            self._report(
+                ("ln-connect",),
+                "cannot connect to the LN manager at %s: %s"
+                % (self.config.ln_manager or "$LN_MANAGER", str(error).strip()),
+            )
             return False
 
     def _disconnect_ln(self):
@@ -202,9 +212,9 @@ class Bridge:
             except Exception:
                 pass
         self.ln = None
-        self.types.forget_fetched()   # a restarted manager may know other definitions
+        self.types.forget_fetched()  # a restarted manager may know other definitions
         self._retry_at.clear()
-        self._claims.clear()          # they ended with the connection
+        self._claims.clear()  # they ended with the connection
         self._claim_type_ready = False
         self._failed.clear()
 
@@ -241,7 +251,7 @@ class Bridge:
         if self.ln.flavor == "ln29":
             path = self._introspection.definition_file(name)
             if path and path.endswith(name):
-                self.types.add_definition_dir(path[:-len(name)].rstrip("/"))
+                self.types.add_definition_dir(path[: -len(name)].rstrip("/"))
         else:
             self.types.add_definition_text(name, self.ln.client.get_message_definition_text(name))
 
@@ -257,23 +267,25 @@ class Bridge:
         for name in topics:
             if self._ros_denied(name):
                 continue
-            publishers[name] = [self._fq(i.node_namespace, i.node_name)
-                                for i in node.get_publishers_info_by_topic(name)]
+            publishers[name] = [
+                self._fq(i.node_namespace, i.node_name) for i in node.get_publishers_info_by_topic(name)
+            ]
         nodes = [self._fq(namespace, name) for name, namespace in node.get_node_names_and_namespaces()]
         servers = {}
-        if self.config.auto.enabled:   # who serves what: needed for automatic services either way
+        if self.config.auto.enabled:  # who serves what: needed for automatic services either way
             for name, namespace in node.get_node_names_and_namespaces():
                 fq = self._fq(namespace, name)
                 try:
                     for service, types in node.get_service_names_and_types_by_node(name, namespace):
                         servers.setdefault(service, []).append((fq, types[0] if types else ""))
-                except Exception:   # the node vanished between the two queries
+                except Exception:  # the node vanished between the two queries
                     continue
         return RosGraph(nodes, topics, publishers, servers)
 
     @staticmethod
     def _ros_denied(name):
         import fnmatch
+
         return any(fnmatch.fnmatchcase(name, p) for p in BUILTIN_DENY_ROS)
 
     def _is_bridge_node(self, fq_name):
@@ -318,8 +330,10 @@ class Bridge:
         return True
 
     CLAIM_DEFINITION = "ln_ros2_bridge/claim"
-    CLAIM_TEXT = ("# ln_ros2_bridge: an LN service of this type marks which bridge carries an entry\n"
-                  "service\nrequest\nuint8_t unused\nresponse\nuint8_t unused\n")
+    CLAIM_TEXT = (
+        "# ln_ros2_bridge: an LN service of this type marks which bridge carries an entry\n"
+        "service\nrequest\nuint8_t unused\nresponse\nuint8_t unused\n"
+    )
     CLAIM_PREFIX = "ln_ros2_bridge_claims"
 
     def _claim(self, key, ros_name):
@@ -327,23 +341,30 @@ class Bridge:
         do not work with this LN (then _claims_supported turns False)."""
         if key in self._claims:
             return True
-        name = "%s.%s.d%d%s" % (self.CLAIM_PREFIX, key[0], self.node.context.get_domain_id(),
-                                ros_name.replace("/", "."))
+        name = "%s.%s.d%d%s" % (
+            self.CLAIM_PREFIX,
+            key[0],
+            self.node.context.get_domain_id(),
+            ros_name.replace("/", "."),
+        )
         client = self.ln.client
         try:
             if not self._claim_type_ready:
                 client.put_message_definition(self.CLAIM_DEFINITION, self.CLAIM_TEXT)
                 self._claim_type_ready = True
             service = client.get_service_provider(name, self.CLAIM_DEFINITION)
-            service.set_handler(lambda request, req, resp: 0)   # nobody calls it
+            service.set_handler(lambda request, req, resp: 0)  # nobody calls it
         except Exception as error:
-            log.info("LN cannot hold claims (%s): two bridges on this LN instance settle automatic "
-                     "entries by node name instead", " ".join(str(error).split()))
+            log.info(
+                "LN cannot hold claims (%s): two bridges on this LN instance settle automatic "
+                "entries by node name instead",
+                " ".join(str(error).split()),
+            )
             self._claims_supported = False
             return None
         try:
             service.do_register(self.CLAIM_PREFIX)
-        except Exception:   # the name is taken: another bridge carries it
+        except Exception:  # the name is taken: another bridge carries it
             client.release_service(service)
             return False
         self._claims[key] = service
@@ -375,7 +396,7 @@ class Bridge:
         for entry in config.topics:
             explicit_ln_topics.add(entry.ln)
             direction = entry.direction
-            if direction == "both":   # the side that has a (non-bridge) publisher feeds the other
+            if direction == "both":  # the side that has a (non-bridge) publisher feeds the other
                 publisher = ln_publisher(entry.ln)
                 if publisher and not self._is_bridge_client(publisher):
                     direction = "ln_to_ros"
@@ -396,6 +417,7 @@ class Bridge:
 
         def accepted(filter_, ln_name, ros_name, builtin_ln_deny=BUILTIN_DENY_LN):
             import fnmatch
+
             if any(fnmatch.fnmatchcase(ln_name, p) for p in builtin_ln_deny) or self._ros_denied(ros_name):
                 return False
             allowed = any(fnmatch.fnmatchcase(n, p) for p in filter_.allow for n in (ln_name, ros_name))
@@ -413,8 +435,14 @@ class Bridge:
                 if not self._should_take(key, ros_name, graph.publishers.get(ros_name, []), graph):
                     continue
                 desired[("topic", t.name, "ln_to_ros")] = TopicEntry(
-                    t.name, ros_name, "ln_to_ros", ln_type=t.md_name, qos=config.qos, ln_port=config.ln_port,
-                    origin="auto")
+                    t.name,
+                    ros_name,
+                    "ln_to_ros",
+                    ln_type=t.md_name,
+                    qos=config.qos,
+                    ln_port=config.ln_port,
+                    origin="auto",
+                )
             for s in ln_services:
                 if self._is_bridge_client(s.provider) or s.name in explicit_ln_services:
                     continue
@@ -423,12 +451,12 @@ class Bridge:
                     continue
                 servers = [n for n, _ in graph.servers.get(ros_name, [])]
                 if any(not self._is_bridge_node(n) for n in servers):
-                    continue   # a ROS node serves that name itself
+                    continue  # a ROS node serves that name itself
                 if not self._should_take(("service", s.name, "ln_to_ros"), ros_name, servers, graph):
                     continue
                 desired[("service", s.name, "ln_to_ros")] = ServiceEntry(
-                    s.name, ros_name, "ln_to_ros", ln_type=s.interface, timeout=config.service_timeout,
-                    origin="auto")
+                    s.name, ros_name, "ln_to_ros", ln_type=s.interface, timeout=config.service_timeout, origin="auto"
+                )
 
         if "ros_to_ln" in auto.directions:
             for ros_name, types in graph.topics.items():
@@ -440,20 +468,30 @@ class Bridge:
                 if not accepted(auto.topics, ln_name, ros_name):
                     continue
                 publisher = ln_publisher(ln_name)
-                if publisher and not (publisher in self.ln.own_names and
-                                      ("topic", ln_name, "ros_to_ln") in self.active):
-                    continue   # LN has a publisher already (LN allows one)
+                if publisher and not (
+                    publisher in self.ln.own_names and ("topic", ln_name, "ros_to_ln") in self.active
+                ):
+                    continue  # LN has a publisher already (LN allows one)
                 ln_type = self.types.ln_name_for_ros(types[0])
                 if ln_type is None:
-                    self._report(("ros-type", types[0]), "ROS topic %s: %s; not bridged"
-                                 % (ros_name, self.types.why_unmapped(types[0])), level=logging.INFO)
+                    self._report(
+                        ("ros-type", types[0]),
+                        "ROS topic %s: %s; not bridged" % (ros_name, self.types.why_unmapped(types[0])),
+                        level=logging.INFO,
+                    )
                     continue
                 if not self._should_take(("topic", ln_name, "ros_to_ln"), ros_name, [], graph):
-                    continue   # another bridge publishes it into LN (LN allows one publisher)
+                    continue  # another bridge publishes it into LN (LN allows one publisher)
                 desired[("topic", ln_name, "ros_to_ln")] = TopicEntry(
-                    ln_name, ros_name, "ros_to_ln", ln_type=ln_type, ros_type=types[0],
+                    ln_name,
+                    ros_name,
+                    "ros_to_ln",
+                    ln_type=ln_type,
+                    ros_type=types[0],
                     qos=replace(config.qos, reliability="best_available", durability="best_available"),
-                    ln_port=config.ln_port, origin="auto")
+                    ln_port=config.ln_port,
+                    origin="auto",
+                )
             for ros_name, servers in graph.servers.items():
                 if self._ros_denied(ros_name) or all(self._is_bridge_node(n) for n, _ in servers):
                     continue
@@ -468,14 +506,23 @@ class Bridge:
                 ros_type = servers[0][1]
                 ln_type = self.types.ln_name_for_ros(ros_type)
                 if ln_type is None:
-                    self._report(("ros-type", ros_type), "ROS service %s: %s; not bridged"
-                                 % (ros_name, self.types.why_unmapped(ros_type)), level=logging.INFO)
+                    self._report(
+                        ("ros-type", ros_type),
+                        "ROS service %s: %s; not bridged" % (ros_name, self.types.why_unmapped(ros_type)),
+                        level=logging.INFO,
+                    )
                     continue
                 if not self._should_take(("service", ln_name, "ros_to_ln"), ros_name, [], graph):
-                    continue   # another bridge provides it in LN
+                    continue  # another bridge provides it in LN
                 desired[("service", ln_name, "ros_to_ln")] = ServiceEntry(
-                    ln_name, ros_name, "ros_to_ln", ln_type=ln_type, ros_type=ros_type,
-                    timeout=config.service_timeout, origin="auto")
+                    ln_name,
+                    ros_name,
+                    "ros_to_ln",
+                    ln_type=ln_type,
+                    ros_type=ros_type,
+                    timeout=config.service_timeout,
+                    origin="auto",
+                )
         return desired
 
     def _current_direction(self, kind, ln_name):
@@ -503,24 +550,35 @@ class Bridge:
         except UnknownType as error:
             self._not_started(key, entry, "%s %s: %s; not bridged" % (kind, entry.ln, error))
             return
-        except Exception as error:   # LN refused (name taken, ...), ROS refused (bad name, ...)
-            self._not_started(key, entry, "%s %s (%s, ROS %s): cannot bridge: %s"
-                              % (kind, entry.ln, entry.direction, entry.ros, " ".join(str(error).split())))
+        except Exception as error:  # LN refused (name taken, ...), ROS refused (bad name, ...)
+            self._not_started(
+                key,
+                entry,
+                "%s %s (%s, ROS %s): cannot bridge: %s"
+                % (kind, entry.ln, entry.direction, entry.ros, " ".join(str(error).split())),
+            )
             return
         self.active[key] = bridge
         self._failed.pop(key, None)
         self._reported.pop(key, None)
         self._waiting_since.pop(key, None)
         type_name = getattr(bridge, "topic_type", None) or getattr(bridge, "service_type", None)
-        log.info("bridging %s %s %s %s (%s <-> %s, %s)", kind, entry.ln,
-                 "->" if entry.direction == "ln_to_ros" else "<-", entry.ros, type_name.ln_name,
-                 type_name.ros_type, entry.origin)
+        log.info(
+            "bridging %s %s %s %s (%s <-> %s, %s)",
+            kind,
+            entry.ln,
+            "->" if entry.direction == "ln_to_ros" else "<-",
+            entry.ros,
+            type_name.ln_name,
+            type_name.ros_type,
+            entry.origin,
+        )
 
     def _not_started(self, key, entry, why):
         self._report(key, why)
         self._failed[key] = (entry, why)
         self._retry_at[key] = time.monotonic() + self.RETRY
-        self._release_claim(key)   # another bridge may be able to
+        self._release_claim(key)  # another bridge may be able to
 
     def _topic_type_for(self, entry):
         ln_type = entry.ln_type
@@ -538,15 +596,17 @@ class Bridge:
         for t in self._introspection.topics():
             if t.name == topic and t.md_name:
                 return t.md_name
-        raise UnknownType("LN topic %s is unknown to the manager (yet); give 'type' to bridge it before "
-                          "it exists" % topic)
+        raise UnknownType(
+            "LN topic %s is unknown to the manager (yet); give 'type' to bridge it before it exists" % topic
+        )
 
     def _ln_service_interface(self, service):
         for s in self._introspection.services():
             if s.name == service and s.interface:
                 return s.interface
-        raise UnknownType("LN service %s has no provider (yet); give 'type' to bridge it before one registers"
-                          % service)
+        raise UnknownType(
+            "LN service %s has no provider (yet); give 'type' to bridge it before one registers" % service
+        )
 
     def _stop_one(self, key):
         self._release_claim(key)
@@ -574,10 +634,19 @@ class Bridge:
     # -- status ------------------------------------------------------------------------
     def status(self):
         with self._lock:
-            return {"ln": None if self.ln is None else {"name": self.ln.name, "flavor": self.ln.flavor},
-                    "bridges": [{"kind": k[0], "ln": k[1], "direction": k[2], "ros": b.entry.ros,
-                                 "origin": b.entry.origin, "count": b.count, "errors": b.errors}
-                                for k, b in sorted(self.active.items())],
-                    "problems": dict((" ".join(map(str, k)), v) for k, v in self._reported.items())}
-
-
+            return {
+                "ln": None if self.ln is None else {"name": self.ln.name, "flavor": self.ln.flavor},
+                "bridges": [
+                    {
+                        "kind": k[0],
+                        "ln": k[1],
+                        "direction": k[2],
+                        "ros": b.entry.ros,
+                        "origin": b.entry.origin,
+                        "count": b.count,
+                        "errors": b.errors,
+                    }
+                    for k, b in sorted(self.active.items())
+                ],
+                "problems": dict((" ".join(map(str, k)), v) for k, v in self._reported.items()),
+            }

@@ -6,7 +6,6 @@ import fnmatch
 import os
 import re
 from dataclasses import dataclass, field, replace
-from typing import Optional
 
 import yaml
 from msg_mapping.names import ln_name_for, ros_name_for
@@ -36,6 +35,7 @@ class Qos:
     explicit ones are made before any publisher exists, when best_available would settle
     on reliable + transient_local and then miss volatile publishers: configure
     best_effort (sensor_data) for best-effort publishers, transient_local for latched topics."""
+
     reliability: str = "reliable"
     durability: str = "volatile"
     depth: int = 10
@@ -44,8 +44,8 @@ class Qos:
 
 @dataclass(frozen=True)
 class LnPortSettings:
-    buffers: int = 4           # LN ring slots: room for bursts while the bridge is busy
-    rate: float = -1.0         # LN subscription rate: -1 every packet, > 0 packets per second
+    buffers: int = 4  # LN ring slots: room for bursts while the bridge is busy
+    rate: float = -1.0  # LN subscription rate: -1 every packet, > 0 packets per second
     reliable_transport: bool = False
 
 
@@ -54,11 +54,11 @@ class TopicEntry:
     ln: str
     ros: str
     direction: str
-    ln_type: Optional[str] = None     # LN message definition; None: the topic's own (LN side)
-    ros_type: Optional[str] = None    # ROS type; None: derived from the LN definition
+    ln_type: str | None = None  # LN message definition; None: the topic's own (LN side)
+    ros_type: str | None = None  # ROS type; None: derived from the LN definition
     qos: Qos = Qos()
     ln_port: LnPortSettings = LnPortSettings()
-    origin: str = "config"            # "config" or "auto"
+    origin: str = "config"  # "config" or "auto"
 
 
 @dataclass(frozen=True)
@@ -66,8 +66,8 @@ class ServiceEntry:
     ln: str
     ros: str
     direction: str
-    ln_type: Optional[str] = None     # LN service definition; None: the provider's (LN side)
-    ros_type: Optional[str] = None
+    ln_type: str | None = None  # LN service definition; None: the provider's (LN side)
+    ros_type: str | None = None
     timeout: float = 5.0
     origin: str = "config"
 
@@ -78,8 +78,9 @@ class Filter:
     deny: tuple = ()
 
     def accepts(self, name):
-        return any(fnmatch.fnmatchcase(name, p) for p in self.allow) and \
-            not any(fnmatch.fnmatchcase(name, p) for p in self.deny)
+        return any(fnmatch.fnmatchcase(name, p) for p in self.allow) and not any(
+            fnmatch.fnmatchcase(name, p) for p in self.deny
+        )
 
 
 @dataclass(frozen=True)
@@ -95,31 +96,47 @@ class AutoSettings:
     topics: Filter = Filter()
     services: Filter = Filter()
     directions: tuple = ("ln_to_ros", "ros_to_ln")
-    ros_namespace: str = ""        # prefix for every auto-bridged ROS name
-    remap: tuple = ()              # RemapRule, first match wins; else a.b.c <-> /a/b/c
+    ros_namespace: str = ""  # prefix for every auto-bridged ROS name
+    remap: tuple = ()  # RemapRule, first match wins; else a.b.c <-> /a/b/c
 
 
 # What is never bridged automatically: LN's own hidden services and ROS's
 # per-node infrastructure. Explicit entries can still name them.
-BUILTIN_DENY_LN = ("*.request_topic", "*.get_parameter*", "*.set_parameter*", "*.log_service*",
-                   "ln.*", "ln2.*", "ln_ros2_bridge_claims.*")
-BUILTIN_DENY_ROS = ("/rosout", "/parameter_events", "*/describe_parameters", "*/get_parameters",
-                    "*/get_parameter_types", "*/list_parameters", "*/set_parameters",
-                    "*/set_parameters_atomically", "*/get_type_description", "*/_action/*")
+BUILTIN_DENY_LN = (
+    "*.request_topic",
+    "*.get_parameter*",
+    "*.set_parameter*",
+    "*.log_service*",
+    "ln.*",
+    "ln2.*",
+    "ln_ros2_bridge_claims.*",
+)
+BUILTIN_DENY_ROS = (
+    "/rosout",
+    "/parameter_events",
+    "*/describe_parameters",
+    "*/get_parameters",
+    "*/get_parameter_types",
+    "*/list_parameters",
+    "*/set_parameters",
+    "*/set_parameters_atomically",
+    "*/get_type_description",
+    "*/_action/*",
+)
 
 
 @dataclass
 class Config:
     source: str = "<defaults>"
-    ln_manager: Optional[str] = None
+    ln_manager: str | None = None
     ln_client_name: str = "ln_ros2_bridge"
     ln_definition_dirs: tuple = ()
     ros_node_name: str = "ln_ros2_bridge"
     ros_namespace: str = ""
     rule_files: tuple = ()
-    string_capacity: int = 255     # LN capacities in definitions derived from ROS types (see types.RosCapacities)
+    string_capacity: int = 255  # LN capacities in definitions derived from ROS types (see types.RosCapacities)
     sequence_capacity: int = 64
-    capacities: dict = field(default_factory=dict)   # "pkg/msg/Type.field[[]]" -> capacity
+    capacities: dict = field(default_factory=dict)  # "pkg/msg/Type.field[[]]" -> capacity
     qos: Qos = Qos()
     ln_port: LnPortSettings = LnPortSettings()
     service_timeout: float = 5.0
@@ -164,7 +181,7 @@ def ln_to_ros_name(ln_name, auto):
     Characters ROS does not allow become '_' (a leading digit gets 'ln_')."""
     for rule in auto.remap:
         if ln_name.startswith(rule.ln_prefix):
-            rest = ln_name[len(rule.ln_prefix):]
+            rest = ln_name[len(rule.ln_prefix) :]
             name = ros_name_for(rest, rule.ros_prefix)
             break
     else:
@@ -178,11 +195,11 @@ def ros_to_ln_name(ros_name, auto):
     """ROS name -> LN name: the inverse of ln_to_ros_name for names it produced."""
     name = ros_name
     if auto.ros_namespace and name.startswith(auto.ros_namespace.rstrip("/") + "/"):
-        name = name[len(auto.ros_namespace.rstrip("/")):]
+        name = name[len(auto.ros_namespace.rstrip("/")) :]
     for rule in auto.remap:
         prefix = rule.ros_prefix.rstrip("/") + "/"
         if name.startswith(prefix):
-            return rule.ln_prefix + ln_name_for(name[len(prefix):])
+            return rule.ln_prefix + ln_name_for(name[len(prefix) :])
     return ln_name_for(name)
 
 
@@ -220,9 +237,21 @@ class _Reader:
                 self.fail("'%s' must be a list of strings, not %r" % (key, value))
             value = tuple(value)
         elif not isinstance(value, kind):
-            self.fail("'%s' must be %s, not %r" % (key, {str: "a string", int: "an integer",
-                                                          float: "a number", bool: "true or false",
-                                                          dict: "a mapping", list: "a list"}[kind], value))
+            self.fail(
+                "'%s' must be %s, not %r"
+                % (
+                    key,
+                    {
+                        str: "a string",
+                        int: "an integer",
+                        float: "a number",
+                        bool: "true or false",
+                        dict: "a mapping",
+                        list: "a list",
+                    }[kind],
+                    value,
+                )
+            )
         if choices is not None and value not in choices:
             self.fail("'%s' must be one of %s, not %r" % (key, ", ".join(choices), value))
         if check is not None:
@@ -238,8 +267,7 @@ class _Reader:
     def done(self):
         unknown = sorted(set(self.data) - self.used)
         if unknown:
-            self.fail("unknown key(s) %s; known: %s" % (", ".join(map(str, unknown)),
-                                                         ", ".join(sorted(self.used))))
+            self.fail("unknown key(s) %s; known: %s" % (", ".join(map(str, unknown)), ", ".join(sorted(self.used))))
 
 
 def _positive(v):
@@ -252,8 +280,9 @@ def _qos(reader, base):
     values["reliability"] = reader.get("reliability", str, values["reliability"], RELIABILITY)
     values["durability"] = reader.get("durability", str, values["durability"], DURABILITY)
     values["history"] = reader.get("history", str, values["history"], HISTORY)
-    values["depth"] = reader.get("depth", int, values["depth"],
-                                 check=lambda v: None if 0 < v <= 100000 else "must be 1..100000")
+    values["depth"] = reader.get(
+        "depth", int, values["depth"], check=lambda v: None if 0 < v <= 100000 else "must be 1..100000"
+    )
     reader.done()
     return Qos(**values)
 
@@ -271,11 +300,14 @@ def _qos_value(parent, key, base):
 
 def _ln_port(reader, base):
     settings = LnPortSettings(
-        buffers=reader.get("buffers", int, base.buffers,
-                           check=lambda v: None if 1 <= v <= 65536 else "must be 1..65536"),
-        rate=reader.get("rate", float, base.rate,
-                        check=lambda v: None if v == -1 or v > 0 else "must be -1 (every packet) or > 0"),
-        reliable_transport=reader.get("reliable_transport", bool, base.reliable_transport))
+        buffers=reader.get(
+            "buffers", int, base.buffers, check=lambda v: None if 1 <= v <= 65536 else "must be 1..65536"
+        ),
+        rate=reader.get(
+            "rate", float, base.rate, check=lambda v: None if v == -1 or v > 0 else "must be -1 (every packet) or > 0"
+        ),
+        reliable_transport=reader.get("reliable_transport", bool, base.reliable_transport),
+    )
     reader.done()
     return settings
 
@@ -297,6 +329,7 @@ def _type_check(kind):
         if len(parts) != 3 or parts[1] != kind or not all(parts):
             return "must look like 'package/%s/Type', not %r" % (kind, value)
         return None
+
     return check
 
 
@@ -319,9 +352,16 @@ def _types_of(r, kind):
     match = ROS_TYPE_NAME.match(ln_type or "")
     if match:
         if match.group(1) != kind:
-            r.fail("'type' %r is a ROS %s type; a %s needs a %s type (package/%s/Type)"
-                   % (ln_type, "service" if match.group(1) == "srv" else "message",
-                      "topic" if kind == "msg" else "service", "message" if kind == "msg" else "service", kind))
+            r.fail(
+                "'type' %r is a ROS %s type; a %s needs a %s type (package/%s/Type)"
+                % (
+                    ln_type,
+                    "service" if match.group(1) == "srv" else "message",
+                    "topic" if kind == "msg" else "service",
+                    "message" if kind == "msg" else "service",
+                    kind,
+                )
+            )
         if ros_type and ros_type != ln_type:
             r.fail("'type' %r and 'ros_type' %r name two ROS types" % (ln_type, ros_type))
         return None, ln_type
@@ -336,17 +376,23 @@ def _merge_capacities(r, ros_type, config, owners):
     raw = r.get("capacities", dict, {})
     for key, value in raw.items():
         if not isinstance(key, str) or not _CAPACITY_KEY.match(key):
-            r.fail("'capacities' key %r must be a field ('name', 'name[]' for each string of a string array) "
-                   "or 'package/msg/Type.field'" % (key,))
+            r.fail(
+                "'capacities' key %r must be a field ('name', 'name[]' for each string of a string array) "
+                "or 'package/msg/Type.field'" % (key,)
+            )
         if "/" not in key and not ros_type:
-            r.fail("'capacities' key %r must name the ROS type: 'package/msg/Type.%s'%s"
-                   % (key, key, "" if r.where == "defaults" else " (or give the entry a ROS type)"))
+            r.fail(
+                "'capacities' key %r must name the ROS type: 'package/msg/Type.%s'%s"
+                % (key, key, "" if r.where == "defaults" else " (or give the entry a ROS type)")
+            )
         if isinstance(value, bool) or not isinstance(value, int) or _capacity_check(value):
             r.fail("'capacities' %s must be an integer 1..%d, not %r" % (key, MAX_CAPACITY, value))
         full = key if "/" in key else "%s.%s" % (ros_type, key)
         if full in config.capacities and config.capacities[full] != value:
-            r.fail("capacity of %s is %d here but %d in %s (one LN definition per ROS type)"
-                   % (full, value, config.capacities[full], owners[full]))
+            r.fail(
+                "capacity of %s is %d here but %d in %s (one LN definition per ROS type)"
+                % (full, value, config.capacities[full], owners[full])
+            )
         config.capacities[full] = value
         owners[full] = r.where
 
@@ -357,18 +403,24 @@ def parse_config(data, source="<config>"):
     config = Config(source=source)
 
     ln = top.sub("ln")
-    config.ln_manager = ln.get("manager", str, os.environ.get("LN_MANAGER") or None,
-                               check=lambda v: None if ":" in v else "must be HOST:PORT")
+    config.ln_manager = ln.get(
+        "manager", str, os.environ.get("LN_MANAGER") or None, check=lambda v: None if ":" in v else "must be HOST:PORT"
+    )
     config.ln_client_name = ln.get("client_name", str, config.ln_client_name, check=_ln_name_problem)
     config.ln_definition_dirs = tuple(os.path.expanduser(d) for d in ln.get("message_definition_dirs", tuple, ()))
     ln.done()
 
     ros = top.sub("ros")
-    config.ros_node_name = ros.get("node_name", str, config.ros_node_name,
-                                   check=lambda v: None if _ROS_TOKEN.fullmatch(v) else "must be a valid node name")
+    config.ros_node_name = ros.get(
+        "node_name",
+        str,
+        config.ros_node_name,
+        check=lambda v: None if _ROS_TOKEN.fullmatch(v) else "must be a valid node name",
+    )
     config.ros_namespace = ros.get("namespace", str, "")
-    config.executor_threads = ros.get("executor_threads", int, 4,
-                                      check=lambda v: None if 1 <= v <= 64 else "must be 1..64")
+    config.executor_threads = ros.get(
+        "executor_threads", int, 4, check=lambda v: None if 1 <= v <= 64 else "must be 1..64"
+    )
     ros.done()
 
     config.rule_files = top.get("rules", tuple, ())
@@ -392,9 +444,11 @@ def parse_config(data, source="<config>"):
     config.bridge_names = loops.get("bridge_names", tuple, config.bridge_names)
     loops.done()
     if not config.is_bridge_name(config.ln_client_name) or not config.is_bridge_name(config.ros_node_name):
-        top.fail("ln.client_name %r and ros.node_name %r must match loop_prevention.bridge_names %s, "
-                 "or other bridges (and this one) would re-bridge what this bridge publishes"
-                 % (config.ln_client_name, config.ros_node_name, list(config.bridge_names)))
+        top.fail(
+            "ln.client_name %r and ros.node_name %r must match loop_prevention.bridge_names %s, "
+            "or other bridges (and this one) would re-bridge what this bridge publishes"
+            % (config.ln_client_name, config.ros_node_name, list(config.bridge_names))
+        )
 
     auto = top.sub("auto")
     remap = []
@@ -423,10 +477,16 @@ def parse_config(data, source="<config>"):
         topics=filter_of("topics"),
         services=filter_of("services"),
         directions=directions,
-        ros_namespace=auto.get("ros_namespace", str, "",
-                               check=lambda v: None if not v or ros_name_problem(v) is None
-                               else "invalid ROS namespace: %s" % ros_name_problem(v)),
-        remap=tuple(remap))
+        ros_namespace=auto.get(
+            "ros_namespace",
+            str,
+            "",
+            check=lambda v: (
+                None if not v or ros_name_problem(v) is None else "invalid ROS namespace: %s" % ros_name_problem(v)
+            ),
+        ),
+        remap=tuple(remap),
+    )
     auto.done()
 
     seen = {}
@@ -440,18 +500,24 @@ def parse_config(data, source="<config>"):
         _merge_capacities(r, ros_type, config, owners)
         entry = TopicEntry(
             ln=ln_name,
-            ros=r.get("ros", str, ln_to_ros_name(ln_name, AutoSettings(ros_namespace=config.auto.ros_namespace,
-                                                                        remap=config.auto.remap)),
-                      check=_ros_name_check),
+            ros=r.get(
+                "ros",
+                str,
+                ln_to_ros_name(ln_name, AutoSettings(ros_namespace=config.auto.ros_namespace, remap=config.auto.remap)),
+                check=_ros_name_check,
+            ),
             direction=r.get("direction", str, "ln_to_ros", DIRECTIONS_TOPIC),
             ln_type=ln_type,
             ros_type=ros_type,
             qos=_qos_value(r, "qos", config.qos),
-            ln_port=_ln_port(r.sub("ln_port"), config.ln_port))
+            ln_port=_ln_port(r.sub("ln_port"), config.ln_port),
+        )
         r.done()
         if entry.direction in ("ros_to_ln", "both") and not (entry.ln_type or entry.ros_type):
-            r.fail("direction %s needs 'type' (the LN definition) or 'ros_type': an LN topic can only be "
-                   "published with a known definition" % entry.direction)
+            r.fail(
+                "direction %s needs 'type' (the LN definition) or 'ros_type': an LN topic can only be "
+                "published with a known definition" % entry.direction
+            )
         for key in (("topic-ln", entry.ln), ("topic-ros", entry.ros)):
             if key in seen:
                 r.fail("%s is bridged twice (also by %s)" % (key[1], seen[key]))
@@ -467,13 +533,17 @@ def parse_config(data, source="<config>"):
         ln_type, ros_type = _types_of(r, "srv")
         entry = ServiceEntry(
             ln=ln_name,
-            ros=r.get("ros", str, ln_to_ros_name(ln_name, AutoSettings(ros_namespace=config.auto.ros_namespace,
-                                                                        remap=config.auto.remap)),
-                      check=_ros_name_check),
+            ros=r.get(
+                "ros",
+                str,
+                ln_to_ros_name(ln_name, AutoSettings(ros_namespace=config.auto.ros_namespace, remap=config.auto.remap)),
+                check=_ros_name_check,
+            ),
             direction=r.get("direction", str, "ln_to_ros", DIRECTIONS_SERVICE),
             ln_type=ln_type,
             ros_type=ros_type,
-            timeout=r.get("timeout", float, config.service_timeout, check=_positive))
+            timeout=r.get("timeout", float, config.service_timeout, check=_positive),
+        )
         r.done()
         if entry.direction == "ros_to_ln" and not (entry.ln_type or entry.ros_type):
             r.fail("direction ros_to_ln needs 'type' (the LN service definition) or 'ros_type'")

@@ -26,7 +26,7 @@ class Diagnostics:
         self._publisher = node.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self._name = node.get_name()
         self._published_at = 0.0
-        self._previous = {}   # entry key -> (time, forwarded, dropped) at the last publication
+        self._previous = {}  # entry key -> (time, forwarded, dropped) at the last publication
 
     def update(self, bridge, reports):
         """Publishes when PERIOD has passed. `reports`: topic key -> its path's report
@@ -63,12 +63,15 @@ class Diagnostics:
 
     def _running(self, key, running, report, previous, now):
         entry = running.entry
-        if report is not None:   # a topic: the compiled path's counters
+        if report is not None:  # a topic: the compiled path's counters
             forwarded = report["forwarded"]
             dropped = report["errors"] + report["lost"]
-            extra = [("received", report["received"]), ("ignored (from bridges)", report["ignored"]),
-                     ("held (publisher not known yet)", report["held"])]
-        else:                     # a service: calls
+            extra = [
+                ("received", report["received"]),
+                ("ignored (from bridges)", report["ignored"]),
+                ("held (publisher not known yet)", report["held"]),
+            ]
+        else:  # a service: calls
             forwarded, dropped, extra = running.count, running.errors, []
         rate = new_drops = 0
         if previous is not None:
@@ -77,8 +80,11 @@ class Diagnostics:
             new_drops = dropped - dropped_then
         self._previous[key] = (now, forwarded, dropped)
         types = running.topic_type if key[0] == "topic" else running.service_type
-        values = [("rate", "%.1f" % rate), ("forwarded", forwarded), ("dropped", dropped)] + extra + [
-            ("ln type", types.ln_name), ("ros type", types.ros_type)]
+        values = (
+            [("rate", "%.1f" % rate), ("forwarded", forwarded), ("dropped", dropped)]
+            + extra
+            + [("ln type", types.ln_name), ("ros type", types.ros_type)]
+        )
         if key[0] == "topic":
             qos = entry.qos
             values.append(("qos", "%s, %s, %s %d" % (qos.reliability, qos.durability, qos.history, qos.depth)))
@@ -90,11 +96,14 @@ class Diagnostics:
 
     def _status(self, key, entry, level, message, values):
         arrow = "->" if entry.direction == "ln_to_ros" else "<-"
-        status = DiagnosticStatus(level=level, message=message,
-                                  name="%s: %s %s %s %s" % (self._name, key[0], entry.ln, arrow, entry.ros))
-        status.values = [KeyValue(key=k, value=str(v)) for k, v in
-                         [("direction", entry.direction), ("ln", entry.ln), ("ros", entry.ros),
-                          ("origin", entry.origin)] + list(values)]
+        status = DiagnosticStatus(
+            level=level, message=message, name="%s: %s %s %s %s" % (self._name, key[0], entry.ln, arrow, entry.ros)
+        )
+        status.values = [
+            KeyValue(key=k, value=str(v))
+            for k, v in [("direction", entry.direction), ("ln", entry.ln), ("ros", entry.ros), ("origin", entry.origin)]
+            + list(values)
+        ]
         return status
 
     @staticmethod

@@ -30,10 +30,10 @@ log = logging.getLogger("ln_ros2_bridge.ln")
 
 # LN error codes (values of LN's enum ln_error_t) the bridge answers LN callers with.
 LNE_REQUEST_FAILED = 11
-LNE_INVALID_REQ_FIELD_FORMAT = 33   # a request the ROS type cannot hold
-LNE_SVC_HANDLER_EXC = 36            # anything else that went wrong in the bridge
-LNE_NO_PROVIDER_FOUND = 40          # no ROS server behind the bridged service
-LNE_SVC_TIMEOUT = 64                # the ROS server did not answer in time
+LNE_INVALID_REQ_FIELD_FORMAT = 33  # a request the ROS type cannot hold
+LNE_SVC_HANDLER_EXC = 36  # anything else that went wrong in the bridge
+LNE_NO_PROVIDER_FOUND = 40  # no ROS server behind the bridged service
+LNE_SVC_TIMEOUT = 64  # the ROS server did not answer in time
 
 
 class LnServiceError(Exception):
@@ -70,11 +70,10 @@ class LnConnection:
         # LN 2.9's package has ln_wrappers; ln_core's has the native _ln.Client.
         self.flavor = "ln29" if hasattr(self.ln, "ln_wrappers") else "ln_core"
         self.manager_address = manager_address
-        self.client = self.ln.client(client_name, manager_address) if manager_address \
-            else self.ln.client(client_name)
+        self.client = self.ln.client(client_name, manager_address) if manager_address else self.ln.client(client_name)
         self.name = self.client.name
         self._data_client = None
-        self._defined = {}   # definition name -> hash the manager has (ensure_definitions)
+        self._defined = {}  # definition name -> hash the manager has (ensure_definitions)
         self._closed = False
 
     def __repr__(self):
@@ -85,11 +84,11 @@ class LnConnection:
         """The msg_mapping bridge.LnClient that topic paths use (made at first use)."""
         if self._data_client is None:
             from msg_mapping._native import bridge
+
             if self.flavor == "ln_core":
                 self._data_client = bridge.LnClient(self._native_module_file(), self.client._native.handle)
             else:
-                self._data_client = bridge.LnClient(self._native_module_file(), self.name,
-                                                    self.manager_address or "")
+                self._data_client = bridge.LnClient(self._native_module_file(), self.name, self.manager_address or "")
                 log.info("LN 2.9: topic data goes through a second LN client, %r", self._data_client.name)
         return self._data_client
 
@@ -97,6 +96,7 @@ class LnConnection:
         """The LN package's native module (ln_core: links_and_nodes._ln, LN 2.9: _ln):
         the data path uses the libln it links."""
         import sys
+
         for name in ("links_and_nodes._ln", "_ln"):
             module = sys.modules.get(name)
             if module is not None and getattr(module, "__file__", None):
@@ -130,16 +130,17 @@ class LnConnection:
                 continue
             try:
                 known = self.client.get_message_definition(name)[2]
-            except Exception:   # LN's error for a definition it does not have
+            except Exception:  # LN's error for a definition it does not have
                 known = None
             if known is None:
                 self.client.put_message_definition(name, text)
             elif known != md_hash:
-                raise ValueError("the LN manager has another definition of %s (hash %.12s; this bridge derives "
-                                 "%.12s): LN programs use it with other capacities or from another version of "
-                                 "the ROS type (use the same capacities, or remove the manager's copy, e.g. "
-                                 "~/ln_message_definitions/gen/%s of its user, and restart it)"
-                                 % (name, known, md_hash, name))
+                raise ValueError(
+                    "the LN manager has another definition of %s (hash %.12s; this bridge derives "
+                    "%.12s): LN programs use it with other capacities or from another version of "
+                    "the ROS type (use the same capacities, or remove the manager's copy, e.g. "
+                    "~/ln_message_definitions/gen/%s of its user, and restart it)" % (name, known, md_hash, name)
+                )
             self._defined[name] = md_hash
 
     # -- manager --------------------------------------------------------------
@@ -151,7 +152,7 @@ class LnConnection:
         if self._closed:
             return
         self._closed = True
-        if self._data_client is not None:   # its ports are gone by now (the bridge closes paths first)
+        if self._data_client is not None:  # its ports are gone by now (the bridge closes paths first)
             self._data_client.close()
             self._data_client = None
         close = getattr(self.client, "close", None)
@@ -167,7 +168,7 @@ class RawServiceClient:
         self.name = name
         self.interface = interface
         self._flavor = conn.flavor
-        self._lock = threading.Lock()   # one LN service object carries one call at a time
+        self._lock = threading.Lock()  # one LN service object carries one call at a time
         self._client = conn.client
         self._svc = conn.client.get_service(name, interface)
         if self._flavor == "ln29":
@@ -179,6 +180,7 @@ class RawServiceClient:
             def capture_response(fields_and_def=None):
                 # Called by LN 2.9's C++ while _response_buffer views the response.
                 self._response = bytes(svc._response_buffer)
+
             svc._unpack_response = capture_response
 
     def call(self, flat, timeout):
@@ -186,8 +188,9 @@ class RawServiceClient:
         Raises LnServiceError."""
         start = time.monotonic()
         if not self._lock.acquire(timeout=timeout):
-            raise LnServiceError("LN service %s: still busy with earlier calls after %.1f s" % (self.name, timeout),
-                                 LNE_SVC_TIMEOUT)
+            raise LnServiceError(
+                "LN service %s: still busy with earlier calls after %.1f s" % (self.name, timeout), LNE_SVC_TIMEOUT
+            )
         timeout = max(0.001, timeout - (time.monotonic() - start))
         with _Unlock(self._lock):
             try:
@@ -203,13 +206,15 @@ class RawServiceClient:
                 raise
             except Exception as error:  # LN raises its own exception types
                 # LN's texts span lines; one line reads better in logs and error fields
-                raise LnServiceError("LN service %s: %s" % (self.name, " ".join(str(error).split())),
-                                     getattr(error, "code", LNE_REQUEST_FAILED)) from error
+                raise LnServiceError(
+                    "LN service %s: %s" % (self.name, " ".join(str(error).split())),
+                    getattr(error, "code", LNE_REQUEST_FAILED),
+                ) from error
 
     def release(self):
         try:
             self._client.release_service(self._svc)
-        except Exception:   # the connection may be gone already
+        except Exception:  # the connection may be gone already
             pass
         self._svc = None
 
@@ -271,7 +276,7 @@ class RawServiceProvider:
             response = self._handler(flat)
         except LnServiceError as error:
             log.warning("LN service %s: answering error %d: %s", self.name, error.code, error)
-            return -abs(error.code)   # LN 2.9 carries only a code back to the caller
+            return -abs(error.code)  # LN 2.9 carries only a code back to the caller
         self._svc.resp.set(response)
         request.respondv(self._svc)
         return 0

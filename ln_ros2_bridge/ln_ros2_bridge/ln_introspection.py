@@ -35,14 +35,14 @@ log = logging.getLogger("ln_ros2_bridge.ln")
 class LnTopicInfo:
     name: str
     md_name: str
-    publisher: str      # client name, "" when the topic has no publisher
+    publisher: str  # client name, "" when the topic has no publisher
 
 
 @dataclass(frozen=True)
 class LnServiceInfo:
     name: str
     interface: str
-    provider: str       # client name
+    provider: str  # client name
 
 
 class IntrospectionError(Exception):
@@ -63,7 +63,7 @@ class _Stub:
         pass
 
     def __setstate__(self, state):
-        if isinstance(state, tuple) and len(state) == 2:   # (dict, slots) form
+        if isinstance(state, tuple) and len(state) == 2:  # (dict, slots) form
             state = {**(state[0] or {}), **(state[1] or {})}
         if isinstance(state, dict):
             self.__dict__.update(state)
@@ -124,15 +124,20 @@ class _GuiConnection:
         self._next_id += 1
         self.send(("proxy", self._next_id, method, args, {}))
         deadline = time.monotonic() + self._timeout
-        while True:   # notifications may come first; they are read and dropped
+        while True:  # notifications may come first; they are read and dropped
             self._sock.settimeout(max(0.01, deadline - time.monotonic()))
             try:
                 message = self.receive()
-            except socket.timeout:
-                raise IntrospectionError("LN 2.9 manager did not answer %s within %.1f s"
-                                         % (method, self._timeout)) from None
-            if isinstance(message, tuple) and len(message) >= 3 and message[1] == self._next_id \
-                    and message[0] in ("answer", "exception"):
+            except TimeoutError:
+                raise IntrospectionError(
+                    "LN 2.9 manager did not answer %s within %.1f s" % (method, self._timeout)
+                ) from None
+            if (
+                isinstance(message, tuple)
+                and len(message) >= 3
+                and message[1] == self._next_id
+                and message[0] in ("answer", "exception")
+            ):
                 break
         if message[0] == "exception":
             raise IntrospectionError("LN 2.9 manager failed %s: %s" % (method, message[2]))
@@ -173,7 +178,7 @@ class Ln29Introspection:
                 message = self._watcher.receive()
                 if isinstance(message, tuple) and message and message[0] == "notify":
                     self.changed.set()
-        except Exception as error:   # the manager went away (or closed us): the bridge reconnects
+        except Exception as error:  # the manager went away (or closed us): the bridge reconnects
             if not self._closed:
                 self.error = error
                 log.debug("LN 2.9 GUI watcher ended: %s", error)
@@ -192,8 +197,13 @@ class Ln29Introspection:
             topics = []
             for name, topic in connection.request("get_topics").items():
                 publisher = getattr(topic, "publisher", None)
-                topics.append(LnTopicInfo(str(name), str(getattr(topic, "md_name", "")),
-                                          str(getattr(publisher, "program_name", "")) if publisher else ""))
+                topics.append(
+                    LnTopicInfo(
+                        str(name),
+                        str(getattr(topic, "md_name", "")),
+                        str(getattr(publisher, "program_name", "")) if publisher else "",
+                    )
+                )
             services = []
             for client in connection.request("get_clients"):
                 provider = str(getattr(client, "program_name", ""))
@@ -233,17 +243,18 @@ class LnCoreIntrospection:
     links_and_nodes client. `watch_topics` / `watch_services`: names to watch even
     before the manager lists them (explicit entries)."""
 
-    MAX_WATCHED = 4096   # names per kind; beyond that the ones unlisted longest are let go
+    MAX_WATCHED = 4096  # names per kind; beyond that the ones unlisted longest are let go
 
     def __init__(self, client, watch_topics=(), watch_services=()):
         if not hasattr(client, "list_topics") or not hasattr(client, "set_publisher_availability_handler"):
-            raise IntrospectionError("this ln_core links_and_nodes has no introspection API "
-                                     "(client.list_topics()): rebuild ln_core")
+            raise IntrospectionError(
+                "this ln_core links_and_nodes has no introspection API (client.list_topics()): rebuild ln_core"
+            )
         self.changed = threading.Event()
-        self.error = None   # (LN 2.9's watcher reports here; ln_core's connection fails ping instead)
+        self.error = None  # (LN 2.9's watcher reports here; ln_core's connection fails ping instead)
         self._client = client
         self._explicit = {"topic": set(watch_topics), "service": set(watch_services)}
-        self._watched = {"topic": {}, "service": {}}   # name -> when it was last listed
+        self._watched = {"topic": {}, "service": {}}  # name -> when it was last listed
         self._lock = threading.Lock()
         self._watch("topic", ())
         self._watch("service", ())
@@ -268,19 +279,18 @@ class LnCoreIntrospection:
                     self._set_handler(kind, name, self._on_change)
                 watched[name] = now
             if len(watched) > self.MAX_WATCHED:
-                for name in sorted(watched, key=watched.get)[:len(watched) - self.MAX_WATCHED]:
+                for name in sorted(watched, key=watched.get)[: len(watched) - self.MAX_WATCHED]:
                     self._set_handler(kind, name, None)
                     del watched[name]
 
     def _list(self, method):
         try:
             return getattr(self._client, method)()
-        except Exception as error:   # LNError: connection lost, ...
+        except Exception as error:  # LNError: connection lost, ...
             raise IntrospectionError("ln_core manager: %s: %s" % (method, " ".join(str(error).split()))) from error
 
     def topics(self):
-        return [LnTopicInfo(t.name, t.message_definition.split("|")[0], t.publisher)
-                for t in self._list("list_topics")]
+        return [LnTopicInfo(t.name, t.message_definition.split("|")[0], t.publisher) for t in self._list("list_topics")]
 
     def services(self):
         return [LnServiceInfo(s.name, s.interface.split("|")[0], s.provider) for s in self._list("list_services")]
@@ -293,8 +303,9 @@ class LnCoreIntrospection:
             self._watch("topic", [t.name for t in topics])
             self._watch("service", [s.name for s in services])
         except Exception as error:
-            raise IntrospectionError("ln_core manager: watching publishers and providers: %s"
-                                     % " ".join(str(error).split())) from error
+            raise IntrospectionError(
+                "ln_core manager: watching publishers and providers: %s" % " ".join(str(error).split())
+            ) from error
         return topics, services
 
     def close(self):
@@ -303,7 +314,7 @@ class LnCoreIntrospection:
                 for name in names:
                     try:
                         self._set_handler(kind, name, None)
-                    except Exception:   # the connection may be gone already
+                    except Exception:  # the connection may be gone already
                         pass
                 names.clear()
 

@@ -20,8 +20,11 @@ from .config import ConfigError, load_config, with_overrides
 
 
 def parse_args(argv):
-    parser = argparse.ArgumentParser(prog="ln_ros2_bridge", description=__doc__.split("\n\n")[0],
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog="ln_ros2_bridge",
+        description=__doc__.split("\n\n")[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     parser.add_argument("--config", "-c", required=True, help="the bridge's YAML configuration")
     parser.add_argument("--ln-manager", help="HOST:PORT of the LN manager (overrides ln.manager and $LN_MANAGER)")
     parser.add_argument("--node-name", help="ROS node name (overrides ros.node_name)")
@@ -44,27 +47,30 @@ class RosLogHandler(logging.Handler):
         try:
             from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
             from rclpy.logging import LoggingSeverity
+
             logger = self._root
             prefix = "ln_ros2_bridge."
             if record.name.startswith(prefix):
-                child = record.name[len(prefix):]
+                child = record.name[len(prefix) :]
                 logger = self._children.get(child)
-                if logger is None:   # get_child() also makes /rosout carry the child's records
+                if logger is None:  # get_child() also makes /rosout carry the child's records
                     logger = self._children[child] = self._root.get_child(child)
             # Python's levels are rcutils' severities (10 debug ... 50 fatal)
             severity = LoggingSeverity(10 * (min(max(record.levelno, 10), 50) // 10))
             if logger.is_enabled_for(severity):
                 # what RcutilsLogger.log() ends in, with the location of the Python record
                 # (its own call-site bookkeeping would see one caller for every record)
-                _rclpy.rclpy_logging_rcutils_log(severity, logger.name, self.format(record), record.funcName,
-                                                 record.pathname, record.lineno)
-        except Exception:   # logging must never take the bridge down
+                _rclpy.rclpy_logging_rcutils_log(
+                    severity, logger.name, self.format(record), record.funcName, record.pathname, record.lineno
+                )
+        except Exception:  # logging must never take the bridge down
             self.handleError(record)
 
 
 def use_ros_logging(node, level_name):
     """Routes the `ln_ros2_bridge` Python loggers to the node's ROS logger at `level_name`."""
     from rclpy.logging import LoggingSeverity
+
     node.get_logger().set_level(LoggingSeverity[level_name.upper().replace("WARNING", "WARN")])
     root = logging.getLogger("ln_ros2_bridge")
     root.handlers[:] = [RosLogHandler(node.get_logger())]
@@ -96,21 +102,27 @@ def main(argv=None):
     args = parse_args(remove_ros_args(argv)[1:])
     log = logging.getLogger("ln_ros2_bridge")
     try:
-        config = with_overrides(load_config(args.config), ln_manager=args.ln_manager,
-                                ros_node_name=args.node_name, ln_client_name=args.ln_client_name)
+        config = with_overrides(
+            load_config(args.config),
+            ln_manager=args.ln_manager,
+            ros_node_name=args.node_name,
+            ln_client_name=args.ln_client_name,
+        )
         if not config.is_bridge_name(config.ln_client_name) or not config.is_bridge_name(config.ros_node_name):
-            raise ConfigError("%s: the names %r / %r must match loop_prevention.bridge_names %s"
-                              % (config.source, config.ln_client_name, config.ros_node_name,
-                                 list(config.bridge_names)))
+            raise ConfigError(
+                "%s: the names %r / %r must match loop_prevention.bridge_names %s"
+                % (config.source, config.ln_client_name, config.ros_node_name, list(config.bridge_names))
+            )
         if not config.ln_manager:
-            raise ConfigError("%s: no LN manager address: set ln.manager, $LN_MANAGER or --ln-manager"
-                              % config.source)
+            raise ConfigError("%s: no LN manager address: set ln.manager, $LN_MANAGER or --ln-manager" % config.source)
     except ConfigError as error:
         print("ln_ros2_bridge: configuration error: %s" % error, file=sys.stderr)
         return 2
     if args.check:
-        print("ln_ros2_bridge: %s is valid (%d topics, %d services, auto %s)"
-              % (config.source, len(config.topics), len(config.services), "on" if config.auto.enabled else "off"))
+        print(
+            "ln_ros2_bridge: %s is valid (%d topics, %d services, auto %s)"
+            % (config.source, len(config.topics), len(config.services), "on" if config.auto.enabled else "off")
+        )
         return 0
 
     from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
@@ -125,12 +137,12 @@ def main(argv=None):
     log.debug("Fast DDS profile: %s", profile or "Fast DDS's defaults")
     try:
         bridge = Bridge(config, node)
-    except UnknownType as error:   # e.g. a rule file that does not compile
+    except UnknownType as error:  # e.g. a rule file that does not compile
         print("ln_ros2_bridge: configuration error: %s" % error, file=sys.stderr)
         node.destroy_node()
         rclpy.shutdown()
         return 2
-    executor = MultiThreadedExecutor(num_threads=config.executor_threads)   # services (topics have threads of their own)
+    executor = MultiThreadedExecutor(num_threads=config.executor_threads)  # services (topics have threads of their own)
     executor.add_node(node)
     stop = threading.Event()
 
@@ -141,8 +153,12 @@ def main(argv=None):
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
     bridge.start()
-    log.info("ln_ros2_bridge running as ROS node %s, LN client %r (config %s)",
-             bridge.node_fq_name, config.ln_client_name, config.source)
+    log.info(
+        "ln_ros2_bridge running as ROS node %s, LN client %r (config %s)",
+        bridge.node_fq_name,
+        config.ln_client_name,
+        config.source,
+    )
     try:
         while not stop.is_set() and rclpy.ok():
             executor.spin_once(timeout_sec=0.2)

@@ -15,8 +15,13 @@ import time
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.serialization import deserialize_message, serialize_message
 
-from .ln_adapter import (LNE_INVALID_REQ_FIELD_FORMAT, LNE_NO_PROVIDER_FOUND, LNE_SVC_HANDLER_EXC,
-                         LNE_SVC_TIMEOUT, LnServiceError)
+from .ln_adapter import (
+    LNE_INVALID_REQ_FIELD_FORMAT,
+    LNE_NO_PROVIDER_FOUND,
+    LNE_SVC_HANDLER_EXC,
+    LNE_SVC_TIMEOUT,
+    LnServiceError,
+)
 
 log = logging.getLogger("ln_ros2_bridge.services")
 
@@ -41,7 +46,7 @@ def fill_error_fields(response, code, text):
         match = re.fullmatch(r"(u?)int(8|16|32|64)", kind)
         if match:
             bits = int(match.group(2)) - (0 if match.group(1) else 1)
-            setattr(response, name, min(abs(int(code)) or 1, (1 << bits) - 1))   # never 0: 0 means success
+            setattr(response, name, min(abs(int(code)) or 1, (1 << bits) - 1))  # never 0: 0 means success
             found = True
             break
     for name in _FLAG_FIELDS:
@@ -65,8 +70,9 @@ class LnToRosService:
         self._node = node
         self._response_class = service_type.srv_class.Response
         self._ln_service = ln.service_client(entry.ln, service_type.ln_name)
-        self.server = node.create_service(service_type.srv_class, entry.ros, self._handle,
-                                          callback_group=ReentrantCallbackGroup())
+        self.server = node.create_service(
+            service_type.srv_class, entry.ros, self._handle, callback_group=ReentrantCallbackGroup()
+        )
 
     def _handle(self, request, response):
         types = self.service_type
@@ -74,8 +80,9 @@ class LnToRosService:
             try:
                 flat = types.request.cdr_to_ln(serialize_message(request))
             except Exception as error:
-                raise LnServiceError("the request does not fit LN's %s: %s" % (types.ln_name, error),
-                                     LNE_INVALID_REQ_FIELD_FORMAT) from error
+                raise LnServiceError(
+                    "the request does not fit LN's %s: %s" % (types.ln_name, error), LNE_INVALID_REQ_FIELD_FORMAT
+                ) from error
             answer = self._ln_service.call(flat, self.entry.timeout)
             result = deserialize_message(types.response.ln_to_cdr(answer), self._response_class)
             self.count += 1
@@ -85,8 +92,9 @@ class LnToRosService:
             code = getattr(error, "code", LNE_SVC_HANDLER_EXC)
             text = "ln_ros2_bridge: LN service %s failed: %s" % (self.entry.ln, error)
             if not fill_error_fields(response, code, text):
-                log.error("%s (answering %s with a default response: its type has no error fields)",
-                          text, self.entry.ros)
+                log.error(
+                    "%s (answering %s with a default response: its type has no error fields)", text, self.entry.ros
+                )
             else:
                 log.warning(text)
             return response
@@ -127,22 +135,28 @@ class RosToLnService:
             request = deserialize_message(types.request.ln_to_cdr(flat), self._request_class)
         except Exception as error:
             self.errors += 1
-            raise LnServiceError("ln_ros2_bridge: cannot convert the request for %s: %s"
-                                 % (self.entry.ros, error), LNE_INVALID_REQ_FIELD_FORMAT) from error
+            raise LnServiceError(
+                "ln_ros2_bridge: cannot convert the request for %s: %s" % (self.entry.ros, error),
+                LNE_INVALID_REQ_FIELD_FORMAT,
+            ) from error
         done = threading.Event()
         future = self.client.call_async(request)
         future.add_done_callback(lambda _: done.set())
         if not done.wait(max(0.0, deadline - time.monotonic())):
             self.client.remove_pending_request(future)
             self.errors += 1
-            raise LnServiceError("ln_ros2_bridge: ROS service %s did not answer within %.1f s"
-                                 % (self.entry.ros, self.entry.timeout), LNE_SVC_TIMEOUT)
+            raise LnServiceError(
+                "ln_ros2_bridge: ROS service %s did not answer within %.1f s" % (self.entry.ros, self.entry.timeout),
+                LNE_SVC_TIMEOUT,
+            )
         try:
             answer = types.response.cdr_to_ln(serialize_message(future.result()))
         except Exception as error:
             self.errors += 1
-            raise LnServiceError("ln_ros2_bridge: the response of %s does not fit LN's %s: %s"
-                                 % (self.entry.ros, types.ln_name, error), LNE_SVC_HANDLER_EXC) from error
+            raise LnServiceError(
+                "ln_ros2_bridge: the response of %s does not fit LN's %s: %s" % (self.entry.ros, types.ln_name, error),
+                LNE_SVC_HANDLER_EXC,
+            ) from error
         self.count += 1
         return answer
 

@@ -18,10 +18,16 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 
 log = logging.getLogger("ln_ros2_bridge.topics")
 
-_RELIABILITY = {"reliable": ReliabilityPolicy.RELIABLE, "best_effort": ReliabilityPolicy.BEST_EFFORT,
-                "best_available": ReliabilityPolicy.BEST_AVAILABLE}
-_DURABILITY = {"volatile": DurabilityPolicy.VOLATILE, "transient_local": DurabilityPolicy.TRANSIENT_LOCAL,
-               "best_available": DurabilityPolicy.BEST_AVAILABLE}
+_RELIABILITY = {
+    "reliable": ReliabilityPolicy.RELIABLE,
+    "best_effort": ReliabilityPolicy.BEST_EFFORT,
+    "best_available": ReliabilityPolicy.BEST_AVAILABLE,
+}
+_DURABILITY = {
+    "volatile": DurabilityPolicy.VOLATILE,
+    "transient_local": DurabilityPolicy.TRANSIENT_LOCAL,
+    "best_available": DurabilityPolicy.BEST_AVAILABLE,
+}
 _HISTORY = {"keep_last": HistoryPolicy.KEEP_LAST, "keep_all": HistoryPolicy.KEEP_ALL}
 
 
@@ -33,14 +39,18 @@ def qos_profile(qos, for_publisher):
     if for_publisher:
         reliability = "reliable" if reliability == "best_available" else reliability
         durability = "volatile" if durability == "best_available" else durability
-    return QoSProfile(reliability=_RELIABILITY[reliability], durability=_DURABILITY[durability],
-                      history=_HISTORY[qos.history], depth=qos.depth)
+    return QoSProfile(
+        reliability=_RELIABILITY[reliability],
+        durability=_DURABILITY[durability],
+        history=_HISTORY[qos.history],
+        depth=qos.depth,
+    )
 
 
 class _TopicBridge:
     """What both directions share: the compiled path's report, made readable."""
 
-    REPORT_PERIOD = 5.0   # seconds between log lines about dropped messages of one topic
+    REPORT_PERIOD = 5.0  # seconds between log lines about dropped messages of one topic
 
     def __init__(self, entry, topic_type):
         self.entry = entry
@@ -70,12 +80,22 @@ class _TopicBridge:
             self._last_text = report["error_text"]
         now = time.monotonic()
         if self._unreported and now - self._reported_at >= self.REPORT_PERIOD:
-            log.warning("%s: dropped %d message%s: %s%s", self.describe(), self._unreported,
-                        "s" * (self._unreported != 1), self._last_text, _hint(self._last_text))
+            log.warning(
+                "%s: dropped %d message%s: %s%s",
+                self.describe(),
+                self._unreported,
+                "s" * (self._unreported != 1),
+                self._last_text,
+                _hint(self._last_text),
+            )
             self._unreported, self._reported_at = 0, now
         for gid in report["nodeless"]:
-            log.info("ROS topic %s: a publisher without a ROS node (gid %s, e.g. a plain DDS participant) "
-                     "sends on it: forwarding its messages", self.entry.ros, gid)
+            log.info(
+                "ROS topic %s: a publisher without a ROS node (gid %s, e.g. a plain DDS participant) "
+                "sends on it: forwarding its messages",
+                self.entry.ros,
+                gid,
+            )
         return report
 
     def close(self):
@@ -100,14 +120,22 @@ class LnToRosTopic(_TopicBridge):
 
     def __init__(self, node, ln, entry, topic_type):
         from msg_mapping._native import bridge
+
         super().__init__(entry, topic_type)
         self._node = node
         self.publisher = node.create_publisher(topic_type.msg_class, entry.ros, qos_profile(entry.qos, True))
         settings = entry.ln_port
         try:
-            self.path = bridge.LnToRosPath(ln.data_client(), entry.ln, topic_type.ln_name, settings.rate,
-                                           settings.buffers, settings.reliable_transport, topic_type.codec,
-                                           self.publisher.handle.pointer)
+            self.path = bridge.LnToRosPath(
+                ln.data_client(),
+                entry.ln,
+                topic_type.ln_name,
+                settings.rate,
+                settings.buffers,
+                settings.reliable_transport,
+                topic_type.codec,
+                self.publisher.handle.pointer,
+            )
         except Exception:
             self._close_ros()
             raise
@@ -136,12 +164,25 @@ class RosToLnTopic(_TopicBridge):
 
     def __init__(self, node, ln, entry, topic_type, bridge_names):
         from msg_mapping._native import bridge
+
         super().__init__(entry, topic_type)
         msg_class = topic_type.msg_class
         qos = entry.qos
-        self.path = bridge.RosToLnPath(ln.data_client(), entry.ln, topic_type.ln_name, entry.ln_port.buffers,
-                                       topic_type.codec, node.handle.pointer, msg_class._TYPE_SUPPORT, entry.ros,
-                                       qos.reliability, qos.durability, qos.history, qos.depth, list(bridge_names))
+        self.path = bridge.RosToLnPath(
+            ln.data_client(),
+            entry.ln,
+            topic_type.ln_name,
+            entry.ln_port.buffers,
+            topic_type.codec,
+            node.handle.pointer,
+            msg_class._TYPE_SUPPORT,
+            entry.ros,
+            qos.reliability,
+            qos.durability,
+            qos.history,
+            qos.depth,
+            list(bridge_names),
+        )
 
     def describe(self):
         return "ROS topic %s -> LN %s" % (self.entry.ros, self.entry.ln)

@@ -30,9 +30,10 @@ import threading
 import time
 from dataclasses import dataclass, field
 
-import msg_mapping
 from msg_mapping.manager import load_fetching
 from msg_mapping.rules import compile_rules, load_rules
+
+import msg_mapping
 
 log = logging.getLogger("ln_ros2_bridge.types")
 
@@ -46,17 +47,17 @@ class TopicType:
     ln_name: str
     ros_type: str
     msg_class: type
-    codec: object          # msg_mapping Codec or RuleCodec: ln_to_cdr(buf), cdr_to_ln(buf)
+    codec: object  # msg_mapping Codec or RuleCodec: ln_to_cdr(buf), cdr_to_ln(buf)
     ln_size: int
-    via: str               # "generated", "rule" or "derived"
-    definitions: tuple = ()   # derived: ((LN name, text, hash), ...) the LN manager must know, used ones first
+    via: str  # "generated", "rule" or "derived"
+    definitions: tuple = ()  # derived: ((LN name, text, hash), ...) the LN manager must know, used ones first
 
     def cdr_to_ln_into(self, cdr, out):
         into = getattr(self.codec, "cdr_to_ln_into", None)
         if into is not None:
             return into(cdr, out)
         data = self.codec.cdr_to_ln(cdr)
-        out[:len(data)] = data
+        out[: len(data)] = data
         return len(data)
 
 
@@ -65,8 +66,8 @@ class ServiceType:
     ln_name: str
     ros_type: str
     srv_class: type
-    request: object        # Codec for the request (LN flat <-> CDR)
-    response: object       # Codec for the response
+    request: object  # Codec for the request (LN flat <-> CDR)
+    response: object  # Codec for the response
     via: str = "generated"
     definitions: tuple = ()
 
@@ -76,6 +77,7 @@ class RosCapacities:
     """LN capacities of unbounded strings and sequences in definitions derived from
     ROS types: defaults, and per field "pkg/msg/Type.field" (elements, or bytes of a
     string) / "pkg/msg/Type.field[]" (bytes of each string of a string array)."""
+
     string: int = 255
     sequence: int = 64
     fields: dict = field(default_factory=dict)
@@ -95,30 +97,32 @@ def _import_ros_type(ros_type):
         cls.__class__.__import_type_support__()
         return cls
     except (ImportError, AttributeError) as error:
-        raise UnknownType("ROS type %s cannot be imported (%s): is its package built and sourced?"
-                          % (ros_type, error)) from error
+        raise UnknownType(
+            "ROS type %s cannot be imported (%s): is its package built and sourced?" % (ros_type, error)
+        ) from error
 
 
 class TypeRegistry:
     """Resolves LN definitions <-> ROS types; thread-safe; caches what it found."""
 
-    def __init__(self, definition_dirs=(), rule_files=(), share_dirs=None, fetch_definition=None,
-                 capacities=RosCapacities()):
+    def __init__(
+        self, definition_dirs=(), rule_files=(), share_dirs=None, fetch_definition=None, capacities=RosCapacities()
+    ):
         self._lock = threading.RLock()
         self._capacities = capacities
-        self._derived = None               # msg_mapping.RosToLn, made at first use
-        self._unmapped = {}                # ROS type -> why it has no LN counterpart
-        self._fetch_definition = fetch_definition   # name -> None; adds a dir or text (from the LN manager)
+        self._derived = None  # msg_mapping.RosToLn, made at first use
+        self._unmapped = {}  # ROS type -> why it has no LN counterpart
+        self._fetch_definition = fetch_definition  # name -> None; adds a dir or text (from the LN manager)
         self._fetched = set()
         self._dirs = list(definition_dirs)
-        self._sources = {}                 # LN name -> definition text (from the manager)
+        self._sources = {}  # LN name -> definition text (from the manager)
         self._share_dirs = share_dirs
         self._rule_files = list(rule_files)
         self._library = None
         self._generator = None
-        self._rules = {}                   # LN name -> [RuleCodec]
-        self._index = {}                   # LN name -> ln_mapping.json entry (+ "package")
-        self._by_ros = {}                  # ROS type -> LN name
+        self._rules = {}  # LN name -> [RuleCodec]
+        self._index = {}  # LN name -> ln_mapping.json entry (+ "package")
+        self._by_ros = {}  # ROS type -> LN name
         self._indexed_at = 0.0
         self._topic_cache = {}
         self._service_cache = {}
@@ -158,8 +162,7 @@ class TypeRegistry:
         fetched from the LN manager first, each name at most once."""
         if self._fetch_definition is None:
             return self._library.load(ln_name)
-        return load_fetching(lambda name: self._library.load(name), ln_name, self._fetch_definition,
-                             self._fetched)
+        return load_fetching(lambda name: self._library.load(name), ln_name, self._fetch_definition, self._fetched)
 
     def ln_hash(self, ln_name):
         with self._lock:
@@ -199,12 +202,13 @@ class TypeRegistry:
         """The RosToLn that derives LN definitions from ROS types (with the capacities)."""
         if self._derived is None:
             caps = self._capacities
-            self._derived = msg_mapping.RosToLn(msg_mapping.ros_share_dirs(), DERIVED_PREFIX, caps.string,
-                                                caps.sequence, dict(caps.fields))
+            self._derived = msg_mapping.RosToLn(
+                msg_mapping.ros_share_dirs(), DERIVED_PREFIX, caps.string, caps.sequence, dict(caps.fields)
+            )
         return self._derived
 
     def _load_rules(self):
-        ros = self._derivation()   # rules go through the ROS type's fixed LN form: same capacities
+        ros = self._derivation()  # rules go through the ROS type's fixed LN form: same capacities
         for path in self._rule_files:
             try:
                 for codec in compile_rules(load_rules(path), self._library, ros):
@@ -233,7 +237,7 @@ class TypeRegistry:
     # -- derived from ROS types --------------------------------------------------
     @staticmethod
     def derived_ros_type(ln_name):
-        """"pkg/msg/Type" when `ln_name` has the form of a definition derived from it."""
+        """ "pkg/msg/Type" when `ln_name` has the form of a definition derived from it."""
         match = _DERIVED_NAME.match(ln_name or "")
         return "%s/%s/%s" % match.groups() if match else None
 
@@ -258,6 +262,7 @@ class TypeRegistry:
             for used in _DEFINE.findall(texts[name]):
                 visit(used)
             order.append(name)
+
         visit(ln_name)
         library = msg_mapping.Library([], False)
         for name in order:
@@ -266,8 +271,9 @@ class TypeRegistry:
 
     def _check_derived(self, ln_name, ros_type, requested_ros_type, info):
         if requested_ros_type is not None and requested_ros_type != ros_type:
-            raise UnknownType("LN definition %s is derived from the ROS type %s, not %s"
-                              % (ln_name, ros_type, requested_ros_type))
+            raise UnknownType(
+                "LN definition %s is derived from the ROS type %s, not %s" % (ln_name, ros_type, requested_ros_type)
+            )
         if info["ln_name"] != ln_name:
             raise UnknownType("ROS type %s derives the LN definition %s, not %s" % (ros_type, info["ln_name"], ln_name))
 
@@ -277,8 +283,9 @@ class TypeRegistry:
         if info["kind"] != "message":
             raise UnknownType("%s is a ROS service type, a topic needs a message type" % ros_type)
         codec = self._derivation().codec(ros_type)
-        return TopicType(ln_name, ros_type, _import_ros_type(ros_type), codec, codec.fixed_ln_size, "derived",
-                         definitions)
+        return TopicType(
+            ln_name, ros_type, _import_ros_type(ros_type), codec, codec.fixed_ln_size, "derived", definitions
+        )
 
     def _derived_service(self, ln_name, ros_type, requested_ros_type):
         info, definitions = self._derive(ros_type)
@@ -286,8 +293,15 @@ class TypeRegistry:
         if info["kind"] != "service":
             raise UnknownType("%s is a ROS message type, a service needs a service type" % ros_type)
         ros = self._derivation()
-        return ServiceType(ln_name, ros_type, _import_ros_type(ros_type), ros.codec(ros_type, False, "request"),
-                           ros.codec(ros_type, False, "response"), "derived", definitions)
+        return ServiceType(
+            ln_name,
+            ros_type,
+            _import_ros_type(ros_type),
+            ros.codec(ros_type, False, "request"),
+            ros.codec(ros_type, False, "response"),
+            "derived",
+            definitions,
+        )
 
     # -- resolution ----------------------------------------------------------
     def topic_type(self, ln_name=None, ros_type=None):
@@ -303,8 +317,9 @@ class TypeRegistry:
             derived_from = self.derived_ros_type(ln_name) if ln_name not in self._index else None
             for rule in self._rules.get(ln_name, []):
                 if ros_type in (None, rule.ros_name):
-                    result = TopicType(ln_name, rule.ros_name, _import_ros_type(rule.ros_name), rule,
-                                       rule.ln_size, "rule")
+                    result = TopicType(
+                        ln_name, rule.ros_name, _import_ros_type(rule.ros_name), rule, rule.ln_size, "rule"
+                    )
                     break
             else:
                 if derived_from is not None:
@@ -312,8 +327,14 @@ class TypeRegistry:
                     return result
                 entry = self._generated(ln_name, "message", ros_type)
                 codec = self._codec(ln_name)
-                result = TopicType(ln_name, entry["ros_type"], _import_ros_type(entry["ros_type"]), codec,
-                                   codec.fixed_ln_size, "generated")
+                result = TopicType(
+                    ln_name,
+                    entry["ros_type"],
+                    _import_ros_type(entry["ros_type"]),
+                    codec,
+                    codec.fixed_ln_size,
+                    "generated",
+                )
             self._topic_cache[key] = result
             return result
 
@@ -332,8 +353,13 @@ class TypeRegistry:
                 result = self._service_cache[key] = self._derived_service(ln_name, derived_from, ros_type)
                 return result
             entry = self._generated(ln_name, "service", ros_type)
-            result = ServiceType(ln_name, entry["ros_type"], _import_ros_type(entry["ros_type"]),
-                                 self._codec(ln_name, "request"), self._codec(ln_name, "response"))
+            result = ServiceType(
+                ln_name,
+                entry["ros_type"],
+                _import_ros_type(entry["ros_type"]),
+                self._codec(ln_name, "request"),
+                self._codec(ln_name, "response"),
+            )
             self._service_cache[key] = result
             return result
 
@@ -347,17 +373,20 @@ class TypeRegistry:
             self.rescan()
             entry = self._index.get(ln_name)
         if entry is None:
-            raise UnknownType("LN definition %s has no generated ROS interface on AMENT_PREFIX_PATH "
-                              "(make one with: ln_ros2_gen --md-dir DIR --out WS/src %s; colcon build)"
-                              % (ln_name, ln_name))
+            raise UnknownType(
+                "LN definition %s has no generated ROS interface on AMENT_PREFIX_PATH "
+                "(make one with: ln_ros2_gen --md-dir DIR --out WS/src %s; colcon build)" % (ln_name, ln_name)
+            )
         if entry.get("kind") != kind:
             raise UnknownType("LN definition %s is a %s, not a %s" % (ln_name, entry.get("kind"), kind))
         if ros_type is not None and ros_type != entry["ros_type"]:
             raise UnknownType("LN definition %s is generated as %s, not %s" % (ln_name, entry["ros_type"], ros_type))
         if entry.get("ln_hash") and entry["ln_hash"] != current:
-            raise UnknownType("ROS interface %s (in %s) was generated from another version of %s "
-                              "(hash %.12s, now %.12s): regenerate it with ln_ros2_gen and rebuild"
-                              % (entry["ros_type"], entry["path"], ln_name, entry["ln_hash"], current))
+            raise UnknownType(
+                "ROS interface %s (in %s) was generated from another version of %s "
+                "(hash %.12s, now %.12s): regenerate it with ln_ros2_gen and rebuild"
+                % (entry["ros_type"], entry["path"], ln_name, entry["ln_hash"], current)
+            )
         return entry
 
     def _codec(self, ln_name, part=""):
@@ -367,7 +396,7 @@ class TypeRegistry:
             return self._generator.codec(ln_name, part)
         except UnknownType:
             raise
-        except Exception as error:   # DefinitionError/MappingError (or LNError, see _load)
+        except Exception as error:  # DefinitionError/MappingError (or LNError, see _load)
             raise UnknownType("no codec for LN definition %s: %s" % (ln_name, error)) from error
 
 

@@ -42,11 +42,14 @@ def _prepare_and_reexec():
     env["LN_ROS2_BRIDGE_TEST_ENV"] = "1"
     argv = [sys.executable] + sys.orig_argv[1:]
     netns = ros_testing.netns_run()
-    if not ros_testing.network_is_isolated() and netns and \
-            subprocess.run([netns, "true"], capture_output=True, timeout=30).returncode == 0:
+    if (
+        not ros_testing.network_is_isolated()
+        and netns
+        and subprocess.run([netns, "true"], capture_output=True, timeout=30).returncode == 0
+    ):
         env["LN_ROS2_BRIDGE_NETNS"] = "1"
         os.execve(netns, [netns] + argv, env)
-    os.execve(sys.executable, argv, env)   # library paths must be set before the process starts
+    os.execve(sys.executable, argv, env)  # library paths must be set before the process starts
 
 
 def pytest_configure(config):
@@ -59,8 +62,9 @@ def pytest_configure(config):
 
 
 def pytest_report_header(config):
-    return "ln_ros2_bridge: network %s" % ("isolated (netns-run)" if ros_testing.network_is_isolated()
-                                             else "NOT isolated: loopback-only DDS settings")
+    return "ln_ros2_bridge: network %s" % (
+        "isolated (netns-run)" if ros_testing.network_is_isolated() else "NOT isolated: loopback-only DDS settings"
+    )
 
 
 # ---------------------------------------------------------------------------------------------
@@ -82,12 +86,17 @@ class Process:
         def found():
             if self.proc.poll() is not None and len([e for e in self.events() if e.get("event") == name]) < count:
                 if "NOT_YET_IMPLEMENTED" in self.text():
-                    pytest.skip("%s: needs an LN feature that is not implemented yet:\n%s"
-                                % (self.name, ln_testing.tail(self.log_path, 3)))
-                raise AssertionError("%s exited (%s) without event %r:\n%s"
-                                     % (self.name, self.proc.returncode, name, ln_testing.tail(self.log_path)))
+                    pytest.skip(
+                        "%s: needs an LN feature that is not implemented yet:\n%s"
+                        % (self.name, ln_testing.tail(self.log_path, 3))
+                    )
+                raise AssertionError(
+                    "%s exited (%s) without event %r:\n%s"
+                    % (self.name, self.proc.returncode, name, ln_testing.tail(self.log_path))
+                )
             matching = [e for e in self.events() if e.get("event") == name]
             return matching if len(matching) >= count else None
+
         return ln_testing.wait_for(found, timeout, "%s: event %s" % (self.name, name))
 
     def wait_log(self, pattern, timeout=20.0):
@@ -133,16 +142,26 @@ def start_bridge(ln, tmp_path, processes):
     def start(config, name="bridge", wait=None, extra_args=(), env=None):
         path = tmp_path / ("%s.yaml" % name)
         path.write_text(yaml.safe_dump(config))
-        cmd = [sys.executable, "-m", "ln_ros2_bridge", "--config", path, "--ln-manager", ln.address,
-               "--log-level", "debug", *extra_args]
+        cmd = [
+            sys.executable,
+            "-m",
+            "ln_ros2_bridge",
+            "--config",
+            path,
+            "--ln-manager",
+            ln.address,
+            "--log-level",
+            "debug",
+            *extra_args,
+        ]
         proc = Process(name, cmd, ln.env(env), tmp_path)
         processes.append(proc)
         for pattern in ["connected to the LN manager"] + list(wait or ()):
             found = proc.wait_log(pattern + "|NOT_YET_IMPLEMENTED", 30)
             if "NOT_YET_IMPLEMENTED" in found.group(0):
-                pytest.skip("%s: a feature the bridge needs is not implemented yet (see %s)"
-                            % (ln.kind, proc.log_path))
+                pytest.skip("%s: a feature the bridge needs is not implemented yet (see %s)" % (ln.kind, proc.log_path))
         return proc
+
     return start
 
 
@@ -157,6 +176,7 @@ def ln_peer(ln, tmp_path, processes):
         proc = Process("%s-%d" % (name, counter[0]), cmd, ln.env(), tmp_path)
         processes.append(proc)
         return proc
+
     return start
 
 
@@ -166,6 +186,7 @@ class RosPeer:
     def __init__(self, name):
         import rclpy
         from rclpy.executors import SingleThreadedExecutor
+
         self.rclpy = rclpy
         self.context = rclpy.Context()
         rclpy.init(context=self.context)
@@ -212,6 +233,7 @@ def ln_snapshot(ln):
     """(topics, services) the LN manager knows now, as the bridge reads them; the probe's
     client name matches the bridges' pattern, so bridges ignore it."""
     from ln_ros2_bridge.ln_introspection import Ln29Introspection, LnCoreIntrospection
+
     if ln.kind == "ln29":
         intro = Ln29Introspection(ln.address)
         try:
@@ -231,4 +253,5 @@ def ln_core_probe(ln):
     if ln.python_path() not in sys.path:
         sys.path.insert(0, ln.python_path())
     import links_and_nodes
+
     return links_and_nodes.client("ln_ros2_bridge_test_probe", ln.address)

@@ -15,28 +15,33 @@ def ros_publishers(ros, topic):
 def served_by(ros, node_name, service):
     try:
         return any(name == service for name, _ in ros.node.get_service_names_and_types_by_node(node_name, "/"))
-    except Exception:   # the node is not (yet) known
+    except Exception:  # the node is not (yet) known
         return False
 
 
 def test_topics_follow_ln_publishers(ln, start_bridge, ln_peer, ros):
     from bridgetest_ln_msgs.msg import Sample
+
     start_bridge(AUTO)
     received = []
     ros.node.create_subscription(Sample, "/bt/auto", received.append, 50)
     publisher = ln_peer("lnpub", "publish", "bt.auto", "--count", 100000, "--rate", 50)
-    wait_until(lambda: ros_publishers(ros, "/bt/auto") == [("ln_ros2_bridge", "bridgetest_ln_msgs/msg/Sample")],
-               20, "the bridge publishing /bt/auto")
+    wait_until(
+        lambda: ros_publishers(ros, "/bt/auto") == [("ln_ros2_bridge", "bridgetest_ln_msgs/msg/Sample")],
+        20,
+        "the bridge publishing /bt/auto",
+    )
     wait_until(lambda: len(received) >= 5, 20, "samples on /bt/auto")
     publisher.stop()
     wait_until(lambda: ros_publishers(ros, "/bt/auto") == [], 20, "/bt/auto to lose its bridge publisher")
-    publisher = ln_peer("lnpub", "publish", "bt.auto", "--count", 100000, "--rate", 50)   # and back again
+    publisher = ln_peer("lnpub", "publish", "bt.auto", "--count", 100000, "--rate", 50)  # and back again
     count = len(received)
     wait_until(lambda: len(received) >= count + 5, 20, "samples after the LN publisher returned")
 
 
 def test_services_follow_ln_providers(ln, start_bridge, ln_peer, ros):
     from bridgetest_ln_msgs.srv import Compute
+
     bridge = start_bridge(AUTO)
     provider = ln_peer("lnsrv", "provide", "bt.acompute")
     provider.wait_event("ready")
@@ -53,12 +58,15 @@ def test_ln_changes_reach_ros_at_once(ln, start_bridge, ln_peer, ros):
     """With auto.period a minute away, an LN publisher or provider leaving, and coming
     back, changes the ROS side within seconds: the manager reports it, the bridge does
     not wait for its next pass."""
+
     def ros_side():
         return bool(ros_publishers(ros, "/bt/prompt")), served_by(ros, "ln_ros2_bridge", "/bt/prompt_srv")
 
     def start_ln_side():
-        peers = (ln_peer("lnpub", "publish", "bt.prompt", "--count", 100000, "--rate", 20),
-                 ln_peer("lnsrv", "provide", "bt.prompt_srv"))
+        peers = (
+            ln_peer("lnpub", "publish", "bt.prompt", "--count", 100000, "--rate", 20),
+            ln_peer("lnsrv", "provide", "bt.prompt_srv"),
+        )
         for peer in peers:
             peer.wait_event("ready")
         return peers
@@ -71,24 +79,27 @@ def test_ln_changes_reach_ros_at_once(ln, start_bridge, ln_peer, ros):
     wait_until(lambda: ros_side() == (False, False), 8, "both to leave ROS after the LN side left")
     start_ln_side()
     wait_until(lambda: ros_side() == (True, True), 8, "both back on ROS")
-    if ln.kind == "ln_core":   # and it asks the manager on its one LN connection
+    if ln.kind == "ln_core":  # and it asks the manager on its one LN connection
         probe = ln_core_probe(ln)
         try:
             clients = [c.name for c in probe.list_clients()]
         finally:
             probe.close()
-        assert [c for c in clients if c.startswith("ln_ros2_bridge") and c != probe.name] == ["ln_ros2_bridge"], \
-            clients
+        assert [c for c in clients if c.startswith("ln_ros2_bridge") and c != probe.name] == ["ln_ros2_bridge"], clients
 
 
 def test_ros_publishers_and_servers_appear_in_ln(ln, start_bridge, ln_peer, ros):
     from bridgetest_ln_msgs.msg import Sample
     from bridgetest_ln_msgs.srv import Compute
+
     bridge = start_bridge(AUTO)
     publisher = ros.node.create_publisher(Sample, "/bt/from_ros", 10)
     # (on LN 2.9 by the bridge's data client, which the manager names "ln_ros2_bridge 1")
-    wait_until(lambda: any(t.name == "bt.from_ros" and t.publisher.startswith("ln_ros2_bridge")
-                           for t in ln_snapshot(ln)[0]), 20, "LN topic bt.from_ros published by the bridge")
+    wait_until(
+        lambda: any(t.name == "bt.from_ros" and t.publisher.startswith("ln_ros2_bridge") for t in ln_snapshot(ln)[0]),
+        20,
+        "LN topic bt.from_ros published by the bridge",
+    )
     subscriber = ln_peer("lnsub", "subscribe", "bt.from_ros", "--count", 5)
     subscriber.wait_event("ready")
     deadline = time.monotonic() + 20
@@ -101,16 +112,20 @@ def test_ros_publishers_and_servers_appear_in_ln(ln, start_bridge, ln_peer, ros)
 
     ros.node.create_service(Compute, "/bt/from_ros_srv", lambda req, resp: Compute.Response(result=42.0))
     found = bridge.wait_log("NOT_YET_IMPLEMENTED|bridging service bt.from_ros_srv", 20)
-    if "NOT_YET" not in found.group(0):   # (ln_core's services are still being written)
-        wait_until(lambda: any(s.name == "bt.from_ros_srv" for s in ln_snapshot(ln)[1]), 20,
-                   "LN service bt.from_ros_srv")
+    if "NOT_YET" not in found.group(0):  # (ln_core's services are still being written)
+        wait_until(
+            lambda: any(s.name == "bt.from_ros_srv" for s in ln_snapshot(ln)[1]), 20, "LN service bt.from_ros_srv"
+        )
         caller = ln_peer("lncall", "call", "bt.from_ros_srv", "--request", '{"a": 0, "values": [], "op": ""}')
         (answer,) = caller.wait_event("response", 20)
         assert answer["result"] == 42.0
 
     ros.node.destroy_publisher(publisher)
-    wait_until(lambda: not any(t.name == "bt.from_ros" and t.publisher for t in ln_snapshot(ln)[0]),
-               20, "LN topic bt.from_ros to lose its publisher")
+    wait_until(
+        lambda: not any(t.name == "bt.from_ros" and t.publisher for t in ln_snapshot(ln)[0]),
+        20,
+        "LN topic bt.from_ros to lose its publisher",
+    )
 
 
 def test_filters_and_unknown_types(ln, start_bridge, ln_peer, ros):
@@ -129,16 +144,19 @@ def test_filters_and_unknown_types(ln, start_bridge, ln_peer, ros):
 
 def test_two_bridges_do_not_echo_or_duplicate(ln, start_bridge, ln_peer, ros):
     from bridgetest_ln_msgs.msg import Sample
+
     config = {"auto": {"enabled": True, "period": 0.3}}
-    start_bridge(config, name="bridge_a", extra_args=["--node-name", "ln_ros2_bridge_a",
-                                                      "--ln-client-name", "ln_ros2_bridge_a"])
-    start_bridge(config, name="bridge_b", extra_args=["--node-name", "ln_ros2_bridge_b",
-                                                      "--ln-client-name", "ln_ros2_bridge_b"])
+    start_bridge(
+        config, name="bridge_a", extra_args=["--node-name", "ln_ros2_bridge_a", "--ln-client-name", "ln_ros2_bridge_a"]
+    )
+    start_bridge(
+        config, name="bridge_b", extra_args=["--node-name", "ln_ros2_bridge_b", "--ln-client-name", "ln_ros2_bridge_b"]
+    )
     received = []
     ros.node.create_subscription(Sample, "/bt/twice", received.append, 100)
     ln_peer("lnpub", "publish", "bt.twice", "--count", 100000, "--rate", 50)
     wait_until(lambda: len(received) >= 20, 20, "samples on /bt/twice")
-    time.sleep(2.0)   # several reconciliation periods: a duplicate or an echo would have appeared by now
+    time.sleep(2.0)  # several reconciliation periods: a duplicate or an echo would have appeared by now
     assert len(ros_publishers(ros, "/bt/twice")) == 1, ros_publishers(ros, "/bt/twice")
     seqs = [m.seq for m in received]
     assert len(seqs) == len(set(seqs)), "duplicated samples on ROS"
@@ -147,8 +165,11 @@ def test_two_bridges_do_not_echo_or_duplicate(ln, start_bridge, ln_peer, ros):
 
     # ROS -> LN: one bridge publishes into LN, nothing comes back to ROS
     publisher = ros.node.create_publisher(Sample, "/bt/ros_side", 10)
-    wait_until(lambda: any(t.name == "bt.ros_side" and t.publisher.startswith("ln_ros2_bridge_")
-                           for t in ln_snapshot(ln)[0]), 20, "bt.ros_side in LN")
+    wait_until(
+        lambda: any(t.name == "bt.ros_side" and t.publisher.startswith("ln_ros2_bridge_") for t in ln_snapshot(ln)[0]),
+        20,
+        "bt.ros_side in LN",
+    )
     for seq in range(20):
         publisher.publish(Sample(seq=seq, label=[0] * 16))
         time.sleep(0.01)
@@ -170,13 +191,19 @@ def test_messages_from_bridge_publishers_are_not_bridged_back(ln, start_bridge, 
     bt.y. B drops what A publishes -- per publisher: when a plain ROS node publishes on
     /bt/x too, B forwards exactly that node's messages, while A keeps publishing."""
     from bridgetest_ln_msgs.msg import Sample
-    start_bridge({"topics": [{"ln": "bt.x", "type": "bridgetest/sample"}]}, name="bridge_a",
-                 extra_args=["--node-name", "ln_ros2_bridge_a", "--ln-client-name", "ln_ros2_bridge_a"],
-                 wait=["bridging topic bt.x"])
-    bridge_b = start_bridge({"topics": [{"ln": "bt.y", "ros": "/bt/x", "type": "bridgetest/sample",
-                                         "direction": "ros_to_ln"}]}, name="bridge_b",
-                            extra_args=["--node-name", "ln_ros2_bridge_b", "--ln-client-name", "ln_ros2_bridge_b"],
-                            wait=["bridging topic bt.y"])
+
+    start_bridge(
+        {"topics": [{"ln": "bt.x", "type": "bridgetest/sample"}]},
+        name="bridge_a",
+        extra_args=["--node-name", "ln_ros2_bridge_a", "--ln-client-name", "ln_ros2_bridge_a"],
+        wait=["bridging topic bt.x"],
+    )
+    bridge_b = start_bridge(
+        {"topics": [{"ln": "bt.y", "ros": "/bt/x", "type": "bridgetest/sample", "direction": "ros_to_ln"}]},
+        name="bridge_b",
+        extra_args=["--node-name", "ln_ros2_bridge_b", "--ln-client-name", "ln_ros2_bridge_b"],
+        wait=["bridging topic bt.y"],
+    )
     from_ros = []
     ros.node.create_subscription(Sample, "/bt/x", from_ros.append, 50)
     subscriber = ln_peer("lnsub", "subscribe", "bt.y", "--count", 10)
@@ -195,8 +222,9 @@ def test_messages_from_bridge_publishers_are_not_bridged_back(ln, start_bridge, 
         seq += 1
         time.sleep(0.02)
     received = subscriber.wait_event("packet", 10, count=10)
-    assert [p["label"] for p in received if not p["label"].startswith("ros")] == [], \
+    assert [p["label"] for p in received if not p["label"].startswith("ros")] == [], (
         "bridge B forwarded bridge A's messages"
+    )
     assert all(p["seq"] >= 90000 for p in received)
     assert any(last_of_a < m.seq < 90000 for m in from_ros), "bridge A stopped publishing meanwhile"
     assert "without the sender of each message" not in bridge_b.text()

@@ -2,18 +2,34 @@
 
 import pytest
 
-from ln_ros2_bridge.config import (AutoSettings, ConfigError, RemapRule, ln_to_ros_name, parse_config,
-                                   ros_name_problem, ros_to_ln_name)
+from ln_ros2_bridge.config import (
+    AutoSettings,
+    ConfigError,
+    RemapRule,
+    ln_to_ros_name,
+    parse_config,
+    ros_name_problem,
+    ros_to_ln_name,
+)
 
 
 def test_defaults_and_presets():
-    config = parse_config({"topics": [{"ln": "robot.arm.state", "qos": "latched"},
-                                      {"ln": "robot.cam", "qos": {"preset": "sensor_data", "depth": 2},
-                                       "ln_port": {"rate": 10}}],
-                           "services": [{"ln": "robot.move", "timeout": 30}]})
+    config = parse_config(
+        {
+            "topics": [
+                {"ln": "robot.arm.state", "qos": "latched"},
+                {"ln": "robot.cam", "qos": {"preset": "sensor_data", "depth": 2}, "ln_port": {"rate": 10}},
+            ],
+            "services": [{"ln": "robot.move", "timeout": 30}],
+        }
+    )
     arm, cam = config.topics
-    assert (arm.ros, arm.direction, arm.qos.durability, arm.qos.depth) == ("/robot/arm/state", "ln_to_ros",
-                                                                           "transient_local", 1)
+    assert (arm.ros, arm.direction, arm.qos.durability, arm.qos.depth) == (
+        "/robot/arm/state",
+        "ln_to_ros",
+        "transient_local",
+        1,
+    )
     assert (cam.qos.reliability, cam.qos.depth, cam.ln_port.rate, cam.ln_port.buffers) == ("best_effort", 2, 10.0, 4)
     assert config.services[0].timeout == 30.0 and config.services[0].ros == "/robot/move"
     assert config.is_bridge_name("ln_ros2_bridge") and config.is_bridge_name("/ns/ln_ros2_bridge_2")
@@ -44,13 +60,24 @@ def test_the_command_is_on_path_after_env_sh():
     """The README's `ln_ros2_bridge --config ...` works after `. launchless_scripts/env.sh`."""
     import subprocess
     from pathlib import Path
+
     repo = Path(__file__).resolve().parents[2]
     if not (repo / "install" / "ln_ros2_bridge").is_dir():
         pytest.skip("the workspace is not built with colcon here (no install/ln_ros2_bridge)")
     example = repo / "ln_ros2_bridge" / "config" / "example.yaml"
-    result = subprocess.run(["bash", "-c", '. "$1" >/dev/null && command -v ln_ros2_bridge && '
-                             'ln_ros2_bridge --config "$2" --check', "_", str(repo / "launchless_scripts" / "env.sh"),
-                             str(example)], capture_output=True, text=True, timeout=120)
+    result = subprocess.run(
+        [
+            "bash",
+            "-c",
+            '. "$1" >/dev/null && command -v ln_ros2_bridge && ln_ros2_bridge --config "$2" --check',
+            "_",
+            str(repo / "launchless_scripts" / "env.sh"),
+            str(example),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert result.returncode == 0, result
     command, checked = result.stdout.splitlines()[:2]
     assert command == str(repo / "install" / "ln_ros2_bridge" / "lib" / "ln_ros2_bridge" / "ln_ros2_bridge")
@@ -60,19 +87,26 @@ def test_the_command_is_on_path_after_env_sh():
 def test_ros_types_and_capacities():
     """`type` names an LN definition or a ROS type (pkg/msg/Type); capacities of derived
     definitions per entry (relative to its type) or in defaults, merged into one table."""
-    config = parse_config({
-        "defaults": {"string_capacity": 64, "capacities": {"std_msgs/msg/Header.frame_id": 32}},
-        "topics": [{"ln": "robot.cmd", "type": "geometry_msgs/msg/Twist", "direction": "ros_to_ln"},
-                   {"ln": "robot.joints", "type": "sensor_msgs/msg/JointState",
-                    "capacities": {"name": 12, "name[]": 24}},
-                   {"ln": "robot.joints2", "ros_type": "sensor_msgs/msg/JointState", "capacities": {"name": 12}},
-                   {"ln": "robot.state", "type": "robot/state"}],
-        "services": [{"ln": "robot.reset", "type": "std_srvs/srv/Trigger", "direction": "ros_to_ln"}]})
+    config = parse_config(
+        {
+            "defaults": {"string_capacity": 64, "capacities": {"std_msgs/msg/Header.frame_id": 32}},
+            "topics": [
+                {"ln": "robot.cmd", "type": "geometry_msgs/msg/Twist", "direction": "ros_to_ln"},
+                {"ln": "robot.joints", "type": "sensor_msgs/msg/JointState", "capacities": {"name": 12, "name[]": 24}},
+                {"ln": "robot.joints2", "ros_type": "sensor_msgs/msg/JointState", "capacities": {"name": 12}},
+                {"ln": "robot.state", "type": "robot/state"},
+            ],
+            "services": [{"ln": "robot.reset", "type": "std_srvs/srv/Trigger", "direction": "ros_to_ln"}],
+        }
+    )
     cmd, joints, joints2, state = config.topics
     assert (cmd.ln_type, cmd.ros_type) == (None, "geometry_msgs/msg/Twist")
     assert (joints2.ln_type, joints2.ros_type) == (None, "sensor_msgs/msg/JointState")
     assert (state.ln_type, state.ros_type) == ("robot/state", None)
     assert (config.services[0].ln_type, config.services[0].ros_type) == (None, "std_srvs/srv/Trigger")
     assert (config.string_capacity, config.sequence_capacity) == (64, 64)
-    assert config.capacities == {"std_msgs/msg/Header.frame_id": 32, "sensor_msgs/msg/JointState.name": 12,
-                                 "sensor_msgs/msg/JointState.name[]": 24}
+    assert config.capacities == {
+        "std_msgs/msg/Header.frame_id": 32,
+        "sensor_msgs/msg/JointState.name": 12,
+        "sensor_msgs/msg/JointState.name[]": 24,
+    }

@@ -9,13 +9,13 @@ import sys
 import time
 
 import pytest
-
 from conftest import wait_until
 
 
 def run_ln(*args, timeout=60):
-    return subprocess.run([sys.executable, "-m", "links_and_nodes.cli", "ros", *args], capture_output=True,
-                          text=True, timeout=timeout)
+    return subprocess.run(
+        [sys.executable, "-m", "links_and_nodes.cli", "ros", *args], capture_output=True, text=True, timeout=timeout
+    )
 
 
 def ok(result):
@@ -37,6 +37,7 @@ def talker(ros):
     """/clitest/chatter (std_msgs/String, 20 Hz) and /clitest/enable (std_srvs/SetBool) of a ROS node."""
     from std_msgs.msg import String
     from std_srvs.srv import SetBool
+
     publisher = ros.node.create_publisher(String, "/clitest/chatter", 10)
     calls = []
 
@@ -44,6 +45,7 @@ def talker(ros):
         calls.append(request.data)
         response.success, response.message = request.data, "enabled" if request.data else "refused"
         return response
+
     ros.node.create_service(SetBool, "/clitest/enable", set_bool)
     timer = ros.node.create_timer(0.05, lambda: publisher.publish(String(data="hello %d" % len(calls))))
     yield calls
@@ -58,6 +60,7 @@ def until(command, check, what, timeout=45):
     def passes():
         answers.append(json.loads(ok(run_ln(*command, "--json"))))
         return check(answers[-1])
+
     wait_until(passes, timeout, what)
     return answers[-1]
 
@@ -67,19 +70,26 @@ def test_graph_commands(ros, talker):
     nodes = until(["node", "list"], lambda nodes: own in nodes, "the test's node in 'ln ros node list'")
     assert not [n for n in nodes if n.rsplit("/", 1)[-1].startswith("_")], "hidden nodes listed"
 
-    topics = until(["topic", "list"], lambda topics: any(t["name"] == "/clitest/chatter" for t in topics),
-                   "/clitest/chatter in 'ln ros topic list'")
+    topics = until(
+        ["topic", "list"],
+        lambda topics: any(t["name"] == "/clitest/chatter" for t in topics),
+        "/clitest/chatter in 'ln ros topic list'",
+    )
     chatter = next(t for t in topics if t["name"] == "/clitest/chatter")
     assert chatter["types"] == ["std_msgs/msg/String"] and chatter["publishers"] == 1
     text = ok(run_ln("topic", "list", "--spin-time", "5"))
     assert any(line.split()[:2] == ["/clitest/chatter", "std_msgs/msg/String"] for line in text.splitlines())
 
     info = json.loads(ok(run_ln("topic", "info", "/clitest/chatter", "--json")))
-    assert info["publishers"] == [{"node": own, "type": "std_msgs/msg/String", "reliability": "reliable",
-                                   "durability": "volatile"}]
+    assert info["publishers"] == [
+        {"node": own, "type": "std_msgs/msg/String", "reliability": "reliable", "durability": "volatile"}
+    ]
 
-    services = until(["service", "list"], lambda services: any(s["name"] == "/clitest/enable" for s in services),
-                     "/clitest/enable in 'ln ros service list'")
+    services = until(
+        ["service", "list"],
+        lambda services: any(s["name"] == "/clitest/enable" for s in services),
+        "/clitest/enable in 'ln ros service list'",
+    )
     assert {"name": "/clitest/enable", "types": ["std_srvs/srv/SetBool"], "servers": [own]} in services
     assert own + "/get_parameters" not in {s["name"] for s in services}
     everything = json.loads(ok(run_ln("service", "list", "--all", "--json")))
@@ -92,9 +102,11 @@ def test_echo_and_hz(ros, talker):
     text = ok(run_ln("topic", "echo", "clitest/chatter", "--once", "--timeout", "20"))
     assert text.startswith('data: "hello ') and text.rstrip().endswith("---")
 
-    (report,) = [json.loads(line) for line in
-                 ok(run_ln("topic", "hz", "/clitest/chatter", "--duration", "3", "--json")).splitlines()]
-    assert report["topic"] == "/clitest/chatter" and 10 < report["rate"] < 40, report   # published at 20 Hz
+    (report,) = [
+        json.loads(line)
+        for line in ok(run_ln("topic", "hz", "/clitest/chatter", "--duration", "3", "--json")).splitlines()
+    ]
+    assert report["topic"] == "/clitest/chatter" and 10 < report["rate"] < 40, report  # published at 20 Hz
     assert "lost" not in report
 
 
@@ -109,18 +121,29 @@ def test_service_call(ros, talker):
 
 
 def test_errors_are_one_line(ros, talker):
-    one_line_error(run_ln("topic", "echo", "/clitest/none", "--spin-time", "0.5"), "unknown ROS topic '/clitest/none'",
-                   "ln ros topic list")
-    one_line_error(run_ln("service", "call", "/clitest/enable", "enabled: true"),
-                   "'std_srvs/srv/SetBool_Request' has no field 'enabled'; fields: data")
+    one_line_error(
+        run_ln("topic", "echo", "/clitest/none", "--spin-time", "0.5"),
+        "unknown ROS topic '/clitest/none'",
+        "ln ros topic list",
+    )
+    one_line_error(
+        run_ln("service", "call", "/clitest/enable", "enabled: true"),
+        "'std_srvs/srv/SetBool_Request' has no field 'enabled'; fields: data",
+    )
     one_line_error(run_ln("service", "call", "/clitest/enable", "data: maybe"), "expects true or false")
-    one_line_error(run_ln("service", "call", "/clitest/nothing", "--type", "std_srvs/srv/Trigger", "--timeout", "1"),
-                   "no server for ROS service '/clitest/nothing' within 1 s")
-    one_line_error(run_ln("topic", "echo", "/clitest/chatter", "--type", "nope_msgs/msg/X"),
-                   "ROS type 'nope_msgs/msg/X' is not installed here")
+    one_line_error(
+        run_ln("service", "call", "/clitest/nothing", "--type", "std_srvs/srv/Trigger", "--timeout", "1"),
+        "no server for ROS service '/clitest/nothing' within 1 s",
+    )
+    one_line_error(
+        run_ln("topic", "echo", "/clitest/chatter", "--type", "nope_msgs/msg/X"),
+        "ROS type 'nope_msgs/msg/X' is not installed here",
+    )
     start = time.monotonic()
-    one_line_error(run_ln("topic", "echo", "/clitest/silent", "--type", "std_msgs/msg/String", "--timeout", "1"),
-                   "no message on ROS topic '/clitest/silent' for 1 s")
+    one_line_error(
+        run_ln("topic", "echo", "/clitest/silent", "--type", "std_msgs/msg/String", "--timeout", "1"),
+        "no message on ROS topic '/clitest/silent' for 1 s",
+    )
     assert time.monotonic() - start < 30
 
 
@@ -132,6 +155,8 @@ def test_bridge_is_visible_with_ln_ros(ln, start_bridge, ln_peer):
     info = until(["topic", "info", "/bt/sample"], lambda info: info["publishers"], "the bridge publishing /bt/sample")
     assert [p["node"] for p in info["publishers"]] == ["/ln_ros2_bridge"]
     assert info["types"] == ["bridgetest_ln_msgs/msg/Sample"]
-    (message,) = [json.loads(line) for line in
-                  ok(run_ln("topic", "echo", "/bt/sample", "--once", "--json", "--timeout", "20")).splitlines()]
+    (message,) = [
+        json.loads(line)
+        for line in ok(run_ln("topic", "echo", "/bt/sample", "--once", "--json", "--timeout", "20")).splitlines()
+    ]
     assert message["vec"][1:] == [-1.25, 3.0]

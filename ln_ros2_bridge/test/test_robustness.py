@@ -6,40 +6,60 @@ import sys
 import time
 
 import pytest
-
 from conftest import MANAGER_MD_DIRS, wait_until
 
 
 def run_check(tmp_path, text):
     path = tmp_path / "bad.yaml"
     path.write_text(text)
-    return subprocess.run([sys.executable, "-m", "ln_ros2_bridge", "--config", str(path), "--check"],
-                          capture_output=True, text=True, timeout=60)
+    return subprocess.run(
+        [sys.executable, "-m", "ln_ros2_bridge", "--config", str(path), "--check"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
 
 
-@pytest.mark.parametrize("text, message", [
-    ("topics: [{ln: a.b, direction: sideways}]", "topic a.b: 'direction' must be one of ln_to_ros, ros_to_ln, both"),
-    ("topics: [{ln: a.b, qos: {depth: 0}}]", "'depth': must be 1..100000"),
-    ("topics: [{ln: a.b, ros: '/1bad'}]", "invalid ROS name '/1bad'"),
-    ("topics: [{ln: a.b, colour: red}]", "unknown key(s) colour"),
-    ("topics: [{ln: a.b, direction: ros_to_ln}]", "needs 'type'"),
-    ("services: [{ln: s, timeout: -1}]", "'timeout': must be > 0"),
-    ("ln: {client_name: my_bridge}\ntopics: [{ln: a}]", "must match loop_prevention.bridge_names"),
-    ("topics: [{ln: a}, {ln: a}]", "a is bridged twice"),
-    ("{}", "nothing to bridge"),
-    ("topics: [oops", "is not valid YAML"),
-    ("topics: [{ln: a, type: std_srvs/srv/Trigger}]",
-     "topic a: 'type' 'std_srvs/srv/Trigger' is a ROS service type; a topic needs a message type"),
-    ("services: [{ln: s, type: std_msgs/msg/String}]", "service s: 'type' 'std_msgs/msg/String' is a ROS message type"),
-    ("topics: [{ln: a, type: robot/state, capacities: {name: 3}}]",
-     "topic a: 'capacities' key 'name' must name the ROS type: 'package/msg/Type.name' (or give the entry a ROS type)"),
-    ("topics: [{ln: a, type: sensor_msgs/msg/JointState, capacities: {name: 0}}]",
-     "'capacities' name must be an integer 1..16777216, not 0"),
-    ("topics: [{ln: a, type: sensor_msgs/msg/JointState, capacities: {name: 4}},"
-     " {ln: b, type: sensor_msgs/msg/JointState, capacities: {name: 8}}]",
-     "topic b: capacity of sensor_msgs/msg/JointState.name is 8 here but 4 in topic a"),
-    ("defaults: {capacities: {frame_id: 3}}\ntopics: [{ln: a}]", "defaults: 'capacities' key 'frame_id' must name"),
-])
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        (
+            "topics: [{ln: a.b, direction: sideways}]",
+            "topic a.b: 'direction' must be one of ln_to_ros, ros_to_ln, both",
+        ),
+        ("topics: [{ln: a.b, qos: {depth: 0}}]", "'depth': must be 1..100000"),
+        ("topics: [{ln: a.b, ros: '/1bad'}]", "invalid ROS name '/1bad'"),
+        ("topics: [{ln: a.b, colour: red}]", "unknown key(s) colour"),
+        ("topics: [{ln: a.b, direction: ros_to_ln}]", "needs 'type'"),
+        ("services: [{ln: s, timeout: -1}]", "'timeout': must be > 0"),
+        ("ln: {client_name: my_bridge}\ntopics: [{ln: a}]", "must match loop_prevention.bridge_names"),
+        ("topics: [{ln: a}, {ln: a}]", "a is bridged twice"),
+        ("{}", "nothing to bridge"),
+        ("topics: [oops", "is not valid YAML"),
+        (
+            "topics: [{ln: a, type: std_srvs/srv/Trigger}]",
+            "topic a: 'type' 'std_srvs/srv/Trigger' is a ROS service type; a topic needs a message type",
+        ),
+        (
+            "services: [{ln: s, type: std_msgs/msg/String}]",
+            "service s: 'type' 'std_msgs/msg/String' is a ROS message type",
+        ),
+        (
+            "topics: [{ln: a, type: robot/state, capacities: {name: 3}}]",
+            "topic a: 'capacities' key 'name' must name the ROS type: 'package/msg/Type.name' (or give the entry a ROS type)",
+        ),
+        (
+            "topics: [{ln: a, type: sensor_msgs/msg/JointState, capacities: {name: 0}}]",
+            "'capacities' name must be an integer 1..16777216, not 0",
+        ),
+        (
+            "topics: [{ln: a, type: sensor_msgs/msg/JointState, capacities: {name: 4}},"
+            " {ln: b, type: sensor_msgs/msg/JointState, capacities: {name: 8}}]",
+            "topic b: capacity of sensor_msgs/msg/JointState.name is 8 here but 4 in topic a",
+        ),
+        ("defaults: {capacities: {frame_id: 3}}\ntopics: [{ln: a}]", "defaults: 'capacities' key 'frame_id' must name"),
+    ],
+)
 def test_bad_configuration_is_a_clear_error(tmp_path, text, message):
     result = run_check(tmp_path, text)
     assert result.returncode == 2, result
@@ -49,18 +69,30 @@ def test_bad_configuration_is_a_clear_error(tmp_path, text, message):
 
 def test_good_configuration_checks(tmp_path):
     from pathlib import Path
+
     example = Path(__file__).resolve().parents[1] / "config" / "example.yaml"
-    result = subprocess.run([sys.executable, "-m", "ln_ros2_bridge", "--config", str(example), "--check"],
-                            capture_output=True, text=True, timeout=60)
+    result = subprocess.run(
+        [sys.executable, "-m", "ln_ros2_bridge", "--config", str(example), "--check"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert result.returncode == 0 and "is valid" in result.stdout, result
 
 
 def test_unknown_type_is_reported_and_skipped(ln, start_bridge, ln_peer, ros):
     from bridgetest_ln_msgs.msg import Sample
-    bridge = start_bridge({"topics": [
-        {"ln": "bt.unmapped", "type": "bridgetest_extra/unmapped"},
-        {"ln": "bt.nosuch", "type": "bridgetest/does_not_exist"},
-        {"ln": "bt.ok", "type": "bridgetest/sample"}]}, wait=["bridging topic bt.ok"])
+
+    bridge = start_bridge(
+        {
+            "topics": [
+                {"ln": "bt.unmapped", "type": "bridgetest_extra/unmapped"},
+                {"ln": "bt.nosuch", "type": "bridgetest/does_not_exist"},
+                {"ln": "bt.ok", "type": "bridgetest/sample"},
+            ]
+        },
+        wait=["bridging topic bt.ok"],
+    )
     bridge.wait_log("bt.unmapped: LN definition bridgetest_extra/unmapped has no generated ROS interface.*not bridged")
     bridge.wait_log("bt.nosuch: LN definition bridgetest/does_not_exist cannot be loaded")
     received = []
@@ -74,8 +106,11 @@ def test_ln_manager_restart(ln, start_bridge, ln_peer, ros):
     """The manager goes away and comes back on the same address: the bridge
     notices, reconnects and carries the topic (and service) again."""
     from bridgetest_ln_msgs.msg import Sample
-    bridge = start_bridge({"topics": [{"ln": "bt.sample", "type": "bridgetest/sample"}],
-                           "auto": {"period": 0.3}}, wait=["bridging topic bt.sample"])
+
+    bridge = start_bridge(
+        {"topics": [{"ln": "bt.sample", "type": "bridgetest/sample"}], "auto": {"period": 0.3}},
+        wait=["bridging topic bt.sample"],
+    )
     received = []
     ros.node.create_subscription(Sample, "/bt/sample", received.append, 50)
     publisher = ln_peer("lnpub", "publish", "bt.sample", "--count", 100000, "--rate", 50)
@@ -95,9 +130,14 @@ def test_ln_manager_restart(ln, start_bridge, ln_peer, ros):
 def test_ln_publisher_and_provider_come_and_go(ln, start_bridge, ln_peer, ros):
     from bridgetest_ln_msgs.msg import Sample
     from bridgetest_ln_msgs.srv import Compute
-    start_bridge({"topics": [{"ln": "bt.sample", "type": "bridgetest/sample"}],
-                  "services": [{"ln": "bt.compute", "type": "bridgetest/compute", "timeout": 2.0}]},
-                 wait=["bridging topic bt.sample", "bridging service bt.compute"])
+
+    start_bridge(
+        {
+            "topics": [{"ln": "bt.sample", "type": "bridgetest/sample"}],
+            "services": [{"ln": "bt.compute", "type": "bridgetest/compute", "timeout": 2.0}],
+        },
+        wait=["bridging topic bt.sample", "bridging service bt.compute"],
+    )
     received = []
     ros.node.create_subscription(Sample, "/bt/sample", received.append, 50)
     client = ros.node.create_client(Compute, "/bt/compute")
@@ -118,10 +158,14 @@ def test_ln_publisher_and_provider_come_and_go(ln, start_bridge, ln_peer, ros):
 def test_ros_peers_come_and_go(ln, start_bridge, ln_peer, ros):
     from bridgetest_ln_msgs.msg import Sample
     from bridgetest_ln_msgs.srv import Compute
-    start_bridge({"topics": [{"ln": "bt.in", "type": "bridgetest/sample", "direction": "ros_to_ln"}],
-                  "services": [{"ln": "bt.rsrv", "type": "bridgetest/compute", "direction": "ros_to_ln",
-                                "timeout": 2.0}]},
-                 wait=["bridging topic bt.in", "bridging service bt.rsrv"])
+
+    start_bridge(
+        {
+            "topics": [{"ln": "bt.in", "type": "bridgetest/sample", "direction": "ros_to_ln"}],
+            "services": [{"ln": "bt.rsrv", "type": "bridgetest/compute", "direction": "ros_to_ln", "timeout": 2.0}],
+        },
+        wait=["bridging topic bt.in", "bridging service bt.rsrv"],
+    )
     subscriber = ln_peer("lnsub", "subscribe", "bt.in", "--count", 1000)
     subscriber.wait_event("ready")
     for round_ in range(2):
@@ -130,12 +174,13 @@ def test_ros_peers_come_and_go(ln, start_bridge, ln_peer, ros):
         wait_until(lambda: publisher.get_subscription_count() > 0, 20, "the bridge matching the publisher")
         before = len([e for e in subscriber.events() if e["event"] == "packet"])
         deadline = time.monotonic() + 20
-        while time.monotonic() < deadline and \
-                len([e for e in subscriber.events() if e["event"] == "packet"]) < before + 5:
+        while (
+            time.monotonic() < deadline and len([e for e in subscriber.events() if e["event"] == "packet"]) < before + 5
+        ):
             publisher.publish(Sample(seq=round_, label=[0] * 16))
             time.sleep(0.02)
         assert len([e for e in subscriber.events() if e["event"] == "packet"]) >= before + 5
-        for _ in range(20):   # until the bridge's client has discovered this server
+        for _ in range(20):  # until the bridge's client has discovered this server
             caller = ln_peer("lncall", "call", "bt.rsrv", "--request", '{"a": 0, "values": [], "op": ""}')
             event = caller.wait_event("response", 20) if "response" in _events_of(caller) else None
             if event:

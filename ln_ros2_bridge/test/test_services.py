@@ -5,9 +5,12 @@ import time
 
 
 def _ln_to_ros(timeout=3.0):
-    return {"services": [
-        {"ln": "bt.compute", "ros": "/bt/compute", "type": "bridgetest/compute", "timeout": timeout},
-        {"ln": "bt.plain", "ros": "/bt/plain", "type": "bridgetest/plain", "timeout": timeout}]}
+    return {
+        "services": [
+            {"ln": "bt.compute", "ros": "/bt/compute", "type": "bridgetest/compute", "timeout": timeout},
+            {"ln": "bt.plain", "ros": "/bt/plain", "type": "bridgetest/plain", "timeout": timeout},
+        ]
+    }
 
 
 def _client(ros, srv, name):
@@ -18,6 +21,7 @@ def _client(ros, srv, name):
 
 def test_ros_client_calls_ln_provider(ln, start_bridge, ln_peer, ros):
     from bridgetest_ln_msgs.srv import Compute
+
     start_bridge(_ln_to_ros(), wait=["bridging service bt.compute"])
     provider = ln_peer("lnsrv", "provide", "bt.compute")
     provider.wait_event("ready")
@@ -25,11 +29,12 @@ def test_ros_client_calls_ln_provider(ln, start_bridge, ln_peer, ros):
     response = ros.call(client, Compute.Request(a=10, values=[1.5, 2.5, 3.0], op="sum"))
     assert (response.result, response.error_code, response.error_message) == (17.0, 0, "ok 3")
     response = ros.call(client, Compute.Request(a=0, values=[], op="max?"))
-    assert response.error_code == 3 and "unknown op" in response.error_message   # the provider's own error
+    assert response.error_code == 3 and "unknown op" in response.error_message  # the provider's own error
 
 
 def test_ros_client_gets_error_fields_when_ln_provider_missing_or_slow(ln, start_bridge, ln_peer, ros):
     from bridgetest_ln_msgs.srv import Compute
+
     bridge = start_bridge(_ln_to_ros(timeout=1.0), wait=["bridging service bt.compute"])
     client = _client(ros, Compute, "/bt/compute")
     start = time.monotonic()
@@ -48,11 +53,12 @@ def test_ros_client_gets_error_fields_when_ln_provider_missing_or_slow(ln, start
 
 def test_response_without_error_fields_is_default_and_logged(ln, start_bridge, ros):
     from bridgetest_ln_msgs.srv import Plain
+
     bridge = start_bridge(_ln_to_ros(timeout=1.0), wait=["bridging service bt.plain"])
     client = _client(ros, Plain, "/bt/plain")
     response = ros.call(client, Plain.Request(x=21))
     assert response.y == 0
-    bridge.wait_log(r"\[ERROR\] .*bt.plain failed.*default response", 10)   # the ROS logger's format
+    bridge.wait_log(r"\[ERROR\] .*bt.plain failed.*default response", 10)  # the ROS logger's format
 
 
 def test_ln_caller_calls_ros_server(ln, start_bridge, ln_peer, ros):
@@ -65,20 +71,44 @@ def test_ln_caller_calls_ros_server(ln, start_bridge, ln_peer, ros):
 
     ros.node.create_service(Compute, "/bt/rcompute", handle)
     # (the timeout includes the bridge's wait for DDS discovery of our server: seconds on a busy machine)
-    start_bridge({"services": [{"ln": "bt.rcompute", "ros": "/bt/rcompute", "type": "bridgetest/compute",
-                                "direction": "ros_to_ln", "timeout": 10.0}]},
-                 wait=["bridging service bt.rcompute"])
-    caller = ln_peer("lncall", "call", "bt.rcompute", "--request", '{"a": 2, "values": [1, 2, 3.5], "op": "x"}',
-                     "--timeout", 15)
+    start_bridge(
+        {
+            "services": [
+                {
+                    "ln": "bt.rcompute",
+                    "ros": "/bt/rcompute",
+                    "type": "bridgetest/compute",
+                    "direction": "ros_to_ln",
+                    "timeout": 10.0,
+                }
+            ]
+        },
+        wait=["bridging service bt.rcompute"],
+    )
+    caller = ln_peer(
+        "lncall", "call", "bt.rcompute", "--request", '{"a": 2, "values": [1, 2, 3.5], "op": "x"}', "--timeout", 15
+    )
     (answer,) = caller.wait_event("response", 20)
     assert answer["result"] == 13.0 and answer["error_message"] == "ros:x", answer
 
 
 def test_ln_caller_gets_error_when_ros_server_missing_or_slow(ln, start_bridge, ln_peer, ros):
     from bridgetest_ln_msgs.srv import Compute
-    start_bridge({"services": [{"ln": "bt.rcompute", "ros": "/bt/rcompute", "type": "bridgetest/compute",
-                                "direction": "ros_to_ln", "timeout": 1.0}]},
-                 wait=["bridging service bt.rcompute"])
+
+    start_bridge(
+        {
+            "services": [
+                {
+                    "ln": "bt.rcompute",
+                    "ros": "/bt/rcompute",
+                    "type": "bridgetest/compute",
+                    "direction": "ros_to_ln",
+                    "timeout": 1.0,
+                }
+            ]
+        },
+        wait=["bridging service bt.rcompute"],
+    )
     caller = ln_peer("lncall", "call", "bt.rcompute", "--request", '{"a": 1, "values": [1], "op": "x"}')
     (error,) = caller.wait_event("error", 20)
     assert error["elapsed"] < 3, error
@@ -88,9 +118,10 @@ def test_ln_caller_gets_error_when_ros_server_missing_or_slow(ln, start_bridge, 
         return response
 
     ros.node.create_service(Compute, "/bt/rcompute", slow)
-    for _ in range(10):   # until the bridge has discovered the server: then the call times out
-        caller = ln_peer("lncall", "call", "bt.rcompute", "--request", '{"a": 1, "values": [1], "op": "x"}',
-                         "--timeout", 10)
+    for _ in range(10):  # until the bridge has discovered the server: then the call times out
+        caller = ln_peer(
+            "lncall", "call", "bt.rcompute", "--request", '{"a": 1, "values": [1], "op": "x"}', "--timeout", 10
+        )
         (error,) = caller.wait_event("error", 20)
         if error["elapsed"] >= 0.9:
             break

@@ -9,12 +9,12 @@ SAMPLE = "bridgetest/sample"
 
 
 def _sample_config(direction="ln_to_ros", **extra):
-    return {"topics": [dict({"ln": "bt.sample", "ros": "/bt/sample", "type": SAMPLE, "direction": direction},
-                            **extra)]}
+    return {"topics": [dict({"ln": "bt.sample", "ros": "/bt/sample", "type": SAMPLE, "direction": direction}, **extra)]}
 
 
 def test_ln_to_ros_fields(ln, start_bridge, ln_peer, ros):
     from bridgetest_ln_msgs.msg import Sample
+
     bridge = start_bridge(_sample_config(), wait=["bridging topic bt.sample"])
     received = []
     ros.node.create_subscription(Sample, "/bt/sample", received.append, 50)
@@ -34,6 +34,7 @@ def test_ln_to_ros_fields(ln, start_bridge, ln_peer, ros):
 
 def test_ros_to_ln_fields(ln, start_bridge, ln_peer, ros):
     from bridgetest_ln_msgs.msg import Sample
+
     start_bridge(_sample_config("ros_to_ln"), wait=["bridging topic bt.sample"])
     subscriber = ln_peer("lnsub", "subscribe", "bt.sample", "--count", 10)
     subscriber.wait_event("ready")
@@ -42,8 +43,16 @@ def test_ros_to_ln_fields(ln, start_bridge, ln_peer, ros):
     seq = 0
     deadline = time.monotonic() + 30
     while time.monotonic() < deadline and len([e for e in subscriber.events() if e["event"] == "packet"]) < 10:
-        publisher.publish(Sample(seq=seq, stamp=1.5 * seq, vec=[1.0, 2.0, float(seq)], small=-7, flags=9,
-                                 label=list(b"ros%d" % seq) + [0] * (16 - len(b"ros%d" % seq))))
+        publisher.publish(
+            Sample(
+                seq=seq,
+                stamp=1.5 * seq,
+                vec=[1.0, 2.0, float(seq)],
+                small=-7,
+                flags=9,
+                label=list(b"ros%d" % seq) + [0] * (16 - len(b"ros%d" % seq)),
+            )
+        )
         seq += 1
         time.sleep(0.02)
     packets = subscriber.wait_event("packet", 10, count=10)
@@ -59,22 +68,33 @@ def test_graph_shows_the_bridge(ln, start_bridge, ln_peer, ros):
     start_bridge(config, wait=["bridging topic bt.sample", "bridging service bt.compute"])
     node = ros.node
     wait_until(lambda: ("ln_ros2_bridge", "/") in node.get_node_names_and_namespaces(), 20, "the bridge node")
-    wait_until(lambda: ("/bt/sample", ["bridgetest_ln_msgs/msg/Sample"]) in node.get_topic_names_and_types(),
-               20, "/bt/sample with its type")
+    wait_until(
+        lambda: ("/bt/sample", ["bridgetest_ln_msgs/msg/Sample"]) in node.get_topic_names_and_types(),
+        20,
+        "/bt/sample with its type",
+    )
     publishers = node.get_publishers_info_by_topic("/bt/sample")
     assert [(p.node_name, p.topic_type) for p in publishers] == [("ln_ros2_bridge", "bridgetest_ln_msgs/msg/Sample")]
-    wait_until(lambda: ("/bt/compute", ["bridgetest_ln_msgs/srv/Compute"])
-               in node.get_service_names_and_types_by_node("ln_ros2_bridge", "/"), 20, "/bt/compute served")
+    wait_until(
+        lambda: (
+            ("/bt/compute", ["bridgetest_ln_msgs/srv/Compute"])
+            in node.get_service_names_and_types_by_node("ln_ros2_bridge", "/")
+        ),
+        20,
+        "/bt/compute served",
+    )
 
 
 def test_latched_topic_reaches_late_subscriber(ln, start_bridge, ln_peer, ros):
     """transient_local (the /tf_static pattern): a subscriber that joins after the
     last LN packet still gets it."""
-    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from bridgetest_ln_msgs.msg import Sample
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
     start_bridge(_sample_config(qos="latched"), wait=["bridging topic bt.sample"])
-    publisher = ln_peer("lnpub", "publish", "bt.sample", "--count", 3, "--rate", 20, "--wait-subscriber",
-                        "--linger", "--duration", 30)
+    publisher = ln_peer(
+        "lnpub", "publish", "bt.sample", "--count", 3, "--rate", 20, "--wait-subscriber", "--linger", "--duration", 30
+    )
     publisher.wait_event("done", 30)
     received = []
     qos = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -86,15 +106,25 @@ def test_latched_topic_reaches_late_subscriber(ln, start_bridge, ln_peer, ros):
 def test_rule_mapped_standard_type_both_ways(ln, start_bridge, ln_peer, ros):
     """An LN definition carried as geometry_msgs/msg/PointStamped by a msg_mapping rule file."""
     from pathlib import Path
-    from geometry_msgs.msg import PointStamped
+
     from conftest import MANAGER_MD_DIRS
+    from geometry_msgs.msg import PointStamped
+
     here = Path(__file__).resolve().parent
-    start_bridge({"ln": {"message_definition_dirs": [str(d) for d in MANAGER_MD_DIRS]},
-                  "rules": [str(here / "rules" / "point.yaml")],
-                  "topics": [{"ln": "bt.point_out", "type": "bridgetest_extra/point"},
-                             {"ln": "bt.point_in", "type": "bridgetest_extra/point", "direction": "ros_to_ln"}]},
-                 wait=["bridging topic bt.point_out.*geometry_msgs/msg/PointStamped",
-                       "bridging topic bt.point_in.*geometry_msgs/msg/PointStamped"])
+    start_bridge(
+        {
+            "ln": {"message_definition_dirs": [str(d) for d in MANAGER_MD_DIRS]},
+            "rules": [str(here / "rules" / "point.yaml")],
+            "topics": [
+                {"ln": "bt.point_out", "type": "bridgetest_extra/point"},
+                {"ln": "bt.point_in", "type": "bridgetest_extra/point", "direction": "ros_to_ln"},
+            ],
+        },
+        wait=[
+            "bridging topic bt.point_out.*geometry_msgs/msg/PointStamped",
+            "bridging topic bt.point_in.*geometry_msgs/msg/PointStamped",
+        ],
+    )
     received = []
     ros.node.create_subscription(PointStamped, "/bt/point_out", received.append, 10)
     ln_peer("lnpub", "publish", "bt.point_out", "--definition", "point", "--count", 100000, "--rate", 50)
@@ -124,8 +154,8 @@ def test_both_directions_follow_the_publishing_side(ln, start_bridge, ln_peer, r
     """direction: both -- the side with a (non-bridge) publisher feeds the other; when it
     goes and the other side starts publishing, the bridge turns around."""
     from bridgetest_ln_msgs.msg import Sample
-    bridge = start_bridge({"auto": {"period": 0.3},
-                           "topics": [{"ln": "bt.both", "type": SAMPLE, "direction": "both"}]})
+
+    bridge = start_bridge({"auto": {"period": 0.3}, "topics": [{"ln": "bt.both", "type": SAMPLE, "direction": "both"}]})
     received = []
     ros.node.create_subscription(Sample, "/bt/both", received.append, 50)
     publisher = ln_peer("lnpub", "publish", "bt.both", "--count", 100000, "--rate", 50)
@@ -152,14 +182,19 @@ def test_diagnostics_and_rosout(ln, start_bridge, ln_peer, ros):
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
     from rcl_interfaces.msg import Log
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
     arrays, logs = [], []
     ros.node.create_subscription(DiagnosticArray, "/diagnostics", arrays.append, 10)
-    ros.node.create_subscription(Log, "/rosout", logs.append,
-                                 QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE,
-                                            durability=DurabilityPolicy.TRANSIENT_LOCAL))
-    start_bridge({"topics": [{"ln": "bt.sample", "type": SAMPLE},
-                             {"ln": "bt.broken", "type": "bridgetest/does_not_exist"}]},
-                 wait=["bridging topic bt.sample"])
+    ros.node.create_subscription(
+        Log,
+        "/rosout",
+        logs.append,
+        QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL),
+    )
+    start_bridge(
+        {"topics": [{"ln": "bt.sample", "type": SAMPLE}, {"ln": "bt.broken", "type": "bridgetest/does_not_exist"}]},
+        wait=["bridging topic bt.sample"],
+    )
     ln_peer("lnpub", "publish", "bt.sample", "--count", 100000, "--rate", 50)
 
     def statuses():
@@ -173,6 +208,7 @@ def test_diagnostics_and_rosout(ln, start_bridge, ln_peer, ros):
         status = statuses().get("ln_ros2_bridge: topic bt.sample -> /bt/sample")
         values = {v.key: v.value for v in status.values} if status else {}
         return status if values and float(values["rate"]) > 10 and int(values["forwarded"]) > 20 else None
+
     status = wait_until(running, 30, "bt.sample running with a rate on /diagnostics")
     values = {v.key: v.value for v in status.values}
     assert status.level == DiagnosticStatus.OK and values["dropped"] == "0"
@@ -181,6 +217,9 @@ def test_diagnostics_and_rosout(ln, start_bridge, ln_peer, ros):
     assert broken.level == DiagnosticStatus.ERROR and "bridgetest/does_not_exist cannot be loaded" in broken.message
     assert statuses()["ln_ros2_bridge: LN connection"].level == DiagnosticStatus.OK
 
-    wait_until(lambda: any(log.name == "ln_ros2_bridge" and log.msg.startswith("bridging topic bt.sample")
-                           for log in logs), 20, "the bridge's log line on /rosout")
+    wait_until(
+        lambda: any(log.name == "ln_ros2_bridge" and log.msg.startswith("bridging topic bt.sample") for log in logs),
+        20,
+        "the bridge's log line on /rosout",
+    )
     assert any(log.level == Log.WARN and "bt.broken" in log.msg for log in logs)

@@ -10,6 +10,7 @@ Per size, interleaved in every repetition:
 Each method runs in batches of k calls (k sized to ~5-20 ms); the median per-call time over
 the batches is reported. Prints one JSON object per (size, method). Bounded by counts.
 """
+
 import argparse
 import array
 import ctypes
@@ -46,17 +47,23 @@ def main():
     if args.cpu >= 0:
         os.sched_setaffinity(0, {args.cpu})
 
-    import msg_mapping
     from rclpy.serialization import deserialize_message, serialize_message
     from std_msgs.msg import Float64MultiArray, MultiArrayDimension
+
+    import msg_mapping
 
     sizes = [int(s) for s in args.sizes.split(",")]
     setups = {}
     for size in sizes:
         n = size // 8
-        ros = msg_mapping.RosToLn(msg_mapping.ros_share_dirs(), capacities={
-            "std_msgs/msg/Float64MultiArray.data": n, "std_msgs/msg/MultiArrayLayout.dim": 1,
-            "std_msgs/msg/MultiArrayDimension.label": 8})
+        ros = msg_mapping.RosToLn(
+            msg_mapping.ros_share_dirs(),
+            capacities={
+                "std_msgs/msg/Float64MultiArray.data": n,
+                "std_msgs/msg/MultiArrayLayout.dim": 1,
+                "std_msgs/msg/MultiArrayDimension.label": 8,
+            },
+        )
         ros.add("std_msgs/msg/Float64MultiArray")
         codec = ros.codec("std_msgs/msg/Float64MultiArray")
         msg = Float64MultiArray()
@@ -73,7 +80,7 @@ def main():
             "ln_to_cdr": (lambda c=codec, b=ln: c.ln_to_cdr(b)),
             "serialize_message": (lambda m=msg: serialize_message(m)),
             "ln_to_cdr_into": (lambda c=codec, b=ln, o=out: c.ln_to_cdr_into(b, o)),
-            "memmove": (lambda d=ln_copy, s=ln_src, k=len(ln): ctypes.memmove(d, s, k)),
+            "memmove": (lambda d=ln_copy, s=ln_src, k=len(ln): ctypes.memmove(d, s, k)),  # noqa: B008 (bound once, on purpose)
             "cdr_to_ln": (lambda c=codec, b=cdr: c.cdr_to_ln(b)),
             "deserialize_message": (lambda b=cdr: deserialize_message(b, Float64MultiArray)),
             "_bytes": (len(ln), len(cdr)),
@@ -81,7 +88,7 @@ def main():
 
     samples = {(size, method): [] for size in sizes for method in setups[sizes[0]] if not method.startswith("_")}
     ks = {}
-    for rep in range(args.reps):
+    for _rep in range(args.reps):
         for size in sizes:
             for method, fn in setups[size].items():
                 if method.startswith("_"):
@@ -94,9 +101,21 @@ def main():
     for (size, method), values in samples.items():
         ln_bytes, cdr_bytes = setups[size]["_bytes"]
         per_call = statistics.median(values)
-        print(json.dumps({"size": size, "method": method, "seconds_per_call": per_call,
-                          "calls_per_s": 1.0 / per_call, "ln_bytes": ln_bytes, "cdr_bytes": cdr_bytes,
-                          "gbps": ln_bytes / per_call / 1e9, "batches": len(values), "k": ks[(size, method)]}))
+        print(
+            json.dumps(
+                {
+                    "size": size,
+                    "method": method,
+                    "seconds_per_call": per_call,
+                    "calls_per_s": 1.0 / per_call,
+                    "ln_bytes": ln_bytes,
+                    "cdr_bytes": cdr_bytes,
+                    "gbps": ln_bytes / per_call / 1e9,
+                    "batches": len(values),
+                    "k": ks[(size, method)],
+                }
+            )
+        )
 
 
 if __name__ == "__main__":

@@ -12,6 +12,7 @@ time over batches:
 Needs msg_mapping built (colcon install/ or build/) and the project venv (rclpy).
 Hook-up: bench/cases/msg_mapping_codec.py -> ../../msg_mapping/bench/msg_mapping_codec.py
 """
+
 import glob
 import os
 import subprocess
@@ -44,25 +45,60 @@ def run(ctx):
     if not pythonpath:
         ctx.skip("msg_mapping is not built (colcon build, or set MSG_MAPPING_PYTHONPATH)")
     env = {"PYTHONPATH": os.pathsep.join(p for p in (pythonpath, os.environ.get("PYTHONPATH", "")) if p)}
-    check = subprocess.run([sys.executable, "-c", "import rclpy.serialization, std_msgs.msg, msg_mapping"],
-                           env={**os.environ, **env}, capture_output=True, text=True, timeout=120)
+    check = subprocess.run(
+        [sys.executable, "-c", "import rclpy.serialization, std_msgs.msg, msg_mapping"],
+        env={**os.environ, **env},
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     if check.returncode != 0:
-        ctx.skip(f"{sys.executable} cannot import rclpy/std_msgs/msg_mapping (use the project venv: "
-                 f"LN_BENCH_PYTHON): {check.stderr.strip().splitlines()[-1:]}")
+        ctx.skip(
+            f"{sys.executable} cannot import rclpy/std_msgs/msg_mapping (use the project venv: "
+            f"LN_BENCH_PYTHON): {check.stderr.strip().splitlines()[-1:]}"
+        )
     cpu = ctx.cpus[0]
-    results = {}   # (size, method) -> [per-call seconds]
+    results = {}  # (size, method) -> [per-call seconds]
     details = {}
-    memcpy = []    # native memcpy probe, GB/s at 1 MiB (median trial)
+    memcpy = []  # native memcpy probe, GB/s at 1 MiB (median trial)
     for rep in range(ctx.reps):
         ctx.log(f"msg_mapping codec run {rep + 1}/{ctx.reps}")
-        rows = ctx.run_json([sys.executable, str(HERE / "codec_bench.py"), "--cpu", cpu, "--reps", 1,
-                             "--batches", ctx.n(15, 5), "--batch-ms", ctx.n(15, 5)], timeout=240, env=env)
+        rows = ctx.run_json(
+            [
+                sys.executable,
+                str(HERE / "codec_bench.py"),
+                "--cpu",
+                cpu,
+                "--reps",
+                1,
+                "--batches",
+                ctx.n(15, 5),
+                "--batch-ms",
+                ctx.n(15, 5),
+            ],
+            timeout=240,
+            env=env,
+        )
         for r in rows:
             results.setdefault((r["size"], r["method"]), []).append(r["seconds_per_call"])
             details[(r["size"], r["method"])] = r
-        memcpy += [r["median_gbps"] for r in ctx.run_json(
-            [ctx.probe("memcpy_bw"), "--cpu", cpu, "--trials", ctx.n(5, 3), "--trial-ms", ctx.n(100, 40),
-             "--sizes", "1048576"], timeout=60)]
+        memcpy += [
+            r["median_gbps"]
+            for r in ctx.run_json(
+                [
+                    ctx.probe("memcpy_bw"),
+                    "--cpu",
+                    cpu,
+                    "--trials",
+                    ctx.n(5, 3),
+                    "--trial-ms",
+                    ctx.n(100, 40),
+                    "--sizes",
+                    "1048576",
+                ],
+                timeout=60,
+            )
+        ]
 
     def rate(key):
         return 1.0 / median(results[key])
@@ -72,20 +108,43 @@ def run(ctx):
             continue
         ln_bytes = details[(size, "ln_to_cdr")]["ln_bytes"]
         group = f"msg_mapping codec, Float64MultiArray {text} data (LN packet {ln_bytes} B)"
-        yield Row(group=group, name="LN -> CDR, msg_mapping ln_to_cdr", metric="rate", unit="msg/s",
-                  value=rate((size, "ln_to_cdr")), reference_name="rclpy serialize_message",
-                  reference_value=rate((size, "serialize_message")),
-                  note=spread_note([1 / t for t in results[(size, "ln_to_cdr")]]))
-        yield Row(group=group, name="CDR -> LN, msg_mapping cdr_to_ln", metric="rate", unit="msg/s",
-                  value=rate((size, "cdr_to_ln")), reference_name="rclpy deserialize_message",
-                  reference_value=rate((size, "deserialize_message")),
-                  note=spread_note([1 / t for t in results[(size, "cdr_to_ln")]]))
-        yield Row(group=group, name="LN -> CDR into preallocated buffer", metric="bandwidth", unit="GB/s",
-                  value=ln_bytes * rate((size, "ln_to_cdr_into")) / 1e9,
-                  reference_name="memcpy of the LN packet (ctypes.memmove)",
-                  reference_value=ln_bytes * rate((size, "memmove")) / 1e9)
+        yield Row(
+            group=group,
+            name="LN -> CDR, msg_mapping ln_to_cdr",
+            metric="rate",
+            unit="msg/s",
+            value=rate((size, "ln_to_cdr")),
+            reference_name="rclpy serialize_message",
+            reference_value=rate((size, "serialize_message")),
+            note=spread_note([1 / t for t in results[(size, "ln_to_cdr")]]),
+        )
+        yield Row(
+            group=group,
+            name="CDR -> LN, msg_mapping cdr_to_ln",
+            metric="rate",
+            unit="msg/s",
+            value=rate((size, "cdr_to_ln")),
+            reference_name="rclpy deserialize_message",
+            reference_value=rate((size, "deserialize_message")),
+            note=spread_note([1 / t for t in results[(size, "cdr_to_ln")]]),
+        )
+        yield Row(
+            group=group,
+            name="LN -> CDR into preallocated buffer",
+            metric="bandwidth",
+            unit="GB/s",
+            value=ln_bytes * rate((size, "ln_to_cdr_into")) / 1e9,
+            reference_name="memcpy of the LN packet (ctypes.memmove)",
+            reference_value=ln_bytes * rate((size, "memmove")) / 1e9,
+        )
         if size == 1048576 and memcpy:
-            yield Row(group=group, name="LN -> CDR into preallocated buffer", metric="bandwidth vs native",
-                      unit="GB/s", value=ln_bytes * rate((size, "ln_to_cdr_into")) / 1e9,
-                      reference_name="native memcpy 1 MiB (memcpy_bw probe, median trial)",
-                      reference_value=median(memcpy), note=spread_note(memcpy))
+            yield Row(
+                group=group,
+                name="LN -> CDR into preallocated buffer",
+                metric="bandwidth vs native",
+                unit="GB/s",
+                value=ln_bytes * rate((size, "ln_to_cdr_into")) / 1e9,
+                reference_name="native memcpy 1 MiB (memcpy_bw probe, median trial)",
+                reference_value=median(memcpy),
+                note=spread_note(memcpy),
+            )

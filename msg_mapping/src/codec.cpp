@@ -9,8 +9,9 @@
 namespace msg_mapping {
 namespace {
 
-static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
-              "LN flat bytes are host order and the CDR we write is little-endian: big-endian hosts need byte swapping");
+static_assert(
+    __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
+    "LN flat bytes are host order and the CDR we write is little-endian: big-endian hosts need byte swapping");
 
 enum class OpCode : std::uint8_t {
   Copy,            // CDR-align, then `size` bytes identical on both sides
@@ -43,9 +44,9 @@ struct Op {
 struct Routine {
   std::string name;  // ROS type name, for error messages
   std::vector<Op> ops;
-  bool fixed = false;           // the LN size is independent of the data (a topic packet)
-  std::size_t fixed_ln = 0;     // valid when `fixed`
-  std::size_t min_ln = 0;       // lower bounds, used to reject impossible counts early
+  bool fixed = false;        // the LN size is independent of the data (a topic packet)
+  std::size_t fixed_ln = 0;  // valid when `fixed`
+  std::size_t min_ln = 0;    // lower bounds, used to reject impossible counts early
   std::size_t min_cdr = 0;
 };
 
@@ -172,9 +173,8 @@ class Compiler {
   // The routine converting one element of a string/struct/bool field.
   int element_routine(const PairedField& f) {
     if (f.element == ElementKind::Struct) return routine_for(*f.struct_type);
-    const std::string key = f.element == ElementKind::String
-                                ? "string:" + u(f.string_capacity) + ":" + u(f.ros_string_bound)
-                                : "bool";
+    const std::string key =
+        f.element == ElementKind::String ? "string:" + u(f.string_capacity) + ":" + u(f.ros_string_bound) : "bool";
     if (auto it = element_routines_.find(key); it != element_routines_.end()) return it->second;
     const int index = static_cast<int>(p_.routines.size());
     element_routines_[key] = index;
@@ -199,8 +199,8 @@ class Compiler {
         const std::uint32_t n = f.shape == Shape::Single ? 1 : f.count;
         if (f.element == ElementKind::Primitive) {
           const std::size_t size = cdr_size(f.ros_primitive);
-          emit_block(f.ros_primitive == RosPrimitive::Bool ? OpCode::Bool : OpCode::Copy, size, size * n, field,
-                     phase, ops);
+          emit_block(f.ros_primitive == RosPrimitive::Bool ? OpCode::Bool : OpCode::Copy, size, size * n, field, phase,
+                     ops);
           return phase;
         }
         if (f.element == ElementKind::String && n == 1) {
@@ -276,8 +276,8 @@ class Compiler {
       if (!out.empty() && out.back().code == OpCode::Copy && op.code == OpCode::Copy && !op.runtime_align &&
           op.pad == 0 && std::uint64_t{out.back().size} + op.size <= std::numeric_limits<std::uint32_t>::max()) {
         Op& last = out.back();
-        const std::string merged = p_.names[last.field].substr(0, p_.names[last.field].find("..")) + ".." +
-                                   p_.names[op.field];
+        const std::string merged =
+            p_.names[last.field].substr(0, p_.names[last.field].find("..")) + ".." + p_.names[op.field];
         last.size += op.size;
         p_.names.push_back(merged);
         last.field = static_cast<std::uint32_t>(p_.names.size() - 1);
@@ -303,7 +303,9 @@ class Compiler {
           min_ln += op.size;
           min_cdr += op.size;
           break;
-        case OpCode::Zero: min_cdr += 1; break;
+        case OpCode::Zero:
+          min_cdr += 1;
+          break;
         case OpCode::String:
           fixed = false;
           min_ln += 4;
@@ -493,8 +495,10 @@ class Encoder {
  private:
   void elements(const Op& op, std::uint32_t n) {
     if (op.routine < 0) {
-      if (n) out_.align(op.align);
-      else if (op.align_empty) out_.align_estimate(op.align);
+      if (n)
+        out_.align(op.align);
+      else if (op.align_empty)
+        out_.align_estimate(op.align);
       const std::size_t bytes = std::size_t{n} * op.size;
       out_.put(in_.take(bytes), bytes);
       return;
@@ -533,14 +537,18 @@ class Encoder {
   void step(const Op& op) {
     switch (op.code) {
       case OpCode::Copy: {
-        if (op.runtime_align) out_.align(op.align);
-        else out_.zero(op.pad);
+        if (op.runtime_align)
+          out_.align(op.align);
+        else
+          out_.zero(op.pad);
         out_.put(in_.take(op.size), op.size);
         return;
       }
       case OpCode::Bool: {
-        if (op.runtime_align) out_.align(op.align);
-        else out_.zero(op.pad);
+        if (op.runtime_align)
+          out_.align(op.align);
+        else
+          out_.zero(op.pad);
         const std::uint8_t* src = in_.take(op.size);
         for (std::uint32_t i = 0; i < op.size; ++i) {
           const std::uint8_t b = src[i] != 0;
@@ -548,7 +556,9 @@ class Encoder {
         }
         return;
       }
-      case OpCode::Zero: out_.zero(1); return;
+      case OpCode::Zero:
+        out_.zero(1);
+        return;
       case OpCode::String: {
         const std::uint32_t n = in_.u32();
         if (op.bound && n > op.bound)
@@ -559,8 +569,7 @@ class Encoder {
       case OpCode::InlineString: {
         const std::uint32_t n = in_.u32();
         const std::uint8_t* text = in_.take(op.count);
-        if (n > op.count)
-          throw CodecError("LN length " + u(n) + " exceeds the capacity " + u(op.count));
+        if (n > op.count) throw CodecError("LN length " + u(n) + " exceeds the capacity " + u(op.count));
         if (op.bound && n > op.bound)
           throw CodecError("string of " + u(n) + " bytes exceeds the ROS bound " + u(op.bound));
         string(n, text);
@@ -584,7 +593,9 @@ class Encoder {
         in_.take(std::size_t{op.count - n} * op.elem_ln_size);  // unused capacity
         return;
       }
-      case OpCode::Repeat: elements(op, op.count); return;
+      case OpCode::Repeat:
+        elements(op, op.count);
+        return;
       case OpCode::Opaque: {
         const std::size_t start = in_.pos();
         const std::uint8_t* begin = in_.here();
@@ -685,18 +696,24 @@ class Decoder {
   void step(const Op& op) {
     switch (op.code) {
       case OpCode::Copy: {
-        if (op.runtime_align) in_.align(op.align);
-        else in_.take(op.pad);
+        if (op.runtime_align)
+          in_.align(op.align);
+        else
+          in_.take(op.pad);
         out_.put(in_.take(op.size), op.size);
         return;
       }
       case OpCode::Bool: {
-        if (op.runtime_align) in_.align(op.align);
-        else in_.take(op.pad);
+        if (op.runtime_align)
+          in_.align(op.align);
+        else
+          in_.take(op.pad);
         out_.put(in_.take(op.size), op.size);
         return;
       }
-      case OpCode::Zero: in_.take(1); return;
+      case OpCode::Zero:
+        in_.take(1);
+        return;
       case OpCode::String:
       case OpCode::InlineString: {
         std::uint32_t n = 0;
@@ -727,7 +744,9 @@ class Decoder {
         out_.zero(std::size_t{op.count - n} * op.elem_ln_size);
         return;
       }
-      case OpCode::Repeat: elements(op, op.count); return;
+      case OpCode::Repeat:
+        elements(op, op.count);
+        return;
       case OpCode::Opaque: {
         in_.align(4);
         const std::uint32_t length = in_.u32();
@@ -744,8 +763,7 @@ class Decoder {
         } catch (const CodecError& e) {
           rethrow_in("LN flat bytes", e);
         }
-        if (inner.left())
-          throw CodecError("LN flat bytes have " + u(inner.left()) + " byte(s) after the sequence");
+        if (inner.left()) throw CodecError("LN flat bytes have " + u(inner.left()) + " byte(s) after the sequence");
         out_.put(bytes, length);
         return;
       }
@@ -765,12 +783,15 @@ bool cdr_is_fixed(const CodecProgram& p, int routine, std::size_t& pos) {
         pos += op.runtime_align ? (op.align - pos % op.align) % op.align : op.pad;
         pos += op.size;
         break;
-      case OpCode::Zero: pos += 1; break;
+      case OpCode::Zero:
+        pos += 1;
+        break;
       case OpCode::Repeat:
         for (std::uint32_t i = 0; i < op.count; ++i)
           if (!cdr_is_fixed(p, op.routine, pos)) return false;
         break;
-      default: return false;
+      default:
+        return false;
     }
   }
   return true;
@@ -843,15 +864,24 @@ bool fastdds_plain(const PairedType& type, std::size_t& position) {
 
 const char* op_name(OpCode code) {
   switch (code) {
-    case OpCode::Copy: return "copy";
-    case OpCode::Bool: return "bool";
-    case OpCode::Zero: return "zero";
-    case OpCode::String: return "string";
-    case OpCode::InlineString: return "inline_string";
-    case OpCode::Sequence: return "sequence";
-    case OpCode::InlineSequence: return "inline_sequence";
-    case OpCode::Repeat: return "repeat";
-    case OpCode::Opaque: return "opaque";
+    case OpCode::Copy:
+      return "copy";
+    case OpCode::Bool:
+      return "bool";
+    case OpCode::Zero:
+      return "zero";
+    case OpCode::String:
+      return "string";
+    case OpCode::InlineString:
+      return "inline_string";
+    case OpCode::Sequence:
+      return "sequence";
+    case OpCode::InlineSequence:
+      return "inline_sequence";
+    case OpCode::Repeat:
+      return "repeat";
+    case OpCode::Opaque:
+      return "opaque";
   }
   return "?";
 }
@@ -859,8 +889,7 @@ const char* op_name(OpCode code) {
 void check_header(Bytes cdr) {
   if (cdr.size < cdr_header_size) throw CodecError("CDR input of " + u(cdr.size) + " byte(s) lacks the 4-byte header");
   if (cdr.data[0] != 0x00 || cdr.data[1] != 0x01) {
-    if (cdr.data[0] == 0x00 && cdr.data[1] == 0x00)
-      throw CodecError("big-endian CDR (header 00 00) is not supported");
+    if (cdr.data[0] == 0x00 && cdr.data[1] == 0x00) throw CodecError("big-endian CDR (header 00 00) is not supported");
     throw CodecError("unsupported CDR encapsulation " + u(cdr.data[0]) + "," + u(cdr.data[1]) +
                      " (expected 00 01: plain CDR, little-endian)");
   }
@@ -902,8 +931,8 @@ namespace {
 template <class Out>
 void encode(const CodecProgram& p, Bytes ln, Out& out) {
   if (p.fixed_ln_size && ln.size != p.fixed_ln_size)
-    throw CodecError(p.ros_name + ": LN message of " + u(ln.size) + " bytes, expected " + u(p.fixed_ln_size) +
-                     " (" + p.ln_name + ")");
+    throw CodecError(p.ros_name + ": LN message of " + u(ln.size) + " bytes, expected " + u(p.fixed_ln_size) + " (" +
+                     p.ln_name + ")");
   Reader in(ln.data, ln.size);
   try {
     Encoder<Out>(p, in, out).run(0);
@@ -985,7 +1014,8 @@ std::string Codec::describe() const {
         out += " size=" + u(op.size) + (op.runtime_align ? " align=" + u(op.align) : " pad=" + u(op.pad));
       if (op.count) out += " count=" + u(op.count);
       if (op.bound) out += " bound=" + u(op.bound);
-      if (op.routine >= 0) out += " routine=" + u(static_cast<std::size_t>(op.routine));
+      if (op.routine >= 0)
+        out += " routine=" + u(static_cast<std::size_t>(op.routine));
       else if (op.code == OpCode::Sequence || op.code == OpCode::InlineSequence)
         out += " elem=" + u(op.size) + " align=" + u(op.align);
       out += "\n";

@@ -49,11 +49,21 @@ class Json {
     out += '"';
     for (unsigned char c : s) {
       switch (c) {
-        case '"': out += "\\\""; break;
-        case '\\': out += "\\\\"; break;
-        case '\n': out += "\\n"; break;
-        case '\t': out += "\\t"; break;
-        case '\r': out += "\\r"; break;
+        case '"':
+          out += "\\\"";
+          break;
+        case '\\':
+          out += "\\\\";
+          break;
+        case '\n':
+          out += "\\n";
+          break;
+        case '\t':
+          out += "\\t";
+          break;
+        case '\r':
+          out += "\\r";
+          break;
         default:
           if (c < 0x20) {
             out += "\\u00";
@@ -69,12 +79,19 @@ class Json {
 
   void write(std::string& out, int indent, int depth) const {
     switch (kind_) {
-      case Kind::Null: out += "null"; return;
+      case Kind::Null:
+        out += "null";
+        return;
       case Kind::Bool:
-      case Kind::Number: out += text_; return;
-      case Kind::String: quote(out, text_); return;
+      case Kind::Number:
+        out += text_;
+        return;
+      case Kind::String:
+        quote(out, text_);
+        return;
       case Kind::Array:
-      case Kind::Object: break;
+      case Kind::Object:
+        break;
     }
     const bool object = kind_ == Kind::Object;
     if (members_.empty()) {

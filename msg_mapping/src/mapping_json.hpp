@@ -9,11 +9,16 @@ namespace msg_mapping {
 
 inline const char* shape_name(Shape shape) {
   switch (shape) {
-    case Shape::Single: return "single";
-    case Shape::FixedArray: return "fixed_array";
-    case Shape::Sequence: return "sequence";
-    case Shape::InlineSequence: return "inline_sequence";
-    case Shape::Opaque: return "opaque";
+    case Shape::Single:
+      return "single";
+    case Shape::FixedArray:
+      return "fixed_array";
+    case Shape::Sequence:
+      return "sequence";
+    case Shape::InlineSequence:
+      return "inline_sequence";
+    case Shape::Opaque:
+      return "opaque";
   }
   return "?";
 }
@@ -59,9 +64,12 @@ inline Json paired_type_json(const PairedType& type) {
 
 inline const char* interface_kind_name(InterfaceKind kind) {
   switch (kind) {
-    case InterfaceKind::Message: return "message";
-    case InterfaceKind::Service: return "service";
-    case InterfaceKind::Event: return "event";
+    case InterfaceKind::Message:
+      return "message";
+    case InterfaceKind::Service:
+      return "service";
+    case InterfaceKind::Event:
+      return "event";
   }
   return "?";
 }

@@ -11,31 +11,125 @@ namespace msg_mapping {
 namespace {
 
 // C (C23), C++ (C++23, with alternative tokens) keywords.
-constexpr std::string_view c_keywords[] = {
-    "_Alignas", "_Alignof", "_Atomic", "_Bool", "_Complex", "_Generic", "_Imaginary", "_Noreturn",
-    "_Static_assert", "_Thread_local", "alignas", "alignof", "and", "and_eq", "asm", "auto", "bitand",
-    "bitor", "bool", "break", "case", "catch", "char", "char8_t", "char16_t", "char32_t", "class", "compl",
-    "concept", "const", "consteval", "constexpr", "constinit", "const_cast", "continue", "co_await",
-    "co_return", "co_yield", "decltype", "default", "delete", "do", "double", "dynamic_cast", "else",
-    "enum", "explicit", "export", "extern", "false", "float", "for", "friend", "goto", "if", "inline",
-    "int", "long", "mutable", "namespace", "new", "noexcept", "not", "not_eq", "nullptr", "operator",
-    "or", "or_eq", "private", "protected", "public", "register", "reinterpret_cast", "requires",
-    "restrict", "return", "short", "signed", "sizeof", "static", "static_assert", "static_cast",
-    "struct", "switch", "template", "this", "thread_local", "throw", "true", "try", "typedef", "typeid",
-    "typename", "typeof", "typeof_unqual", "union", "unsigned", "using", "virtual", "void", "volatile",
-    "wchar_t", "while", "xor", "xor_eq"};
+constexpr std::string_view c_keywords[] = {"_Alignas",
+                                           "_Alignof",
+                                           "_Atomic",
+                                           "_Bool",
+                                           "_Complex",
+                                           "_Generic",
+                                           "_Imaginary",
+                                           "_Noreturn",
+                                           "_Static_assert",
+                                           "_Thread_local",
+                                           "alignas",
+                                           "alignof",
+                                           "and",
+                                           "and_eq",
+                                           "asm",
+                                           "auto",
+                                           "bitand",
+                                           "bitor",
+                                           "bool",
+                                           "break",
+                                           "case",
+                                           "catch",
+                                           "char",
+                                           "char8_t",
+                                           "char16_t",
+                                           "char32_t",
+                                           "class",
+                                           "compl",
+                                           "concept",
+                                           "const",
+                                           "consteval",
+                                           "constexpr",
+                                           "constinit",
+                                           "const_cast",
+                                           "continue",
+                                           "co_await",
+                                           "co_return",
+                                           "co_yield",
+                                           "decltype",
+                                           "default",
+                                           "delete",
+                                           "do",
+                                           "double",
+                                           "dynamic_cast",
+                                           "else",
+                                           "enum",
+                                           "explicit",
+                                           "export",
+                                           "extern",
+                                           "false",
+                                           "float",
+                                           "for",
+                                           "friend",
+                                           "goto",
+                                           "if",
+                                           "inline",
+                                           "int",
+                                           "long",
+                                           "mutable",
+                                           "namespace",
+                                           "new",
+                                           "noexcept",
+                                           "not",
+                                           "not_eq",
+                                           "nullptr",
+                                           "operator",
+                                           "or",
+                                           "or_eq",
+                                           "private",
+                                           "protected",
+                                           "public",
+                                           "register",
+                                           "reinterpret_cast",
+                                           "requires",
+                                           "restrict",
+                                           "return",
+                                           "short",
+                                           "signed",
+                                           "sizeof",
+                                           "static",
+                                           "static_assert",
+                                           "static_cast",
+                                           "struct",
+                                           "switch",
+                                           "template",
+                                           "this",
+                                           "thread_local",
+                                           "throw",
+                                           "true",
+                                           "try",
+                                           "typedef",
+                                           "typeid",
+                                           "typename",
+                                           "typeof",
+                                           "typeof_unqual",
+                                           "union",
+                                           "unsigned",
+                                           "using",
+                                           "virtual",
+                                           "void",
+                                           "volatile",
+                                           "wchar_t",
+                                           "while",
+                                           "xor",
+                                           "xor_eq"};
 
 // Python 3 keywords and IDL 4.2 keywords (rosidl's .idl stage), exact spelling.
 constexpr std::string_view other_keywords[] = {
-    "False", "None", "True", "as", "assert", "async", "await", "def", "del", "elif", "except", "finally",
-    "from", "global", "import", "in", "is", "lambda", "nonlocal", "pass", "raise", "with", "yield",
-    "abstract", "any", "alias", "attribute", "bitfield", "bitmask", "bitset", "boolean", "component",
-    "connector", "consumes", "context", "custom", "emits", "eventtype", "exception", "factory", "FALSE",
-    "finder", "fixed", "getraises", "getter", "home", "inout", "interface", "local", "manages", "map",
-    "mirrorport", "module", "multiple", "native", "Object", "octet", "oneway", "out", "primarykey",
-    "port", "porttype", "provides", "publishes", "raises", "readonly", "setraises", "setter", "sequence",
-    "string", "supports", "TRUE", "truncatable", "typeprefix", "uses", "ValueBase", "valuetype", "wchar",
-    "wstring", "int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64"};
+    "False",       "None",       "True",      "as",         "assert",    "async",     "await",     "def",
+    "del",         "elif",       "except",    "finally",    "from",      "global",    "import",    "in",
+    "is",          "lambda",     "nonlocal",  "pass",       "raise",     "with",      "yield",     "abstract",
+    "any",         "alias",      "attribute", "bitfield",   "bitmask",   "bitset",    "boolean",   "component",
+    "connector",   "consumes",   "context",   "custom",     "emits",     "eventtype", "exception", "factory",
+    "FALSE",       "finder",     "fixed",     "getraises",  "getter",    "home",      "inout",     "interface",
+    "local",       "manages",    "map",       "mirrorport", "module",    "multiple",  "native",    "Object",
+    "octet",       "oneway",     "out",       "primarykey", "port",      "porttype",  "provides",  "publishes",
+    "raises",      "readonly",   "setraises", "setter",     "sequence",  "string",    "supports",  "TRUE",
+    "truncatable", "typeprefix", "uses",      "ValueBase",  "valuetype", "wchar",     "wstring",   "int8",
+    "uint8",       "int16",      "uint16",    "int32",      "uint32",    "int64",     "uint64"};
 
 template <std::size_t N>
 bool contains(const std::string_view (&list)[N], std::string_view name) {
@@ -162,7 +256,8 @@ RosTypeName ros_type_name_for(std::string_view ln_name, const NamingOptions& opt
   std::size_t start = 0;
   for (;;) {
     const auto slash = ln_name.find('/', start);
-    components.push_back(ln_name.substr(start, slash == std::string_view::npos ? std::string_view::npos : slash - start));
+    components.push_back(
+        ln_name.substr(start, slash == std::string_view::npos ? std::string_view::npos : slash - start));
     if (slash == std::string_view::npos) break;
     start = slash + 1;
   }
@@ -209,8 +304,10 @@ std::string ros_field_name_for(std::string_view ln_field, std::string* why) {
   if (!is_valid_ros_field_name(snake))
     throw Error("field '" + std::string(ln_field) + "' gives '" + snake + "', not a valid ROS field name");
   if (why) {
-    if (snake == ln_field) why->clear();
-    else *why = reason.empty() ? "ROS field names are lower_snake_case" : reason;
+    if (snake == ln_field)
+      why->clear();
+    else
+      *why = reason.empty() ? "ROS field names are lower_snake_case" : reason;
   }
   return snake;
 }

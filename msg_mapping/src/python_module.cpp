@@ -128,8 +128,8 @@ const PairedType& part_of(const PairedInterface& i, std::string part) {
   if (part.empty() && i.kind == InterfaceKind::Message) part = "message";
   if (part == names[0]) return *i.first;
   if (!part.empty() && part == names[1]) return *i.second;
-  const std::string expected = i.kind == InterfaceKind::Message ? "'message'"
-                                                                 : "'" + std::string(names[0]) + "' or '" + names[1] + "'";
+  const std::string expected =
+      i.kind == InterfaceKind::Message ? "'message'" : "'" + std::string(names[0]) + "' or '" + names[1] + "'";
   if (part.empty())
     throw Error("'" + i.ln_name + "' is a " + (i.kind == InterfaceKind::Service ? "service" : "event") +
                 ": say which part (" + expected + ")");
@@ -181,35 +181,36 @@ NB_MODULE(_native, m) {
       .def(nb::init<std::vector<std::string>, bool>(), nb::arg("md_dirs") = std::vector<std::string>{},
            nb::arg("standard") = false,
            "standard=True: LN's full search order (built-in dirs, LN_MESSAGE_DEFINITION_DIRS, md.conf) after md_dirs")
-      .def("add_source", [](PyLibrary& l, const std::string& name, const std::string& text) {
-        l.library->add_source(name, text);
-      })
-      .def("load", [](PyLibrary& l, const std::string& name) {
-        const md::Definition& d = l.library->load(name);
-        nb::dict out;
-        out["name"] = d.name;
-        out["path"] = d.path;
-        out["hash"] = d.hash;
-        out["kind"] = d.kind == md::Kind::Plain ? "plain" : d.kind == md::Kind::Service ? "service" : "event";
-        out["dynamic"] = d.is_dynamic();
-        out["packet_size"] = md::packet_size(d);
-        return out;
-      })
-      .def("source_files", [](PyLibrary& l, const std::vector<std::string>& names) {
-        // The files a set of definitions was read from (for build dependencies).
-        std::set<std::string> files;
-        std::vector<const md::Definition*> todo;
-        for (const auto& n : names) todo.push_back(&l.library->load(n));
-        std::set<const md::Definition*> seen;
-        while (!todo.empty()) {
-          const md::Definition* d = todo.back();
-          todo.pop_back();
-          if (!seen.insert(d).second) continue;
-          if (!d->path.empty() && d->path[0] != '<') files.insert(d->path);
-          for (const auto& def : d->defines) todo.push_back(def.definition);
-        }
-        return std::vector<std::string>(files.begin(), files.end());
-      })
+      .def("add_source",
+           [](PyLibrary& l, const std::string& name, const std::string& text) { l.library->add_source(name, text); })
+      .def("load",
+           [](PyLibrary& l, const std::string& name) {
+             const md::Definition& d = l.library->load(name);
+             nb::dict out;
+             out["name"] = d.name;
+             out["path"] = d.path;
+             out["hash"] = d.hash;
+             out["kind"] = d.kind == md::Kind::Plain ? "plain" : d.kind == md::Kind::Service ? "service" : "event";
+             out["dynamic"] = d.is_dynamic();
+             out["packet_size"] = md::packet_size(d);
+             return out;
+           })
+      .def("source_files",
+           [](PyLibrary& l, const std::vector<std::string>& names) {
+             // The files a set of definitions was read from (for build dependencies).
+             std::set<std::string> files;
+             std::vector<const md::Definition*> todo;
+             for (const auto& n : names) todo.push_back(&l.library->load(n));
+             std::set<const md::Definition*> seen;
+             while (!todo.empty()) {
+               const md::Definition* d = todo.back();
+               todo.pop_back();
+               if (!seen.insert(d).second) continue;
+               if (!d->path.empty() && d->path[0] != '<') files.insert(d->path);
+               for (const auto& def : d->defines) todo.push_back(def.definition);
+             }
+             return std::vector<std::string>(files.begin(), files.end());
+           })
       .def_prop_ro("search_dirs", [](PyLibrary& l) { return l.library->search_path().dirs(); });
 
   // ------------------------------------------------------------- LN -> ROS
@@ -220,16 +221,15 @@ NB_MODULE(_native, m) {
              const std::string& single_package) {
             new (self) LnToRos(NamingOptions{package_suffix, root_package, single_package});
           },
-          nb::arg("package_suffix") = "_ln_msgs", nb::arg("root_package") = "ln_msgs",
-          nb::arg("single_package") = "")
-      .def("add", [](LnToRos& g, PyLibrary& lib, const std::string& name) {
-        return interface_dict(g.add(lib.library->load(name)));
-      })
-      .def("interfaces", [](const LnToRos& g) {
-        nb::list out;
-        for (const auto* i : g.interfaces()) out.append(interface_dict(*i));
-        return out;
-      })
+          nb::arg("package_suffix") = "_ln_msgs", nb::arg("root_package") = "ln_msgs", nb::arg("single_package") = "")
+      .def("add", [](LnToRos& g, PyLibrary& lib,
+                     const std::string& name) { return interface_dict(g.add(lib.library->load(name))); })
+      .def("interfaces",
+           [](const LnToRos& g) {
+             nb::list out;
+             for (const auto* i : g.interfaces()) out.append(interface_dict(*i));
+             return out;
+           })
       .def("packages", [](const LnToRos& g) { return packages_list(g.packages()); })
       .def(
           "codec",
@@ -258,16 +258,18 @@ NB_MODULE(_native, m) {
           nb::arg("sequence_capacity") = 64, nb::arg("capacities") = std::map<std::string, std::uint32_t>{})
       .def(
           "add",
-          [](RosToLn& g, const std::string& ros_type, bool dynamic) { return interface_dict(g.add(ros_type, dynamic)); },
+          [](RosToLn& g, const std::string& ros_type, bool dynamic) {
+            return interface_dict(g.add(ros_type, dynamic));
+          },
           nb::arg("ros_type"), nb::arg("dynamic") = false)
-      .def("package_types", [](RosToLn& g, const std::string& package, const std::string& kind) {
-        return g.store().package_types(package, kind);
-      })
-      .def("definitions", [](const RosToLn& g) {
-        nb::dict out;
-        for (const auto& [name, text] : g.definitions()) out[nb::str(name.c_str())] = text;
-        return out;
-      })
+      .def("package_types", [](RosToLn& g, const std::string& package,
+                               const std::string& kind) { return g.store().package_types(package, kind); })
+      .def("definitions",
+           [](const RosToLn& g) {
+             nb::dict out;
+             for (const auto& [name, text] : g.definitions()) out[nb::str(name.c_str())] = text;
+             return out;
+           })
       .def("mapping_json", &RosToLn::mapping_json)
       .def(
           "codec",
@@ -287,14 +289,22 @@ NB_MODULE(_native, m) {
         for (const auto& f : fields) {
           FieldRule r;
           for (const auto& [key, value] : f) {
-            if (key == "ros") r.ros_path = value;
-            else if (key == "from") r.ln_path = value;
-            else if (key == "value") r.constant = value, r.has_constant = true;
-            else if (key == "scale") r.scale = value;
-            else if (key == "offset") r.offset = value;
-            else if (key == "convert") r.convert = value;
-            else if (key == "lossy") r.lossy = value == "true";
-            else throw Error("rule for " + ln_name + " -> " + ros_type + ": unknown key '" + key + "'");
+            if (key == "ros")
+              r.ros_path = value;
+            else if (key == "from")
+              r.ln_path = value;
+            else if (key == "value")
+              r.constant = value, r.has_constant = true;
+            else if (key == "scale")
+              r.scale = value;
+            else if (key == "offset")
+              r.offset = value;
+            else if (key == "convert")
+              r.convert = value;
+            else if (key == "lossy")
+              r.lossy = value == "true";
+            else
+              throw Error("rule for " + ln_name + " -> " + ros_type + ": unknown key '" + key + "'");
           }
           rules.push_back(std::move(r));
         }
@@ -330,8 +340,16 @@ NB_MODULE(_native, m) {
       .def("cdr_to_ln", &cdr_to_ln, nb::arg("cdr"), "CDR bytes -> LN flat bytes")
       .def("ln_to_cdr_into", &ln_to_cdr_into, nb::arg("ln"), nb::arg("out"), "writes CDR into `out`; returns its size")
       .def("cdr_to_ln_into", &cdr_to_ln_into, nb::arg("cdr"), nb::arg("out"), "writes LN into `out`; returns its size")
-      .def("cdr_size", [](const Codec& c, nb::handle ln) { BufferView in(ln, false); return c.cdr_size(in.bytes()); })
-      .def("ln_size", [](const Codec& c, nb::handle cdr) { BufferView in(cdr, false); return c.ln_size(in.bytes()); })
+      .def("cdr_size",
+           [](const Codec& c, nb::handle ln) {
+             BufferView in(ln, false);
+             return c.cdr_size(in.bytes());
+           })
+      .def("ln_size",
+           [](const Codec& c, nb::handle cdr) {
+             BufferView in(cdr, false);
+             return c.ln_size(in.bytes());
+           })
       .def("describe", &Codec::describe);
 
   bridge::bind_bridge(m);

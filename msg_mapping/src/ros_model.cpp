@@ -2,9 +2,9 @@
 
 #include <sys/stat.h>
 
+#include <dirent.h>
 #include <algorithm>
 #include <charconv>
-#include <dirent.h>
 #include <fstream>
 #include <sstream>
 
@@ -21,14 +21,11 @@ struct PrimitiveInfo {
 };
 
 constexpr PrimitiveInfo primitives[] = {
-    {RosPrimitive::Bool, "bool", 1},       {RosPrimitive::Byte, "byte", 1},
-    {RosPrimitive::Char, "char", 1},       {RosPrimitive::Float32, "float32", 4},
-    {RosPrimitive::Float64, "float64", 8}, {RosPrimitive::Int8, "int8", 1},
-    {RosPrimitive::UInt8, "uint8", 1},     {RosPrimitive::Int16, "int16", 2},
-    {RosPrimitive::UInt16, "uint16", 2},   {RosPrimitive::Int32, "int32", 4},
-    {RosPrimitive::UInt32, "uint32", 4},   {RosPrimitive::Int64, "int64", 8},
-    {RosPrimitive::UInt64, "uint64", 8},   {RosPrimitive::String, "string", 0},
-    {RosPrimitive::WString, "wstring", 0},
+    {RosPrimitive::Bool, "bool", 1},       {RosPrimitive::Byte, "byte", 1},       {RosPrimitive::Char, "char", 1},
+    {RosPrimitive::Float32, "float32", 4}, {RosPrimitive::Float64, "float64", 8}, {RosPrimitive::Int8, "int8", 1},
+    {RosPrimitive::UInt8, "uint8", 1},     {RosPrimitive::Int16, "int16", 2},     {RosPrimitive::UInt16, "uint16", 2},
+    {RosPrimitive::Int32, "int32", 4},     {RosPrimitive::UInt32, "uint32", 4},   {RosPrimitive::Int64, "int64", 8},
+    {RosPrimitive::UInt64, "uint64", 8},   {RosPrimitive::String, "string", 0},   {RosPrimitive::WString, "wstring", 0},
 };
 
 std::uint32_t parse_positive(std::string_view digits, const std::string& what) {
@@ -60,7 +57,8 @@ RosFieldType parse_type(std::string_view spelling, std::string_view package, con
   for (std::string_view s : {std::string_view("string<="), std::string_view("wstring<=")}) {
     if (text::starts_with(element, s)) {
       type.primitive = s[0] == 'w' ? RosPrimitive::WString : RosPrimitive::String;
-      type.string_bound = parse_positive(element.substr(s.size()), where + ": string bound of '" + std::string(spelling) + "'");
+      type.string_bound =
+          parse_positive(element.substr(s.size()), where + ": string bound of '" + std::string(spelling) + "'");
       return type;
     }
   }
@@ -149,7 +147,8 @@ class MsgParser {
       RosField field;
       const auto name_end = rest.find(' ');
       field.name = std::string(rest.substr(0, name_end));
-      if (name_end != std::string_view::npos) field.default_value = std::string(text::strip(rest.substr(name_end), " "));
+      if (name_end != std::string_view::npos)
+        field.default_value = std::string(text::strip(rest.substr(name_end), " "));
       field.type = parse_type(type_word, msg_.package, location());
       if (!is_valid_ros_field_name(field.name)) fail("'" + field.name + "' is not a valid field name");
       for (const auto& other : msg_.fields)
@@ -233,17 +232,22 @@ std::string RosFieldType::element_spelling() const {
 std::string RosFieldType::spelling() const {
   std::string s = element_spelling();
   switch (array) {
-    case Array::None: break;
-    case Array::Fixed: s += "[" + std::to_string(array_size) + "]"; break;
-    case Array::Bounded: s += "[<=" + std::to_string(array_size) + "]"; break;
-    case Array::Unbounded: s += "[]"; break;
+    case Array::None:
+      break;
+    case Array::Fixed:
+      s += "[" + std::to_string(array_size) + "]";
+      break;
+    case Array::Bounded:
+      s += "[<=" + std::to_string(array_size) + "]";
+      break;
+    case Array::Unbounded:
+      s += "[]";
+      break;
   }
   return s;
 }
 
-std::string RosMessage::full_name() const {
-  return package + (is_service_part ? "/srv/" : "/msg/") + name;
-}
+std::string RosMessage::full_name() const { return package + (is_service_part ? "/srv/" : "/msg/") + name; }
 
 RosMessage parse_msg(std::string_view package, std::string_view name, std::string_view text) {
   RosMessage message;
@@ -258,8 +262,8 @@ RosService parse_srv(std::string_view package, std::string_view name, std::strin
   service.package = std::string(package);
   service.name = std::string(name);
   const auto lines = split_lines(text);
-  const auto separator = std::find_if(lines.begin(), lines.end(),
-                                      [](const std::string& l) { return text::strip(l) == "---"; });
+  const auto separator =
+      std::find_if(lines.begin(), lines.end(), [](const std::string& l) { return text::strip(l) == "---"; });
   const std::string where = service.full_name();
   if (separator == lines.end()) throw Error(where + ": no '---' line between request and response");
   for (auto* part : {&service.request, &service.response}) {
@@ -375,7 +379,8 @@ std::vector<std::string> RosTypeStore::package_types(std::string_view package, s
       const std::string file = entry->d_name;
       const std::string suffix = "." + std::string(kind);
       if (file.size() > suffix.size() && file.compare(file.size() - suffix.size(), suffix.size(), suffix) == 0)
-        names.push_back(std::string(package) + "/" + std::string(kind) + "/" + file.substr(0, file.size() - suffix.size()));
+        names.push_back(std::string(package) + "/" + std::string(kind) + "/" +
+                        file.substr(0, file.size() - suffix.size()));
     }
     ::closedir(d);
     if (!names.empty()) break;  // first share dir that has the package wins

@@ -14,11 +14,11 @@ namespace msg_mapping {
 namespace md = ln::md;
 
 enum class MoveKind : std::uint8_t {
-  Number,        // one number (LN value or constant) -> one ROS number
-  Array,         // LN numeric array -> ROS fixed array (same count) or inline sequence
-  String,        // LN char[N] (text up to the first NUL) or a constant -> ROS string
-  StringArray,   // LN array of sub-types with a char[N] field -> ROS string array or sequence
-  Time,          // LN seconds / nanoseconds -> builtin_interfaces Time/Duration
+  Number,       // one number (LN value or constant) -> one ROS number
+  Array,        // LN numeric array -> ROS fixed array (same count) or inline sequence
+  String,       // LN char[N] (text up to the first NUL) or a constant -> ROS string
+  StringArray,  // LN array of sub-types with a char[N] field -> ROS string array or sequence
+  Time,         // LN seconds / nanoseconds -> builtin_interfaces Time/Duration
 };
 
 struct RuleMove {
@@ -28,19 +28,19 @@ struct RuleMove {
   bool from_ln = false;
   std::size_t ln_offset = 0;
   md::Primitive ln_type = md::Primitive::Double;
-  std::uint32_t ln_count = 1;         // elements (numbers, texts), or bytes of a String's char array
-  std::size_t ln_stride = 0;          // bytes from one LN element to the next (0: packed numbers)
-  std::uint32_t ln_text = 0;          // StringArray: bytes of each element's char array
+  std::uint32_t ln_count = 1;  // elements (numbers, texts), or bytes of a String's char array
+  std::size_t ln_stride = 0;   // bytes from one LN element to the next (0: packed numbers)
+  std::uint32_t ln_text = 0;   // StringArray: bytes of each element's char array
   // ROS side: offsets in the fixed-size LN form of the ROS type
   std::size_t mid_offset = 0;         // the value / first element / text
   std::size_t mid_length_offset = 0;  // inline strings and sequences: their uint32 length
   md::Primitive mid_type = md::Primitive::Double;
   RosPrimitive ros_type = RosPrimitive::Float64;
-  std::uint32_t mid_capacity = 0;     // inline string/sequence capacity, fixed array count
-  std::uint32_t mid_text = 0;         // StringArray: capacity of each string
-  std::size_t mid_stride = 0;         // StringArray: bytes from one string to the next
+  std::uint32_t mid_capacity = 0;  // inline string/sequence capacity, fixed array count
+  std::uint32_t mid_text = 0;      // StringArray: capacity of each string
+  std::size_t mid_stride = 0;      // StringArray: bytes from one string to the next
   bool sequence = false;
-  bool nanoseconds = false;           // Time from integer nanoseconds
+  bool nanoseconds = false;  // Time from integer nanoseconds
   bool scaled = false;
   long double scale = 1, offset = 0;
   long double constant_number = 0;
@@ -59,8 +59,12 @@ std::string number_text(long double v) {
 
 long double read_number(const std::uint8_t* p, md::Primitive type) {
   switch (type) {
-#define MM_READ(P, T) \
-  case md::Primitive::P: { T v; std::memcpy(&v, p, sizeof v); return static_cast<long double>(v); }
+#define MM_READ(P, T)                   \
+  case md::Primitive::P: {              \
+    T v;                                \
+    std::memcpy(&v, p, sizeof v);       \
+    return static_cast<long double>(v); \
+  }
     MM_READ(Float, float)
     MM_READ(Double, double)
     MM_READ(Char, char)
@@ -89,17 +93,43 @@ void store_integer(std::uint8_t* p, long double v, const std::string& where) {
 
 void write_number(std::uint8_t* p, md::Primitive type, long double v, const std::string& where) {
   switch (type) {
-    case md::Primitive::Float: { const float f = static_cast<float>(v); std::memcpy(p, &f, 4); return; }
-    case md::Primitive::Double: { const double d = static_cast<double>(v); std::memcpy(p, &d, 8); return; }
-    case md::Primitive::Char: store_integer<char>(p, v, where); return;
-    case md::Primitive::Int8: store_integer<std::int8_t>(p, v, where); return;
-    case md::Primitive::UInt8: store_integer<std::uint8_t>(p, v, where); return;
-    case md::Primitive::Int16: store_integer<std::int16_t>(p, v, where); return;
-    case md::Primitive::UInt16: store_integer<std::uint16_t>(p, v, where); return;
-    case md::Primitive::Int32: store_integer<std::int32_t>(p, v, where); return;
-    case md::Primitive::UInt32: store_integer<std::uint32_t>(p, v, where); return;
-    case md::Primitive::Int64: store_integer<std::int64_t>(p, v, where); return;
-    case md::Primitive::UInt64: store_integer<std::uint64_t>(p, v, where); return;
+    case md::Primitive::Float: {
+      const float f = static_cast<float>(v);
+      std::memcpy(p, &f, 4);
+      return;
+    }
+    case md::Primitive::Double: {
+      const double d = static_cast<double>(v);
+      std::memcpy(p, &d, 8);
+      return;
+    }
+    case md::Primitive::Char:
+      store_integer<char>(p, v, where);
+      return;
+    case md::Primitive::Int8:
+      store_integer<std::int8_t>(p, v, where);
+      return;
+    case md::Primitive::UInt8:
+      store_integer<std::uint8_t>(p, v, where);
+      return;
+    case md::Primitive::Int16:
+      store_integer<std::int16_t>(p, v, where);
+      return;
+    case md::Primitive::UInt16:
+      store_integer<std::uint16_t>(p, v, where);
+      return;
+    case md::Primitive::Int32:
+      store_integer<std::int32_t>(p, v, where);
+      return;
+    case md::Primitive::UInt32:
+      store_integer<std::uint32_t>(p, v, where);
+      return;
+    case md::Primitive::Int64:
+      store_integer<std::int64_t>(p, v, where);
+      return;
+    case md::Primitive::UInt64:
+      store_integer<std::uint64_t>(p, v, where);
+      return;
   }
 }
 
@@ -137,7 +167,8 @@ std::vector<PathPart> parse_path(const std::string& path, const std::string& whe
   std::size_t start = 0;
   for (;;) {
     const auto dot = path.find('.', start);
-    std::string part = std::string(text::strip(path.substr(start, dot == std::string::npos ? std::string::npos : dot - start)));
+    std::string part =
+        std::string(text::strip(path.substr(start, dot == std::string::npos ? std::string::npos : dot - start)));
     PathPart p;
     if (const auto bracket = part.find('['); bracket != std::string::npos) {
       if (part.back() != ']') throw Error(where + ": '" + path + "' has an unbalanced '['");
@@ -195,9 +226,9 @@ RosTarget resolve_ros(const PairedType& root, const std::string& path, const std
                   type->ros_name + ", which has: " + names + ")");
     if (part.indexed && (found->shape != Shape::FixedArray || part.index >= found->count))
       throw Error(where + ": ROS field '" + path + "': " +
-                  (found->shape != Shape::FixedArray ? "only fixed-size arrays can be indexed"
-                                                     : "index " + u(part.index) + " is out of range (" +
-                                                           u(found->count) + " elements)"));
+                  (found->shape != Shape::FixedArray
+                       ? "only fixed-size arrays can be indexed"
+                       : "index " + u(part.index) + " is out of range (" + u(found->count) + " elements)"));
     ln_parts.push_back({found->ln_name, part.indexed, part.index});
     target.field = found;
     target.element = part.indexed;
@@ -307,8 +338,10 @@ RuleCodec::RuleCodec(const md::Definition& ln, RosToLn& ros, const std::string& 
     }
     const bool whole_array = !target.element && f.shape != Shape::Single;
     if (source.repeat > 1 && !whole_array)
-      throw Error(where + ": LN field '" + rule.ln_path + "' has one value per element of an LN array: it fits a ROS "
-                  "array, not " + f.ros_type().spelling());
+      throw Error(where + ": LN field '" + rule.ln_path +
+                  "' has one value per element of an LN array: it fits a ROS "
+                  "array, not " +
+                  f.ros_type().spelling());
     if (source.repeat > 1 && f.element != ElementKind::String && m.ln_count != 1)
       throw Error(where + ": LN field '" + rule.ln_path + "' is " + type_name(m.ln_type) + "[" + u(m.ln_count) +
                   "] per element; " + f.ros_type().spelling() + " takes one number per element");
@@ -335,7 +368,8 @@ RuleCodec::RuleCodec(const md::Definition& ln, RosToLn& ros, const std::string& 
       m.kind = MoveKind::Time;
       m.nanoseconds = rule.convert == "nanoseconds_to_time";
       if (m.nanoseconds && !md::is_integer(m.ln_type))
-        throw Error(where + ": nanoseconds_to_time needs an LN integer, '" + rule.ln_path + "' is " + type_name(m.ln_type));
+        throw Error(where + ": nanoseconds_to_time needs an LN integer, '" + rule.ln_path + "' is " +
+                    type_name(m.ln_type));
       if (m.scaled) throw Error(where + ": scale/offset cannot be combined with convert");
       moves_.push_back(m);
       continue;
@@ -347,7 +381,8 @@ RuleCodec::RuleCodec(const md::Definition& ln, RosToLn& ros, const std::string& 
 
     if (f.element == ElementKind::String && whole_array) {
       if (source.repeat == 1)
-        throw Error(where + ": an array of strings takes one LN char array per element: 'from: names.text' with "
+        throw Error(where +
+                    ": an array of strings takes one LN char array per element: 'from: names.text' with "
                     "'names' an LN array of a definition that has a char array 'text'");
       if (m.ln_type != md::Primitive::Char && m.ln_type != md::Primitive::UInt8 && m.ln_type != md::Primitive::Int8)
         throw Error(where + ": a string needs an LN char array, '" + rule.ln_path + "' is " + type_name(m.ln_type));
@@ -420,8 +455,8 @@ RuleCodec::RuleCodec(const md::Definition& ln, RosToLn& ros, const std::string& 
       m.kind = MoveKind::Number;
       if (m.from_ln && m.ln_count != 1)
         throw Error(where + ": it is a single " + std::string(spelling(f.ros_primitive)) + ", but LN field '" +
-                    rule.ln_path + "' is an array of " + u(m.ln_count) + "; pick an element like '" +
-                    rule.ln_path + "[0]'");
+                    rule.ln_path + "' is an array of " + u(m.ln_count) + "; pick an element like '" + rule.ln_path +
+                    "[0]'");
     }
     if (rule.has_constant) {
       if (!parse_number(rule.constant, m.constant_number))
@@ -502,18 +537,20 @@ std::vector<std::uint8_t> RuleCodec::ln_to_cdr(Bytes ln) const {
   for (const RuleMove& m : moves_) {
     switch (m.kind) {
       case MoveKind::Number:
-        if (m.from_ln) encode_number(m, ln.data, mid.data(), 0);
-        else write_number(mid.data() + m.mid_offset, m.mid_type, m.constant_number, m.ros_path);
+        if (m.from_ln)
+          encode_number(m, ln.data, mid.data(), 0);
+        else
+          write_number(mid.data() + m.mid_offset, m.mid_type, m.constant_number, m.ros_path);
         break;
       case MoveKind::Array:
         if (m.sequence) write_u32(mid.data() + m.mid_length_offset, m.ln_count);
         for (std::uint32_t i = 0; i < m.ln_count; ++i) encode_number(m, ln.data, mid.data(), i);
         break;
       case MoveKind::String: {
-        const std::uint8_t* text = m.from_ln ? ln.data + m.ln_offset
-                                             : reinterpret_cast<const std::uint8_t*>(m.constant_text.data());
-        const std::size_t n = m.from_ln ? strnlen(reinterpret_cast<const char*>(text), m.ln_count)
-                                        : m.constant_text.size();
+        const std::uint8_t* text =
+            m.from_ln ? ln.data + m.ln_offset : reinterpret_cast<const std::uint8_t*>(m.constant_text.data());
+        const std::size_t n =
+            m.from_ln ? strnlen(reinterpret_cast<const char*>(text), m.ln_count) : m.constant_text.size();
         if (n > m.mid_capacity)
           throw CodecError(ros_name_ + "." + m.ros_path + ": text of " + u(n) + " bytes exceeds the capacity " +
                            u(m.mid_capacity));
@@ -541,7 +578,8 @@ std::vector<std::uint8_t> RuleCodec::ln_to_cdr(Bytes ln) const {
         const long double sec = std::floor(total_ns / ns_per_s);
         const long double nsec = total_ns - sec * ns_per_s;
         write_number(mid.data() + m.mid_offset, md::Primitive::Int32, sec, ros_name_ + "." + m.ros_path + ".sec");
-        write_number(mid.data() + m.mid_offset + 4, md::Primitive::UInt32, nsec, ros_name_ + "." + m.ros_path + ".nanosec");
+        write_number(mid.data() + m.mid_offset + 4, md::Primitive::UInt32, nsec,
+                     ros_name_ + "." + m.ros_path + ".nanosec");
         break;
       }
     }
@@ -555,12 +593,14 @@ std::vector<std::uint8_t> RuleCodec::cdr_to_ln(Bytes cdr) const {
   for (const RuleMove& m : moves_) {
     if (!m.from_ln) continue;  // constants do not travel back
     switch (m.kind) {
-      case MoveKind::Number: decode_number(m, mid.data(), ln.data(), 0); break;
+      case MoveKind::Number:
+        decode_number(m, mid.data(), ln.data(), 0);
+        break;
       case MoveKind::Array: {
         const std::uint32_t n = m.sequence ? read_u32(mid.data() + m.mid_length_offset) : m.ln_count;
         if (n > m.ln_count)
-          throw CodecError(ros_name_ + "." + m.ros_path + ": " + u(n) + " elements do not fit LN field '" +
-                           m.ln_path + "' (" + u(m.ln_count) + ")");
+          throw CodecError(ros_name_ + "." + m.ros_path + ": " + u(n) + " elements do not fit LN field '" + m.ln_path +
+                           "' (" + u(m.ln_count) + ")");
         for (std::uint32_t i = 0; i < n; ++i) decode_number(m, mid.data(), ln.data(), i);
         break;
       }
@@ -604,7 +644,8 @@ std::string RuleCodec::describe() const {
   for (const RuleMove& m : moves_) {
     out += "  " + m.ros_path + " <- ";
     out += m.from_ln ? m.ln_path
-                     : "constant " + (m.kind == MoveKind::String ? "\"" + m.constant_text + "\"" : number_text(m.constant_number));
+                     : "constant " + (m.kind == MoveKind::String ? "\"" + m.constant_text + "\""
+                                                                 : number_text(m.constant_number));
     if (m.scaled) out += " * " + number_text(m.scale) + " + " + number_text(m.offset);
     if (m.kind == MoveKind::Time) out += m.nanoseconds ? " (nanoseconds)" : " (seconds)";
     out += "\n";

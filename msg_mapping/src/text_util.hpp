@@ -20,9 +20,7 @@ inline std::string_view rstrip(std::string_view s, std::string_view chars = whit
   return last == std::string_view::npos ? std::string_view() : s.substr(0, last + 1);
 }
 
-inline bool starts_with(std::string_view s, std::string_view prefix) {
-  return s.substr(0, prefix.size()) == prefix;
-}
+inline bool starts_with(std::string_view s, std::string_view prefix) { return s.substr(0, prefix.size()) == prefix; }
 
 inline bool ends_with(std::string_view s, std::string_view suffix) {
   return s.size() >= suffix.size() && s.substr(s.size() - suffix.size()) == suffix;

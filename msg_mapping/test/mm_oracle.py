@@ -6,24 +6,57 @@ ln_encode(msg, ...)        LN flat bytes of the same message, from the machine-r
                            that ln_mapping.json / ros_mapping.json record (codec.hpp documents the format).
 random_message(cls, ...)   a ROS message filled with random values.
 """
+
 import random
 import struct
 
-from rosidl_parser.definition import (AbstractNestedType, AbstractSequence, AbstractString, Array, BasicType,
-                                      BoundedSequence, BoundedString, NamespacedType)
+from rosidl_parser.definition import (
+    AbstractNestedType,
+    AbstractSequence,
+    AbstractString,
+    Array,
+    BasicType,
+    BoundedSequence,
+    BoundedString,
+    NamespacedType,
+)
 
 BASIC = {  # rosidl typename -> struct format (little-endian), size
-    "boolean": ("?", 1), "octet": ("B", 1), "char": ("B", 1), "uint8": ("B", 1), "int8": ("b", 1),
-    "uint16": ("H", 2), "int16": ("h", 2), "uint32": ("I", 4), "int32": ("i", 4),
-    "uint64": ("Q", 8), "int64": ("q", 8), "float": ("f", 4), "double": ("d", 8),
+    "boolean": ("?", 1),
+    "octet": ("B", 1),
+    "char": ("B", 1),
+    "uint8": ("B", 1),
+    "int8": ("b", 1),
+    "uint16": ("H", 2),
+    "int16": ("h", 2),
+    "uint32": ("I", 4),
+    "int32": ("i", 4),
+    "uint64": ("Q", 8),
+    "int64": ("q", 8),
+    "float": ("f", 4),
+    "double": ("d", 8),
 }
-ROS_FMT = {"bool": "?", "byte": "B", "char": "B", "uint8": "B", "int8": "b", "uint16": "H", "int16": "h",
-           "uint32": "I", "int32": "i", "uint64": "Q", "int64": "q", "float32": "f", "float64": "d"}
+ROS_FMT = {
+    "bool": "?",
+    "byte": "B",
+    "char": "B",
+    "uint8": "B",
+    "int8": "b",
+    "uint16": "H",
+    "int16": "h",
+    "uint32": "I",
+    "int32": "i",
+    "uint64": "Q",
+    "int64": "q",
+    "float32": "f",
+    "float64": "d",
+}
 
 
 def message_class(ros_type):
     """'pkg/msg/T' or 'pkg/srv/T_Request' -> the generated Python class."""
     import importlib
+
     package, kind, name = ros_type.split("/")
     module = importlib.import_module(f"{package}.{kind}")
     if kind == "srv":
@@ -33,8 +66,7 @@ def message_class(ros_type):
 
 
 def fields_of(cls):
-    return [(slot[1:], slot_type) for slot, slot_type in zip(cls.__slots__, cls.SLOT_TYPES)
-            if slot != "_check_fields"]
+    return [(slot[1:], slot_type) for slot, slot_type in zip(cls.__slots__, cls.SLOT_TYPES) if slot != "_check_fields"]
 
 
 def nested_class(t):
@@ -42,6 +74,7 @@ def nested_class(t):
 
 
 # ------------------------------------------------------------------ CDR
+
 
 class _CdrWriter:
     def __init__(self):
@@ -102,12 +135,13 @@ def equal_except_padding(a, b, padding):
 
 # ------------------------------------------------------------------ LN flat
 
+
 class Pairing:
     """The paired types of mapping files, by LN name (and by ROS name for LN -> ROS types)."""
 
     def __init__(self, mapping_documents):
-        self.types = {}      # LN name -> type
-        self.by_ros = {}     # ROS name -> type (unique for LN -> ROS mappings)
+        self.types = {}  # LN name -> type
+        self.by_ros = {}  # ROS name -> type (unique for LN -> ROS mappings)
         for doc in mapping_documents:
             for type_json in doc.get("types", []):
                 self._add(type_json)
@@ -168,6 +202,7 @@ class Pairing:
 
 
 # ------------------------------------------------------------------ random values
+
 
 def _random_basic(rng, typename):
     if typename == "boolean":

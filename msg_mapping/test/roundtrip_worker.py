@@ -13,6 +13,7 @@ recorded in the packages' ln_mapping.json, and for `--trials` random messages:
 
 Prints one JSON object: {"parts": N, "messages": M, "failures": [...]}.
 """
+
 import argparse
 import glob
 import json
@@ -22,10 +23,10 @@ import traceback
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
-import mm_oracle  # noqa: E402
-from rclpy.serialization import deserialize_message, serialize_message  # noqa: E402
+import mm_oracle
+from rclpy.serialization import deserialize_message, serialize_message
 
-import msg_mapping  # noqa: E402
+import msg_mapping
 
 
 def check_part(codec, pairing, ros_type, ln_name, trials, failures):
@@ -39,17 +40,22 @@ def check_part(codec, pairing, ros_type, ln_name, trials, failures):
             oracle_cdr, padding = mm_oracle.cdr_encode(msg)
             # rclpy's message may end with padding: rmw_fastrtps sizes "plain" types rounded up to 4
             # and counts the alignment of empty number sequences that Fast CDR does not write.
-            if not mm_oracle.equal_except_padding(rclpy_cdr[:len(oracle_cdr)], oracle_cdr, padding) or \
-                    not len(oracle_cdr) <= len(rclpy_cdr) <= len(oracle_cdr) + 64:
-                failures.append(f"{where}: reference CDR encoder disagrees with rclpy: "
-                                f"{rclpy_cdr.hex()} vs {oracle_cdr.hex()}")
+            if (
+                not mm_oracle.equal_except_padding(rclpy_cdr[: len(oracle_cdr)], oracle_cdr, padding)
+                or not len(oracle_cdr) <= len(rclpy_cdr) <= len(oracle_cdr) + 64
+            ):
+                failures.append(
+                    f"{where}: reference CDR encoder disagrees with rclpy: {rclpy_cdr.hex()} vs {oracle_cdr.hex()}"
+                )
                 continue
             ln = pairing.ln_encode(msg, ln_name)
             ours = codec.ln_to_cdr(ln)
             # Same length as rclpy's, zero padding at the end.
-            if ours[:len(oracle_cdr)] != oracle_cdr or len(ours) != len(rclpy_cdr) or any(ours[len(oracle_cdr):]):
-                failures.append(f"{where}: ln_to_cdr {ours.hex()} != expected {oracle_cdr.hex()} "
-                                f"(rclpy {rclpy_cdr.hex()}, LN {ln.hex()})")
+            if ours[: len(oracle_cdr)] != oracle_cdr or len(ours) != len(rclpy_cdr) or any(ours[len(oracle_cdr) :]):
+                failures.append(
+                    f"{where}: ln_to_cdr {ours.hex()} != expected {oracle_cdr.hex()} "
+                    f"(rclpy {rclpy_cdr.hex()}, LN {ln.hex()})"
+                )
                 continue
             if deserialize_message(ours, cls) != msg:
                 failures.append(f"{where}: rclpy reads back a different message")
@@ -60,7 +66,7 @@ def check_part(codec, pairing, ros_type, ln_name, trials, failures):
                 failures.append(f"{where}: CDR -> LN -> CDR is not the identity")
             if codec.cdr_size(ln) != len(ours) or codec.ln_size(ours) != len(ln):
                 failures.append(f"{where}: size functions disagree")
-        except Exception:  # noqa: BLE001 - every failure is reported, the run goes on
+        except Exception:
             failures.append(f"{where}: {traceback.format_exc(limit=3)}")
 
 
@@ -95,10 +101,20 @@ def main():
                     continue
                 parts += 1
                 codec = gen.codec(interface["ln_name"], part)
-                check_part(codec, pairing, interface[part]["ros_type"], interface[part]["ln_name"], args.trials,
-                           failures)
-    print(json.dumps({"definitions": definitions, "parts": parts, "messages": parts * args.trials,
-                      "failures": failures[:50], "failure_count": len(failures)}))
+                check_part(
+                    codec, pairing, interface[part]["ros_type"], interface[part]["ln_name"], args.trials, failures
+                )
+    print(
+        json.dumps(
+            {
+                "definitions": definitions,
+                "parts": parts,
+                "messages": parts * args.trials,
+                "failures": failures[:50],
+                "failure_count": len(failures),
+            }
+        )
+    )
 
 
 if __name__ == "__main__":

@@ -3,6 +3,7 @@
 No generated ROS package is needed here (the round trips against rclpy are in
 test_ln_roundtrip.py and test_ros_to_ln.py).
 """
+
 import os
 import random
 import struct
@@ -67,8 +68,18 @@ def test_service_flat_format(gen):
     odd = gen.codec("mmtest/odd_lengths")
     ln = bytes([9]) + struct.pack("<I", 3) + b"abc" + struct.pack("<h", -2) + struct.pack("<I", 2) + b"hi"
     cdr = odd.ln_to_cdr(ln)
-    assert cdr == (b"\x00\x01\x00\x00" + bytes([9]) + b"\0\0\0" + struct.pack("<I", 3) + b"abc" + b"\0"
-                   + struct.pack("<h", -2) + b"\0\0" + struct.pack("<I", 3) + b"hi\0")
+    assert cdr == (
+        b"\x00\x01\x00\x00"
+        + bytes([9])
+        + b"\0\0\0"
+        + struct.pack("<I", 3)
+        + b"abc"
+        + b"\0"
+        + struct.pack("<h", -2)
+        + b"\0\0"
+        + struct.pack("<I", 3)
+        + b"hi\0"
+    )
     assert odd.cdr_to_ln(cdr) == ln
 
 
@@ -94,10 +105,10 @@ def _mutations(rng, data):
         for _ in range(3):
             data[rng.randrange(len(data))] = rng.randrange(256)
     elif kind == 1:
-        del data[rng.randrange(len(data) + 1):]
+        del data[rng.randrange(len(data) + 1) :]
     elif kind == 2 and len(data) >= 8:
         at = rng.randrange(4, len(data) - 3)
-        data[at:at + 4] = struct.pack("<I", rng.choice([0xFFFFFFFF, 0x80000000, len(data), 1 << 20]))
+        data[at : at + 4] = struct.pack("<I", rng.choice([0xFFFFFFFF, 0x80000000, len(data), 1 << 20]))
     else:
         data += bytes(rng.randrange(256) for _ in range(rng.randrange(1, 9)))
     return bytes(data)

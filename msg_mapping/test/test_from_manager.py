@@ -1,5 +1,6 @@
 """ln_ros2_gen --from-manager: packages for what a running ln_core manager knows (the
 definition of every topic, the interface of every service), from the manager's texts."""
+
 import filecmp
 import json
 import os
@@ -8,14 +9,15 @@ import sys
 import time
 
 import pytest
+from msg_mapping.manager import load_fetching, missing_definitions
 
 import msg_mapping
 from msg_mapping import cli
-from msg_mapping.manager import load_fetching, missing_definitions
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
-                                "tests", "support"))
-import ln_testing  # noqa: E402
+sys.path.insert(
+    0, os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "tests", "support")
+)
+import ln_testing
 
 # Only the manager gets these files: the generator has to take every text from it.
 DEFINITIONS = {
@@ -23,10 +25,10 @@ DEFINITIONS = {
     "fmtest/robot/unit": "uint8_t code\n",
     # relative defines: "pose" next to fmtest/robot/state is fmtest/robot/pose
     "fmtest/robot/state": 'define pose_t as "pose"\ndefine unit_t as "unit"\npose_t tcp\nunit_t units[2]\n'
-                          "uint32_t counter\n",
+    "uint32_t counter\n",
     "fmtest/robot/move": 'service\nrequest\ndefine pose_t as "fmtest/robot/pose"\npose_t target\ndouble speed\n'
-                         "response\nint32_t error_code\nchar* error_message\n",
-    "fmtest/idle": "uint16_t seconds\n",   # only subscribed
+    "response\nint32_t error_code\nchar* error_message\n",
+    "fmtest/idle": "uint16_t seconds\n",  # only subscribed
 }
 
 
@@ -37,8 +39,12 @@ def _ln_core_env():
         manager, package = ln_testing.LnCore.locate()
     except ln_testing.Unavailable as error:
         pytest.skip(str(error))
-    return manager, dict(os.environ, PYTHONPATH=os.pathsep.join(
-        [package, os.path.dirname(os.path.dirname(msg_mapping.__file__)), os.environ.get("PYTHONPATH", "")]))
+    return manager, dict(
+        os.environ,
+        PYTHONPATH=os.pathsep.join(
+            [package, os.path.dirname(os.path.dirname(msg_mapping.__file__)), os.environ.get("PYTHONPATH", "")]
+        ),
+    )
 
 
 # An LN system on the manager: publishes, subscribes, provides; prints the topics' hashes
@@ -73,8 +79,16 @@ def ln(tmp_path_factory):
     try:
         address = server.start([md_dir]).address
         with open(home / "system.log", "w") as log:
-            started.append(subprocess.Popen([sys.executable, "-c", SYSTEM, address], stdin=subprocess.PIPE,
-                                            stdout=subprocess.PIPE, stderr=log, text=True, env=env))
+            started.append(
+                subprocess.Popen(
+                    [sys.executable, "-c", SYSTEM, address],
+                    stdin=subprocess.PIPE,
+                    stdout=subprocess.PIPE,
+                    stderr=log,
+                    text=True,
+                    env=env,
+                )
+            )
         hashes = _read_until(started[0].stdout, lambda line: line.startswith("{"))
         assert hashes, "the test system did not start: %s" % (home / "system.log").read_text()
         yield {"address": address, "md_dir": str(md_dir), "hashes": json.loads(hashes), "env": env}
@@ -106,8 +120,13 @@ def _read_until(stream, accept, timeout=15.0):
 
 def run_cli(env, *argv):
     """ln_ros2_gen in a child process: (exit status, stdout, stderr)."""
-    result = subprocess.run([sys.executable, "-c", "import sys; from msg_mapping.cli import main; sys.exit(main())",
-                             *map(str, argv)], capture_output=True, text=True, env=env, timeout=60)
+    result = subprocess.run(
+        [sys.executable, "-c", "import sys; from msg_mapping.cli import main; sys.exit(main())", *map(str, argv)],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=60,
+    )
     return result.returncode, result.stdout, result.stderr
 
 
@@ -115,16 +134,21 @@ def test_packages_for_what_the_manager_knows(ln, tmp_path):
     status, listing, _ = run_cli(ln["env"], "--from-manager", ln["address"], "--dry-run")
     assert status == 0
     assert "from the LN manager at %s: 3 definitions" % ln["address"] in listing
-    for line in ("fmtest/robot/state: topic robot.state", "fmtest/idle: topic robot.idle",
-                 "fmtest/robot/move: service robot.move", "package fmtest_ln_msgs"):
+    for line in (
+        "fmtest/robot/state: topic robot.state",
+        "fmtest/idle: topic robot.idle",
+        "fmtest/robot/move: service robot.move",
+        "package fmtest_ln_msgs",
+    ):
         assert line in listing, listing
     assert not os.path.exists(tmp_path / "out")
 
     assert run_cli(ln["env"], "--from-manager", ln["address"], "--out", tmp_path / "out")[0] == 0
     with open(tmp_path / "out" / "fmtest_ln_msgs" / "ln_mapping.json") as f:
         mapping = {i["ln_name"]: i for i in json.load(f)["interfaces"]}
-    assert sorted(mapping) == sorted(["fmtest/robot/state", "fmtest/robot/pose", "fmtest/robot/unit",
-                                      "fmtest/robot/move", "fmtest/idle"])
+    assert sorted(mapping) == sorted(
+        ["fmtest/robot/state", "fmtest/robot/pose", "fmtest/robot/unit", "fmtest/robot/move", "fmtest/idle"]
+    )
     assert mapping["fmtest/robot/move"]["kind"] == "service"
     # the versions the running system uses
     assert mapping["fmtest/robot/state"]["ln_hash"] == ln["hashes"]["robot.state"]
@@ -133,15 +157,19 @@ def test_packages_for_what_the_manager_knows(ln, tmp_path):
     # the same packages as from the files themselves
     assert cli.main(["--recursive", ln["md_dir"], "--out", str(tmp_path / "files")]) == 0
     compare = filecmp.dircmp(tmp_path / "out", tmp_path / "files")
-    for level in [compare] + list(compare.subdirs.values()) + \
-            [d for sub in compare.subdirs.values() for d in sub.subdirs.values()]:
+    for level in (
+        [compare]
+        + list(compare.subdirs.values())
+        + [d for sub in compare.subdirs.values() for d in sub.subdirs.values()]
+    ):
         assert not (level.left_only or level.right_only or level.diff_files), level.report_full_closure()
 
 
 def test_unreachable_manager_is_a_clear_error():
     import socket
+
     _, env = _ln_core_env()
-    with socket.socket() as s:   # a port nobody listens on
+    with socket.socket() as s:  # a port nobody listens on
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     status, _, error = run_cli(env, "--from-manager", "127.0.0.1:%d" % port, "--dry-run")
@@ -155,7 +183,8 @@ def test_definitions_are_fetched_with_what_they_use():
 
     def fetch(name):
         fetched.append(name)
-        library.add_source(name, DEFINITIONS[name])   # KeyError: the manager does not know it
+        library.add_source(name, DEFINITIONS[name])  # KeyError: the manager does not know it
+
     assert load_fetching(library.load, "fmtest/robot/state", fetch)["packet_size"] == 7 * 8 + 2 + 4
     assert fetched == ["fmtest/robot/state", "fmtest/robot/pose", "fmtest/robot/unit"]
     with pytest.raises(Exception, match="message definition 'fmtest/none' not found"):
@@ -164,8 +193,10 @@ def test_definitions_are_fetched_with_what_they_use():
 
 def test_missing_definition_names_follow_ln_resolution():
     assert missing_definitions(Exception("message definition 'a/b' not found in these directories: x")) == ["a/b"]
-    assert missing_definitions(Exception("<a/b/c>:1: define refers to 'd', which is neither next to this file "
-                                         "nor in: x")) == ["a/b/d", "d"]
-    assert missing_definitions(Exception("/defs/a/b/c:3: define refers to 'x/y', which is neither next to this "
-                                         "file nor in: x")) == ["x/y"]
+    assert missing_definitions(
+        Exception("<a/b/c>:1: define refers to 'd', which is neither next to this file nor in: x")
+    ) == ["a/b/d", "d"]
+    assert missing_definitions(
+        Exception("/defs/a/b/c:3: define refers to 'x/y', which is neither next to this file nor in: x")
+    ) == ["x/y"]
     assert missing_definitions(Exception("a/b:1: unknown type 'foo'")) == []

@@ -1,4 +1,5 @@
 """LN -> ROS generation: names, escaping, collisions, package layout, the CLI and the CMake function."""
+
 import json
 import os
 import re
@@ -35,11 +36,14 @@ def generate(lib, *names, **naming):
 def test_camel_to_snake_matches_rosidl():
     rosidl_pycommon = pytest.importorskip("rosidl_pycommon")
     import random
+
     rng = random.Random(5)
     alphabet = "aAbB1_Zz9"
     for _ in range(3000):
         word = "".join(rng.choice(alphabet) for _ in range(rng.randint(1, 10)))
-        assert msg_mapping.camel_to_snake(word) == rosidl_pycommon.convert_camel_case_to_lower_case_underscore(word), word
+        assert msg_mapping.camel_to_snake(word) == rosidl_pycommon.convert_camel_case_to_lower_case_underscore(word), (
+            word
+        )
 
 
 def test_names_follow_rosidl_rules_for_the_corpus():
@@ -62,8 +66,19 @@ def test_field_escaping_and_mapping_record():
     gen = generate(lib, "mmtest/keywords")
     package = gen.packages()[0]
     msg = package["files"]["msg/Keywords.msg"]
-    for ros in ("yield_field", "string_field", "from_field", "int8_field", "num_counts", "http_server",
-                "private_field", "trailing", "double_under", "true_field", "sequence_field"):
+    for ros in (
+        "yield_field",
+        "string_field",
+        "from_field",
+        "int8_field",
+        "num_counts",
+        "http_server",
+        "private_field",
+        "trailing",
+        "double_under",
+        "true_field",
+        "sequence_field",
+    ):
         assert re.search(rf"^\S+ {ros}$", msg, re.M), ros
     mapping = json.loads(package["files"]["ln_mapping.json"])
     fields = {f["ln"]: f["ros"] for f in mapping["interfaces"][0]["message"]["fields"]}
@@ -73,14 +88,39 @@ def test_field_escaping_and_mapping_record():
 
 def test_types_and_len_companions():
     lib = msg_mapping.Library([CORPUS])
-    gen = generate(lib, "mmtest/all_primitives", "mmtest/dynamic_plain", "mmtest/odd_lengths", "mmtest/tree",
-                   "mmtest/alarm_event", "mmtest/empty_service")
+    gen = generate(
+        lib,
+        "mmtest/all_primitives",
+        "mmtest/dynamic_plain",
+        "mmtest/odd_lengths",
+        "mmtest/tree",
+        "mmtest/alarm_event",
+        "mmtest/empty_service",
+    )
     files = {path: text for p in gen.packages() for path, text in p["files"].items()}
     prims = files["msg/AllPrimitives.msg"]
-    for line in ("float32 f", "float64 d", "uint8 c", "int8 i8", "uint8 u8", "int16 i16", "uint16 u16",
-                 "int32 i32", "uint32 u32", "int64 i64", "uint64 u64", "float32 f_alias", "float64 d_alias",
-                 "int16 s_alias", "int32 i_alias", "float32[3] fa", "float64[4] da", "uint8[16] text"):
+    for line in (
+        "float32 f",
+        "float64 d",
+        "uint8 c",
+        "int8 i8",
+        "uint8 u8",
+        "int16 i16",
+        "uint16 u16",
+        "int32 i32",
+        "uint32 u32",
+        "int64 i64",
+        "uint64 u64",
+        "float32 f_alias",
+        "float64 d_alias",
+        "int16 s_alias",
+        "int32 i_alias",
+        "float32[3] fa",
+        "float64[4] da",
+        "uint8[16] text",
+    ):
         assert re.search(rf"^{re.escape(line)}$", prims, re.M), line
+
     def declarations(text):
         return [line for line in text.splitlines() if line and not line.startswith("#")]
 
@@ -98,8 +138,11 @@ def test_collisions_are_errors():
     lib = library(robot__arm_pose="double x\n", robot__armPose="double y\n")
     gen = msg_mapping.LnToRos()
     gen.add(lib, "robot/arm_pose")
-    with pytest.raises(msg_mapping.MappingError, match=r"'robot/arm_pose' and 'robot/armPose' both map to ROS type "
-                                                       r"'robot_ln_msgs/msg/ArmPose'"):
+    with pytest.raises(
+        msg_mapping.MappingError,
+        match=r"'robot/arm_pose' and 'robot/armPose' both map to ROS type "
+        r"'robot_ln_msgs/msg/ArmPose'",
+    ):
         gen.add(lib, "robot/armPose")
     gen.add(lib, "robot/arm_pose")  # the failed add left nothing behind
 
@@ -110,8 +153,11 @@ def test_collisions_are_errors():
         gen.add(lib, "robot/foo_bar")
 
     lib = library(robot__fields="double numCounts\nuint8_t num_counts\n")
-    with pytest.raises(msg_mapping.MappingError, match=r"LN definition 'robot/fields': fields 'numCounts' and "
-                                                       r"'num_counts' both map to the ROS field name 'num_counts'"):
+    with pytest.raises(
+        msg_mapping.MappingError,
+        match=r"LN definition 'robot/fields': fields 'numCounts' and "
+        r"'num_counts' both map to the ROS field name 'num_counts'",
+    ):
         generate(lib, "robot/fields")
     lib = library(robot__escape="double string\nuint8_t string_field\n")
     with pytest.raises(msg_mapping.MappingError, match="'string' and 'string_field' both map"):
@@ -158,6 +204,7 @@ def test_package_files():
 
 
 # ------------------------------------------------------------------ CLI
+
 
 def test_cli_help(capsys):
     with pytest.raises(SystemExit) as exit_info:
@@ -214,8 +261,22 @@ def test_cli_errors(tmp_path, capsys):
 
 def test_cli_depfile_and_single_package(tmp_path):
     depfile = tmp_path / "deps"
-    assert cli.main(["--md-dir", CORPUS, "--package", "robot_interfaces", "--out", str(tmp_path / "o"),
-                     "--depfile", str(depfile), "mmtest/nested"]) == 0
+    assert (
+        cli.main(
+            [
+                "--md-dir",
+                CORPUS,
+                "--package",
+                "robot_interfaces",
+                "--out",
+                str(tmp_path / "o"),
+                "--depfile",
+                str(depfile),
+                "mmtest/nested",
+            ]
+        )
+        == 0
+    )
     deps = depfile.read_text().split()
     assert sorted(os.path.basename(d) for d in deps) == ["empty", "mixed", "nested", "point"]
     msgs = sorted(os.listdir(tmp_path / "o" / "robot_interfaces" / "msg"))
@@ -226,8 +287,20 @@ def test_cli_from_ros(tmp_path, capsys):
     if not msg_mapping.ros_share_dirs():
         pytest.skip("no ROS share directories (AMENT_PREFIX_PATH)")
     out = tmp_path / "ln"
-    assert cli.main(["--from-ros", "std_msgs/msg/Header", "std_srvs", "--out", str(out),
-                     "--capacity", "std_msgs/msg/Header.frame_id=64"]) == 0
+    assert (
+        cli.main(
+            [
+                "--from-ros",
+                "std_msgs/msg/Header",
+                "std_srvs",
+                "--out",
+                str(out),
+                "--capacity",
+                "std_msgs/msg/Header.frame_id=64",
+            ]
+        )
+        == 0
+    )
     header = (out / "ros2" / "std_msgs" / "msg" / "Header").read_text()
     assert "char frame_id[64]" in header
     assert (out / "ros2" / "std_srvs" / "srv" / "SetBool").exists()

@@ -6,6 +6,7 @@ msg_mapping_generate_interfaces) and round-tripped byte-identically against rclp
 The build takes ~2-4 min on 2 cores; its result is reused while the generated files are
 unchanged (stamp in the workspace), so re-runs cost only the round trip.
 """
+
 import glob
 import hashlib
 import json
@@ -26,8 +27,11 @@ BUILD_TIMEOUT = 1500
 
 
 def ln29_dirs():
-    candidates = [os.environ.get("LN_CORE_LN29_VENV", ""), os.path.expanduser("~/.cache/ln_core/venv-ln29"),
-                  "/tmp/ref/ln29"]
+    candidates = [
+        os.environ.get("LN_CORE_LN29_VENV", ""),
+        os.path.expanduser("~/.cache/ln_core/venv-ln29"),
+        "/tmp/ref/ln29",
+    ]
     for venv in candidates:
         share = os.path.join(venv, "lib", "python3.11", "site-packages", "liblinks_and_nodes", "share")
         dirs = [os.path.join(share, "message_definitions"), os.path.join(share, "ln_runtime", "message_definitions")]
@@ -103,10 +107,24 @@ def workspace(tmp_path_factory, md_dirs):
     colcon = shutil.which("colcon") or os.path.join(os.path.dirname(sys.executable), "colcon")
     env = dict(os.environ)
     env.pop("COLCON_PREFIX_PATH", None)
-    command = [colcon, "--log-base", os.path.join(ws, "log"), "build", "--base-paths", src,
-               "--build-base", os.path.join(ws, "build"), "--install-base", os.path.join(ws, "install"),
-               "--event-handlers", "console_direct-", "desktop_notification-",
-               "--cmake-args", "-DBUILD_TESTING=OFF", f"-Dmsg_mapping_DIR={build_dir}"]
+    command = [
+        colcon,
+        "--log-base",
+        os.path.join(ws, "log"),
+        "build",
+        "--base-paths",
+        src,
+        "--build-base",
+        os.path.join(ws, "build"),
+        "--install-base",
+        os.path.join(ws, "install"),
+        "--event-handlers",
+        "console_direct-",
+        "desktop_notification-",
+        "--cmake-args",
+        "-DBUILD_TESTING=OFF",
+        f"-Dmsg_mapping_DIR={build_dir}",
+    ]
     if shutil.which("ninja"):
         command += ["-G", "Ninja"]
     result = subprocess.run(command, cwd=ws, env=env, capture_output=True, text=True, timeout=BUILD_TIMEOUT)
@@ -139,11 +157,20 @@ def test_colcon_build_and_round_trip(workspace, md_dirs):
         libpath.append(os.path.join(prefix, "lib"))
     env["PYTHONPATH"] = os.pathsep.join(pythonpath)
     env["LD_LIBRARY_PATH"] = os.pathsep.join(libpath)
-    consumer_mapping = os.path.join(install, "mm_cmake_ln_interfaces", "share", "mm_cmake_ln_interfaces",
-                                    "ln_mapping.json")
+    consumer_mapping = os.path.join(
+        install, "mm_cmake_ln_interfaces", "share", "mm_cmake_ln_interfaces", "ln_mapping.json"
+    )
     assert os.path.isfile(consumer_mapping), "the CMake function did not install its ln_mapping.json"
-    command = [sys.executable, os.path.join(HERE, "roundtrip_worker.py"), "--src", src, "--trials", "12",
-               "--mapping", consumer_mapping] + [a for d in md_dirs for a in ("--md-dir", d)]
+    command = [
+        sys.executable,
+        os.path.join(HERE, "roundtrip_worker.py"),
+        "--src",
+        src,
+        "--trials",
+        "12",
+        "--mapping",
+        consumer_mapping,
+    ] + [a for d in md_dirs for a in ("--md-dir", d)]
     result = subprocess.run(command, env=env, capture_output=True, text=True, timeout=900)
     assert result.returncode == 0, result.stderr[-4000:]
     report = json.loads(result.stdout.strip().splitlines()[-1])

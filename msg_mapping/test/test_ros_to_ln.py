@@ -5,11 +5,12 @@ text is loaded by ln_core's model, and random messages round-trip byte-identical
 CDR (rclpy) -> LN == the independent LN encoder's bytes, LN -> CDR == rclpy's bytes (same
 length; only uninitialized padding may differ) and rclpy reads it back equal.
 """
+
 import json
 
+import mm_oracle
 import pytest
 
-import mm_oracle
 import msg_mapping
 
 PACKAGES = ("std_msgs", "geometry_msgs", "sensor_msgs", "std_srvs")
@@ -54,8 +55,8 @@ def test_generated_text(ros):
     defs = ros.definitions()
     image = defs["ros2/sensor_msgs/msg/Image"]
     assert 'define std_msgs__header as "ros2/std_msgs/msg/Header"' in image
-    assert "uint32_t encoding_len\nchar encoding[255]\n" in image      # default string capacity
-    assert "uint32_t data_len\nuint8_t data[4096]\n" in image           # configured capacity
+    assert "uint32_t encoding_len\nchar encoding[255]\n" in image  # default string capacity
+    assert "uint32_t data_len\nuint8_t data[4096]\n" in image  # configured capacity
     assert "# is_bigendian: ROS uint8" not in image
     header = defs["ros2/std_msgs/msg/Header"]
     assert 'define builtin_interfaces__time as "ros2/builtin_interfaces/msg/Time"' in header
@@ -85,7 +86,9 @@ def test_round_trip_against_rclpy(ros):
         for dynamic in variants:
             for part in parts:
                 codec = ros.codec(ros_type, dynamic, part)
-                part_type = ros_type if part == "message" else ros_type + ("_Request" if part == "request" else "_Response")
+                part_type = (
+                    ros_type if part == "message" else ros_type + ("_Request" if part == "request" else "_Response")
+                )
                 cls = mm_oracle.message_class(part_type)
                 for trial in range(TRIALS):
                     msg = mm_oracle.random_message(mm_oracle.rng_for(part_type, trial), cls)
@@ -95,8 +98,13 @@ def test_round_trip_against_rclpy(ros):
                     ln = codec.cdr_to_ln(cdr)
                     back = codec.ln_to_cdr(ln)
                     checked += 1
-                    if ln != expected_ln or back[:len(oracle)] != oracle or len(back) != len(cdr) \
-                            or any(back[len(oracle):]) or rclpy_serialization.deserialize_message(back, cls) != msg:
+                    if (
+                        ln != expected_ln
+                        or back[: len(oracle)] != oracle
+                        or len(back) != len(cdr)
+                        or any(back[len(oracle) :])
+                        or rclpy_serialization.deserialize_message(back, cls) != msg
+                    ):
                         failures.append(f"{part_type} dynamic={dynamic} trial {trial}")
     assert not failures, failures[:10]
     assert checked > 500
@@ -106,20 +114,28 @@ def test_bounded_types_and_bool_normalization(ros, tmp_path):
     share = tmp_path / "share"
     (share / "bounded_msgs" / "msg").mkdir(parents=True)
     (share / "bounded_msgs" / "msg" / "Bounded.msg").write_text(
-        "string<=5 name\nint32[<=3] values\nbool[2] flags\nstring<=4[<=2] tags\n")
+        "string<=5 name\nint32[<=3] values\nbool[2] flags\nstring<=4[<=2] tags\n"
+    )
     r = msg_mapping.RosToLn([str(share)] + msg_mapping.ros_share_dirs())
     r.add("bounded_msgs/msg/Bounded")
     text = r.definitions()["ros2/bounded_msgs/msg/Bounded"]
-    assert "uint32_t name_len\nchar name[5]\n" in text            # the ROS bound is the LN capacity
+    assert "uint32_t name_len\nchar name[5]\n" in text  # the ROS bound is the LN capacity
     assert "uint32_t values_len\nint32_t values[3]\n" in text
     assert 'define bounded_string4 as "ros2/msg_mapping/string4"' in text
     codec = r.codec("bounded_msgs/msg/Bounded")
     import struct
-    ln = (struct.pack("<I", 2) + b"ab\0\0\0" + struct.pack("<I3i", 1, 7, 0, 0) + bytes([0, 5])
-          + struct.pack("<I", 0) + bytes(2 * 8))
+
+    ln = (
+        struct.pack("<I", 2)
+        + b"ab\0\0\0"
+        + struct.pack("<I3i", 1, 7, 0, 0)
+        + bytes([0, 5])
+        + struct.pack("<I", 0)
+        + bytes(2 * 8)
+    )
     cdr = codec.ln_to_cdr(ln)
     assert cdr[4:].startswith(struct.pack("<I", 3) + b"ab\0")
-    assert bytes([0, 1]) in cdr                                      # bool 5 -> 1
+    assert bytes([0, 1]) in cdr  # bool 5 -> 1
     too_long = struct.pack("<I", 6) + b"abcdef"[:5]
     with pytest.raises(msg_mapping.CodecError, match="exceeds the capacity 5"):
         codec.ln_to_cdr(too_long + ln[9:])
@@ -130,11 +146,15 @@ def test_bounded_types_and_bool_normalization(ros, tmp_path):
 
 def test_overflow_of_default_capacity_is_an_error(ros):
     from std_msgs.msg import String
+
     ros.add("std_msgs/msg/String")
     ros.add("std_msgs/msg/String", True)
     cdr = rclpy_serialization.serialize_message(String(data="x" * 300))
-    with pytest.raises(msg_mapping.CodecError, match=r"std_msgs/msg/String: data: string of 300 bytes does not fit "
-                                                     r"the LN capacity 255"):
+    with pytest.raises(
+        msg_mapping.CodecError,
+        match=r"std_msgs/msg/String: data: string of 300 bytes does not fit "
+        r"the LN capacity 255",
+    ):
         ros.codec("std_msgs/msg/String").cdr_to_ln(cdr)
     # the dynamic (service) variant has no capacity
     assert ros.codec("std_msgs/msg/String", True).cdr_to_ln(cdr)[:4] == (300).to_bytes(4, "little")

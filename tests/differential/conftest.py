@@ -20,7 +20,7 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import ln_diff_support as support  # noqa: E402
+import ln_diff_support as support
 
 REPORT = support.REPORT
 

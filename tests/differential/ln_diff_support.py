@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "support"))
-import ln_testing  # noqa: E402
+import ln_testing
 
 HERE = Path(__file__).resolve().parent
 REPO_ROOT = HERE.parent.parent
@@ -85,13 +85,15 @@ def find_reference() -> Reference | MissingPrerequisite:
     else:
         return MissingPrerequisite(
             "no LN 2.9 reference: set LN_CORE_LN29_VENV to the LN 2.9 venv "
-            "(launchless_scripts/env.sh does) or install it at /tmp/ref/ln29")
+            "(launchless_scripts/env.sh does) or install it at /tmp/ref/ln29"
+        )
     ln_generate = venv / "bin" / "ln_generate"
     packages = sorted(glob.glob(str(venv / "lib" / "python3*" / "site-packages" / "liblinks_and_nodes")))
     if not ln_generate.is_file() or not packages:
         return MissingPrerequisite(
             f"{origin} is not an LN 2.9 venv: expected {ln_generate} and "
-            f"{venv}/lib/python3*/site-packages/liblinks_and_nodes")
+            f"{venv}/lib/python3*/site-packages/liblinks_and_nodes"
+        )
     ref = Reference(venv, ln_generate, Path(packages[-1]))
     missing = [str(d) for d in ref.md_dirs() if not d.is_dir()]
     if missing or not (ref.include_dir / "ln" / "ln.h").is_file():
@@ -126,7 +128,8 @@ def find_our_tools() -> OurTools | MissingPrerequisite:
         return OurTools(Path(gen), Path(info))
     return MissingPrerequisite(
         "ln_core's ln_generate/ln_md_info not found: set LN_CORE_BIN_DIR (directory of both), "
-        "LN_CORE_BUILD_DIR (cmake build dir) or put them on PATH (. launchless_scripts/env.sh)")
+        "LN_CORE_BUILD_DIR (cmake build dir) or put them on PATH (. launchless_scripts/env.sh)"
+    )
 
 
 def find_compiler(name: str) -> str | None:
@@ -155,18 +158,30 @@ class Run:
     stderr: str
 
     def describe(self) -> str:
-        return (f"$ {' '.join(self.argv)}\nexit status {self.returncode}\n"
-                f"--- stderr ---\n{self.stderr.strip()}\n--- stdout (first 2000 chars) ---\n{self.stdout[:2000]}")
+        return (
+            f"$ {' '.join(self.argv)}\nexit status {self.returncode}\n"
+            f"--- stderr ---\n{self.stderr.strip()}\n--- stdout (first 2000 chars) ---\n{self.stdout[:2000]}"
+        )
 
 
 def run(argv, env, cwd=None, timeout=TOOL_TIMEOUT, stdin=None) -> Run:
     argv = [str(a) for a in argv]
     try:
-        p = subprocess.run(argv, env=env, cwd=cwd, stdin=stdin if stdin is not None else subprocess.DEVNULL,
-                           capture_output=True, timeout=timeout)
+        p = subprocess.run(
+            argv,
+            env=env,
+            cwd=cwd,
+            stdin=stdin if stdin is not None else subprocess.DEVNULL,
+            capture_output=True,
+            timeout=timeout,
+        )
     except subprocess.TimeoutExpired as e:
-        return Run(argv, -9, (e.stdout or b"").decode("utf-8", "replace"),
-                   f"TIMEOUT after {timeout} s\n" + (e.stderr or b"").decode("utf-8", "replace"))
+        return Run(
+            argv,
+            -9,
+            (e.stdout or b"").decode("utf-8", "replace"),
+            f"TIMEOUT after {timeout} s\n" + (e.stderr or b"").decode("utf-8", "replace"),
+        )
     return Run(argv, p.returncode, p.stdout.decode("utf-8", "replace"), p.stderr.decode("utf-8", "replace"))
 
 
@@ -208,8 +223,9 @@ def run_batch(make_argv, names, env, cwd, read_output) -> BatchResult:
         return BatchResult(list(names), read_output(first, "all"), runs=[first])
     failures = {}
     with concurrent.futures.ThreadPoolExecutor(max_workers=min(16, os.cpu_count() or 4)) as pool:
-        singles = dict(zip(names, pool.map(
-            lambda i_n: run(make_argv([i_n[1]], f"single{i_n[0]}"), env, cwd), enumerate(names))))
+        singles = dict(
+            zip(names, pool.map(lambda i_n: run(make_argv([i_n[1]], f"single{i_n[0]}"), env, cwd), enumerate(names)))
+        )
     for name, r in singles.items():
         if r.returncode != 0:
             failures[name] = r
@@ -389,8 +405,13 @@ def kind_of_part(ln_part: str) -> str:
     return "plain"
 
 
-def name_differences(ln_part: str, our_part: str, md_name: str, md_kind: str | None = None,
-                     service_base_map: dict[str, str] | None = None) -> list[str]:
+def name_differences(
+    ln_part: str,
+    our_part: str,
+    md_name: str,
+    md_kind: str | None = None,
+    service_base_map: dict[str, str] | None = None,
+) -> list[str]:
     """What differs between the names two header parts declare: C names
     and macros must be equal; C++ names of LN must all be in ours, and ours
     may only add the C++ alias ns::<base>_t of a plain definition (ln_spec.md
@@ -409,17 +430,21 @@ def name_differences(ln_part: str, our_part: str, md_name: str, md_kind: str | N
     c_extra = sorted(n for n in our_names - ln_names if not is_cxx_name(n[0]))
     cxx_extra = sorted(n for n in our_names - ln_names if is_cxx_name(n[0]) and not allowed_extra(n))
     ln_macros, our_macros = macros(ln_part), macros(our_part)
-    macro_diffs = [f"  {k}: LN {ln_macros[k]!r} ours {our_macros[k]!r}"
-                   for k in sorted(set(ln_macros) & set(our_macros))
-                   if ln_macros[k] != our_macros[k] and k != "HAVE_LN_MD_NAME"]
+    macro_diffs = [
+        f"  {k}: LN {ln_macros[k]!r} ours {our_macros[k]!r}"
+        for k in sorted(set(ln_macros) & set(our_macros))
+        if ln_macros[k] != our_macros[k] and k != "HAVE_LN_MD_NAME"
+    ]
     problems = []
     if missing:
         problems.append("missing in ours: " + ", ".join(f"{k} {n}" for k, n in missing))
     if c_extra:
         problems.append("C names only in ours: " + ", ".join(f"{k} {n}" for k, n in c_extra))
     if cxx_extra:
-        problems.append("C++ names only in ours (not the documented plain-type alias): "
-                        + ", ".join(f"{k} {n}" for k, n in cxx_extra))
+        problems.append(
+            "C++ names only in ours (not the documented plain-type alias): "
+            + ", ".join(f"{k} {n}" for k, n in cxx_extra)
+        )
     if macro_diffs:
         problems.append("macro values differ:\n" + "\n".join(macro_diffs))
     return problems
@@ -431,8 +456,10 @@ def header_differences(ln_header: str, our_header: str, service_base_map: dict[s
     ln_parts, our_parts = split_sections(ln_header), split_sections(our_header)
     problems = []
     if set(ln_parts) != set(our_parts):
-        problems.append(f"different definitions: only LN {sorted(set(ln_parts) - set(our_parts))}, "
-                        f"only ours {sorted(set(our_parts) - set(ln_parts))}")
+        problems.append(
+            f"different definitions: only LN {sorted(set(ln_parts) - set(our_parts))}, "
+            f"only ours {sorted(set(our_parts) - set(ln_parts))}"
+        )
     for name in sorted(set(ln_parts) & set(our_parts)):
         for p in name_differences(ln_parts[name], our_parts[name], name, service_base_map=service_base_map):
             problems.append(f"{name}: {p}")
@@ -476,14 +503,14 @@ def probe_items(info: dict) -> list[ProbeItem]:
                 off = f"offsetof({t}, {member})"
                 off_what = off
             items.append(ProbeItem(name, f"{s['section']}: {off_what}", off, f["offset"]))
-            items.append(ProbeItem(name, f"{s['section']}: sizeof({t}.{member})",
-                                   f"sizeof(((({t}*)0)->{member}))", f["size"]))
+            items.append(
+                ProbeItem(name, f"{s['section']}: sizeof({t}.{member})", f"sizeof(((({t}*)0)->{member}))", f["size"])
+            )
     if info["kind"] == "service":
         # the service struct is exactly req + resp (packed; no member for an
         # empty section)
         t = identifier(name) + "_t"
-        items.append(ProbeItem(name, f"sizeof({t}) (req + resp)", f"sizeof({t})",
-                               section_total.get(t, 0)))
+        items.append(ProbeItem(name, f"sizeof({t}) (req + resp)", f"sizeof({t})", section_total.get(t, 0)))
     return items
 
 
@@ -637,10 +664,18 @@ class Differential:
 
         ln = run_batch(generator(self.ref.ln_generate, "ln"), names, self.env, d, header_reader("ln"))
         ours = run_batch(generator(self.tools.ln_generate, "ours"), names, self.env, d, header_reader("ours"))
-        info = run_batch(lambda ns, tag: [self.tools.ln_md_info, *dirs, *ns], names, self.env, d,
-                         lambda run, tag: run.stdout)
-        r = SetResult(dset, ln, ours, info, split_sections(ln.output) if ln.ok_names else {},
-                      split_sections(ours.output) if ours.ok_names else {}, parse_json_lines(info.output))
+        info = run_batch(
+            lambda ns, tag: [self.tools.ln_md_info, *dirs, *ns], names, self.env, d, lambda run, tag: run.stdout
+        )
+        r = SetResult(
+            dset,
+            ln,
+            ours,
+            info,
+            split_sections(ln.output) if ln.ok_names else {},
+            split_sections(ours.output) if ours.ok_names else {},
+            parse_json_lines(info.output),
+        )
         info_ok = set(info.ok_names)
         ln_names = [n for n in ln.ok_names if n in info_ok]
         our_names = [n for n in ours.ok_names if n in info_ok]
@@ -649,11 +684,13 @@ class Differential:
             # ("uint16_t d\xa0[3];", corpus syntax/unicode_whitespace), which
             # no C compiler reads; as a blank it means what LN meant.
             ln_c_text = ln.output.replace("\u00a0", " ")
-            r.ln_probe = probe_layouts(self.cc, d / "probe_ln", ln_c_text, r.infos, ln_names,
-                                       [self.ref.include_dir], self.env, "ln")
+            r.ln_probe = probe_layouts(
+                self.cc, d / "probe_ln", ln_c_text, r.infos, ln_names, [self.ref.include_dir], self.env, "ln"
+            )
         if our_names:
-            r.our_probe = probe_layouts(self.cc, d / "probe_ours", ours.output, r.infos, our_names, [self.stub],
-                                        self.env, "ours")
+            r.our_probe = probe_layouts(
+                self.cc, d / "probe_ours", ours.output, r.infos, our_names, [self.stub], self.env, "ours"
+            )
         return r
 
 
@@ -663,19 +700,21 @@ def parts_or_problems(r: SetResult, name: str) -> tuple[str | None, str | None, 
     problems = []
     if name in r.ln.failures:
         origin = r.dset.origin
-        why = {"ln29": "LN 2.9 fails on its own definition",
-               "random": "the generator made a definition LN 2.9 refuses -- fix md_generator.py"}.get(
-            origin, "every corpus/example definition must be accepted by LN 2.9 -- fix the definition")
+        why = {
+            "ln29": "LN 2.9 fails on its own definition",
+            "random": "the generator made a definition LN 2.9 refuses -- fix md_generator.py",
+        }.get(origin, "every corpus/example definition must be accepted by LN 2.9 -- fix the definition")
         problems.append(f"LN 2.9's ln_generate rejected {name!r} ({why}):\n{r.ln.failures[name].describe()}")
     if name in r.ours.failures:
-        problems.append(f"our ln_generate rejected {name!r}, which LN 2.9 accepts:\n"
-                        f"{r.ours.failures[name].describe()}")
+        problems.append(f"our ln_generate rejected {name!r}, which LN 2.9 accepts:\n{r.ours.failures[name].describe()}")
     if problems:
         return None, None, problems
     ln_part, our_part = r.ln_sections.get(name), r.our_sections.get(name)
     if ln_part is None or our_part is None:
-        problems.append(f"{name!r}: no '/* {name} */' part in {'LN 2.9' if ln_part is None else 'our'} header "
-                        f"(LN has parts {sorted(r.ln_sections)[:8]}..., ours {sorted(r.our_sections)[:8]}...)")
+        problems.append(
+            f"{name!r}: no '/* {name} */' part in {'LN 2.9' if ln_part is None else 'our'} header "
+            f"(LN has parts {sorted(r.ln_sections)[:8]}..., ours {sorted(r.our_sections)[:8]}...)"
+        )
     return ln_part, our_part, problems
 
 
@@ -708,8 +747,10 @@ def md_name_problems(r: SetResult, name: str, ln_part: str, our_part: str) -> li
         failure = r.info.failures.get(name)
         return [f"{name}: ln_md_info failed: {failure and failure.describe()}"]
     if f"{info['name']}|{info['hash']}" != ln_value:
-        return [f"{name}: ln_md_info's name|hash differs from LN's {macro}\n  LN 2.9:      {ln_value}\n"
-                f"  ln_md_info: {info['name']}|{info['hash']}"]
+        return [
+            f"{name}: ln_md_info's name|hash differs from LN's {macro}\n  LN 2.9:      {ln_value}\n"
+            f"  ln_md_info: {info['name']}|{info['hash']}"
+        ]
     return []
 
 
@@ -720,8 +761,11 @@ def signature_problems(r: SetResult, name: str, ln_part: str, our_part: str) -> 
         return {k: v for k, v in macros(text).items() if k.lower().endswith("signature")}
 
     ln_sigs, our_sigs = signature_macros(ln_part), signature_macros(our_part)
-    diffs = [f"  {k}:\n    LN 2.9: {ln_sigs.get(k)}\n    ours:   {our_sigs.get(k)}"
-             for k in sorted(set(ln_sigs) | set(our_sigs)) if ln_sigs.get(k) != our_sigs.get(k)]
+    diffs = [
+        f"  {k}:\n    LN 2.9: {ln_sigs.get(k)}\n    ours:   {our_sigs.get(k)}"
+        for k in sorted(set(ln_sigs) | set(our_sigs))
+        if ln_sigs.get(k) != our_sigs.get(k)
+    ]
     if diffs:
         return [f"{name}: signature macros differ\n" + "\n".join(diffs)]
     info = r.infos.get(name)
@@ -731,8 +775,10 @@ def signature_problems(r: SetResult, name: str, ln_part: str, our_part: str) -> 
     if info["kind"] == "service":
         expect = string_macro(ln_part, upper + "_SIGNATURE")
         if info["signature"] != expect:
-            return [f"{name}: ln_md_info signature differs from LN's {upper}_SIGNATURE\n"
-                    f"  LN 2.9:     {expect}\n  ln_md_info: {info['signature']}"]
+            return [
+                f"{name}: ln_md_info signature differs from LN's {upper}_SIGNATURE\n"
+                f"  LN 2.9:     {expect}\n  ln_md_info: {info['signature']}"
+            ]
     elif info["kind"] == "event":
         parts = split_top_level(info["signature"])
         if len(parts) != 2:
@@ -740,8 +786,10 @@ def signature_problems(r: SetResult, name: str, ln_part: str, our_part: str) -> 
         for part, macro in zip(parts, ("_CONNECT_SIGNATURE", "_CALL_SIGNATURE")):
             expect = string_macro(ln_part, upper + macro)
             if f"{name}: {part}" != expect:
-                return [f"{name}: ln_md_info signature differs from LN's {upper}{macro}\n"
-                        f"  LN 2.9:     {expect}\n  ln_md_info: {name}: {part}"]
+                return [
+                    f"{name}: ln_md_info signature differs from LN's {upper}{macro}\n"
+                    f"  LN 2.9:     {expect}\n  ln_md_info: {name}: {part}"
+                ]
     elif ln_sigs:
         return [f"{name}: LN emits signature macros for a plain definition: {ln_sigs}"]
     return []
@@ -752,14 +800,19 @@ def layout_problems(r: SetResult, name: str) -> list[str]:
     if name not in r.infos:
         return [f"{name}: ln_md_info failed:\n{r.info.failures[name].describe()}"]
     problems = []
-    for who, probe in (("LN 2.9's header (compiled as C11)", r.ln_probe),
-                       ("our header (compiled as C11)", r.our_probe)):
+    for who, probe in (
+        ("LN 2.9's header (compiled as C11)", r.ln_probe),
+        ("our header (compiled as C11)", r.our_probe),
+    ):
         got = probe.get(name)
         if got is None:
             problems.append(f"{who}: not probed")
         elif isinstance(got, str):
             problems.append(f"{who}: {got}")
         else:
-            problems += [f"{who}: {item.what} = {value}, ln_md_info says {item.expected}"
-                         for item, value in got if value != item.expected]
+            problems += [
+                f"{who}: {item.what} = {value}, ln_md_info says {item.expected}"
+                for item, value in got
+                if value != item.expected
+            ]
     return [f"{name}: layout differs from ln_md_info's JSON\n  " + "\n  ".join(problems)] if problems else []

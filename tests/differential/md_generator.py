@@ -13,18 +13,65 @@ from __future__ import annotations
 import random
 from dataclasses import dataclass, field
 
-PRIMITIVES = ("float", "double", "char", "int8_t", "uint8_t", "int16_t", "uint16_t", "int32_t", "uint32_t",
-              "int64_t", "uint64_t")
+PRIMITIVES = (
+    "float",
+    "double",
+    "char",
+    "int8_t",
+    "uint8_t",
+    "int16_t",
+    "uint16_t",
+    "int32_t",
+    "uint32_t",
+    "int64_t",
+    "uint64_t",
+)
 ALIASES = {"float": "float32_t", "double": "float64_t", "int16_t": "short", "int32_t": "int"}
 INTEGER_TYPES = ("uint32_t", "int32_t", "uint16_t", "uint64_t", "int64_t", "uint8_t")
 
 #: Count expressions (Python integer expressions, as LN evaluates them).
-COUNT_EXPRESSIONS = ("{n}", " {n} ", "{n}.0", "1*{n}", "({n}+0)*1", "{n}//1", "{n}**1", "{d}+{r}", "(1+{m})",
-                     "{n}<<0", "~-{n}+1", "-(-{n})", "2*{n}//2", "{n}|0", "{n}%{big}", "{n}*2/2")
+COUNT_EXPRESSIONS = (
+    "{n}",
+    " {n} ",
+    "{n}.0",
+    "1*{n}",
+    "({n}+0)*1",
+    "{n}//1",
+    "{n}**1",
+    "{d}+{r}",
+    "(1+{m})",
+    "{n}<<0",
+    "~-{n}+1",
+    "-(-{n})",
+    "2*{n}//2",
+    "{n}|0",
+    "{n}%{big}",
+    "{n}*2/2",
+)
 
 #: Field name pieces: never C/C++ keywords, never LN's markers alone.
-NAME_HEADS = ("pos", "vel", "gain", "flag", "count", "stamp", "label", "data", "value", "item", "joint", "mode",
-              "offset", "scale", "state", "tag", "rate", "size", "limit", "error")
+NAME_HEADS = (
+    "pos",
+    "vel",
+    "gain",
+    "flag",
+    "count",
+    "stamp",
+    "label",
+    "data",
+    "value",
+    "item",
+    "joint",
+    "mode",
+    "offset",
+    "scale",
+    "state",
+    "tag",
+    "rate",
+    "size",
+    "limit",
+    "error",
+)
 NAME_TAILS = ("", "_a", "_b", "_x", "_y", "2", "_mean", "_raw", "_ref", "_cmd")
 
 #: Between a type and its name; LN splits at the first space, so each starts with one.
@@ -160,8 +207,10 @@ class RandomDefinitions:
                 d.lines.append(f'define {local} as "{self._reference(d.name, target)}"')
             return local
         local = self._type_name(d)
-        d.lines.append(self._maybe_indent(f'define{self._blank()}{local} as "{self._reference(d.name, target)}"')
-                       + self._maybe_comment())
+        d.lines.append(
+            self._maybe_indent(f'define{self._blank()}{local} as "{self._reference(d.name, target)}"')
+            + self._maybe_comment()
+        )
         d.defines[local] = target
         return local
 
@@ -170,13 +219,14 @@ class RandomDefinitions:
         lies there (sometimes), else the full name."""
         importer_dir = importer.rsplit("/", 1)[0] + "/"
         if target.startswith(importer_dir) and self.rng.random() < 0.6:
-            return target[len(importer_dir):]
+            return target[len(importer_dir) :]
         return target
 
     def _type_name(self, d: Definition) -> str:
         while True:
             local = self.rng.choice(("pt", "sub", "elem", "node", "rec", "entry", "block")) + self.rng.choice(
-                ("", "_t", "2", "_type"))
+                ("", "_t", "2", "_type")
+            )
             if local not in d.defines:
                 return local
 
@@ -192,7 +242,7 @@ class RandomDefinitions:
         n = self.rng.randint(1, 6)
         d = self.rng.randint(0, n)
         expression = self.rng.choice(COUNT_EXPRESSIONS).format(n=n, d=d, r=n - d, m=n - 1, big=n + 7)
-        assert int(eval(expression)) == n, expression  # noqa: S307 -- our own arithmetic
+        assert int(eval(expression)) == n, expression
         return expression
 
     def _blank(self) -> str:
@@ -234,15 +284,24 @@ class Mutation:
 
 
 MUTATIONS = (
-    Mutation("unknown_type"), Mutation("duplicate_field"), Mutation("define_to_missing_file"),
-    Mutation("one_word_line"), Mutation("name_with_dash"), Mutation("pointer_array"), Mutation("double_pointer"),
-    Mutation("define_name_in_quotes"), Mutation("type_used_before_define"), Mutation("count_not_an_expression"),
+    Mutation("unknown_type"),
+    Mutation("duplicate_field"),
+    Mutation("define_to_missing_file"),
+    Mutation("one_word_line"),
+    Mutation("name_with_dash"),
+    Mutation("pointer_array"),
+    Mutation("double_pointer"),
+    Mutation("define_name_in_quotes"),
+    Mutation("type_used_before_define"),
+    Mutation("count_not_an_expression"),
     Mutation("count_two_dimensional"),
     Mutation("count_zero", ours_stricter="LN emits a scalar member but a signature with count 0"),
     Mutation("count_negative", ours_stricter="LN emits an array of negative size, which no compiler accepts"),
     Mutation("cxx_keyword_field", ours_stricter="LN emits a member no C++ compiler accepts"),
-    Mutation("redefine_to_other_target",
-             ours_stricter="LN applies the last target to every field of that type and mislabels the struct"),
+    Mutation(
+        "redefine_to_other_target",
+        ours_stricter="LN applies the last target to every field of that type and mislabels the struct",
+    ),
 )
 
 

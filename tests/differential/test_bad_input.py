@@ -13,9 +13,8 @@ import os
 import re
 from pathlib import Path
 
-import pytest
-
 import ln_diff_support as support
+import pytest
 
 SENTINEL = "/* an existing header that a failed run must not touch */\n"
 
@@ -32,12 +31,16 @@ BAD = {
     "count_unclosed": dict(files={"b/t": "double x[3\n"}, name="b/t", where=("b/t", 1)),
     "duplicate_field": dict(files={"b/t": "double a\nint32_t b\ndouble a\n"}, name="b/t", where=("b/t", 3)),
     "duplicate_field_in_response": dict(
-        files={"b/t": "service\nrequest\ndouble a\nresponse\ndouble a\nfloat a\n"}, name="b/t", where=("b/t", 6)),
+        files={"b/t": "service\nrequest\ndouble a\nresponse\ndouble a\nfloat a\n"}, name="b/t", where=("b/t", 6)
+    ),
     "missing_define_target": dict(
-        files={"b/t": '# a comment\ndefine t as "nope/missing"\nt x\n'}, name="b/t", where=("b/t", 2)),
+        files={"b/t": '# a comment\ndefine t as "nope/missing"\nt x\n'}, name="b/t", where=("b/t", 2)
+    ),
     "define_cycle_without_pointer": dict(
-        files={"b/a": 'define b_t as "b"\nb_t b\n', "b/b": 'define a_t as "a"\na_t a\n'}, name="b/a",
-        where=(("b/a", 2), ("b/b", 2))),
+        files={"b/a": 'define b_t as "b"\nb_t b\n', "b/b": 'define a_t as "a"\na_t a\n'},
+        name="b/a",
+        where=(("b/a", 2), ("b/b", 2)),
+    ),
     "self_without_pointer": dict(files={"b/s": 'define s_t as "s"\ns_t me\n'}, name="b/s", where=("b/s", 2)),
     "field_name_with_dash": dict(files={"b/t": "double my-field\n"}, name="b/t", where=("b/t", 1)),
     "field_name_keyword": dict(files={"b/t": "double ok\nint class\n"}, name="b/t", where=("b/t", 2)),
@@ -51,9 +54,11 @@ BAD = {
     "dangling_symlink": dict(files={"b/t": None}, name="b/t", where="b/t"),
     "directory_instead_of_file": dict(files={"b/t": None}, name="b/t", where="b/t"),
     "define_to_dangling_symlink": dict(
-        files={"b/t": 'define d as "gone"\nd x\n', "b/gone": None}, name="b/t", where=("b/t", 1)),
+        files={"b/t": 'define d as "gone"\nd x\n', "b/gone": None}, name="b/t", where=("b/t", 1)
+    ),
     "define_to_directory": dict(
-        files={"b/t": '\ndefine d as "dir"\nd x\n', "b/dir": None}, name="b/t", where=("b/t", 2)),
+        files={"b/t": '\ndefine d as "dir"\nd x\n', "b/dir": None}, name="b/t", where=("b/t", 2)
+    ),
     "not_found": dict(files={}, name="no/such/definition", where="no/such/definition"),
 }
 
@@ -119,8 +124,9 @@ def test_bad_definition(case, our_tools, tool_env, work_dir):
     os.utime(existing, (1_000_000_000, 1_000_000_000))
     before = existing.stat()
     for force in ([], ["-f"]):
-        r2 = support.run([our_tools.ln_generate, *force, "--md-dir", md, "-o", existing, spec["name"]], tool_env,
-                         cwd=work_dir)
+        r2 = support.run(
+            [our_tools.ln_generate, *force, "--md-dir", md, "-o", existing, spec["name"]], tool_env, cwd=work_dir
+        )
         if r2.returncode == 0:
             problems.append(f"with {force or 'no -f'}: exit status 0")
         after = existing.stat()
@@ -221,9 +227,14 @@ def _compare_with_ln(reference, our_tools, tool_env, work_dir, args, what):
 def test_recursive_matches_ln(reference, our_tools, tool_env, work_dir):
     # LN treats every file below DIR as a definition (an md.conf too), so the
     # directory compared here has none; its definitions import from CORPUS.
-    outs = _compare_with_ln(reference, our_tools, tool_env, work_dir,
-                            ["--recursive", support.CORPUS_EXTRA_DIR, "--md-dir", CORPUS],
-                            f"--recursive {support.CORPUS_EXTRA_DIR}")
+    outs = _compare_with_ln(
+        reference,
+        our_tools,
+        tool_env,
+        work_dir,
+        ["--recursive", support.CORPUS_EXTRA_DIR, "--md-dir", CORPUS],
+        f"--recursive {support.CORPUS_EXTRA_DIR}",
+    )
     names = set(support.split_sections(outs["ours"]))
     for n in support.definitions_below(support.CORPUS_EXTRA_DIR):
         assert n in names, f"--recursive: {n} not generated"
@@ -241,7 +252,8 @@ def test_recursive_skips_md_conf(reference, our_tools, tool_env, work_dir):
     (work_dir / "extra" / "x" / "e").write_text("double v\n")
     ln = _gen(reference.ln_generate, ["--recursive", md, "-o", "-"], tool_env, work_dir)
     support.REPORT["LN 2.9 --recursive over a dir with md.conf"] = (
-        "works" if ln.returncode == 0 else "fails: " + (ln.stderr.strip().splitlines() or ["?"])[-1][:120])
+        "works" if ln.returncode == 0 else "fails: " + (ln.stderr.strip().splitlines() or ["?"])[-1][:120]
+    )
     r = _gen(our_tools.ln_generate, ["--recursive", md, "-o", "-"], tool_env, work_dir)
     assert r.returncode == 0, r.describe()
     assert support.section_order(r.stdout) == ["x/e", "r/one", "r/two"], support.section_order(r.stdout)
@@ -254,33 +266,59 @@ def test_mds_from_file(reference, our_tools, tool_env, work_dir):
     compared with LN given the same names as arguments.)"""
     names_file = work_dir / "names.txt"
     names_file.write_text(f"# definitions to generate\n\n  {SERVICE}  \n./{EVENT}\n#{PLAIN}\n{PLAIN}\n")
-    ln_crash = _gen(reference.ln_generate, ["--md-dir", CORPUS, "--mds-from-file", names_file, "-o", "-"],
-                    tool_env, work_dir)
-    ours = _gen(our_tools.ln_generate, ["--md-dir", CORPUS, "--mds-from-file", names_file, "-o", "-"],
-                tool_env, work_dir)
+    ln_crash = _gen(
+        reference.ln_generate, ["--md-dir", CORPUS, "--mds-from-file", names_file, "-o", "-"], tool_env, work_dir
+    )
+    ours = _gen(
+        our_tools.ln_generate, ["--md-dir", CORPUS, "--mds-from-file", names_file, "-o", "-"], tool_env, work_dir
+    )
     ln = _gen(reference.ln_generate, ["--md-dir", CORPUS, "-o", "-", SERVICE, EVENT, PLAIN], tool_env, work_dir)
     assert ours.returncode == 0, ours.describe()
     assert ln.returncode == 0, ln.describe()
     problems = support.header_differences(ln.stdout, ours.stdout)
     assert not problems, "--mds-from-file: headers differ\n  " + "\n  ".join(problems)
     support.REPORT["LN 2.9 --mds-from-file"] = (
-        "works" if ln_crash.returncode == 0 else
-        "crashes (" + (ln_crash.stderr.strip().splitlines() or ["?"])[-1] + "); ours compared with LN given the names")
+        "works"
+        if ln_crash.returncode == 0
+        else "crashes ("
+        + (ln_crash.stderr.strip().splitlines() or ["?"])[-1]
+        + "); ours compared with LN given the names"
+    )
 
 
-@pytest.mark.parametrize("options", [
-    pytest.param(["--map-service-base", f"{SERVICE}=renamed_service",
-                  "--map-service-base", f"{EVENT}=renamed_event"], id="map-service-base"),
-    pytest.param(["--map-service-base", "ln_core_corpus/geometry/pose=renamed_subtype",
-                  "--map-service-base", f"{PLAIN}=renamed_plain"], id="map-service-base-plain"),
-    pytest.param(["--wrapping-ns", "outer", "--wrapping-ns", "inner"], id="wrapping-ns"),
-    pytest.param(["--prefix-ns-define", "MY_PREFIX_NS"], id="prefix-ns-define"),
-    pytest.param(["--wrapping-ns", "w", "--prefix-ns-define", "P_NS",
-                  "--map-service-base", f"{SERVICE}=svc"], id="all-together"),
-])
+@pytest.mark.parametrize(
+    "options",
+    [
+        pytest.param(
+            ["--map-service-base", f"{SERVICE}=renamed_service", "--map-service-base", f"{EVENT}=renamed_event"],
+            id="map-service-base",
+        ),
+        pytest.param(
+            [
+                "--map-service-base",
+                "ln_core_corpus/geometry/pose=renamed_subtype",
+                "--map-service-base",
+                f"{PLAIN}=renamed_plain",
+            ],
+            id="map-service-base-plain",
+        ),
+        pytest.param(["--wrapping-ns", "outer", "--wrapping-ns", "inner"], id="wrapping-ns"),
+        pytest.param(["--prefix-ns-define", "MY_PREFIX_NS"], id="prefix-ns-define"),
+        pytest.param(
+            ["--wrapping-ns", "w", "--prefix-ns-define", "P_NS", "--map-service-base", f"{SERVICE}=svc"],
+            id="all-together",
+        ),
+    ],
+)
 def test_naming_options_match_ln(reference, our_tools, tool_env, work_dir, options):
-    outs = _compare_with_ln(reference, our_tools, tool_env, work_dir,
-                            ["--md-dir", CORPUS, *options, SERVICE, EVENT, PLAIN], " ".join(options))
+    outs = _compare_with_ln(
+        reference,
+        our_tools,
+        tool_env,
+        work_dir,
+        ["--md-dir", CORPUS, *options, SERVICE, EVENT, PLAIN],
+        " ".join(options),
+    )
     # the options must have had a visible effect
     text = outs["ours"]
     for opt, value in zip(options[::2], options[1::2]):
@@ -321,10 +359,14 @@ def test_search_path_order_matches_ln(reference, our_tools, work_dir):
         "explicit/o/a": "double a_explicit\n",
         "home/ln_message_definitions/o/a": "double a_home\n",
         "home/ln_message_definitions/o/b": "double b_home\n",
-        "envdir/o/a": "double a_env\n", "envdir/o/b": "double b_env\n", "envdir/o/c": "double c_env\n",
+        "envdir/o/a": "double a_env\n",
+        "envdir/o/b": "double b_env\n",
+        "envdir/o/c": "double c_env\n",
         "envdir/md.conf": "# redirects\n../confdir\n~/more\n",
-        "confdir/o/c": "double c_conf\n", "confdir/o/d": "double d_conf\n",
-        "more/o/e": "double e_more\n", "home/more/o/e": "double e_home_more\n",
+        "confdir/o/c": "double c_conf\n",
+        "confdir/o/d": "double d_conf\n",
+        "more/o/e": "double e_more\n",
+        "home/more/o/e": "double e_home_more\n",
         "home/more/o/f": "double f_home_more\n",
     }
     for rel, text in files.items():

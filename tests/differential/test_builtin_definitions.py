@@ -17,8 +17,10 @@ def test_builtins_hash_and_sign_as_ln29s(reference, our_tools, tmp_path):
     assert "ln/parameters/query" in shared and "ln/string" in shared, shared
     env = support.tool_environment(tmp_path)
     headers = {}
-    for label, generate, md_dir in (("ln29", reference.ln_generate, ln_dir), ("ln_core", our_tools.ln_generate,
-                                                                              OUR_BUILTINS)):
+    for label, generate, md_dir in (
+        ("ln29", reference.ln_generate, ln_dir),
+        ("ln_core", our_tools.ln_generate, OUR_BUILTINS),
+    ):
         out = tmp_path / f"{label}.h"
         result = support.run([generate, "--md-dir", md_dir, "-f", "-o", out, *shared], env, cwd=tmp_path)
         assert result.returncode == 0, result.describe()

@@ -8,9 +8,8 @@ set "elevator" of test_ln_generate_differential.py.)
 
 from __future__ import annotations
 
-import pytest
-
 import ln_diff_support as support
+import pytest
 
 NAMES = ["elevator/sensors/floor_count", "elevator/actors/motor_control", "elevator/request/elevator_call"]
 
@@ -110,20 +109,26 @@ std::size_t use_elevator_types(double now) {
 def elevator_header(our_tools, tool_env, work_dir):
     assert support.ELEVATOR_MD_DIR.is_dir(), f"missing {support.ELEVATOR_MD_DIR}"
     out = work_dir / "elevator_messages.h"
-    r = support.run([our_tools.ln_generate, "--md-dir", support.ELEVATOR_MD_DIR, "-o", out, *NAMES], tool_env,
-                    cwd=work_dir)
+    r = support.run(
+        [our_tools.ln_generate, "--md-dir", support.ELEVATOR_MD_DIR, "-o", out, *NAMES], tool_env, cwd=work_dir
+    )
     assert r.returncode == 0, f"ln_generate failed on the elevator definitions\n{r.describe()}"
     return out
 
 
 def test_elevator_names_and_signature(elevator_header):
     text = elevator_header.read_text()
-    for macro in ("ELEVATOR_SENSORS_FLOOR_COUNT_MD_NAME", "ELEVATOR_ACTORS_MOTOR_CONTROL_MD_NAME",
-                  "ELEVATOR_REQUEST_ELEVATOR_CALL_MD_NAME"):
+    for macro in (
+        "ELEVATOR_SENSORS_FLOOR_COUNT_MD_NAME",
+        "ELEVATOR_ACTORS_MOTOR_CONTROL_MD_NAME",
+        "ELEVATOR_REQUEST_ELEVATOR_CALL_MD_NAME",
+    ):
         value = support.string_macro(text, macro)
         assert value and "|" in value and len(value.split("|")[1]) == 64, f"{macro} = {value!r}"
-    assert support.string_macro(text, "ELEVATOR_REQUEST_ELEVATOR_CALL_SIGNATURE") == \
-        "int32_t 4 1|int32_t 4 1,int32_t 4 1,uint32_t 4 1,char* 1 1"
+    assert (
+        support.string_macro(text, "ELEVATOR_REQUEST_ELEVATOR_CALL_SIGNATURE")
+        == "int32_t 4 1|int32_t 4 1,int32_t 4 1,uint32_t 4 1,char* 1 1"
+    )
 
 
 def _compile(compiler, std, source_name, source, header, work_dir, env):
@@ -131,12 +136,31 @@ def _compile(compiler, std, source_name, source, header, work_dir, env):
     src.write_text(source)
     include = support.OUR_INCLUDE_DIR
     if not (include / "ln" / "ln.h").is_file():
-        pytest.fail(f"ln_core's {include}/ln/ln.h does not exist yet (the generated header includes <ln/ln.h>)",
-                    pytrace=False)
-    r = support.run([compiler, std, "-Wall", "-Wextra", "-Werror", "-c", "-I", header.parent, "-I", include,
-                     src, "-o", work_dir / (source_name + ".o")], env, timeout=support.COMPILE_TIMEOUT)
-    assert r.returncode == 0, (f"compiling {source_name} ({std}) against the generated elevator header and "
-                               f"{include} failed\n{r.describe()}")
+        pytest.fail(
+            f"ln_core's {include}/ln/ln.h does not exist yet (the generated header includes <ln/ln.h>)", pytrace=False
+        )
+    r = support.run(
+        [
+            compiler,
+            std,
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-c",
+            "-I",
+            header.parent,
+            "-I",
+            include,
+            src,
+            "-o",
+            work_dir / (source_name + ".o"),
+        ],
+        env,
+        timeout=support.COMPILE_TIMEOUT,
+    )
+    assert r.returncode == 0, (
+        f"compiling {source_name} ({std}) against the generated elevator header and {include} failed\n{r.describe()}"
+    )
 
 
 def test_elevator_header_in_c(elevator_header, c_compiler, work_dir, tool_env):

@@ -25,9 +25,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import pytest
-
 import ln_diff_support as support
+import pytest
 from ln_diff_support import REPORT
 
 # ------------------------------------------------------------------ sets
@@ -44,11 +43,18 @@ def definition_sets(ref: support.Reference | None) -> list[support.DefinitionSet
             dirs = (d,) + tuple(x for x in ln_dirs if x != d)
             sets.append(support.DefinitionSet(f"ln29:{sub}", "ln29", dirs, tuple(support.definitions_below(d))))
     corpus_names = support.definitions_below(support.CORPUS_MD_DIR) + support.definitions_below(
-        support.CORPUS_EXTRA_DIR)
+        support.CORPUS_EXTRA_DIR
+    )
     sets.append(support.DefinitionSet("corpus", "corpus", (support.CORPUS_MD_DIR,), tuple(corpus_names)))
     if support.ELEVATOR_MD_DIR.is_dir():
-        sets.append(support.DefinitionSet("elevator", "elevator", (support.ELEVATOR_MD_DIR,),
-                                          tuple(support.definitions_below(support.ELEVATOR_MD_DIR))))
+        sets.append(
+            support.DefinitionSet(
+                "elevator",
+                "elevator",
+                (support.ELEVATOR_MD_DIR,),
+                tuple(support.definitions_below(support.ELEVATOR_MD_DIR)),
+            )
+        )
     return sets
 
 
@@ -88,8 +94,10 @@ def test_inventory(reference, differential):
     ln_total = sum(len(s.names) for s in SETS if s.origin == "ln29")
     corpus = SETS_BY_LABEL["corpus"]
     REPORT["LN 2.9 shipped definitions compared"] = (
-        f"{ln_total} (" + ", ".join(f"{s.label.split(':', 1)[1]}: {len(s.names)}"
-                                    for s in SETS if s.origin == "ln29") + ")")
+        f"{ln_total} ("
+        + ", ".join(f"{s.label.split(':', 1)[1]}: {len(s.names)}" for s in SETS if s.origin == "ln29")
+        + ")"
+    )
     REPORT["corpus definitions compared"] = len(corpus.names)
     if "elevator" in SETS_BY_LABEL:
         REPORT["elevator definitions compared"] = len(SETS_BY_LABEL["elevator"].names)
@@ -116,7 +124,8 @@ def test_header_preamble_and_order(differential, label):
     if set(r.ln.ok_names) == set(r.ours.ok_names):
         ln_order = support.section_order(r.ln.output)
         assert our_order == ln_order, (
-            f"{label}: definitions are emitted in a different order\nLN:   {ln_order}\nours: {our_order}")
+            f"{label}: definitions are emitted in a different order\nLN:   {ln_order}\nours: {our_order}"
+        )
 
 
 @pytest.mark.parametrize("label,name", CASES)
@@ -163,9 +172,11 @@ def test_our_builtin_definitions_are_ln29s(reference, our_tools, tool_env, work_
     assert info.returncode == 0, info.describe()
     records = support.parse_json_lines(info.stdout)
     ln_macros = support.macros(out.read_text())
-    wrong = [f"{n}: LN 2.9 {ln_macros.get(support.identifier(n).upper() + '_MD_NAME')}, ours "
-             f"\"{n}|{records[n]['hash']}\"" for n in ours
-             if ln_macros.get(support.identifier(n).upper() + "_MD_NAME") != f'"{n}|{records[n]["hash"]}"']
+    wrong = [
+        f"{n}: LN 2.9 {ln_macros.get(support.identifier(n).upper() + '_MD_NAME')}, ours \"{n}|{records[n]['hash']}\""
+        for n in ours
+        if ln_macros.get(support.identifier(n).upper() + "_MD_NAME") != f'"{n}|{records[n]["hash"]}"'
+    ]
     assert not wrong, "built-ins differ from LN 2.9's:\n" + "\n".join(wrong)
 
 
@@ -178,48 +189,67 @@ def test_our_builtin_definitions_are_ln29s(reference, our_tools, tool_env, work_
 LN_CANNOT_PROCESS = {
     "mutual_recursion": dict(
         files={"c/a": 'define b_t as "b"\ndouble x\nb_t* bs\n', "c/b": 'define a_t as "a"\na_t* as_\n'},
-        name="c/a", ours="error",
+        name="c/a",
+        ours="error",
         reason="A holds B* and B holds A*: LN's hash recursion never ends (RecursionError); a signature "
-               "cannot say which type '[]' means, so ln_core refuses it too"),
+        "cannot say which type '[]' means, so ln_core refuses it too",
+    ),
     "self_recursion_via_search_path": dict(
         files={"c/selfsp": 'define self as "c/selfsp"\ndouble v\nself* next\n'},
-        name="c/selfsp", ours="accept",
+        name="c/selfsp",
+        ours="accept",
         reason="self-recursion is only detected when the define resolves next to the file (as "
-               "identical path strings); found through a search-path entry that is not a canonical path "
-               "(here the relative --md-dir md) LN recurses forever (RecursionError)"),
+        "identical path strings); found through a search-path entry that is not a canonical path "
+        "(here the relative --md-dir md) LN recurses forever (RecursionError)",
+    ),
     "event_pointer_before_marker": dict(
         files={"c/ev": "event\nchar* early\nconnect\ncall\ndouble v\n"},
-        name="c/ev", ours="accept",
-        reason="a dynamic field before 'connect'/'call' in an event: LN raises KeyError 'connect'"),
+        name="c/ev",
+        ours="accept",
+        reason="a dynamic field before 'connect'/'call' in an event: LN raises KeyError 'connect'",
+    ),
     "two_dimensional_array": dict(
-        files={"c/m": "double m[2][3]\n"}, name="c/m", ours="error",
-        reason="LN evaluates '2][3' with Python eval: SyntaxError traceback"),
+        files={"c/m": "double m[2][3]\n"},
+        name="c/m",
+        ours="error",
+        reason="LN evaluates '2][3' with Python eval: SyntaxError traceback",
+    ),
     "count_is_a_name": dict(
-        files={"c/n": "double x[abc]\n"}, name="c/n", ours="error",
-        reason="LN evaluates 'abc' with Python eval: NameError traceback"),
+        files={"c/n": "double x[abc]\n"},
+        name="c/n",
+        ours="error",
+        reason="LN evaluates 'abc' with Python eval: NameError traceback",
+    ),
 }
 
 #: Definitions LN 2.9 accepts but ln_core deliberately refuses with a clear
 #: error (ln_spec.md: grammar requires '"', C/C++-usable names, counts >= 1).
 DELIBERATE_DIVERGENCES = {
     "define_in_single_quotes": dict(
-        files={"c/q": "define p as 'pt'\np where\n", "c/pt": "float x\n"}, name="c/q",
-        reason="LN strips the first and last character of the quoted name, so 'pt' works there"),
+        files={"c/q": "define p as 'pt'\np where\n", "c/pt": "float x\n"},
+        name="c/q",
+        reason="LN strips the first and last character of the quoted name, so 'pt' works there",
+    ),
     "service_used_as_type": dict(
         files={"c/svc": "service\nrequest\ndouble a\nresponse\ndouble b\n", "c/uses": 'define s as "svc"\ns x\n'},
         name="c/uses",
-        reason="LN embeds the service struct but counts it as 0 bytes in signatures"),
+        reason="LN embeds the service struct but counts it as 0 bytes in signatures",
+    ),
     "cxx_keyword_field": dict(
-        files={"c/k": "int class\n"}, name="c/k",
-        reason="LN generates 'int32_t class;', which no C++ compiler accepts"),
+        files={"c/k": "int class\n"}, name="c/k", reason="LN generates 'int32_t class;', which no C++ compiler accepts"
+    ),
     "zero_count": dict(
-        files={"c/z": "double x[0]\n"}, name="c/z",
-        reason="LN emits a scalar member but signature 'double 8 0'"),
+        files={"c/z": "double x[0]\n"}, name="c/z", reason="LN emits a scalar member but signature 'double 8 0'"
+    ),
     "define_redefined_to_another_definition": dict(
-        files={"c/r": 'define t as "a"\nt x\ndefine t as "b"\nt y\n', "c/a": "double v\nint32_t n\n", "c/b": "float w\n"},
+        files={
+            "c/r": 'define t as "a"\nt x\ndefine t as "b"\nt y\n',
+            "c/a": "double v\nint32_t n\n",
+            "c/b": "float w\n",
+        },
         name="c/r",
-        reason="LN gives every field of type t the last target and emits a struct named after c/b "
-               "holding c/a's fields"),
+        reason="LN gives every field of type t the last target and emits a struct named after c/b holding c/a's fields",
+    ),
 }
 
 
@@ -249,18 +279,21 @@ def test_ln_cannot_process(case, reference, our_tools, tool_env, work_dir, c_com
     spec = LN_CANNOT_PROCESS[case]
     _write_files(work_dir, spec["files"])
     md = "md"  # relative to work_dir: LN's self-recursion check compares path strings
-    ln = support.run([reference.ln_generate, "--md-dir", md, "-o", work_dir / "ln.h", spec["name"]], tool_env,
-                     cwd=work_dir)
+    ln = support.run(
+        [reference.ln_generate, "--md-dir", md, "-o", work_dir / "ln.h", spec["name"]], tool_env, cwd=work_dir
+    )
     REPORT.setdefault("LN 2.9 cannot process (ours handles)", {})[case] = spec["reason"]
-    assert ln.returncode != 0, (f"{case}: LN 2.9 now accepts this ({spec['reason']}); move it to the corpus\n"
-                                f"{ln.describe()}")
+    assert ln.returncode != 0, (
+        f"{case}: LN 2.9 now accepts this ({spec['reason']}); move it to the corpus\n{ln.describe()}"
+    )
     out = work_dir / "ours.h"
     ours = support.run([our_tools.ln_generate, "--md-dir", md, "-o", out, spec["name"]], tool_env, cwd=work_dir)
     if spec["ours"] == "error":
         problems = _one_clear_error_line(ours)
         assert not problems and not out.exists(), (
             f"{case} ({spec['reason']}): ours should refuse it with one clear error line: "
-            f"{problems or ['but wrote ' + str(out)]}\n{ours.describe()}")
+            f"{problems or ['but wrote ' + str(out)]}\n{ours.describe()}"
+        )
         return
     assert ours.returncode == 0, f"{case}: ours no longer accepts this ({spec['reason']})\n{ours.describe()}"
     info = support.run([our_tools.ln_md_info, "--md-dir", md, spec["name"]], tool_env, cwd=work_dir)
@@ -268,8 +301,9 @@ def test_ln_cannot_process(case, reference, our_tools, tool_env, work_dir, c_com
     infos = support.parse_json_lines(info.stdout)
     items = [i for rec in infos.values() for i in support.probe_items(rec)]
     stub = support.write_stub_includes(work_dir / "stub")
-    values, error = support.compile_and_run_probe(c_compiler, work_dir / "probe", out.read_text(), items, [stub],
-                                                  tool_env, "ours")
+    values, error = support.compile_and_run_probe(
+        c_compiler, work_dir / "probe", out.read_text(), items, [stub], tool_env, "ours"
+    )
     assert error is None, f"{case}: our header does not compile as C: {error}"
     wrong = [f"{i.what} = {v}, ln_md_info says {i.expected}" for i, v in zip(items, values) if v != i.expected]
     assert not wrong, f"{case}: layout differs from ln_md_info:\n  " + "\n  ".join(wrong)
@@ -279,8 +313,9 @@ def test_ln_cannot_process(case, reference, our_tools, tool_env, work_dir, c_com
 def test_deliberate_divergence(case, reference, our_tools, tool_env, work_dir):
     spec = DELIBERATE_DIVERGENCES[case]
     md = _write_files(work_dir, spec["files"])
-    ln = support.run([reference.ln_generate, "--md-dir", md, "-o", work_dir / "ln.h", spec["name"]], tool_env,
-                     cwd=work_dir)
+    ln = support.run(
+        [reference.ln_generate, "--md-dir", md, "-o", work_dir / "ln.h", spec["name"]], tool_env, cwd=work_dir
+    )
     REPORT.setdefault("LN 2.9 accepts, ours refuses (deliberate)", {})[case] = spec["reason"]
     assert ln.returncode == 0, f"{case}: LN 2.9 no longer accepts this\n{ln.describe()}"
     out = work_dir / "ours.h"
@@ -290,4 +325,5 @@ def test_deliberate_divergence(case, reference, our_tools, tool_env, work_dir):
     if path not in ours.stderr:
         problems.append(f"the error does not name {path}")
     assert not problems and not out.exists(), (
-        f"{case} ({spec['reason']}): ours must refuse it with one clear error line: {problems}\n{ours.describe()}")
+        f"{case} ({spec['reason']}): ours must refuse it with one clear error line: {problems}\n{ours.describe()}"
+    )

@@ -19,10 +19,9 @@ import subprocess
 import uuid
 from pathlib import Path
 
-import pytest
-
 import ln_diff_support as support
 import ln_testing  # tests/support, on sys.path through conftest.py
+import pytest
 
 SEEDS = (1, 2, 3, 4, 5)
 PROCESSES_PER_CONFIG = 30
@@ -181,9 +180,9 @@ def our_startup(ln_manager: Path, config: Path, env) -> dict[str, dict]:
         if match:
             current = processes.setdefault(match.group(1), {"command": None, "env": {}})
         elif current is not None and line.startswith("  command: "):
-            current["command"] = line[len("  command: "):]
+            current["command"] = line[len("  command: ") :]
         elif current is not None and line.startswith("  env "):
-            name, _, value = line[len("  env "):].partition("=")
+            name, _, value = line[len("  env ") :].partition("=")
             current["env"][name] = value
     return processes
 
@@ -195,9 +194,14 @@ def ln29_startup(ln_manager: Path, config: Path, names: list[str], env) -> dict[
     try:
         server.start(config=config)
         commands = "".join("dump_startup_commands %s\n" % name for name in names[1:]) + "quit\n"
-        console = subprocess.run([str(ln_manager), "--connect", server.address, "--console-exec",
-                                  "dump_startup_commands %s" % names[0]], input=commands, env=env,
-                                 capture_output=True, text=True, timeout=120)
+        console = subprocess.run(
+            [str(ln_manager), "--connect", server.address, "--console-exec", "dump_startup_commands %s" % names[0]],
+            input=commands,
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
     finally:
         server.stop()
     return parse_dumps(console.stdout)
@@ -212,7 +216,7 @@ def parse_dumps(text: str) -> dict[str, dict]:
         env, command = {}, None
         for line in lines:
             if line.startswith("export "):
-                key, _, value = line[len("export "):].partition("=")
+                key, _, value = line[len("export ") :].partition("=")
                 env[key] = value[1:-1] if value.startswith('"') and value.endswith('"') else value
             elif line.strip():
                 command = line
@@ -229,8 +233,9 @@ def managers(reference, our_tools):
     ours = our_tools.ln_generate.parent / "ln_manager"
     if not ours.is_file():
         ours = Path(shutil.which("ln_manager") or "")
-    return support.require(ln29 if ln29.is_file() else None, "LN 2.9's ln_manager"), \
-        support.require(ours if ours.is_file() else None, "ln_core's ln_manager")
+    return support.require(ln29 if ln29.is_file() else None, "LN 2.9's ln_manager"), support.require(
+        ours if ours.is_file() else None, "ln_core's ln_manager"
+    )
 
 
 @pytest.mark.parametrize("seed", SEEDS)
@@ -242,7 +247,8 @@ def test_processes_start_alike(seed, managers, session_dir, tool_env):
     (work / "parts").mkdir(exist_ok=True)
     (work / "parts" / "included.lnc").write_text(
         "template included(value)\nadd environment: INCLUDED=%(value)@%(CURDIR)\n"
-        "template defaults\nadd environment: DEFAULTED=yes\n")
+        "template defaults\nadd environment: DEFAULTED=yes\n"
+    )
     config.write_text(ConfigGenerator(seed).generate("lnc_diff_%d_%s" % (seed, uuid.uuid4().hex[:6])))
     env = dict(tool_env, LN_CORE_LNC_DIFF_VAR="from_the_environment", LN_CORE_LNC_DIFF_PASSED="passed")
     env.pop("LN_CORE_LNC_DIFF_UNSET", None)

@@ -26,10 +26,9 @@ import random
 import re
 from pathlib import Path
 
-import pytest
-
 import ln_diff_support as support
 import md_generator
+import pytest
 from ln_diff_support import REPORT
 
 FIRST_SEED = int(os.environ.get("LN_RANDOM_MD_FIRST_SEED", "1"))
@@ -50,8 +49,10 @@ def _write_tree(root: Path, files: dict[str, str]) -> Path:
 
 
 def _reproduce(seed: int) -> str:
-    return (f"reproduce: LN_RANDOM_MD_FIRST_SEED={seed} LN_RANDOM_MD_SEEDS=1 LN_RANDOM_MD_SIZE={SIZE} "
-            f"python -m pytest tests/differential/test_random_definitions.py")
+    return (
+        f"reproduce: LN_RANDOM_MD_FIRST_SEED={seed} LN_RANDOM_MD_SEEDS=1 LN_RANDOM_MD_SIZE={SIZE} "
+        f"python -m pytest tests/differential/test_random_definitions.py"
+    )
 
 
 _BLANKS = re.compile(r"[ \t]+")
@@ -91,19 +92,25 @@ def test_random_valid_definitions(seed, reference, our_tools, tool_env, work_dir
     for name in names:
         ln_part, our_part, found = support.parts_or_problems(r, name)
         if not found:
-            found = (support.md_name_problems(r, name, ln_part, our_part)
-                     + support.signature_problems(r, name, ln_part, our_part)
-                     + [f"{name}: {p}" for p in support.name_differences(ln_part, our_part, name,
-                                                                          r.infos.get(name, {}).get("kind"))]
-                     + support.layout_problems(r, name))
+            found = (
+                support.md_name_problems(r, name, ln_part, our_part)
+                + support.signature_problems(r, name, ln_part, our_part)
+                + [
+                    f"{name}: {p}"
+                    for p in support.name_differences(ln_part, our_part, name, r.infos.get(name, {}).get("kind"))
+                ]
+                + support.layout_problems(r, name)
+            )
             if not found and c_declarations(ln_part) != c_declarations(our_part):
                 found = [f"{name}: the C declarations differ\n--- LN 2.9 ---\n{ln_part}\n--- ours ---\n{our_part}"]
         if found:
             text = tree.definitions[name].text
             problems.append("\n".join(found) + f"\n--- definition {name} ---\n{text}")
     REPORT.setdefault("random valid definitions compared", {})[seed] = f"{len(names)} ({len(tops)} top-level)"
-    assert not problems, f"seed {seed}: {len(problems)} of {len(names)} definitions differ ({_reproduce(seed)})\n\n" \
-                         + "\n\n".join(problems[:5])
+    assert not problems, (
+        f"seed {seed}: {len(problems)} of {len(names)} definitions differ ({_reproduce(seed)})\n\n"
+        + "\n\n".join(problems[:5])
+    )
 
 
 @pytest.mark.parametrize("seed", SEEDS)
@@ -134,7 +141,7 @@ def test_random_invalid_definitions(seed, reference, our_tools, tool_env, work_d
 
     problems, counts = [], {}
     with concurrent.futures.ThreadPoolExecutor(max_workers=max(2, os.cpu_count() or 2)) as pool:
-        for (i, mutation, name, text), ln, ours in pool.map(run_case, cases):
+        for (_i, mutation, name, text), ln, ours in pool.map(run_case, cases):
             ln_ok, ours_ok = ln.returncode == 0, ours.returncode == 0
             outcome = f"LN {'accepts' if ln_ok else 'refuses'}, ours {'accepts' if ours_ok else 'refuses'}"
             counts.setdefault(outcome, []).append(mutation.kind)
@@ -142,8 +149,9 @@ def test_random_invalid_definitions(seed, reference, our_tools, tool_env, work_d
             if not ln_ok and ours_ok:
                 problems.append(f"LN 2.9 refuses, ours accepts -- {where}\nLN 2.9: {ln.stderr.strip()[-600:]}")
             elif ln_ok and not ours_ok and mutation.ours_stricter is None:
-                problems.append(f"LN 2.9 accepts, ours refuses without a documented reason -- {where}\n"
-                                f"ours: {ours.stderr.strip()}")
+                problems.append(
+                    f"LN 2.9 accepts, ours refuses without a documented reason -- {where}\nours: {ours.stderr.strip()}"
+                )
             elif ln_ok and mutation.ours_stricter is not None and ours_ok:
                 problems.append(f"ours accepts what it documents to refuse ({mutation.ours_stricter}) -- {where}")
             elif not ours_ok and ("Traceback" in ours.stderr or len(ours.stderr.strip().splitlines()) != 1):

@@ -17,7 +17,6 @@ import sys
 import time
 from pathlib import Path
 
-
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "tests" / "support"))
 import ln_testing  # noqa: E402
@@ -34,13 +33,18 @@ def ln_core(tool):
 
 
 def ln(address, *args):
-    return subprocess.run([sys.executable, "-m", "links_and_nodes.cli", *args, "--ln-manager", address],
-                          capture_output=True, text=True, timeout=TIMEOUT)
+    return subprocess.run(
+        [sys.executable, "-m", "links_and_nodes.cli", *args, "--ln-manager", address],
+        capture_output=True,
+        text=True,
+        timeout=TIMEOUT,
+    )
 
 
 def test_every_command_of_the_demo_exists():
-    result = subprocess.run([ln_core("ln_manager"), "-c", str(CONFIG), "--check"], capture_output=True, text=True,
-                            timeout=TIMEOUT)
+    result = subprocess.run(
+        [ln_core("ln_manager"), "-c", str(CONFIG), "--check"], capture_output=True, text=True, timeout=TIMEOUT
+    )
     assert result.returncode == 0, result.stdout + result.stderr
     for name in ("elevator_sim", "elevator_control", "ln_ros2_bridge", "ros_listener"):
         assert "process %s (" % name in result.stdout

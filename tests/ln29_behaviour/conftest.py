@@ -24,7 +24,8 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import lnbt_support as support  # noqa: E402
+import lnbt_support as support
+
 
 @pytest.fixture(scope="session")
 def lnbt(tmp_path_factory) -> support.Session:

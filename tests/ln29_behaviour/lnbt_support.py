@@ -26,17 +26,35 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "support"))
-import ln_testing  # noqa: E402
+import ln_testing
 
 HERE = Path(__file__).resolve().parent
 REPO_ROOT = HERE.parent.parent
 PROGRAMS_DIR = HERE / "programs"
 MSGDEFS_DIR = HERE / "msgdefs"
 OUR_SOURCE_INCLUDE_DIR = REPO_ROOT / "ln_core" / "include"
-PROGRAMS = ("lnbt_probe", "lnbt_publisher", "lnbt_subscriber", "lnbt_services", "lnbt_parameters", "lnbt_logger",
-            "lnbt_dsa", "lnbt_shm", "lnbt_events", "lnbt_service_logger")
-MESSAGES = ("lnbt/counter", "lnbt/other", "lnbt/echo", "ln/parameters/query", "ln/parameters/query_dict",
-            "ln/resource_event", "ln/event/call", "ln/log_service")
+PROGRAMS = (
+    "lnbt_probe",
+    "lnbt_publisher",
+    "lnbt_subscriber",
+    "lnbt_services",
+    "lnbt_parameters",
+    "lnbt_logger",
+    "lnbt_dsa",
+    "lnbt_shm",
+    "lnbt_events",
+    "lnbt_service_logger",
+)
+MESSAGES = (
+    "lnbt/counter",
+    "lnbt/other",
+    "lnbt/echo",
+    "ln/parameters/query",
+    "ln/parameters/query_dict",
+    "ln/resource_event",
+    "ln/event/call",
+    "ln/log_service",
+)
 
 
 #: Documented differences the tests observed; conftest prints them at the end.
@@ -90,7 +108,8 @@ def find_reference() -> System | MissingPrerequisite:
         return MissingPrerequisite(
             f"no LN 2.9 reference at {venv} ({origin}): expected bin/ln_manager, bin/ln_generate and "
             "lib/python3*/site-packages/liblinks_and_nodes; set LN_CORE_LN29_VENV "
-            "(launchless_scripts/env.sh does; launchless_scripts/setup.sh installs it)")
+            "(launchless_scripts/env.sh does; launchless_scripts/setup.sh installs it)"
+        )
     package = Path(packages[-1])
     if not (package / "include" / "ln" / "ln.h").is_file() or not (package / "lib" / "libln.so").exists():
         return MissingPrerequisite(f"LN 2.9 at {venv} lacks include/ln/ln.h or lib/libln.so")
@@ -107,7 +126,8 @@ def find_ours() -> System | MissingPrerequisite:
         if manager.is_file() and generate.is_file() and lib.exists():
             return System("ln_core", manager, generate, OUR_SOURCE_INCLUDE_DIR, base, False)
         return MissingPrerequisite(
-            f"LN_CORE_BUILD_DIR={build} lacks ln_manager, ln_generate or libln.so (build ln_core there first)")
+            f"LN_CORE_BUILD_DIR={build} lacks ln_manager, ln_generate or libln.so (build ln_core there first)"
+        )
     for directory in os.environ.get("PATH", "").split(os.pathsep):
         manager = Path(directory or ".") / "ln_manager"
         if not manager.is_file() or not _is_elf(manager):
@@ -115,12 +135,18 @@ def find_ours() -> System | MissingPrerequisite:
         prefix = manager.resolve().parent.parent
         generate = manager.parent / "ln_generate"
         include, lib = prefix / "include", prefix / "lib"
-        if generate.is_file() and _is_elf(generate) and (include / "ln" / "ln.h").is_file() and (lib / "libln.so").exists():
+        if (
+            generate.is_file()
+            and _is_elf(generate)
+            and (include / "ln" / "ln.h").is_file()
+            and (lib / "libln.so").exists()
+        ):
             return System("ln_core", manager, generate, include, lib, False)
     return MissingPrerequisite(
         "ln_core not found: set LN_CORE_BUILD_DIR to its cmake build directory or put an installed "
         "ln_core (bin/ln_manager, bin/ln_generate, lib/libln.so, include/ln) on PATH "
-        "(. launchless_scripts/env.sh)")
+        "(. launchless_scripts/env.sh)"
+    )
 
 
 # ------------------------------------------------------------- processes
@@ -141,8 +167,11 @@ class Started:
 def base_environment(home: Path, tmp: Path) -> dict[str, str]:
     """The environment of every manager and program: a private HOME and
     TMPDIR, no LN_* variables of the caller."""
-    env = {k: v for k, v in os.environ.items() if not k.startswith("LN_") and k not in (
-        "PYTHONPATH", "PYTHONHOME", "PYTHONSTARTUP", "LD_LIBRARY_PATH")}
+    env = {
+        k: v
+        for k, v in os.environ.items()
+        if not k.startswith("LN_") and k not in ("PYTHONPATH", "PYTHONHOME", "PYTHONSTARTUP", "LD_LIBRARY_PATH")
+    }
     env.update(HOME=str(home), TMPDIR=str(tmp), LC_ALL="C.UTF-8", PYTHONUNBUFFERED="1")
     return env
 
@@ -152,9 +181,14 @@ class Program:
 
     def __init__(self, argv, env, stdin_pipe=False, cwd=None):
         self.argv = [str(a) for a in argv]
-        self.proc = subprocess.Popen(self.argv, env=env, cwd=cwd,
-                                     stdin=subprocess.PIPE if stdin_pipe else subprocess.DEVNULL,
-                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        self.proc = subprocess.Popen(
+            self.argv,
+            env=env,
+            cwd=cwd,
+            stdin=subprocess.PIPE if stdin_pipe else subprocess.DEVNULL,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+        )
         Started.add(self.proc.pid)
         self.lines: list[str] = []
         self._queue: queue.Queue[str | None] = queue.Queue()
@@ -218,8 +252,11 @@ class Program:
             self.proc.wait()
 
     def describe(self) -> str:
-        return (f"$ {' '.join(self.argv)}\nexit status {self.returncode}\n--- stdout ---\n"
-                + "\n".join(self.lines[:200]) + f"\n--- stderr ---\n{self.stderr[-3000:]}")
+        return (
+            f"$ {' '.join(self.argv)}\nexit status {self.returncode}\n--- stdout ---\n"
+            + "\n".join(self.lines[:200])
+            + f"\n--- stderr ---\n{self.stderr[-3000:]}"
+        )
 
 
 def run(argv, env, timeout=PROGRAM_TIMEOUT, cwd=None) -> Program:
@@ -237,8 +274,9 @@ def python_for(system: System) -> tuple[list[str], dict[str, str]] | MissingPrer
         if not python.exists():
             return MissingPrerequisite(f"no python next to {system.ln_manager}")
         return [str(python)], {}
-    candidates = [system.lib_dir / "python"] + sorted(Path(p) for p in glob.glob(
-        str(system.lib_dir / "python3*" / "site-packages")))
+    candidates = [system.lib_dir / "python"] + sorted(
+        Path(p) for p in glob.glob(str(system.lib_dir / "python3*" / "site-packages"))
+    )
     for directory in candidates:
         if (directory / "links_and_nodes" / "__init__.py").is_file():
             return [sys.executable], {"PYTHONPATH": str(directory)}
@@ -252,8 +290,12 @@ def build(system: System, out_dir: Path, env: dict[str, str]) -> System | Missin
     """ln_generate (the system's own) + g++ for every program."""
     out_dir.mkdir(parents=True, exist_ok=True)
     header = out_dir / "ln_messages.h"
-    gen = subprocess.run([str(system.ln_generate), "--md-dir", str(MSGDEFS_DIR), "-f", "-o", str(header), *MESSAGES],
-                         env=env, capture_output=True, timeout=COMPILE_TIMEOUT)
+    gen = subprocess.run(
+        [str(system.ln_generate), "--md-dir", str(MSGDEFS_DIR), "-f", "-o", str(header), *MESSAGES],
+        env=env,
+        capture_output=True,
+        timeout=COMPILE_TIMEOUT,
+    )
     if gen.returncode != 0 or not header.is_file():
         return MissingPrerequisite(f"{system}: ln_generate failed:\n{gen.stderr.decode(errors='replace')}")
     cxx = shutil.which("g++") or shutil.which("c++")
@@ -262,9 +304,22 @@ def build(system: System, out_dir: Path, env: dict[str, str]) -> System | Missin
 
     def compile_one(name: str):
         target = out_dir / name
-        argv = [cxx, "-std=c++17", "-O1", "-g0", "-w", f"-I{out_dir}", f"-I{system.include_dir}",
-                str(PROGRAMS_DIR / f"{name}.cpp"), "-o", str(target), f"-L{system.lib_dir}",
-                f"-Wl,-rpath,{system.lib_dir}", "-lln", "-lpthread"]
+        argv = [
+            cxx,
+            "-std=c++17",
+            "-O1",
+            "-g0",
+            "-w",
+            f"-I{out_dir}",
+            f"-I{system.include_dir}",
+            str(PROGRAMS_DIR / f"{name}.cpp"),
+            "-o",
+            str(target),
+            f"-L{system.lib_dir}",
+            f"-Wl,-rpath,{system.lib_dir}",
+            "-lln",
+            "-lpthread",
+        ]
         p = subprocess.run(argv, env=env, capture_output=True, timeout=COMPILE_TIMEOUT)
         return name, target, p
 
@@ -273,13 +328,16 @@ def build(system: System, out_dir: Path, env: dict[str, str]) -> System | Missin
         for name, target, p in pool.map(compile_one, PROGRAMS):
             if p.returncode != 0:
                 return MissingPrerequisite(
-                    f"{system}: compiling {name} failed:\n$ {' '.join(p.args)}\n{p.stderr.decode(errors='replace')[-4000:]}")
+                    f"{system}: compiling {name} failed:\n$ {' '.join(p.args)}\n{p.stderr.decode(errors='replace')[-4000:]}"
+                )
             programs[name] = target
     # Each program must load its own system's libln.so.1 (same SONAME in both).
     ldd = subprocess.run(["ldd", str(programs["lnbt_probe"])], env=env, capture_output=True, text=True, timeout=30)
     m = re.search(r"libln\.so\.1 => (\S+)", ldd.stdout)
     if ldd.returncode == 0 and (not m or Path(m.group(1)).resolve().parent != system.lib_dir.resolve()):
-        return MissingPrerequisite(f"{system}: lnbt_probe does not load libln.so.1 from {system.lib_dir}:\n{ldd.stdout}")
+        return MissingPrerequisite(
+            f"{system}: lnbt_probe does not load libln.so.1 from {system.lib_dir}:\n{ldd.stdout}"
+        )
     system.programs = programs
     return system
 
@@ -302,8 +360,9 @@ class Manager:
         return ln_testing.read_text(self.server.log_path)[-n:]
 
 
-def start_manager(system: System, work: Path, env: dict[str, str],
-                  md_dir: Path = MSGDEFS_DIR) -> Manager | MissingPrerequisite:
+def start_manager(
+    system: System, work: Path, env: dict[str, str], md_dir: Path = MSGDEFS_DIR
+) -> Manager | MissingPrerequisite:
     """Starts the system's manager with `md_dir` (default msgdefs/) on its
     search path; returns once it listens. LN 2.9 runs in --isolated-test mode
     (free port, private ln_daemon); ln_core on 127.0.0.1, a free port."""

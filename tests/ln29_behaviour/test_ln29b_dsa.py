@@ -32,14 +32,17 @@ def test_keys_and_signatures_are_interchangeable(lnbt, tmp_path):
             signature = signed[0].split()[1]
             for checker in systems:
                 where = f"key by {maker}, signed by {signer}, checked by {checker}"
-                assert dsa(lnbt, checker, "verify", pub, message, signature) == ["verify OK memkey OK", "cxx true"], where
+                assert dsa(lnbt, checker, "verify", pub, message, signature) == ["verify OK memkey OK", "cxx true"], (
+                    where
+                )
                 wrong = dsa(lnbt, checker, "verify", pub, message + "!", signature)
                 assert wrong[0] == "verify LNE_INVALID_DSA_SIGNATURE memkey LNE_INVALID_DSA_SIGNATURE", where
                 # Deliberate: LN 2.9's C++ wrapper expects LNE_INVALID_SIGNATURE
                 # and so throws for a signature that does not verify.
                 assert wrong[1] == ("cxx throws" if checker.is_reference else "cxx false"), where
-    support.DIFFERENCES.append("ln::dsa_dss1_verify_message_signature() with a wrong signature: LN 2.9 throws, "
-                               "ln_core returns false")
+    support.DIFFERENCES.append(
+        "ln::dsa_dss1_verify_message_signature() with a wrong signature: LN 2.9 throws, ln_core returns false"
+    )
 
 
 def test_bad_input_gets_the_same_errors(lnbt, tmp_path):
@@ -50,10 +53,15 @@ def test_bad_input_gets_the_same_errors(lnbt, tmp_path):
         transcripts[system.label] = dsa(lnbt, system, "errors", work)
     assert transcripts["ln_core"] == transcripts["ln29"]
     assert transcripts["ln29"] == [
-        "sign_missing_file LNE_CHECK_ERRNO", "sign_with_public_key LNE_CHECK_ERRNO",
-        "verify_missing_file LNE_CHECK_ERRNO", "verify_other_message LNE_INVALID_DSA_SIGNATURE",
-        "verify_flipped_bit LNE_INVALID_DSA_SIGNATURE", "memkey_rsa LNE_CHECK_ERRNO", "memkey_with_comment OK",
-        "cxx_sign_missing_file throws"]
+        "sign_missing_file LNE_CHECK_ERRNO",
+        "sign_with_public_key LNE_CHECK_ERRNO",
+        "verify_missing_file LNE_CHECK_ERRNO",
+        "verify_other_message LNE_INVALID_DSA_SIGNATURE",
+        "verify_flipped_bit LNE_INVALID_DSA_SIGNATURE",
+        "memkey_rsa LNE_CHECK_ERRNO",
+        "memkey_with_comment OK",
+        "cxx_sign_missing_file throws",
+    ]
 
 
 def test_malformed_signatures(lnbt, tmp_path):
@@ -64,7 +72,11 @@ def test_malformed_signatures(lnbt, tmp_path):
     assert dsa(lnbt, ours, "gen", pem, pub) == ["gen OK"]
     signature = dsa(lnbt, ours, "sign", pem, "m")[0].split()[1]
     for bad in ("", "30", signature[:-2], "31" + signature[2:], signature + "0000"):
-        assert dsa(lnbt, ours, "verify", pub, "m", bad)[0] == \
-            "verify LNE_INVALID_DSA_SIGNATURE memkey LNE_INVALID_DSA_SIGNATURE", bad
-    support.DIFFERENCES.append("a truncated DSA signature: LN 2.9 LNE_NO_MEM, ln_core LNE_INVALID_DSA_SIGNATURE; "
-                               "a wrong DER tag: LN 2.9 accepts it")
+        assert (
+            dsa(lnbt, ours, "verify", pub, "m", bad)[0]
+            == "verify LNE_INVALID_DSA_SIGNATURE memkey LNE_INVALID_DSA_SIGNATURE"
+        ), bad
+    support.DIFFERENCES.append(
+        "a truncated DSA signature: LN 2.9 LNE_NO_MEM, ln_core LNE_INVALID_DSA_SIGNATURE; "
+        "a wrong DER tag: LN 2.9 accepts it"
+    )

@@ -19,9 +19,12 @@ def test_events_behave_the_same(lnbt):
         assert program.returncode == 0, program.describe()
         transcripts[system.label] = program.lines
     assert transcripts["ln_core"] == transcripts["ln29"], (
-        "LN 2.9:\n  " + "\n  ".join(transcripts["ln29"]) + "\nln_core:\n  " + "\n  ".join(transcripts["ln_core"]))
+        "LN 2.9:\n  " + "\n  ".join(transcripts["ln29"]) + "\nln_core:\n  " + "\n  ".join(transcripts["ln_core"])
+    )
     ref = transcripts["ln29"]
-    assert ref[:3] == ["connected id 1",
-                       "event topic_new_publisher lnbt.events.early lnbt/counter lnbt_ev_other in main thread",
-                       "event initial_sync_done    in main thread"]
+    assert ref[:3] == [
+        "connected id 1",
+        "event topic_new_publisher lnbt.events.early lnbt/counter lnbt_ev_other in main thread",
+        "event initial_sync_done    in main thread",
+    ]
     assert "connected_twice LNE_REQUEST_FAILED" in ref

@@ -71,8 +71,9 @@ def test_files_saved_by_either_system_load_in_the_other(lnbt):
     for system in lnbt.systems():
         for origin, file in files.items():
             program = logger_run(lnbt, system, "load", file)
-            loaded[(system.label, origin)] = [line.replace(line.split()[1], "TOPIC") if line.startswith("topic ")
-                                              else line for line in program.lines]
+            loaded[(system.label, origin)] = [
+                line.replace(line.split()[1], "TOPIC") if line.startswith("topic ") else line for line in program.lines
+            ]
     # Each file reads the same on both systems, and both files hold the same.
     for origin in files:
         assert loaded[("ln_core", origin)] == loaded[("ln29", origin)], origin
@@ -96,8 +97,9 @@ def test_manager_save_writes_lns_raw_and_pcap(lnbt):
     assert "manager_save pickle OK" in reference.lines
     assert "manager_save pickle LNE_REQUEST_FAILED" in ours.lines
     support.DIFFERENCES.append("manager_save 'pickle': LN 2.9 writes a Python pickle, ln_core refuses")
-    assert without(ours.lines, "manager_save pickle") == without(reference.lines, "manager_save pickle"), \
+    assert without(ours.lines, "manager_save pickle") == without(reference.lines, "manager_save pickle"), (
         ours.describe() + "\n" + reference.describe()
+    )
     assert "manager_save raw OK" in reference.lines and "manager_save pcap OK" in reference.lines
     assert "manager_save raw of two topics LNE_REQUEST_FAILED" in reference.lines
     assert "manager_save unknown LNE_REQUEST_FAILED" in reference.lines
@@ -108,7 +110,7 @@ def test_manager_save_writes_lns_raw_and_pcap(lnbt):
     raw_ours, raw_reference = (ours.dir / "one.raw").read_bytes(), (reference.dir / "one.raw").read_bytes()
     assert len(raw_ours) == len(raw_reference) == 4 * 36
     for i in range(4):
-        assert raw_ours[i * 36 + 8:(i + 1) * 36] == raw_reference[i * 36 + 8:(i + 1) * 36], i
+        assert raw_ours[i * 36 + 8 : (i + 1) * 36] == raw_reference[i * 36 + 8 : (i + 1) * 36], i
     assert not (ours.dir / "both.x").exists()
 
 
@@ -140,8 +142,9 @@ def test_documented_differences(lnbt):
     assert counters("ln29", "first") == counters("ln29", "second") == [26, 27, 28]
     assert counters("ln_core", "first") == list(range(21, 29))
     assert counters("ln_core", "second") == [28, 29, 30]
-    support.DIFFERENCES.append("two loggers of one topic: LN 2.9 shares one log (the later settings), ln_core "
-                               "records each on its own")
+    support.DIFFERENCES.append(
+        "two loggers of one topic: LN 2.9 shares one log (the later settings), ln_core records each on its own"
+    )
 
 
 def test_what_a_finished_publisher_wrote_stays_recorded(lnbt):
@@ -167,9 +170,13 @@ def test_what_a_finished_publisher_wrote_stays_recorded(lnbt):
 def test_bad_input(lnbt):
     runs = both(lnbt, "errors", topic("errors"), work="errors")
     lines = {label: without(program.lines, "init") for label, program in runs.items()}
-    same = ["enable without topics LNE_NO_LOGGER_TOPICS", "download never enabled LNE_REQUEST_FAILED",
-            "get_topic 1 LNE_TOPIC_ID_OUT_OF_RANGE", "save into a missing directory LNE_CHECK_ERRNO",
-            "load a missing file LNE_CHECK_ERRNO"]
+    same = [
+        "enable without topics LNE_NO_LOGGER_TOPICS",
+        "download never enabled LNE_REQUEST_FAILED",
+        "get_topic 1 LNE_TOPIC_ID_OUT_OF_RANGE",
+        "save into a missing directory LNE_CHECK_ERRNO",
+        "load a missing file LNE_CHECK_ERRNO",
+    ]
     for line in same:
         assert line in lines["ln29"] and line in lines["ln_core"], line
     # ln_core refuses earlier and names the problem (LN 2.9 accepts a log size
@@ -181,5 +188,7 @@ def test_bad_input(lnbt):
     assert "enable huge LNE_REQUEST_FAILED" in lines["ln29"] and "enable huge LNE_NO_MEM" in lines["ln_core"]
     assert "load garbage LNE_WRONG_BYTE_ORDER" in lines["ln29"]
     assert "load garbage LNE_INVALID_PARAMETER" in lines["ln_core"]
-    support.DIFFERENCES.append("logger bad input: ln_core refuses log size 0 and empty names at add_topic, "
-                               "a log beyond memory with LNE_NO_MEM, a foreign file with LNE_INVALID_PARAMETER")
+    support.DIFFERENCES.append(
+        "logger bad input: ln_core refuses log size 0 and empty names at add_topic, "
+        "a log beyond memory with LNE_NO_MEM, a foreign file with LNE_INVALID_PARAMETER"
+    )

@@ -21,8 +21,10 @@ def test_glib_mainloop_programs_match_ln29(lnbt):
     for system in lnbt.systems():
         _, extra = python_for(system, lnbt)
         if not system.is_reference:  # ours, not LN 2.9's package of that venv
-            which = support.run([reference_python, "-c", "import links_and_nodes; print(links_and_nodes.__file__)"],
-                                lnbt.client_env(system, **extra))
+            which = support.run(
+                [reference_python, "-c", "import links_and_nodes; print(links_and_nodes.__file__)"],
+                lnbt.client_env(system, **extra),
+            )
             assert which.lines and which.lines[0].startswith(extra["PYTHONPATH"]), which.describe()
         program = support.run([reference_python, SCRIPT], lnbt.client_env(system, **extra), timeout=60)
         assert program.returncode == 0, f"{system}:\n{program.describe()}"

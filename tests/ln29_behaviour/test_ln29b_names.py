@@ -6,16 +6,16 @@ from __future__ import annotations
 
 import time
 
-import pytest
-
 import lnbt_support as support
+import pytest
 
 
 def probe(lnbt, system, mode, name, *args, env=None, timeout=support.PROGRAM_TIMEOUT):
     """Runs lnbt_probe; returns (exit status, stdout lines with argv[0] made
     system-neutral, the program)."""
-    program = support.run([system.programs["lnbt_probe"], mode, name, *args],
-                          lnbt.client_env(system, **(env or {})), timeout=timeout)
+    program = support.run(
+        [system.programs["lnbt_probe"], mode, name, *args], lnbt.client_env(system, **(env or {})), timeout=timeout
+    )
     exe = str(system.programs["lnbt_probe"])
     lines = [line.replace(exe, "PROBE") for line in program.lines] or ["<no output>"]
     return program.returncode, lines, program
@@ -34,7 +34,8 @@ def both(lnbt, mode, name, *args, env_for=None, **kwargs):
 def assert_same(results, context=""):
     ref, ours = results["ln29"], results["ln_core"]
     assert (ours[0], ours[1]) == (ref[0], ref[1]), (
-        f"{context}\nLN 2.9:\n{ref[2].describe()}\n\nln_core:\n{ours[2].describe()}")
+        f"{context}\nLN 2.9:\n{ref[2].describe()}\n\nln_core:\n{ours[2].describe()}"
+    )
 
 
 NAME_CASES = [
@@ -42,14 +43,22 @@ NAME_CASES = [
     ("plain", "lnbt_plain", [], {}),
     ("with_space", "my client", [], {}),
     ("env_program_name", "lnbt_code", [], {"LN_PROGRAM_NAME": "lnbt_from_env"}),
-    ("arg_program_name_beats_env", "lnbt_code", ["--ln-program-name", "lnbt_from_arg", "x", "y"],
-     {"LN_PROGRAM_NAME": "lnbt_from_env"}),
+    (
+        "arg_program_name_beats_env",
+        "lnbt_code",
+        ["--ln-program-name", "lnbt_from_arg", "x", "y"],
+        {"LN_PROGRAM_NAME": "lnbt_from_env"},
+    ),
     ("legacy_arg_program_name", "lnbt_code", ["-ln_program_name", "lnbt_legacy"], {}),
     ("last_program_name_wins", "lnbt_code", ["--ln-program-name", "p1", "--ln-program-name", "p2"], {}),
     ("exact_ignores_env", "exact:lnbt_exact_env", [], {"LN_PROGRAM_NAME": "ignored"}),
     ("option_without_value_is_kept", "lnbt_novalue", ["--ln-program-name"], {}),
-    ("map_options_are_consumed", "lnbt_map", ["x", "--ln-map-topic", "a", "b", "y", "-ln_map_service", "c", "d", "z"],
-     {}),
+    (
+        "map_options_are_consumed",
+        "lnbt_map",
+        ["x", "--ln-map-topic", "a", "b", "y", "-ln_map_service", "c", "d", "z"],
+        {},
+    ),
     ("gnu_equals_form_is_not_an_option", "lnbt_eq", ["--ln-program-name=eq"], {}),
     # With an exact: name LN 2.9 does not consume --ln-program-name NAME: it
     # stays in get_remaining_args().
@@ -75,13 +84,18 @@ def test_duplicate_names_get_a_counter_and_exact_fails(lnbt):
         holders = []
         try:
             for _ in range(2):
-                holder = support.Program([system.programs["lnbt_probe"], "hold", "lnbt_dup", "30"], env, stdin_pipe=True)
+                holder = support.Program(
+                    [system.programs["lnbt_probe"], "hold", "lnbt_dup", "30"], env, stdin_pipe=True
+                )
                 holders.append(holder)
                 assert holder.wait_for_line("ready", 10) is not None, holder.describe()
                 lines.append(next(line for line in holder.lines if line.startswith("name ")))
-            for mode, name, extra in (("client", "lnbt_dup", {}), ("client", "exact:lnbt_dup", {}),
-                                      ("client", "lnbt_other", {"LN_PROGRAM_NAME": "lnbt_dup"}),
-                                      ("client", "exact:lnbt_dup 1", {})):
+            for mode, name, extra in (
+                ("client", "lnbt_dup", {}),
+                ("client", "exact:lnbt_dup", {}),
+                ("client", "lnbt_other", {"LN_PROGRAM_NAME": "lnbt_dup"}),
+                ("client", "exact:lnbt_dup 1", {}),
+            ):
                 rc, out, _ = probe(lnbt, system, mode, name, env=extra)
                 lines.append(f"{name!r} -> rc {rc} {[l for l in out if not l.startswith('args')]}")
             holders[0].finish(10)
@@ -109,11 +123,12 @@ def test_manager_address_argument_beats_ln_manager(lnbt):
     for system in lnbt.systems():
         good = lnbt.address(system)
         for mode, args, env in (
-                ("client", ["--ln-manager", good], {"LN_MANAGER": dead}),
-                ("client", ["-ln_manager", good], {"LN_MANAGER": dead}),
-                ("client", ["--ln-manager", good], {"LN_MANAGER": None}),
-                ("client_to", [good], {"LN_MANAGER": dead}),
-                ("client_to", [""], {})):
+            ("client", ["--ln-manager", good], {"LN_MANAGER": dead}),
+            ("client", ["-ln_manager", good], {"LN_MANAGER": dead}),
+            ("client", ["--ln-manager", good], {"LN_MANAGER": None}),
+            ("client_to", [good], {"LN_MANAGER": dead}),
+            ("client_to", [""], {}),
+        ):
             rc, lines, program = probe(lnbt, system, mode, "lnbt_addr", *args, env=env)
             assert rc == 0 and lines[0] == "name lnbt_addr", f"{system} {mode} {args} {env}\n{program.describe()}"
             if mode == "client":
@@ -166,15 +181,17 @@ def test_manager_address_documented_differences(lnbt, template):
     observed = {}
     for system in lnbt.systems():
         port = lnbt.address(system).rsplit(":", 1)[1]
-        rc, lines, program = probe(lnbt, system, "client", "lnbt_address",
-                                   env={"LN_MANAGER": template.format(port=port)})
+        rc, lines, program = probe(
+            lnbt, system, "client", "lnbt_address", env={"LN_MANAGER": template.format(port=port)}
+        )
         observed[system.label] = (lines[0].split(" ")[0] if lines[0].startswith("name") else lines[0], program)
     ref_expected, ours_documented = ADDRESS_DIFFERENCES[template]
     assert observed["ln29"][0] == ref_expected, observed["ln29"][1].describe()
     assert observed["ln_core"][0] in (ref_expected, ours_documented), observed["ln_core"][1].describe()
     if observed["ln_core"][0] != ref_expected:
         support.DIFFERENCES.append(
-            f"LN_MANAGER={template!r}: LN 2.9 {ref_expected}, ln_core {observed['ln_core'][0]} (strict HOST:PORT)")
+            f"LN_MANAGER={template!r}: LN 2.9 {ref_expected}, ln_core {observed['ln_core'][0]} (strict HOST:PORT)"
+        )
 
 
 # Deliberate: ln_core treats an empty name (in code or in LN_PROGRAM_NAME) as
@@ -196,4 +213,5 @@ def test_empty_names_documented_difference(lnbt, case):
     assert ours[0] == 0 and ours[1][0] in (ref_expected, ours_documented), ours[2].describe()
     if ours[1][0] != ref_expected:
         support.DIFFERENCES.append(
-            f"client name {name!r} env {env}: LN 2.9 {ref[1][0]!r}, ln_core {ours[1][0]!r} (empty = absent)")
+            f"client name {name!r} env {env}: LN 2.9 {ref[1][0]!r}, ln_core {ours[1][0]!r} (empty = absent)"
+        )

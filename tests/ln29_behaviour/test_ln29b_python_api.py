@@ -14,15 +14,21 @@ SCRIPT = support.PROGRAMS_DIR / "lnbt_python_api.py"
 #: probe -> (LN 2.9's result, ln_core's result, why)
 DOCUMENTED = {
     "unknown request field": (
-        "raises Exception LNE_USER_DEFINED_ERROR", "raises AttributeError -",
+        "raises Exception LNE_USER_DEFINED_ERROR",
+        "raises AttributeError -",
         "LN 2.9 ignores a keyword that names no request field (here the call ran with the previous "
-        "request's fail=5); ln_core raises AttributeError naming the fields"),
+        "request's fail=5); ln_core raises AttributeError naming the fields",
+    ),
     "unknown service": (
-        "raises Exception LNE_REQUEST_FAILED", "raises Exception LNE_NO_PROVIDER_FOUND",
-        "calling a service nobody provides (README: LNE_NO_PROVIDER_FOUND)"),
+        "raises Exception LNE_REQUEST_FAILED",
+        "raises Exception LNE_NO_PROVIDER_FOUND",
+        "calling a service nobody provides (README: LNE_NO_PROVIDER_FOUND)",
+    ),
     "unknown service without interface": (
-        "raises Exception LNE_REQUEST_FAILED", "raises Exception LNE_NO_PROVIDER_FOUND",
-        "calling a service nobody provides (README: LNE_NO_PROVIDER_FOUND)"),
+        "raises Exception LNE_REQUEST_FAILED",
+        "raises Exception LNE_NO_PROVIDER_FOUND",
+        "calling a service nobody provides (README: LNE_NO_PROVIDER_FOUND)",
+    ),
 }
 
 
@@ -30,7 +36,7 @@ def probes(lnbt, system) -> dict[str, str]:
     argv, extra = python_for(system, lnbt)
     program = support.run([*argv, SCRIPT], lnbt.client_env(system, **extra), timeout=60)
     assert program.returncode == 0 and program.lines[-1:] == ["done"], f"{system}:\n{program.describe()}"
-    return dict(line[len("probe "):].split(": ", 1) for line in program.lines if line.startswith("probe "))
+    return dict(line[len("probe ") :].split(": ", 1) for line in program.lines if line.startswith("probe "))
 
 
 def test_python_api_matches_ln29(lnbt):

@@ -20,9 +20,8 @@ import re
 import sys
 from pathlib import Path
 
-import pytest
-
 import lnbt_support as support
+import pytest
 
 SCRIPT = support.PROGRAMS_DIR / "lnbt_fields.py"
 LINE = re.compile(r"^(topic|request|response) (\S+) (\S+): (.*)$")
@@ -33,25 +32,40 @@ INTEGER_ARRAYS = r"(i8a|u8a|i16a|u16a|i32a|u32a|i64a|u64a|bv|iv)"
 #: "where field form" patterns -> why ln_core differs from LN 2.9 there: in
 #: each LN 2.9 corrupts data silently (README, "Python packets").
 DELIBERATE = [
-    (r"(topic|request) (i8|sa\[1\]\.n|c) int_(min|below_min).*|topic (i8|c) (np\.int64_-1|int_-5)",
-     "LN 2.9 reads a negative int8_t of a topic as unsigned (-128 arrives as 128); ln_core reads it signed"),
-    (rf"\S+ {INTEGER_ARRAYS} (list_of_floats|ndarray_float64|ndarray_int64_above_max)",
-     "LN 2.9 truncates fractions and wraps out-of-range values into integer arrays; ln_core refuses them"),
-    (r"(request|response) (i32|u8) .*",
-     "LN 2.9's services write integer scalars unchecked (wrapped, or -1 after a failed conversion); "
-     "ln_core refuses what does not fit"),
-    (r"\S+ (label|s\.tag|c) (str_too_long|bytes_too_long|str_utf8|str_AB)",
-     "text longer than its char field: LN 2.9 overwrites the next field (topics) or cuts it (services); "
-     "ln_core refuses it"),
-    (r"topic (label|s\.tag) list_of_ints_negative",
-     "a char array that is not UTF-8: LN 2.9's read fails, ln_core's returns the str with surrogate escapes"),
+    (
+        r"(topic|request) (i8|sa\[1\]\.n|c) int_(min|below_min).*|topic (i8|c) (np\.int64_-1|int_-5)",
+        "LN 2.9 reads a negative int8_t of a topic as unsigned (-128 arrives as 128); ln_core reads it signed",
+    ),
+    (
+        rf"\S+ {INTEGER_ARRAYS} (list_of_floats|ndarray_float64|ndarray_int64_above_max)",
+        "LN 2.9 truncates fractions and wraps out-of-range values into integer arrays; ln_core refuses them",
+    ),
+    (
+        r"(request|response) (i32|u8) .*",
+        "LN 2.9's services write integer scalars unchecked (wrapped, or -1 after a failed conversion); "
+        "ln_core refuses what does not fit",
+    ),
+    (
+        r"\S+ (label|s\.tag|c) (str_too_long|bytes_too_long|str_utf8|str_AB)",
+        "text longer than its char field: LN 2.9 overwrites the next field (topics) or cuts it (services); "
+        "ln_core refuses it",
+    ),
+    (
+        r"topic (label|s\.tag) list_of_ints_negative",
+        "a char array that is not UTF-8: LN 2.9's read fails, ln_core's returns the str with surrogate escapes",
+    ),
     (r"topic label str_after_longer_str", "LN 2.9 keeps the tail of a longer text when a shorter one is assigned"),
     (r"topic sa list_short", "a shorter list for a sub-type array: LN 2.9 sends the items it had before"),
     (r"(request|response) text bytearray", "a bytearray for char*: LN 2.9 sends its repr, ln_core its bytes"),
-    (r"response \* received", "LN 2.9 keeps the part assigned to a sub-type field (later changes to it show); "
-                               "ln_core copies it"),
-    (r"topic \* (initial|received)", "initial values: LN 2.9 starts with int 0 for every scalar and a list of "
-                                     "zeros for a char array; ln_core with the field's own type"),
+    (
+        r"response \* received",
+        "LN 2.9 keeps the part assigned to a sub-type field (later changes to it show); ln_core copies it",
+    ),
+    (
+        r"topic \* (initial|received)",
+        "initial values: LN 2.9 starts with int 0 for every scalar and a list of "
+        "zeros for a char array; ln_core with the field's own type",
+    ),
     (r"request \* initial", "LN 2.9 fills a new request's char fields with blanks; ln_core with NULs"),
 ]
 
@@ -61,8 +75,10 @@ def python_for(system: support.System, lnbt) -> tuple[list[str], dict[str, str]]
     if system.is_reference:
         return [str(system.ln_manager.parent / "python")], {}  # the reference venv's bin/
     spec = importlib.util.find_spec("links_and_nodes")
-    package = support.require(spec and spec.origin and Path(spec.origin).parent,
-                              "ln_core's Python package links_and_nodes (. launchless_scripts/env.sh)")
+    package = support.require(
+        spec and spec.origin and Path(spec.origin).parent,
+        "ln_core's Python package links_and_nodes (. launchless_scripts/env.sh)",
+    )
     return [sys.executable], {"PYTHONPATH": str(package.parent)}
 
 
@@ -70,7 +86,8 @@ def transcript(lnbt, system) -> dict[tuple[str, str, str], str]:
     argv, extra = python_for(system, lnbt)
     program = support.run([*argv, SCRIPT], lnbt.client_env(system, **extra), timeout=SCRIPT_TIMEOUT)
     assert program.returncode == 0 and program.lines and program.lines[-1] == "done", (
-        f"{system}: the script failed\n{program.describe()}")
+        f"{system}: the script failed\n{program.describe()}"
+    )
     cases = {}
     for line in program.lines:
         m = LINE.match(line)
@@ -111,12 +128,17 @@ def test_python_field_forms_match_ln29(lnbt):
     results = {system.label: transcript(lnbt, system) for system in lnbt.systems()}
     ln, ours = results["ln29"], results["ln_core"]
     assert len(ln) > 700, f"LN 2.9 ran only {len(ln)} cases"
-    problems = [f"  {' '.join(key)}\n    LN 2.9:  {ln[key]}\n    ln_core: {ours.get(key, '<missing>')}"
-                + ("" if key not in ours else f"\n    ({verdict(key, ln[key], ours[key])})")
-                for key in ln if key not in ours or verdict(key, ln[key], ours[key])]
+    problems = [
+        f"  {' '.join(key)}\n    LN 2.9:  {ln[key]}\n    ln_core: {ours.get(key, '<missing>')}"
+        + ("" if key not in ours else f"\n    ({verdict(key, ln[key], ours[key])})")
+        for key in ln
+        if key not in ours or verdict(key, ln[key], ours[key])
+    ]
     if ACCEPTED_MORE:
-        support.DIFFERENCES.append(f"python fields: ln_core accepts {len(ACCEPTED_MORE)} forms LN 2.9 rejects, "
-                                   f"e.g. {', '.join(ACCEPTED_MORE[:4])}")
+        support.DIFFERENCES.append(
+            f"python fields: ln_core accepts {len(ACCEPTED_MORE)} forms LN 2.9 rejects, "
+            f"e.g. {', '.join(ACCEPTED_MORE[:4])}"
+        )
     extra = sorted(set(ours) - set(ln))
     assert not extra, f"ln_core printed cases LN 2.9 did not: {extra[:10]}"
     assert not problems, f"{len(problems)} of {len(ln)} cases differ:\n" + "\n".join(problems)
@@ -142,7 +164,8 @@ def test_on_request_rates(lnbt, rate):
         "        if p is not None and p.counter == value: break\n"
         "        time.sleep(0.01)\n"
         "    again = sub.read(False)\n"
-        "    print('read', value, 'again', None if again is None else again.counter)\n")
+        "    print('read', value, 'again', None if again is None else again.counter)\n"
+    )
     lines = {}
     for system in lnbt.systems():
         argv, extra = python_for(system, lnbt)

@@ -19,9 +19,15 @@ def test_service_logger_items_are_the_same(lnbt):
         # LN 2.9's library logs some failures to stdout, indented.
         transcripts[system.label] = [line for line in program.lines if not line.startswith(" ")]
     assert transcripts["ln_core"] == transcripts["ln29"], (
-        "LN 2.9:\n  " + "\n  ".join(transcripts["ln29"]) + "\nln_core:\n  " + "\n  ".join(transcripts["ln_core"]))
+        "LN 2.9:\n  " + "\n  ".join(transcripts["ln29"]) + "\nln_core:\n  " + "\n  ".join(transcripts["ln_core"])
+    )
     ref = transcripts["ln29"]
     assert ref[-1] == "items 6"
-    assert sum(line.startswith("request from lnbt_log_caller") and "| response from lnbt_log_provider" in line
-               for line in ref) == 3
+    assert (
+        sum(
+            line.startswith("request from lnbt_log_caller") and "| response from lnbt_log_provider" in line
+            for line in ref
+        )
+        == 3
+    )
     assert not any("secret" in line for line in ref if line.startswith("request"))

@@ -20,8 +20,11 @@ def run_services(lnbt, system, *args, env=None):
 
 
 def start_provider(lnbt, system, service, *ln_args, env=None):
-    provider = support.Program([system.programs["lnbt_services"], "provide", service, *ln_args],
-                               lnbt.client_env(system, **(env or {})), stdin_pipe=True)
+    provider = support.Program(
+        [system.programs["lnbt_services"], "provide", service, *ln_args],
+        lnbt.client_env(system, **(env or {})),
+        stdin_pipe=True,
+    )
     assert provider.wait_for_line("ready", 15) is not None, provider.describe()
     return provider
 
@@ -39,12 +42,16 @@ NO_PROVIDER = {"ln29": "call error LNE_REQUEST_FAILED code 0", "ln_core": "call 
 
 def no_provider_neutral(label, lines):
     """`lines` with the system's "no provider" call error written as "call error <no provider>"."""
-    out = [line.replace(NO_PROVIDER[label], "call error <no provider>")
-           .replace(NO_PROVIDER[label].replace("call error ", "").replace(" code 0", ""), "<no provider>")
-           for line in lines]
+    out = [
+        line.replace(NO_PROVIDER[label], "call error <no provider>").replace(
+            NO_PROVIDER[label].replace("call error ", "").replace(" code 0", ""), "<no provider>"
+        )
+        for line in lines
+    ]
     if label == "ln_core" and out != lines:
-        support.DIFFERENCES.append("calling a service nobody provides: LN 2.9 LNE_REQUEST_FAILED, "
-                                   "ln_core LNE_NO_PROVIDER_FOUND")
+        support.DIFFERENCES.append(
+            "calling a service nobody provides: LN 2.9 LNE_REQUEST_FAILED, ln_core LNE_NO_PROVIDER_FOUND"
+        )
     return out
 
 
@@ -64,8 +71,12 @@ CALLER_MAPPING_CASES = [
     ("anywhere", "lnbt.MAP.real", ["--ln-map-service", "MAP", "map"], {}),
     ("environment", "env", [], {"LN_MAP_SERVICES": "^env$|lnbt.map.real"}),
     ("environment_pairs", "second", [], {"LN_MAP_SERVICES": "^first$|nothing|^second$|lnbt.map.real"}),
-    ("environment_then_arguments", "chain", ["--ln-map-service", ".old$", ".real"],
-     {"LN_MAP_SERVICES": "^chain$|lnbt.map.old"}),
+    (
+        "environment_then_arguments",
+        "chain",
+        ["--ln-map-service", ".old$", ".real"],
+        {"LN_MAP_SERVICES": "^chain$|lnbt.map.old"},
+    ),
     ("which_first", "q", ["--ln-map-service", "^q$", "lnbt.map.nothing"], {"LN_MAP_SERVICES": "^q$|lnbt.map.real"}),
     ("two_arguments_in_order", "r", ["--ln-map-service", "^r$", "s", "--ln-map-service", "^s$", "lnbt.map.real"], {}),
     ("topic_mapping_does_not_apply", "t", ["--ln-map-topic", "^t$", "lnbt.map.real"], {}),
@@ -93,11 +104,16 @@ def test_exact_pattern_documented_difference(lnbt):
     """LN 2.9 maps every name that starts with X by the pattern ^X$ (to the
     whole destination); ln_core only the name X itself, as documented
     (ln_spec §5.5)."""
+
     def scenario(system):
         provider = start_provider(lnbt, system, "lnbt.exact.real")
         try:
-            return [" / ".join(run_services(lnbt, system, "call", name, "ab", "--ln-map-service", "^alias$",
-                                            "lnbt.exact.real")[0]) for name in ("alias", "alias2")]
+            return [
+                " / ".join(
+                    run_services(lnbt, system, "call", name, "ab", "--ln-map-service", "^alias$", "lnbt.exact.real")[0]
+                )
+                for name in ("alias", "alias2")
+            ]
         finally:
             provider.finish(10)
 
@@ -106,14 +122,17 @@ def test_exact_pattern_documented_difference(lnbt):
     assert transcripts["ln_core"][0] == "reply ba"
     assert transcripts["ln_core"][1] in ("reply ba", NO_PROVIDER["ln_core"])
     if transcripts["ln_core"][1] != "reply ba":
-        support.DIFFERENCES.append("--ln-map-service ^alias$ DST: LN 2.9 also maps 'alias2' (a prefix match), "
-                                   "ln_core only 'alias'")
+        support.DIFFERENCES.append(
+            "--ln-map-service ^alias$ DST: LN 2.9 also maps 'alias2' (a prefix match), ln_core only 'alias'"
+        )
 
 
 def test_service_name_mapping_on_the_providing_side(lnbt):
     def scenario(system):
-        providers = [start_provider(lnbt, system, "p1", "--ln-map-service", "^p1$", "lnbt.prov.one"),
-                     start_provider(lnbt, system, "p2", env={"LN_MAP_SERVICES": "^p2$|lnbt.prov.two"})]
+        providers = [
+            start_provider(lnbt, system, "p1", "--ln-map-service", "^p1$", "lnbt.prov.one"),
+            start_provider(lnbt, system, "p2", env={"LN_MAP_SERVICES": "^p2$|lnbt.prov.two"}),
+        ]
         lines = []
         try:
             for name in ("lnbt.prov.one", "p1", "lnbt.prov.two", "p2"):
@@ -140,8 +159,9 @@ def test_signatures_and_services_by_interface(lnbt):
             lines += out
             out, _ = run_services(lnbt, system, "introspect", "lnbt/counter")
             lines += out
-            out, _ = run_services(lnbt, system, "introspect", "lnbt/echo", "alias",
-                                  "--ln-map-service", "^alias$", "lnbt.intro.b")
+            out, _ = run_services(
+                lnbt, system, "introspect", "lnbt/echo", "alias", "--ln-map-service", "^alias$", "lnbt.intro.b"
+            )
             lines += ["mapped " + line for line in out]
         finally:
             for provider in providers:
@@ -170,9 +190,12 @@ def test_call_errors(lnbt):
     # own code (LN 2.9 leaves it 0).
     extension = "call error LNE_USER_DEFINED_ERROR code 42"
     if transcripts["ln_core"][0].endswith(extension):
-        transcripts["ln_core"][0] = transcripts["ln_core"][0].replace(extension, "call error LNE_USER_DEFINED_ERROR code 0")
-        support.DIFFERENCES.append("ln::exception::error_code of a provider's own error: LN 2.9 0, "
-                                   "ln_core the provider's code (extension)")
+        transcripts["ln_core"][0] = transcripts["ln_core"][0].replace(
+            extension, "call error LNE_USER_DEFINED_ERROR code 0"
+        )
+        support.DIFFERENCES.append(
+            "ln::exception::error_code of a provider's own error: LN 2.9 0, ln_core the provider's code (extension)"
+        )
     assert_same(transcripts)
     assert transcripts["ln29"][0].endswith("call error LNE_USER_DEFINED_ERROR code 0")
 
@@ -194,8 +217,9 @@ def test_thread_pool_setschedparam_results(lnbt):
         # (it stalls in about a third of the runs here; a run takes ~1 s).
         attempts = 5 if system.label == "ln29" else 1
         for attempt in range(attempts):
-            program = support.run([*prefix, system.programs["lnbt_services"], "sched"], lnbt.client_env(system),
-                                  timeout=10)
+            program = support.run(
+                [*prefix, system.programs["lnbt_services"], "sched"], lnbt.client_env(system), timeout=10
+            )
             if program.returncode != -9:
                 break
             if attempt + 1 < attempts:
@@ -214,6 +238,9 @@ def test_thread_pool_setschedparam_results(lnbt):
             continue
         # Deliberate: LN 2.9 returns success for scheduling it cannot apply
         # (and leaves the threads as they were); ln_core says why it failed.
-        assert (ref_result, our_result) == ("OK", "LNE_CHECK_ERRNO"), f"{case}: LN 2.9 {ref_result}, ln_core {our_result}"
-        support.DIFFERENCES.append(f"ln_thread_pool_setschedparam {case}: LN 2.9 OK (not applied), "
-                                   "ln_core LNE_CHECK_ERRNO with the reason")
+        assert (ref_result, our_result) == ("OK", "LNE_CHECK_ERRNO"), (
+            f"{case}: LN 2.9 {ref_result}, ln_core {our_result}"
+        )
+        support.DIFFERENCES.append(
+            f"ln_thread_pool_setschedparam {case}: LN 2.9 OK (not applied), ln_core LNE_CHECK_ERRNO with the reason"
+        )

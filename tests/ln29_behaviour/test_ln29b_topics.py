@@ -8,9 +8,8 @@ from __future__ import annotations
 import itertools
 import time
 
-import pytest
-
 import lnbt_support as support
+import pytest
 
 _topic_numbers = itertools.count(1)
 
@@ -33,8 +32,17 @@ def counters(program) -> list[int]:
     return [int(line.split()[1]) for line in program.lines if line.startswith("counter ")]
 
 
-def pub_sub(lnbt, system, name, sub_options, pub_count, pub_period, pub_options=(), start_gap=0.3,
-            timeout=support.PROGRAM_TIMEOUT):
+def pub_sub(
+    lnbt,
+    system,
+    name,
+    sub_options,
+    pub_count,
+    pub_period,
+    pub_options=(),
+    start_gap=0.3,
+    timeout=support.PROGRAM_TIMEOUT,
+):
     """Starts the subscriber, waits until it subscribed (plus `start_gap` s),
     runs the publisher, then waits for the subscriber. Returns both programs."""
     env = lnbt.client_env(system)
@@ -43,8 +51,11 @@ def pub_sub(lnbt, system, name, sub_options, pub_count, pub_period, pub_options=
         assert subscriber.wait_for_line("subscribed", 10) is not None, subscriber.describe()
         if start_gap:
             time.sleep(start_gap)
-        publisher = support.run([system.programs["lnbt_publisher"], name, str(pub_count), str(pub_period),
-                                 *map(str, pub_options)], env, timeout=timeout)
+        publisher = support.run(
+            [system.programs["lnbt_publisher"], name, str(pub_count), str(pub_period), *map(str, pub_options)],
+            env,
+            timeout=timeout,
+        )
         subscriber.finish(timeout)
     finally:
         subscriber.kill()
@@ -58,8 +69,11 @@ def test_second_publisher_is_refused(lnbt):
     results = {}
     for system in lnbt.systems():
         name = topic("twice")
-        first = support.Program([system.programs["lnbt_probe"], "publish", "lnbt_first", name, "lnbt/counter", "30"],
-                                lnbt.client_env(system), stdin_pipe=True)
+        first = support.Program(
+            [system.programs["lnbt_probe"], "publish", "lnbt_first", name, "lnbt/counter", "30"],
+            lnbt.client_env(system),
+            stdin_pipe=True,
+        )
         try:
             assert first.wait_for_line("ready", 10) is not None, first.describe()
             second = probe(lnbt, system, "publish", "lnbt_second", name, "lnbt/counter")
@@ -68,8 +82,10 @@ def test_second_publisher_is_refused(lnbt):
             first.finish(10)
         assert "already published" in second.stderr, second.describe()
         results[system.label] = (outcome(second), outcome(other_md))
-    assert results["ln29"] == (["name lnbt_second", "error LNE_REQUEST_FAILED"],
-                               ["name lnbt_third", "error LNE_REQUEST_FAILED"])
+    assert results["ln29"] == (
+        ["name lnbt_second", "error LNE_REQUEST_FAILED"],
+        ["name lnbt_third", "error LNE_REQUEST_FAILED"],
+    )
     assert results["ln_core"] == results["ln29"]
 
 
@@ -77,8 +93,11 @@ def test_definition_mismatch_and_unknown_definition(lnbt):
     results = {}
     for system in lnbt.systems():
         name = topic("mismatch")
-        holder = support.Program([system.programs["lnbt_probe"], "publish", "lnbt_holder", name, "lnbt/counter", "30"],
-                                 lnbt.client_env(system), stdin_pipe=True)
+        holder = support.Program(
+            [system.programs["lnbt_probe"], "publish", "lnbt_holder", name, "lnbt/counter", "30"],
+            lnbt.client_env(system),
+            stdin_pipe=True,
+        )
         try:
             assert holder.wait_for_line("ready", 10) is not None, holder.describe()
             mismatch = probe(lnbt, system, "subscribe", "lnbt_mismatch", name, "lnbt/other")
@@ -91,10 +110,12 @@ def test_definition_mismatch_and_unknown_definition(lnbt):
         for program in (unknown_sub, unknown_pub):
             assert "'lnbt/does_not_exist' not found in these di" in program.stderr, program.describe()
         results[system.label] = [outcome(p) for p in (mismatch, matching, unknown_sub, unknown_pub)]
-    assert results["ln29"] == [["name lnbt_mismatch", "error LNE_REQUEST_FAILED"],
-                               ["name lnbt_matching", "subscribed size 16"],
-                               ["name lnbt_unknown_sub", "error LNE_REQUEST_FAILED"],
-                               ["name lnbt_unknown_pub", "error LNE_REQUEST_FAILED"]]
+    assert results["ln29"] == [
+        ["name lnbt_mismatch", "error LNE_REQUEST_FAILED"],
+        ["name lnbt_matching", "subscribed size 16"],
+        ["name lnbt_unknown_sub", "error LNE_REQUEST_FAILED"],
+        ["name lnbt_unknown_pub", "error LNE_REQUEST_FAILED"],
+    ]
     assert results["ln_core"] == results["ln29"]
 
 
@@ -103,7 +124,9 @@ def test_write_sizes(lnbt):
     LNE_PACKET_TOO_LARGE; the exact size and a smaller one are accepted."""
     results = {}
     for system in lnbt.systems():
-        results[system.label] = outcome(probe(lnbt, system, "write_sizes", "lnbt_sizes", topic("sizes"), "lnbt/counter"))
+        results[system.label] = outcome(
+            probe(lnbt, system, "write_sizes", "lnbt_sizes", topic("sizes"), "lnbt/counter")
+        )
     assert results["ln29"] == ["name lnbt_sizes", "write =  OK", "write +1 LNE_PACKET_TOO_LARGE", "write -1 OK"]
     assert results["ln_core"] == results["ln29"]
 
@@ -118,12 +141,19 @@ def test_dynamic_field_topic_documented_difference(lnbt):
         pub = probe(lnbt, system, "publish", "lnbt_dyn_pub", topic("dynamic"), "lnbt/dynamic")
         sub = probe(lnbt, system, "subscribe", "lnbt_dyn_sub", topic("dynamic"), "lnbt/dynamic")
         results[system.label] = (outcome(pub), outcome(sub), sub.stderr)
-    assert results["ln29"][:2] == (["name lnbt_dyn_pub", "published size 8"], ["name lnbt_dyn_sub", "subscribed size 8"])
-    assert results["ln_core"][:2] == (["name lnbt_dyn_pub", "error LNE_INVALID_PARAMETER"],
-                                      ["name lnbt_dyn_sub", "error LNE_INVALID_PARAMETER"])
+    assert results["ln29"][:2] == (
+        ["name lnbt_dyn_pub", "published size 8"],
+        ["name lnbt_dyn_sub", "subscribed size 8"],
+    )
+    assert results["ln_core"][:2] == (
+        ["name lnbt_dyn_pub", "error LNE_INVALID_PARAMETER"],
+        ["name lnbt_dyn_sub", "error LNE_INVALID_PARAMETER"],
+    )
     assert "dynamic field" in results["ln_core"][2]
-    support.DIFFERENCES.append("topic with a dynamic field: LN 2.9 publishes/subscribes it with message_size 8 "
-                               "(data dropped), ln_core refuses it with LNE_INVALID_PARAMETER")
+    support.DIFFERENCES.append(
+        "topic with a dynamic field: LN 2.9 publishes/subscribes it with message_size 8 "
+        "(data dropped), ln_core refuses it with LNE_INVALID_PARAMETER"
+    )
 
 
 # ---------------------------------------------------------------- data flow
@@ -135,8 +165,15 @@ def test_same_output(lnbt):
     identical on both systems (timing lines aside)."""
     outputs = {}
     for system in lnbt.systems():
-        publisher, subscriber = pub_sub(lnbt, system, topic("same"), ["--buffers", 64, "--count", 50], 50, 0.01,
-                                        ["--wait-subscriber", 5, "--settle", 0.3])
+        publisher, subscriber = pub_sub(
+            lnbt,
+            system,
+            topic("same"),
+            ["--buffers", 64, "--count", 50],
+            50,
+            0.01,
+            ["--wait-subscriber", 5, "--settle", 0.3],
+        )
         assert publisher.returncode == 0 and subscriber.returncode == 0, publisher.describe() + subscriber.describe()
         outputs[system.label] = (publisher.lines, [l for l in subscriber.lines if not l.startswith("elapsed")])
     ref = outputs["ln29"]
@@ -151,9 +188,15 @@ def test_buffers_1_slow_reader_sees_only_the_newest(lnbt):
     stream: every read returns the newest packet, about 20 counters after the
     previous one (P8: a repeat is possible, so count steps, not reads)."""
     for system in lnbt.systems():
-        publisher, subscriber = pub_sub(lnbt, system, topic("b1"),
-                                        ["--buffers", 1, "--sleep", 0.1, "--duration", 1.0], 300, 0.005,
-                                        ["--wait-subscriber", 5, "--settle", 0.3])
+        publisher, subscriber = pub_sub(
+            lnbt,
+            system,
+            topic("b1"),
+            ["--buffers", 1, "--sleep", 0.1, "--duration", 1.0],
+            300,
+            0.005,
+            ["--wait-subscriber", 5, "--settle", 0.3],
+        )
         seen = counters(subscriber)
         assert len(seen) >= 6, f"{system}\n{subscriber.describe()}"
         steps = [b - a for a, b in zip(seen, seen[1:]) if b != a]
@@ -171,9 +214,15 @@ def test_buffers_after_a_stall(lnbt, buffers):
     stream; with buffers=1 it gets only the newest."""
     shapes = {}
     for system in lnbt.systems():
-        publisher, subscriber = pub_sub(lnbt, system, topic(f"stall{buffers}"),
-                                        ["--buffers", buffers, "--stall-after", 3, "--stall", 0.3, "--count", 14],
-                                        300, 0.005, ["--wait-subscriber", 5, "--settle", 0.3])
+        publisher, subscriber = pub_sub(
+            lnbt,
+            system,
+            topic(f"stall{buffers}"),
+            ["--buffers", buffers, "--stall-after", 3, "--stall", 0.3, "--count", 14],
+            300,
+            0.005,
+            ["--wait-subscriber", 5, "--settle", 0.3],
+        )
         seen = counters(subscriber)
         assert len(seen) == 14, f"{system}\n{subscriber.describe()}"
         assert seen[0] < seen[1] < seen[2], f"{system}: {seen}"
@@ -195,9 +244,15 @@ def test_rate_decimation(lnbt):
     """rate=10 on a 200 Hz publisher: about 10 packets per second, evenly
     spaced (about 20 counters apart)."""
     for system in lnbt.systems():
-        publisher, subscriber = pub_sub(lnbt, system, topic("rate"),
-                                        ["--rate", 10, "--buffers", 1, "--duration", 2.0], 500, 0.005,
-                                        ["--wait-subscriber", 5, "--settle", 0.3])
+        publisher, subscriber = pub_sub(
+            lnbt,
+            system,
+            topic("rate"),
+            ["--rate", 10, "--buffers", 1, "--duration", 2.0],
+            500,
+            0.005,
+            ["--wait-subscriber", 5, "--settle", 0.3],
+        )
         seen = counters(subscriber)
         assert 15 <= len(seen) <= 26, f"{system}: {len(seen)} packets in 2 s at rate=10: {seen}"
         steps = [b - a for a, b in zip(seen, seen[1:])]
@@ -217,8 +272,9 @@ def run_alongside(first_argv, ready_line, second_argv, env):
     return first, second
 
 
-@pytest.mark.parametrize("order,pub_buffers", [("subscriber_first", 1), ("publisher_first", 256),
-                                               ("publisher_first", 1)])
+@pytest.mark.parametrize(
+    "order,pub_buffers", [("subscriber_first", 1), ("publisher_first", 256), ("publisher_first", 1)]
+)
 def test_waiting_publisher_loses_nothing(lnbt, order, pub_buffers):
     """The publisher waits for has_subscriber() and then writes 200 packets
     back to back; the subscriber (256 buffers) gets every one, in order.
@@ -230,10 +286,30 @@ def test_waiting_publisher_loses_nothing(lnbt, order, pub_buffers):
     for system in lnbt.systems():
         name = topic(f"join.{order}.{pub_buffers}")
         env = lnbt.client_env(system)
-        sub_argv = [system.programs["lnbt_subscriber"], name, "--buffers", "256", "--count", "200",
-                    "--first-timeout", "5", "--duration", "3"]
-        pub_argv = [system.programs["lnbt_publisher"], name, "200", "0", "--wait-subscriber", "5",
-                    "--buffers", str(pub_buffers), "--linger", "1"]
+        sub_argv = [
+            system.programs["lnbt_subscriber"],
+            name,
+            "--buffers",
+            "256",
+            "--count",
+            "200",
+            "--first-timeout",
+            "5",
+            "--duration",
+            "3",
+        ]
+        pub_argv = [
+            system.programs["lnbt_publisher"],
+            name,
+            "200",
+            "0",
+            "--wait-subscriber",
+            "5",
+            "--buffers",
+            str(pub_buffers),
+            "--linger",
+            "1",
+        ]
         if order == "subscriber_first":
             subscriber, publisher = run_alongside(sub_argv, "subscribed", pub_argv, env)
         else:
@@ -246,7 +322,8 @@ def test_waiting_publisher_loses_nothing(lnbt, order, pub_buffers):
         if results["ln29"][0] != everything:
             support.DIFFERENCES.append(
                 f"publisher (1 buffer) waits for has_subscriber, then writes 200: a later subscriber with 256 "
-                f"buffers gets {len(results['ln29'][0])} of them from LN 2.9, all from ln_core")
+                f"buffers gets {len(results['ln29'][0])} of them from LN 2.9, all from ln_core"
+            )
     else:
         assert results["ln29"][0] == everything, results["ln29"][1].describe()
 
@@ -257,9 +334,16 @@ def test_subscribe_before_publish_and_has_publisher(lnbt):
     exits, has_publisher() turns false."""
     outputs = {}
     for system in lnbt.systems():
-        publisher, subscriber = pub_sub(lnbt, system, topic("early"),
-                                        ["--buffers", 64, "--count", 20, "--watch-publisher", 5], 20, 0.01,
-                                        ["--wait-subscriber", 5, "--settle", 0.3], start_gap=1.0)
+        publisher, subscriber = pub_sub(
+            lnbt,
+            system,
+            topic("early"),
+            ["--buffers", 64, "--count", 20, "--watch-publisher", 5],
+            20,
+            0.01,
+            ["--wait-subscriber", 5, "--settle", 0.3],
+            start_gap=1.0,
+        )
         outputs[system.label] = [l for l in subscriber.lines if not l.startswith("elapsed")]
     ref = outputs["ln29"]
     assert ref[:2] == ["has_publisher_at_start 0", "subscribed"]
@@ -277,8 +361,9 @@ def test_no_latched_value_for_a_late_subscriber(lnbt):
         publisher = support.Program([system.programs["lnbt_publisher"], name, "5", "0.01", "--linger", "3"], env)
         try:
             assert publisher.wait_for_line("published 5", 10) is not None, publisher.describe()
-            subscriber = support.run([system.programs["lnbt_subscriber"], name, "--buffers", "8",
-                                      "--first-timeout", "0.6"], env)
+            subscriber = support.run(
+                [system.programs["lnbt_subscriber"], name, "--buffers", "8", "--first-timeout", "0.6"], env
+            )
         finally:
             publisher.kill()
         results[system.label] = [l for l in subscriber.lines if not l.startswith("elapsed")]
@@ -293,13 +378,25 @@ def test_has_publisher_after_publisher_is_killed(lnbt):
     for system in lnbt.systems():
         env = lnbt.client_env(system)
         name = topic("killed")
-        subscriber = support.Program([system.programs["lnbt_subscriber"], name, "--buffers", "8", "--count", "5",
-                                      "--watch-publisher", "5"], env)
+        subscriber = support.Program(
+            [system.programs["lnbt_subscriber"], name, "--buffers", "8", "--count", "5", "--watch-publisher", "5"], env
+        )
         publisher = None
         try:
             assert subscriber.wait_for_line("subscribed", 10) is not None, subscriber.describe()
-            publisher = support.Program([system.programs["lnbt_publisher"], name, "100000", "0.01",
-                                         "--wait-subscriber", "5", "--settle", "0.3"], env)
+            publisher = support.Program(
+                [
+                    system.programs["lnbt_publisher"],
+                    name,
+                    "100000",
+                    "0.01",
+                    "--wait-subscriber",
+                    "5",
+                    "--settle",
+                    "0.3",
+                ],
+                env,
+            )
             assert subscriber.wait_for_line("has_publisher_before_watch", 15) is not None, subscriber.describe()
             publisher.kill()
             subscriber.finish(15)
@@ -308,6 +405,11 @@ def test_has_publisher_after_publisher_is_killed(lnbt):
             if publisher:
                 publisher.kill()
         outputs[system.label] = [l for l in subscriber.lines if not l.startswith(("elapsed", "counter"))]
-    assert outputs["ln29"] == ["has_publisher_at_start 0", "subscribed", "received 5", "has_publisher_before_watch 1",
-                               "publisher_gone"]
+    assert outputs["ln29"] == [
+        "has_publisher_at_start 0",
+        "subscribed",
+        "received 5",
+        "has_publisher_before_watch 1",
+        "publisher_gone",
+    ]
     assert outputs["ln_core"] == outputs["ln29"]

@@ -29,8 +29,9 @@ import subprocess
 import sys
 import time
 import uuid
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
-from typing import Callable, Iterable, Mapping, TypeVar
+from typing import TypeVar
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
 CACHE = Path(os.environ.get("LN_CORE_CACHE", Path.home() / ".cache" / "ln_core"))
@@ -96,9 +97,11 @@ def wait_for_log(path, pattern: str, timeout: float, proc: subprocess.Popen | No
             match = rx.search(read_text(path))
             if match:
                 return match
-            raise RuntimeError("%s exited (%s) before '%s' appeared:\n%s"
-                               % (path, proc.returncode, pattern, tail(path)))
+            raise RuntimeError(
+                "%s exited (%s) before '%s' appeared:\n%s" % (path, proc.returncode, pattern, tail(path))
+            )
         return rx.search(read_text(path))
+
     return wait_for(found, timeout, "'%s' in %s" % (pattern, path))
 
 
@@ -120,19 +123,27 @@ def json_events(path) -> list:
     """The JSON objects a process printed to its log, one per line. Only whole lines: the
     process may be in the middle of writing a long one."""
     text = read_text(path)
-    return [json.loads(line) for line in text[:text.rfind("\n") + 1].splitlines() if line.startswith("{")]
+    return [json.loads(line) for line in text[: text.rfind("\n") + 1].splitlines() if line.startswith("{")]
 
 
 def start(cmd, log_path, env: Mapping[str, str] | None = None, cwd=None) -> subprocess.Popen:
     """Starts a process in its own session (so its whole group can be ended), its
     stdout and stderr appended to `log_path`."""
-    with open(log_path, "ab") as log:   # the child keeps its own copy of the descriptor
-        return subprocess.Popen([str(c) for c in cmd], stdin=subprocess.DEVNULL, stdout=log,
-                                stderr=subprocess.STDOUT, env=env, cwd=cwd, start_new_session=True)
+    with open(log_path, "ab") as log:  # the child keeps its own copy of the descriptor
+        return subprocess.Popen(
+            [str(c) for c in cmd],
+            stdin=subprocess.DEVNULL,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            env=env,
+            cwd=cwd,
+            start_new_session=True,
+        )
 
 
-def stop(proc: subprocess.Popen | None, timeout: float = 10.0, sig: int = signal.SIGINT,
-         group: bool = True) -> int | None:
+def stop(
+    proc: subprocess.Popen | None, timeout: float = 10.0, sig: int = signal.SIGINT, group: bool = True
+) -> int | None:
     """Ends a process started by start(): `sig` to its group (to it alone unless
     `group`), SIGKILL to the group after `timeout`. Returns its exit status."""
     if proc is None:
@@ -203,8 +214,12 @@ def _is_elf(path) -> bool:
 
 def _prefix_roots() -> list[Path]:
     # colcon puts plain CMake packages (ln_core) on CMAKE_PREFIX_PATH, not AMENT_PREFIX_PATH.
-    return [Path(p) for var in ("AMENT_PREFIX_PATH", "CMAKE_PREFIX_PATH")
-            for p in os.environ.get(var, "").split(os.pathsep) if p]
+    return [
+        Path(p)
+        for var in ("AMENT_PREFIX_PATH", "CMAKE_PREFIX_PATH")
+        for p in os.environ.get(var, "").split(os.pathsep)
+        if p
+    ]
 
 
 def ln_core_manager() -> str:
@@ -228,6 +243,7 @@ def ln_core_manager() -> str:
 def ln_core_python_path() -> str:
     """The directory holding ln_core's links_and_nodes package: LN_CORE_PYTHONPATH, an
     entry of PYTHONPATH, or the colcon install. Raises Unavailable."""
+
     def holds_package(directory) -> bool:
         return bool(directory) and (Path(directory) / "links_and_nodes" / "_client.py").exists()
 
@@ -237,12 +253,15 @@ def ln_core_python_path() -> str:
             raise Unavailable("LN_CORE_PYTHONPATH=%s holds no links_and_nodes package" % given)
         return given
     candidates = os.environ.get("PYTHONPATH", "").split(os.pathsep)
-    candidates += [site for root in _prefix_roots() for site in sorted(glob.glob(str(root / "lib" / "python3*" / "site-packages")))]
+    candidates += [
+        site for root in _prefix_roots() for site in sorted(glob.glob(str(root / "lib" / "python3*" / "site-packages")))
+    ]
     for candidate in candidates:
         if holds_package(candidate):
             return candidate
-    raise Unavailable("ln_core's links_and_nodes package not found (set LN_CORE_PYTHONPATH, or "
-                      ". launchless_scripts/env.sh)")
+    raise Unavailable(
+        "ln_core's links_and_nodes package not found (set LN_CORE_PYTHONPATH, or . launchless_scripts/env.sh)"
+    )
 
 
 def ln29_venv() -> Path:
@@ -253,8 +272,10 @@ def ln29_venv() -> Path:
     for venv in candidates:
         if (venv / "bin" / "ln_manager").is_file() and glob.glob(str(venv / "lib" / "python3*" / "site-packages")):
             return venv.resolve()
-    raise Unavailable("no LN 2.9 reference venv at %s (set LN_CORE_LN29_VENV; launchless_scripts/setup.sh "
-                      "installs it)" % " or ".join(map(str, candidates)))
+    raise Unavailable(
+        "no LN 2.9 reference venv at %s (set LN_CORE_LN29_VENV; launchless_scripts/setup.sh "
+        "installs it)" % " or ".join(map(str, candidates))
+    )
 
 
 def ln29_site_packages(venv: Path) -> Path:
@@ -321,14 +342,24 @@ class LnSystem:
 
     def write_config(self, md_dirs, port: int = 0, extra_config: str = "") -> Path:
         config = self.work_dir / "manager.lnc"
-        lines = ["instance", "name: test_%s_%d_%s" % (self.kind, os.getpid(), uuid.uuid4().hex[:6]),
-                 "manager: 127.0.0.1:%d" % port]
+        lines = [
+            "instance",
+            "name: test_%s_%d_%s" % (self.kind, os.getpid(), uuid.uuid4().hex[:6]),
+            "manager: 127.0.0.1:%d" % port,
+        ]
         lines += ["add_message_definition_dir: %s" % d for d in md_dirs]
         config.write_text("\n".join(lines) + "\n" + extra_config)
         return config
 
-    def start(self, md_dirs=(), port: int = 0, extra_config: str = "", timeout: float = MANAGER_START_TIMEOUT,
-              config=None, args=()):
+    def start(
+        self,
+        md_dirs=(),
+        port: int = 0,
+        extra_config: str = "",
+        timeout: float = MANAGER_START_TIMEOUT,
+        config=None,
+        args=(),
+    ):
         """Starts the manager with `md_dirs` on its search path and `extra_config`
         (more .lnc text) on `port` (0: a free one), or with the .lnc file `config`,
         and more ln_manager options `args`; returns self once it accepts clients."""
@@ -390,7 +421,7 @@ class Ln29(LnSystem):
         return str(self.venv / "bin" / "python")
 
     def env(self, base=None, **extra):
-        env = super().env(base, **extra)           # (LN 2.9 also writes keys into $HOME)
+        env = super().env(base, **extra)  # (LN 2.9 also writes keys into $HOME)
         env.setdefault("TMPDIR", str(self.work_dir))
         return env
 
@@ -409,8 +440,12 @@ class Ln29(LnSystem):
         if port:
             env["LN_ARBITER_PORT"] = str(free_port())
         options = ["--isolated-test"] if not port else []
-        self.manager = start([self.ln_manager, "-c", config, "--without-gui", *options, "--log-level", "info", *args],
-                             self.log_path, env=env, cwd=self.work_dir)
+        self.manager = start(
+            [self.ln_manager, "-c", config, "--without-gui", *options, "--log-level", "info", *args],
+            self.log_path,
+            env=env,
+            cwd=self.work_dir,
+        )
         found = wait_for_log(self.log_path, r"listening on '[^']*:(\d+)' for ln-clients", timeout, self.manager)
         self.port = int(found.group(1))
         self.address = "127.0.0.1:%d" % self.port
@@ -467,8 +502,12 @@ class LnCore(LnSystem):
         self.log_path.write_text("")
         env = dict(self.base_env, HOME=str(self.home))
         env.pop("LN_MANAGER", None)
-        self.manager = start([self.manager_exe, "-c", config, "--listen", "127.0.0.1:%d" % port, *args],
-                             self.log_path, env=env, cwd=self.work_dir)
+        self.manager = start(
+            [self.manager_exe, "-c", config, "--listen", "127.0.0.1:%d" % port, *args],
+            self.log_path,
+            env=env,
+            cwd=self.work_dir,
+        )
         found = wait_for_log(self.log_path, r"ln_manager: listening on (\S+):(\d+)", timeout, self.manager)
         self.port = int(found.group(2))
         self.address = "%s:%d" % (found.group(1), self.port)

@@ -18,6 +18,7 @@ def network_is_isolated():
     """True inside a network namespace with nothing but loopback (netns-run).
     (/sys/class/net would show the namespace of whoever mounted /sys.)"""
     import socket
+
     try:
         return [name for _, name in socket.if_nameindex()] == ["lo"]
     except OSError:
@@ -25,8 +26,11 @@ def network_is_isolated():
 
 
 def netns_run():
-    for candidate in (os.environ.get("LN_NETNS_RUN"), "/work/shared/tools/netns-run",
-                      str(REPO_ROOT / "shared" / "tools" / "netns-run")):
+    for candidate in (
+        os.environ.get("LN_NETNS_RUN"),
+        "/work/shared/tools/netns-run",
+        str(REPO_ROOT / "shared" / "tools" / "netns-run"),
+    ):
         if candidate and os.access(candidate, os.X_OK):
             return candidate
     return shutil.which("netns-run")
@@ -36,7 +40,8 @@ LOOPBACK_CYCLONEDDS_URI = (
     "<CycloneDDS><Domain><General><Interfaces><NetworkInterface address=\"127.0.0.1\"/></Interfaces>"
     "<AllowMulticast>false</AllowMulticast></General><Discovery><ParticipantIndex>auto</ParticipantIndex>"
     "<MaxAutoParticipantIndex>60</MaxAutoParticipantIndex>"
-    "<Peers><Peer address=\"127.0.0.1\"/></Peers></Discovery></Domain></CycloneDDS>")
+    "<Peers><Peer address=\"127.0.0.1\"/></Peers></Discovery></Domain></CycloneDDS>"
+)
 
 
 def loopback_dds_env():
@@ -69,18 +74,34 @@ def build_interfaces(md_dirs, name, log=None, timeout=900):
         shutil.rmtree(ws)
     (ws / "src").mkdir(parents=True)
     out = open(log or os.devnull, "ab")
-    gen = [sys.executable, "-c", "import sys; from msg_mapping.cli import main; sys.exit(main())",
-           "--out", str(ws / "src")]
+    gen = [
+        sys.executable,
+        "-c",
+        "import sys; from msg_mapping.cli import main; sys.exit(main())",
+        "--out",
+        str(ws / "src"),
+    ]
     for d in md_dirs:
         gen += ["--recursive", d]
-    for cmd in (gen, ["colcon", "build", "--event-handlers", "console_direct-", "desktop_notification-",
-                      "--cmake-args", "-DBUILD_TESTING=OFF"]):
+    for cmd in (
+        gen,
+        [
+            "colcon",
+            "build",
+            "--event-handlers",
+            "console_direct-",
+            "desktop_notification-",
+            "--cmake-args",
+            "-DBUILD_TESTING=OFF",
+        ],
+    ):
         result = subprocess.run(cmd, cwd=ws, stdout=out, stderr=subprocess.STDOUT, timeout=timeout)
         if result.returncode != 0:
-            raise RuntimeError("building the interface workspace %s failed: %s (see %s)"
-                               % (ws, " ".join(cmd[:3]), log or "its output"))
+            raise RuntimeError(
+                "building the interface workspace %s failed: %s (see %s)" % (ws, " ".join(cmd[:3]), log or "its output")
+            )
     stamp.write_text("ok\n")
-    for old in ws.parent.glob("%s-*" % name):   # workspaces of earlier versions of the definitions
+    for old in ws.parent.glob("%s-*" % name):  # workspaces of earlier versions of the definitions
         if old != ws:
             shutil.rmtree(old, ignore_errors=True)
     return install

@@ -15,6 +15,7 @@ Prints {"attacking": true, ...} once the attack runs (for the measured clients t
 {"ok": true, ...} with what it did when it stops (after S seconds, default 60, or SIGTERM).
 Every loop is bounded by the deadline.
 """
+
 import argparse
 import json
 import os
@@ -52,7 +53,7 @@ def decode(payload):
     pos, fields = 7, {}
     for _ in range(count):
         (size,) = struct.unpack_from("<B", payload, pos)
-        key = payload[pos + 1:pos + 1 + size].decode()
+        key = payload[pos + 1 : pos + 1 + size].decode()
         pos += 1 + size
         (kind_of_value,) = struct.unpack_from("<B", payload, pos)
         pos += 1
@@ -64,7 +65,7 @@ def decode(payload):
             pos += 1
         elif kind_of_value == 4:
             (n,) = struct.unpack_from("<I", payload, pos)
-            fields[key] = payload[pos + 4:pos + 4 + n].decode(errors="replace")
+            fields[key] = payload[pos + 4 : pos + 4 + n].decode(errors="replace")
             pos += 4 + n
         else:
             (n,) = struct.unpack_from("<I", payload, pos)
@@ -72,7 +73,7 @@ def decode(payload):
             items = []
             for _ in range(n):
                 (m,) = struct.unpack_from("<I", payload, pos)
-                items.append(payload[pos + 4:pos + 4 + m].decode(errors="replace"))
+                items.append(payload[pos + 4 : pos + 4 + m].decode(errors="replace"))
                 pos += 4 + m
             fields[key] = items
     return kind, ident, fields
@@ -85,7 +86,7 @@ def read_message(sock, deadline):
         if len(buffer) >= 4:
             (size,) = struct.unpack_from("<I", buffer)
             if len(buffer) >= 4 + size:
-                return decode(buffer[4:4 + size])
+                return decode(buffer[4 : 4 + size])
         left = deadline - time.monotonic()
         if left <= 0 or not select.select([sock], [], [], left)[0]:
             return None
@@ -109,8 +110,19 @@ def connect_manager(address):
 
 def register(address, deadline):
     sock = connect_manager(address)
-    answer = call(sock, request(1, "hello", program_name="hostile", pid=os.getpid(), host_name="hostile",
-                                host_id="hostile-host", uid=os.getuid()), deadline)
+    answer = call(
+        sock,
+        request(
+            1,
+            "hello",
+            program_name="hostile",
+            pid=os.getpid(),
+            host_name="hostile",
+            host_id="hostile-host",
+            uid=os.getuid(),
+        ),
+        deadline,
+    )
     if answer is None or "error_code" in answer[2]:
         raise SystemExit(json.dumps({"ok": False, "error": "hello refused: %r" % (answer,)}))
     return sock
@@ -134,7 +146,7 @@ def open_service(manager, service, deadline):
 
 
 def service_request(local_id, request_id):
-    body = struct.pack("<Id", request_id & 0xffff, 1.5)  # lnbench/small_srv: seq, x
+    body = struct.pack("<Id", request_id & 0xFFFF, 1.5)  # lnbench/small_srv: seq, x
     return struct.pack("<IBBHIII", 16 + len(body), 0x10, 1, 0, local_id, request_id, 0) + body
 
 

@@ -15,17 +15,17 @@ pong copies the received packet's fields into its own packet and writes it.
 (numpy views, no copy into the port's packet); LN 2.9 has no such read.
 Output: one JSON line, like the C++ programs.
 """
+
 import argparse
 import json
 import sys
 import time
 
+import links_and_nodes as ln
 import numpy as np
 
-import links_and_nodes as ln
-
-HANDSHAKE = 0xfffffff0
-STOP = 0xffffffff
+HANDSHAKE = 0xFFFFFFF0
+STOP = 0xFFFFFFFF
 MD = {64: "lnbench/p64", 4096: "lnbench/p4k", 1048576: "lnbench/p1m"}
 
 
@@ -38,7 +38,9 @@ def stamp_words(size):
 
 
 def expected(seq, words):
-    return ((np.uint64(seq) * np.uint64(2654435761) + words * np.uint64(40503)) & np.uint64(0xffffffff)).astype(np.uint32)
+    return ((np.uint64(seq) * np.uint64(2654435761) + words * np.uint64(40503)) & np.uint64(0xFFFFFFFF)).astype(
+        np.uint32
+    )
 
 
 class Stamper:
@@ -161,10 +163,29 @@ def ping(clnt, a):
 
     def q(x):
         return float(v[min(len(v) - 1, int(x * (len(v) - 1) + 0.5))])
-    print(json.dumps({"ok": True, "test": "py_pingpong", "size": a.size, "mode": a.mode, "n": len(v),
-                      "median_us": q(0.5), "p90_us": q(0.9), "p99_us": q(0.99),
-                      "min_us": float(v[0]), "max_us": float(v[-1]), "mean_us": float(v.mean()),
-                      "stale_echoes": stale, "handshake_s": handshake_s, "seconds": seconds, "ln_module": ln.__file__}), flush=True)
+
+    print(
+        json.dumps(
+            {
+                "ok": True,
+                "test": "py_pingpong",
+                "size": a.size,
+                "mode": a.mode,
+                "n": len(v),
+                "median_us": q(0.5),
+                "p90_us": q(0.9),
+                "p99_us": q(0.99),
+                "min_us": float(v[0]),
+                "max_us": float(v[-1]),
+                "mean_us": float(v.mean()),
+                "stale_echoes": stale,
+                "handshake_s": handshake_s,
+                "seconds": seconds,
+                "ln_module": ln.__file__,
+            }
+        ),
+        flush=True,
+    )
 
 
 def main():
@@ -183,7 +204,7 @@ def main():
         (pong if a.role == "pong" else ping)(clnt, a)
     except SystemExit:
         raise
-    except Exception as e:  # noqa: BLE001 - reported as the result line
+    except Exception as e:
         msg = f"{type(e).__name__}: {e}"
         fail(msg, "not yet implemented" in msg.lower() or "NOT_YET_IMPLEMENTED" in msg)
 

@@ -6,6 +6,7 @@
 The provider answers y = 2 x + seq from wait_and_handle_service_group_requests(None, 0.2);
 a call with seq 0xffffffff stops it. Output: one JSON line, like the C++ programs.
 """
+
 import argparse
 import json
 import sys
@@ -13,7 +14,7 @@ import time
 
 import links_and_nodes as ln
 
-STOP = 0xffffffff
+STOP = 0xFFFFFFFF
 
 
 def fail(msg, not_implemented=False):
@@ -76,9 +77,25 @@ def call(clnt, a):
 
     def q(x):
         return rtt[min(len(rtt) - 1, int(x * (len(rtt) - 1) + 0.5))]
-    print(json.dumps({"ok": True, "test": "py_srv_rtt", "n": len(rtt), "median_us": q(0.5), "p90_us": q(0.9),
-                      "p99_us": q(0.99), "min_us": rtt[0], "max_us": rtt[-1],
-                      "mean_us": sum(rtt) / len(rtt), "seconds": time.monotonic() - t_start, "ln_module": ln.__file__}), flush=True)
+
+    print(
+        json.dumps(
+            {
+                "ok": True,
+                "test": "py_srv_rtt",
+                "n": len(rtt),
+                "median_us": q(0.5),
+                "p90_us": q(0.9),
+                "p99_us": q(0.99),
+                "min_us": rtt[0],
+                "max_us": rtt[-1],
+                "mean_us": sum(rtt) / len(rtt),
+                "seconds": time.monotonic() - t_start,
+                "ln_module": ln.__file__,
+            }
+        ),
+        flush=True,
+    )
 
 
 def main():
@@ -95,7 +112,7 @@ def main():
         (provide if a.role == "provide" else call)(clnt, a)
     except SystemExit:
         raise
-    except Exception as e:  # noqa: BLE001 - reported as the result line
+    except Exception as e:
         msg = f"{type(e).__name__}: {e}"
         fail(msg, "not yet implemented" in msg.lower() or "NOT_YET_IMPLEMENTED" in msg)
 

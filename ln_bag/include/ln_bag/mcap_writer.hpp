@@ -79,8 +79,8 @@ class McapWriter {
   void commit_message(std::uint16_t channel_id, std::uint32_t sequence, std::uint64_t log_time,
                       std::uint64_t publish_time, std::size_t size);
   /// reserve_message() + copy + commit_message().
-  void add_message(std::uint16_t channel_id, std::uint32_t sequence, std::uint64_t log_time,
-                   std::uint64_t publish_time, const void* data, std::size_t size);
+  void add_message(std::uint16_t channel_id, std::uint32_t sequence, std::uint64_t log_time, std::uint64_t publish_time,
+                   const void* data, std::size_t size);
 
   /// Hands the current chunk (if it holds anything) to the I/O thread.
   void flush_chunk();

@@ -12,6 +12,6 @@ The commands are `ln record`, `ln play`, `ln bag info` and `ln bag convert`
     writer.close()
 """
 
-from ._native import BagError, McapWriter, Recorder, TopicMapping  # noqa: F401
+from ._native import BagError, McapWriter, Recorder, TopicMapping
 
 __all__ = ["BagError", "McapWriter", "Recorder", "TopicMapping"]

@@ -60,9 +60,14 @@ def channel_metadata(ln_name, mapping, publisher=None, part=None):
     """The metadata of the channel recording `ln_name` with `mapping` (a TopicMapping)."""
     texts = dict(mapping.texts)
     main = texts.pop(mapping.ln_name)
-    metadata = {TOPIC: ln_name, DEFINITION: mapping.ln_name, HASH: mapping.ln_hash, TEXT: main,
-                USES: json.dumps(texts, sort_keys=True) if texts else "",
-                "offered_qos_profiles": OFFERED_QOS_PROFILES}
+    metadata = {
+        TOPIC: ln_name,
+        DEFINITION: mapping.ln_name,
+        HASH: mapping.ln_hash,
+        TEXT: main,
+        USES: json.dumps(texts, sort_keys=True) if texts else "",
+        "offered_qos_profiles": OFFERED_QOS_PROFILES,
+    }
     if publisher:
         metadata[PUBLISHER] = publisher
     if part:
@@ -89,8 +94,10 @@ def mapping_from_metadata(metadata, where):
     except BagError as error:
         raise BagError("%s: %s" % (where, error)) from None
     if metadata.get(HASH) and mapping.ln_hash != metadata[HASH]:
-        raise BagError("%s: the recorded text of '%s' has hash %s, but the channel says %s"
-                       % (where, metadata[DEFINITION], mapping.ln_hash, metadata[HASH]))
+        raise BagError(
+            "%s: the recorded text of '%s' has hash %s, but the channel says %s"
+            % (where, metadata[DEFINITION], mapping.ln_hash, metadata[HASH])
+        )
     return mapping
 
 

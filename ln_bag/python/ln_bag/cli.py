@@ -4,7 +4,8 @@ command line of links_and_nodes.cli, which runs them with its Session)."""
 import argparse
 import math
 
-from links_and_nodes.cli.common import positive_float as _positive_float, positive_int as _positive_int
+from links_and_nodes.cli.common import positive_float as _positive_float
+from links_and_nodes.cli.common import positive_int as _positive_int
 
 
 def _seconds(text):
@@ -19,86 +20,144 @@ def _seconds(text):
 
 def _lazy(module, function="run"):
     """The command runs `ln_bag.<module>.<function>(session)` (imported only when used)."""
+
     def run(session):
         import importlib
+
         return getattr(importlib.import_module("ln_bag." + module), function)(session)
+
     return run
 
 
 def register(groups, common):
     p = groups.add_parser(
-        "record", parents=[common], help="record topics into an MCAP file (ROS 2 tools read it)",
+        "record",
+        parents=[common],
+        help="record topics into an MCAP file (ROS 2 tools read it)",
         description="Records LN topics into an MCAP file: one channel per topic, named as the bridge names it "
-                    "(a.b.c -> /a/b/c), messages in CDR with the ROS 2 type msg_mapping maps the definition to, "
-                    "the LN definition in the channel's metadata. Runs until Ctrl-C, --count or --duration; "
-                    "the file is then complete and indexed (cut off harder, it stays readable up to its last "
-                    "chunk). Topics that appear later are recorded too.",
-        epilog="example: ln record --all --exclude 'debug.*' -o run1.mcap --duration 60")
-    p.add_argument("topics", nargs="*", metavar="TOPIC", help="topics to record (globs allowed: 'robot.*')"
-                   ).completer = "topics"
+        "(a.b.c -> /a/b/c), messages in CDR with the ROS 2 type msg_mapping maps the definition to, "
+        "the LN definition in the channel's metadata. Runs until Ctrl-C, --count or --duration; "
+        "the file is then complete and indexed (cut off harder, it stays readable up to its last "
+        "chunk). Topics that appear later are recorded too.",
+        epilog="example: ln record --all --exclude 'debug.*' -o run1.mcap --duration 60",
+    )
+    p.add_argument(
+        "topics", nargs="*", metavar="TOPIC", help="topics to record (globs allowed: 'robot.*')"
+    ).completer = "topics"
     p.add_argument("--all", "-a", action="store_true", help="every topic, also those appearing later")
-    p.add_argument("--exclude", "-x", action="append", default=[], metavar="GLOB",
-                   help="leave out matching topics (repeatable)")
+    p.add_argument(
+        "--exclude", "-x", action="append", default=[], metavar="GLOB", help="leave out matching topics (repeatable)"
+    )
     p.add_argument("--output", "-o", metavar="FILE.mcap", help="the file (default: ln_record_<date>.mcap)")
-    p.add_argument("--rosbag2", metavar="DIR", help="write a rosbag2 bag directory (metadata.yaml + the MCAP file) "
-                   "instead")
+    p.add_argument(
+        "--rosbag2", metavar="DIR", help="write a rosbag2 bag directory (metadata.yaml + the MCAP file) instead"
+    )
     p.add_argument("--count", "-n", type=_positive_int, metavar="N", help="stop after N messages (all topics together)")
     p.add_argument("--duration", "-d", type=_positive_float, metavar="SECONDS", help="stop after this long")
-    p.add_argument("--buffers", type=_positive_int, metavar="N",
-                   help="subscription buffers per topic (default: half a second of its traffic, 16 at least, "
-                        "32 MiB at most)")
-    p.add_argument("--services", action="store_true",
-                   help="also record every service call (request and response; --exclude applies) on the "
-                        "channels SERVICE/_request and SERVICE/_response, through the manager's service logging")
+    p.add_argument(
+        "--buffers",
+        type=_positive_int,
+        metavar="N",
+        help="subscription buffers per topic (default: half a second of its traffic, 16 at least, 32 MiB at most)",
+    )
+    p.add_argument(
+        "--services",
+        action="store_true",
+        help="also record every service call (request and response; --exclude applies) on the "
+        "channels SERVICE/_request and SERVICE/_response, through the manager's service logging",
+    )
     p.add_argument("--overwrite", action="store_true", help="replace an existing FILE")
     p.set_defaults(run=_lazy("record"))
 
     p = groups.add_parser(
-        "play", parents=[common], help="publish a recording into LN topics",
+        "play",
+        parents=[common],
+        help="publish a recording into LN topics",
         description="Publishes the messages of an MCAP recording on LN topics with their original timing: "
-                    "recordings of 'ln record' as they were, and ROS 2 bags (MCAP) whose types have LN "
-                    "counterparts (generated by ln_ros2_gen, or any ROS message type through msg_mapping's "
-                    "ROS -> LN definitions, which are handed to the manager).",
-        epilog="example: ln play run1.mcap --rate 2 --topics robot.state --loop")
+        "recordings of 'ln record' as they were, and ROS 2 bags (MCAP) whose types have LN "
+        "counterparts (generated by ln_ros2_gen, or any ROS message type through msg_mapping's "
+        "ROS -> LN definitions, which are handed to the manager).",
+        epilog="example: ln play run1.mcap --rate 2 --topics robot.state --loop",
+    )
     p.add_argument("file", metavar="FILE.mcap")
-    p.add_argument("--rate", "-r", type=_positive_float, default=1.0, metavar="X",
-                   help="playback speed factor (default 1)")
+    p.add_argument(
+        "--rate", "-r", type=_positive_float, default=1.0, metavar="X", help="playback speed factor (default 1)"
+    )
     p.add_argument("--loop", "-l", action="store_true", help="start again at the end, until Ctrl-C")
-    p.add_argument("--topics", nargs="+", default=None, metavar="TOPIC",
-                   help="only these topics (LN names, or the recording's ROS names)")
-    p.add_argument("--start", "-s", type=_seconds, default=0.0, metavar="SECONDS",
-                   help="skip this much of the recording's beginning")
-    p.add_argument("--wait", type=_seconds, default=1.0, metavar="SECONDS",
-                   help="wait up to this long for subscribers of every topic before playing (default 1)")
-    p.add_argument("--capacity", action="append", default=[], metavar="TYPE.FIELD=N",
-                   help="for ROS types played through their LN form: room for N elements (bytes of a string) "
-                        "in a string or sequence field, e.g. sensor_msgs/msg/Image.data=6220800 (default 64 "
-                        "elements, 255 bytes)")
+    p.add_argument(
+        "--topics",
+        nargs="+",
+        default=None,
+        metavar="TOPIC",
+        help="only these topics (LN names, or the recording's ROS names)",
+    )
+    p.add_argument(
+        "--start",
+        "-s",
+        type=_seconds,
+        default=0.0,
+        metavar="SECONDS",
+        help="skip this much of the recording's beginning",
+    )
+    p.add_argument(
+        "--wait",
+        type=_seconds,
+        default=1.0,
+        metavar="SECONDS",
+        help="wait up to this long for subscribers of every topic before playing (default 1)",
+    )
+    p.add_argument(
+        "--capacity",
+        action="append",
+        default=[],
+        metavar="TYPE.FIELD=N",
+        help="for ROS types played through their LN form: room for N elements (bytes of a string) "
+        "in a string or sequence field, e.g. sensor_msgs/msg/Image.data=6220800 (default 64 "
+        "elements, 255 bytes)",
+    )
     p.set_defaults(run=_lazy("play"))
 
-    group = groups.add_parser("bag", help="inspect and convert recordings",
-                              description="Recordings (MCAP files, rosbag2 bag directories, LN 2.9 files).")
+    group = groups.add_parser(
+        "bag",
+        help="inspect and convert recordings",
+        description="Recordings (MCAP files, rosbag2 bag directories, LN 2.9 files).",
+    )
     group.set_defaults(group_parser=group)
     sub = group.add_subparsers(dest="command", metavar="SUBCOMMAND")
-    p = sub.add_parser("info", parents=[common], help="topics, types, counts, rates and duration of a recording",
-                       description="What a recording holds, as 'ros2 bag info' shows it: file, size, duration, "
-                                   "start and end, messages, and per topic its type, count, rate and LN definition.")
+    p = sub.add_parser(
+        "info",
+        parents=[common],
+        help="topics, types, counts, rates and duration of a recording",
+        description="What a recording holds, as 'ros2 bag info' shows it: file, size, duration, "
+        "start and end, messages, and per topic its type, count, rate and LN definition.",
+    )
     p.add_argument("file", metavar="FILE")
     p.set_defaults(run=_lazy("info"))
     p = sub.add_parser(
-        "convert", parents=[common], help="convert LN 2.9 recorder/logger files (or an MCAP file) to MCAP",
+        "convert",
+        parents=[common],
+        help="convert LN 2.9 recorder/logger files (or an MCAP file) to MCAP",
         description="Writes an indexed MCAP file from: LN 2.9's lnrecorder files (.pcap, also compressed, or "
-                    "an lnrdb directory), LN 2.9 logger files (manager_save: .pcap, .pickle, .mat), or an MCAP "
-                    "file (e.g. one cut off while recording: what is readable is rewritten with an index).",
-        epilog="example: ln bag convert robot_log.pcap robot_log.mcap")
+        "an lnrdb directory), LN 2.9 logger files (manager_save: .pcap, .pickle, .mat), or an MCAP "
+        "file (e.g. one cut off while recording: what is readable is rewritten with an index).",
+        epilog="example: ln bag convert robot_log.pcap robot_log.mcap",
+    )
     p.add_argument("input", metavar="IN")
     p.add_argument("output", metavar="OUT.mcap")
-    p.add_argument("--md-dir", action="append", default=[], metavar="DIR",
-                   help="LN definitions to use where the input's own text of a definition is not enough "
-                        "(repeatable)")
-    p.add_argument("--topic", action="append", default=[], metavar="TOPIC:DEFINITION",
-                   help="for logger files that do not name them (.mat, .pickle): a topic and its LN definition "
-                        "(repeatable)")
+    p.add_argument(
+        "--md-dir",
+        action="append",
+        default=[],
+        metavar="DIR",
+        help="LN definitions to use where the input's own text of a definition is not enough (repeatable)",
+    )
+    p.add_argument(
+        "--topic",
+        action="append",
+        default=[],
+        metavar="TOPIC:DEFINITION",
+        help="for logger files that do not name them (.mat, .pickle): a topic and its LN definition (repeatable)",
+    )
     p.add_argument("--rosbag2", action="store_true", help="OUT is a rosbag2 bag directory to create")
     p.add_argument("--overwrite", action="store_true", help="replace an existing OUT")
     p.set_defaults(run=_lazy("convert"))

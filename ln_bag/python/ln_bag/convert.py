@@ -34,15 +34,16 @@ class Converter:
     def __init__(self, writer, md_dirs):
         self.writer = writer
         self.md_dirs = md_dirs
-        self.schemas = {}      # (ROS type, schema) -> id
-        self.channels = {}     # key -> [channel id, mapping, messages so far]
-        self.services = {}     # service key -> (name, interface, form, hash)
+        self.schemas = {}  # (ROS type, schema) -> id
+        self.channels = {}  # key -> [channel id, mapping, messages so far]
+        self.services = {}  # service key -> (name, interface, form, hash)
         self.messages = 0
 
     # ------------------------------------------------------------ definitions
     def mapping(self, name, form, md_hash, part=""):
         """The TopicMapping of an LN 2.9 definition (see the module doc)."""
         import msg_mapping
+
         search = msg_mapping.Library(self.md_dirs, True).search_dirs
         try:
             found = TopicMapping(name, {}, search, part)
@@ -53,17 +54,23 @@ class Converter:
         texts = ln29.definition_texts(name, form, service=bool(part))
         rebuilt = TopicMapping(name, texts, [], part)
         if md_hash and rebuilt.ln_hash != md_hash:
-            raise BagError("definition '%s': the recording describes it with hash %s but names hash %s, and no "
-                           "definition file with that hash was found (give its directory with --md-dir)"
-                           % (name, rebuilt.ln_hash, md_hash))
+            raise BagError(
+                "definition '%s': the recording describes it with hash %s but names hash %s, and no "
+                "definition file with that hash was found (give its directory with --md-dir)"
+                % (name, rebuilt.ln_hash, md_hash)
+            )
         return rebuilt
 
     def channel(self, key, ln_name, mapping, publisher=None, part=None):
         schema_key = (mapping.ros_type, mapping.schema)
         if schema_key not in self.schemas:
             self.schemas[schema_key] = self.writer.add_schema(mapping.ros_type, "ros2msg", mapping.schema)
-        channel_id = self.writer.add_channel(self.schemas[schema_key], ros_topic_for(ln_name, part), "cdr",
-                                             channel_metadata(ln_name, mapping, publisher, part))
+        channel_id = self.writer.add_channel(
+            self.schemas[schema_key],
+            ros_topic_for(ln_name, part),
+            "cdr",
+            channel_metadata(ln_name, mapping, publisher, part),
+        )
         self.channels[key] = [channel_id, mapping, 0]
 
     def write(self, key, sequence, log_time, publish_time, ln_bytes, where):
@@ -73,8 +80,9 @@ class Converter:
         except BagError as error:
             raise BagError("%s: %s" % (where, error)) from None
         sequence = count + 1 if sequence is None else sequence
-        self.writer.add_message(channel_id, sequence & 0xFFFFFFFF, ns_from_seconds(log_time),
-                                ns_from_seconds(publish_time), cdr)
+        self.writer.add_message(
+            channel_id, sequence & 0xFFFFFFFF, ns_from_seconds(log_time), ns_from_seconds(publish_time), cdr
+        )
         self.channels[key][2] = count + 1
         self.messages += 1
 
@@ -84,8 +92,10 @@ class Converter:
             if isinstance(event, ln29.Topic):
                 mapping = self.mapping(event.definition, event.form, event.hash)
                 if mapping.packet_size != event.message_size:
-                    raise BagError("%s: topic '%s' has packets of %d bytes, definition '%s' %d"
-                                   % (where, event.name, event.message_size, event.definition, mapping.packet_size))
+                    raise BagError(
+                        "%s: topic '%s' has packets of %d bytes, definition '%s' %d"
+                        % (where, event.name, event.message_size, event.definition, mapping.packet_size)
+                    )
                 self.channel(event.key, event.name, mapping, event.publisher)
             elif isinstance(event, ln29.Packet):
                 self.write(event.key, event.sequence, event.log_time, event.publish_time, event.data, where)
@@ -108,22 +118,31 @@ class Converter:
                 if schema is not None:
                     key = (schema.name, schema.data)
                     if key not in self.schemas:
-                        self.schemas[key] = self.writer.add_schema(schema.name, schema.encoding,
-                                                                   schema.data.decode("utf-8", "surrogateescape"))
+                        self.schemas[key] = self.writer.add_schema(
+                            schema.name, schema.encoding, schema.data.decode("utf-8", "surrogateescape")
+                        )
                     schema_id = self.schemas[key]
-                ids[channel.id] = self.writer.add_channel(schema_id, channel.topic, channel.message_encoding,
-                                                          dict(channel.metadata))
-            self.writer.add_message(ids[channel.id], message.sequence, message.log_time, message.publish_time,
-                                    message.data)
+                ids[channel.id] = self.writer.add_channel(
+                    schema_id, channel.topic, channel.message_encoding, dict(channel.metadata)
+                )
+            self.writer.add_message(
+                ids[channel.id], message.sequence, message.log_time, message.publish_time, message.data
+            )
             self.messages += 1
 
 
 # --------------------------------------------------------------- logger files
 
 #: What unpickling a logger file may construct: numpy arrays, nothing else.
-_PICKLE_GLOBALS = {("numpy._core.multiarray", "_reconstruct"), ("numpy.core.multiarray", "_reconstruct"),
-                   ("numpy._core.multiarray", "scalar"), ("numpy.core.multiarray", "scalar"),
-                   ("numpy", "ndarray"), ("numpy", "dtype"), ("_codecs", "encode")}
+_PICKLE_GLOBALS = {
+    ("numpy._core.multiarray", "_reconstruct"),
+    ("numpy.core.multiarray", "_reconstruct"),
+    ("numpy._core.multiarray", "scalar"),
+    ("numpy.core.multiarray", "scalar"),
+    ("numpy", "ndarray"),
+    ("numpy", "dtype"),
+    ("_codecs", "encode"),
+}
 
 
 class _ArraysOnly(pickle.Unpickler):
@@ -133,8 +152,19 @@ class _ArraysOnly(pickle.Unpickler):
         raise pickle.UnpicklingError("it wants %s.%s, which a logger file never holds" % (module, name))
 
 
-_STRUCT_CODES = {"double": "d", "float": "f", "int8_t": "b", "uint8_t": "B", "char": "b", "int16_t": "h",
-                 "uint16_t": "H", "int32_t": "i", "uint32_t": "I", "int64_t": "q", "uint64_t": "Q"}
+_STRUCT_CODES = {
+    "double": "d",
+    "float": "f",
+    "int8_t": "b",
+    "uint8_t": "B",
+    "char": "b",
+    "int16_t": "h",
+    "uint16_t": "H",
+    "int32_t": "i",
+    "uint32_t": "I",
+    "int64_t": "q",
+    "uint64_t": "Q",
+}
 
 
 def logger_columns(model, defs, parent=None):
@@ -164,8 +194,9 @@ def read_logger_pickle(path, topics, md_dirs):
         raise BagError("%s: not an LN logger pickle (a %s, not a dict of topics)" % (path, type(data).__name__))
     missing = sorted(set(data) - set(topics))
     if missing:
-        raise BagError("%s holds topics %s; say their LN definitions with --topic TOPIC:DEFINITION"
-                       % (path, ", ".join(missing)))
+        raise BagError(
+            "%s holds topics %s; say their LN definitions with --topic TOPIC:DEFINITION" % (path, ", ".join(missing))
+        )
     return _logger_events(path, data, topics, md_dirs, lambda topic, column: column)
 
 
@@ -179,6 +210,7 @@ def read_logger_mat(path, topics, md_dirs):
     COLUMN (one topic; a leading '_' moves to the end) or TOPIC_COLUMN (several
     topics; without the column's leading '_'), '.', '/', '[' as '_' and ']' dropped."""
     from .matfile import read_mat5
+
     variables = read_mat5(path)
     if "packet_log_ts_" in variables:  # a file of one topic
         if len(topics) != 1:
@@ -186,16 +218,20 @@ def read_logger_mat(path, topics, md_dirs):
 
         def variable(topic, column):
             return _mat_name(column[1:] + "_" if column.startswith("_") else column)
+
         return _logger_events(path, {next(iter(topics)): variables}, topics, md_dirs, variable)
-    logged = sorted(v[:-len("_packet_log_ts")] for v in variables if v.endswith("_packet_log_ts"))
+    logged = sorted(v[: -len("_packet_log_ts")] for v in variables if v.endswith("_packet_log_ts"))
     by_name = {_mat_name(t): t for t in topics}
     missing = [name for name in logged if name not in by_name]
     if missing or not logged:
-        raise BagError("%s holds the logs of %s; say their LN topics and definitions with --topic TOPIC:DEFINITION"
-                       % (path, ", ".join(missing) if logged else "no topic"))
+        raise BagError(
+            "%s holds the logs of %s; say their LN topics and definitions with --topic TOPIC:DEFINITION"
+            % (path, ", ".join(missing) if logged else "no topic")
+        )
 
     def variable(topic, column):
         return _mat_name("%s_%s" % (topic, column[1:] if column.startswith("_") else column))
+
     return _logger_events(path, {by_name[name]: variables for name in logged}, topics, md_dirs, variable)
 
 
@@ -204,21 +240,24 @@ def _logger_events(path, data, topics, md_dirs, variable):
     variable(topic, column) the name of a column in `columns`."""
     import numpy as np
     from links_and_nodes import _ln
+
     import msg_mapping
+
     search = msg_mapping.Library(list(md_dirs), True).search_dirs
     for key, topic in enumerate(sorted(data)):
         columns, md_name = data[topic], topics[topic]
         try:
             model = _ln.model_from_dirs(md_name, search)
-        except Exception as error:  # noqa: BLE001 - ln_core's error names the definition
+        except Exception as error:
             raise BagError("%s: topic '%s': %s" % (path, topic, str(error).splitlines()[0])) from None
         layout = logger_columns(model, model.get("defs", {}))
         names = ["_packet_log_ts", "_packet_source_ts", "_packet_counter"] + [c for c, _, _ in layout]
         for needed in names:
             if variable(topic, needed) not in columns:
-                raise BagError("%s: topic '%s' has no column '%s', which definition '%s' needs (is it the "
-                               "definition the topic was logged with?)" % (path, topic, variable(topic, needed),
-                                                                          md_name))
+                raise BagError(
+                    "%s: topic '%s' has no column '%s', which definition '%s' needs (is it the "
+                    "definition the topic was logged with?)" % (path, topic, variable(topic, needed), md_name)
+                )
         log_ts, source_ts, counters = (np.asarray(columns[variable(topic, c)]).reshape(-1) for c in names[:3])
         n = len(counters)
         fmt = "<" + "".join("%d%s" % (count, _STRUCT_CODES[primitive]) for _, primitive, count in layout)
@@ -261,14 +300,17 @@ def convert_file(source, output, md_dirs=(), topics=None, rosbag2_dir=False, ove
         raise BagError("%s does not exist" % source)
     if os.path.isfile(os.path.join(source, "metadata.yaml")):  # a rosbag2 bag: its MCAP file
         from .info import mcap_files
+
         files = mcap_files(source)
         if len(files) != 1:
             raise BagError("%s has %d files; ln bag convert reads bags of one file" % (source, len(files)))
         source = files[0]
     kind = ln29.kind_of(source)
     if kind is None:
-        raise BagError("%s is not a recording ln bag convert knows (it reads lnrecorder .pcap files and lnrdb "
-                       "directories, LN 2.9 logger .pcap/.pickle/.mat files and MCAP files)" % source)
+        raise BagError(
+            "%s is not a recording ln bag convert knows (it reads lnrecorder .pcap files and lnrdb "
+            "directories, LN 2.9 logger .pcap/.pickle/.mat files and MCAP files)" % source
+        )
     if rosbag2_dir:
         bag_dir = output.rstrip("/") or output
         if os.path.exists(bag_dir):
@@ -317,8 +359,9 @@ def convert_file(source, output, md_dirs=(), topics=None, rosbag2_dir=False, ove
 def run(cli):
     args = cli.args
     try:
-        kind, messages, damage = convert_file(args.input, args.output, args.md_dir, _topic_definitions(args.topic),
-                                              args.rosbag2, args.overwrite)
+        kind, messages, damage = convert_file(
+            args.input, args.output, args.md_dir, _topic_definitions(args.topic), args.rosbag2, args.overwrite
+        )
     except BagError as error:
         raise CliError(str(error)) from None
     if damage:

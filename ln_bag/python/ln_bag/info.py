@@ -5,7 +5,6 @@ import os
 import sys
 
 import yaml
-
 from links_and_nodes.cli.common import CliError
 from links_and_nodes.cli.output import human_bytes
 
@@ -23,8 +22,9 @@ def mcap_files(path):
         with open(metadata) as f:
             info = (yaml.safe_load(f) or {}).get("rosbag2_bagfile_information") or {}
     except OSError as error:
-        raise BagError("%s is a directory without a readable metadata.yaml (%s): not a rosbag2 bag"
-                       % (path, error.strerror)) from None
+        raise BagError(
+            "%s is a directory without a readable metadata.yaml (%s): not a rosbag2 bag" % (path, error.strerror)
+        ) from None
     except yaml.YAMLError as error:
         raise BagError("%s: metadata.yaml is not YAML: %s" % (path, str(error).splitlines()[0])) from None
     if info.get("storage_identifier") not in (None, "mcap"):
@@ -56,17 +56,31 @@ def describe(path):
             messages += rec.message_count
             for channel in rec.channels.values():
                 schema = rec.schema_of(channel)
-                entry = topics.setdefault(channel.topic, {
-                    "topic": channel.topic, "type": schema.name if schema else "",
-                    "serialization_format": channel.message_encoding, "count": 0,
-                    "ln_topic": channel.metadata.get(TOPIC, ""), "ln_definition": channel.metadata.get(DEFINITION, "")})
+                entry = topics.setdefault(
+                    channel.topic,
+                    {
+                        "topic": channel.topic,
+                        "type": schema.name if schema else "",
+                        "serialization_format": channel.message_encoding,
+                        "count": 0,
+                        "ln_topic": channel.metadata.get(TOPIC, ""),
+                        "ln_definition": channel.metadata.get(DEFINITION, ""),
+                    },
+                )
                 entry["count"] += rec.counts.get(channel.id, 0)
     duration = (end - start) / 1e9 if messages else 0.0
     for entry in topics.values():
         entry["rate"] = entry["count"] / duration if duration > 0 else 0.0
-    return {"files": files, "size": size, "duration": duration, "start": start, "end": end,
-            "messages": messages, "topics": sorted(topics.values(), key=lambda t: t["topic"]),
-            "problems": problems}
+    return {
+        "files": files,
+        "size": size,
+        "duration": duration,
+        "start": start,
+        "end": end,
+        "messages": messages,
+        "topics": sorted(topics.values(), key=lambda t: t["topic"]),
+        "problems": problems,
+    }
 
 
 def run(cli):
@@ -78,18 +92,35 @@ def run(cli):
     if cli.json:
         out.json(info)
     else:
-        fields = [("files", ", ".join(info["files"])), ("size", human_bytes(info["size"])),
-                  ("duration", "%.9fs" % info["duration"])]
+        fields = [
+            ("files", ", ".join(info["files"])),
+            ("size", human_bytes(info["size"])),
+            ("duration", "%.9fs" % info["duration"]),
+        ]
         if info["messages"]:
             fields += [("start", _time(info["start"])), ("end", _time(info["end"]))]
         fields.append(("messages", info["messages"]))
         out.fields(fields)
         out.line()
-        out.table(("TOPIC", "TYPE", "COUNT", "RATE", "FORMAT", "LN TOPIC", "LN DEFINITION"),
-                  [(t["topic"], t["type"], t["count"], "%.2f Hz" % t["rate"], t["serialization_format"],
-                    t["ln_topic"] or "-", t["ln_definition"] or "-") for t in info["topics"]],
-                  numeric=(2, 3), empty="no topics")
+        out.table(
+            ("TOPIC", "TYPE", "COUNT", "RATE", "FORMAT", "LN TOPIC", "LN DEFINITION"),
+            [
+                (
+                    t["topic"],
+                    t["type"],
+                    t["count"],
+                    "%.2f Hz" % t["rate"],
+                    t["serialization_format"],
+                    t["ln_topic"] or "-",
+                    t["ln_definition"] or "-",
+                )
+                for t in info["topics"]
+            ],
+            numeric=(2, 3),
+            empty="no topics",
+        )
     for problem in info["problems"]:
-        sys.stderr.write("ln bag info: %s ('ln bag convert' rewrites what is readable into a complete file)\n"
-                         % problem)
+        sys.stderr.write(
+            "ln bag info: %s ('ln bag convert' rewrites what is readable into a complete file)\n" % problem
+        )
     return 0

@@ -67,6 +67,7 @@ def kind_of(path):
 
 # ------------------------------------------------------------------ definitions
 
+
 def parse_form(text, where):
     """LN 2.9's dict form of a definition, from its repr text."""
     if isinstance(text, bytes):
@@ -107,8 +108,12 @@ def definition_texts(name, form, service=False):
         head = ['define %s as "%s"' % (local, names[local].rsplit("/", 1)[-1]) for local in used]
         if len(sections) == 1:
             return "\n".join(head + field_lines(sections[0])) + "\n"
-        return "\n".join(["service", "request"] + head + field_lines(sections[0]) + ["response"] +
-                         field_lines(sections[1])) + "\n"
+        return (
+            "\n".join(
+                ["service", "request"] + head + field_lines(sections[0]) + ["response"] + field_lines(sections[1])
+            )
+            + "\n"
+        )
 
     texts[name] = text_of(form["fields"], form.get("resp_fields") or []) if service else text_of(form["fields"])
     for local, fields in defines.items():
@@ -117,6 +122,7 @@ def definition_texts(name, form, service=False):
 
 
 # ------------------------------------------------------------------------- pcap
+
 
 def _open_maybe_compressed(path):
     with open(path, "rb") as f:
@@ -148,7 +154,7 @@ class _Body:
         n = self.take("I")
         if self.at + n > len(self.data):
             raise BagError("%s: frame too short for a field of %d bytes" % (self.where, n))
-        value = self.data[self.at:self.at + n]
+        value = self.data[self.at : self.at + n]
         self.at += n
         return value.decode("utf-8", "replace")
 
@@ -156,7 +162,7 @@ class _Body:
         end = len(self.data) if n is None else self.at + n
         if end > len(self.data):
             raise BagError("%s: frame too short" % self.where)
-        value = self.data[self.at:end]
+        value = self.data[self.at : end]
         self.at = end
         return value
 
@@ -175,8 +181,10 @@ def read_pcap(path):
         if magic != PCAP_MAGIC:
             raise BagError("%s: not a pcap file (magic %#x)" % (path, magic))
         if link_type != PCAP_LINK_TYPE:
-            raise BagError("%s: a pcap file, but not an LN recording (link type %d, LN writes %d)"
-                           % (path, link_type, PCAP_LINK_TYPE))
+            raise BagError(
+                "%s: a pcap file, but not an LN recording (link type %d, LN writes %d)"
+                % (path, link_type, PCAP_LINK_TYPE)
+            )
         header = struct.Struct(order + "IIIII")
         version, topics, offset = 1, {}, 24
         while True:
@@ -233,7 +241,7 @@ def call_payload(item_type, flags, payload, where, order="<"):
     if len(payload) < 4 or struct.unpack(order + "I", bytes(payload[:4]))[0] != len(payload):
         raise BagError("%s: a service event whose length field does not match its %d bytes" % (where, len(payload)))
     if item_type == 0:
-        return "request", bytes(payload[4 + (CALL_HEADER_SIZE if flags & HAS_CALL_HEADER else 0):])
+        return "request", bytes(payload[4 + (CALL_HEADER_SIZE if flags & HAS_CALL_HEADER else 0) :])
     return "response", bytes(payload[8:])
 
 
@@ -243,6 +251,7 @@ def _call(key, item_type, flags, stamp, completion, request_id, client_id, paylo
 
 
 # ------------------------------------------------------------------------ lnrdb
+
 
 def _read_meta(path):
     meta = {}
@@ -270,6 +279,7 @@ class _Table:
 
     def __init__(self, directory):
         import numpy as np
+
         self.directory = directory
         self.meta = _read_meta(os.path.join(directory, "meta"))
         if self.meta.get("endianess", "little") != "little":
@@ -286,8 +296,11 @@ class _Table:
         size = os.path.getsize(data_path) if os.path.exists(data_path) else 0
         self.complete_rows = size // self.dtype.itemsize
         self.cut = size % self.dtype.itemsize
-        self.rows = np.fromfile(data_path, self.dtype, count=self.complete_rows) if self.complete_rows else \
-            np.empty(0, self.dtype)
+        self.rows = (
+            np.fromfile(data_path, self.dtype, count=self.complete_rows)
+            if self.complete_rows
+            else np.empty(0, self.dtype)
+        )
 
     @staticmethod
     def _numpy_fields(fields):
@@ -313,10 +326,12 @@ class _Table:
                 count, first = int(record[name]), int(record[name[:-4] + "_offset"])
                 table = self._sub_cache(path[:-4])
                 if first + count > len(table.rows):
-                    raise BagError("%s: rows %d..%d of a sub-table with %d rows (cut off?)"
-                                   % (table.directory, first, first + count, len(table.rows)))
+                    raise BagError(
+                        "%s: rows %d..%d of a sub-table with %d rows (cut off?)"
+                        % (table.directory, first, first + count, len(table.rows))
+                    )
                 out += struct.pack("<I", count)
-                for row in table.rows[first:first + count]:
+                for row in table.rows[first : first + count]:
                     out += table.flat(row)
             elif name.endswith("_offset") and path[:-7] in self.subtables:
                 continue
@@ -351,24 +366,48 @@ def read_lnrdb(path):
         if name.startswith("topics/"):
             key = ("topic", m["topic.id"])
             form = parse_form(m.get("topic.msg_def", ""), table.directory)
-            declarations.append(Topic(key, m["topic.name"], m["topic.md"], form, m.get("topic.msg_def_hash", ""),
-                                      m.get("topic.publisher", ""), m["topic.message_size"]))
+            declarations.append(
+                Topic(
+                    key,
+                    m["topic.name"],
+                    m["topic.md"],
+                    form,
+                    m.get("topic.msg_def_hash", ""),
+                    m.get("topic.publisher", ""),
+                    m["topic.message_size"],
+                )
+            )
             packet_bytes = table.dtype.itemsize - 16
             if packet_bytes != m["topic.message_size"]:
-                raise BagError("%s: rows of %d bytes do not hold packets of %d" % (table.directory,
-                                                                                  table.dtype.itemsize,
-                                                                                  m["topic.message_size"]))
+                raise BagError(
+                    "%s: rows of %d bytes do not hold packets of %d"
+                    % (table.directory, table.dtype.itemsize, m["topic.message_size"])
+                )
             raw = table.rows.tobytes()
             stride = table.dtype.itemsize
             for i, row in enumerate(table.rows):
-                events.append(Packet(key, float(row["timestamp"]), float(row["publisher_timestamp"]),
-                                     raw[i * stride + 16:(i + 1) * stride]))
+                events.append(
+                    Packet(
+                        key,
+                        float(row["timestamp"]),
+                        float(row["publisher_timestamp"]),
+                        raw[i * stride + 16 : (i + 1) * stride],
+                    )
+                )
         elif name.startswith("services/") and "service.req_or_resp" in m:
             key = ("service", m["service.name"], m["service.md"])
             form = parse_form(m.get("service.msg_def", ""), table.directory)
             if key not in {d.key for d in declarations}:
-                declarations.append(Service(key, m["service.name"], m["service.md"], form,
-                                            m.get("service.msg_def_hash", ""), m.get("service.client_name", "")))
+                declarations.append(
+                    Service(
+                        key,
+                        m["service.name"],
+                        m["service.md"],
+                        form,
+                        m.get("service.msg_def_hash", ""),
+                        m.get("service.client_name", ""),
+                    )
+                )
             request = m["service.req_or_resp"] == "req"
             for row in table.rows:
                 if request:
@@ -379,13 +418,24 @@ def read_lnrdb(path):
                     if count != 1 or first + 1 > len(response.rows):
                         raise BagError("%s: a response row without its data (cut off?)" % table.directory)
                     data = response.flat(response.rows[first])
-                events.append(Call(key, "request" if request else "response", float(row["timestamp"]),
-                                   float(row["completion_time"]), int(row["request_id"]),
-                                   int(m.get("service.req.client_id", 0)), data))
+                events.append(
+                    Call(
+                        key,
+                        "request" if request else "response",
+                        float(row["timestamp"]),
+                        float(row["completion_time"]),
+                        int(row["request_id"]),
+                        int(m.get("service.req.client_id", 0)),
+                        data,
+                    )
+                )
     if cut:
         import sys
-        sys.stderr.write("ln bag convert: %s: the last row of %s is incomplete (cut off while recording); "
-                         "converting the complete rows\n" % (path, ", ".join(cut)))
+
+        sys.stderr.write(
+            "ln bag convert: %s: the last row of %s is incomplete (cut off while recording); "
+            "converting the complete rows\n" % (path, ", ".join(cut))
+        )
     yield from declarations
     yield from sorted(events, key=lambda e: e.log_time)
 

@@ -14,8 +14,21 @@ import zlib
 
 from ._native import BagError
 
-_MI = {1: "i1", 2: "u1", 3: "i2", 4: "u2", 5: "i4", 6: "u4", 7: "f4", 9: "f8", 12: "i8", 13: "u8",
-       16: "u1", 17: "u2", 18: "u4"}
+_MI = {
+    1: "i1",
+    2: "u1",
+    3: "i2",
+    4: "u2",
+    5: "i4",
+    6: "u4",
+    7: "f4",
+    9: "f8",
+    12: "i8",
+    13: "u8",
+    16: "u1",
+    17: "u2",
+    18: "u4",
+}
 MI_MATRIX, MI_COMPRESSED = 14, 15
 _CLASS = {6: "f8", 7: "f4", 8: "i1", 9: "u1", 10: "i2", 11: "u2", 12: "i4", 13: "u4", 14: "i8", 15: "u8"}
 CELL, STRUCT, OBJECT, CHAR, SPARSE = 1, 2, 3, 4, 5
@@ -38,7 +51,7 @@ class _Reader:
             kind, size = first & 0xFFFF, first >> 16
             if size > 4:
                 self.fail("a small data element of %d bytes" % size)
-            body = self.data[self.at + 4:self.at + 4 + size]
+            body = self.data[self.at + 4 : self.at + 4 + size]
             self.at += 8
             return kind, body
         kind, size = first, second
@@ -48,11 +61,12 @@ class _Reader:
         self.at = start + size
         if kind != MI_COMPRESSED:
             self.at += (-size) % 8
-        return kind, self.data[start:start + size]
+        return kind, self.data[start : start + size]
 
 
 def _array(kind, body, order, path):
     import numpy as np
+
     if kind not in _MI:
         raise BagError("%s: data of element type %d, which a numeric array cannot hold" % (path, kind))
     return np.frombuffer(body, np.dtype(_MI[kind]).newbyteorder(order))
@@ -61,6 +75,7 @@ def _array(kind, body, order, path):
 def _matrix(body, order, path):
     """(name, value) of a miMATRIX element's body."""
     import numpy as np
+
     r = _Reader(body, order, path)
     if not body:
         return "", np.empty((0, 0))
@@ -85,8 +100,10 @@ def _matrix(body, order, path):
         value[:] = cells
         return name, value.reshape(dims, order="F")
     if array_class in (STRUCT, OBJECT, SPARSE):
-        raise BagError("%s: variable '%s' is a %s array, which LN logger files do not hold"
-                       % (path, name, {STRUCT: "struct", OBJECT: "object", SPARSE: "sparse"}[array_class]))
+        raise BagError(
+            "%s: variable '%s' is a %s array, which LN logger files do not hold"
+            % (path, name, {STRUCT: "struct", OBJECT: "object", SPARSE: "sparse"}[array_class])
+        )
     if array_class == CHAR:
         kind, data = r.element()
         text = "".join(chr(c) for c in _array(kind, data, order, path))

@@ -69,6 +69,7 @@ def _split_schema(name, text):
 def installed_ln_names(ros_type):
     """LN definitions an installed ln_ros2_gen package (share/<pkg>/ln_mapping.json) generated `ros_type` from."""
     import msg_mapping
+
     names = []
     for share in msg_mapping.ros_share_dirs():
         for path in sorted(glob.glob(os.path.join(share, "*", "ln_mapping.json"))):
@@ -87,11 +88,11 @@ class Player:
     def __init__(self, cli, rec):
         self.cli, self.rec = cli, rec
         self.clnt = cli.client()
-        self.topics = {}        # channel id -> (LN topic, definition, decode, port)
-        self.skipped = {}       # ROS topic -> why
-        self.texts = {}         # LN texts fetched from the manager
+        self.topics = {}  # channel id -> (LN topic, definition, decode, port)
+        self.skipped = {}  # ROS topic -> why
+        self.texts = {}  # LN texts fetched from the manager
         self.capacities = {}
-        self.put = set()        # definitions handed to the manager
+        self.put = set()  # definitions handed to the manager
         self._ros_dirs = None
 
     # -------------------------------------------------------------- resolving
@@ -102,14 +103,19 @@ class Player:
             self.ensure_known(mapping.texts, mapping.ln_name, mapping.ln_hash)
             return channel.metadata[TOPIC], mapping.ln_name + "|" + mapping.ln_hash, mapping.cdr_to_ln
         if channel.message_encoding != "cdr" or schema is None or schema.encoding != "ros2msg":
-            raise Skipped("messages in '%s' with %s schema: only ROS 2 CDR (ros2msg) can be played"
-                          % (channel.message_encoding, schema.encoding if schema else "no"))
+            raise Skipped(
+                "messages in '%s' with %s schema: only ROS 2 CDR (ros2msg) can be played"
+                % (channel.message_encoding, schema.encoding if schema else "no")
+            )
         ln_topic = ln_name_for(channel.topic)
         schema_text = schema.data.decode("utf-8", "replace")
         for md_name in self.ln_candidates(ln_topic, schema.name):
             mapping = self.ln_mapping(md_name)
-            if mapping is not None and mapping.ros_type == schema.name and \
-                    _fields(mapping.schema) == _fields(schema_text):
+            if (
+                mapping is not None
+                and mapping.ros_type == schema.name
+                and _fields(mapping.schema) == _fields(schema_text)
+            ):
                 return ln_topic, mapping.ln_name + "|" + mapping.ln_hash, mapping.cdr_to_ln
         return (ln_topic,) + self.ros_to_ln(schema.name, schema_text)
 
@@ -117,7 +123,7 @@ class Player:
         candidates = []
         try:
             candidates.append(self.clnt.get_message_definition_for_topic(ln_topic)[0])
-        except Exception:  # noqa: BLE001 - no such LN topic (yet)
+        except Exception:
             pass
         return candidates + installed_ln_names(ros_type)
 
@@ -127,15 +133,17 @@ class Player:
 
         def fetch(missing):
             self.texts[missing] = self.clnt.get_message_definition_text(missing)
+
         try:
             return load_fetching(lambda name: TopicMapping(name, dict(self.texts)), md_name, fetch, set())
-        except Exception:  # noqa: BLE001 - not a usable candidate
+        except Exception:
             return None
 
     def ros_to_ln(self, ros_type, schema_text):
         """(LN definition, decode) of msg_mapping's LN form of a ROS message type,
         from the .msg texts the recording carries."""
         import msg_mapping
+
         if self._ros_dirs is None:
             self._ros_dirs = tempfile.mkdtemp(prefix="ln_play_msgs-")
         for full, text in _split_schema(ros_type, schema_text).items():
@@ -150,7 +158,7 @@ class Player:
             ln_name = ros.add(ros_type)["ln_name"]
             codec = ros.codec(ros_type)
             texts = ros.definitions()
-        except Exception as error:  # noqa: BLE001 - msg_mapping's errors name the type and field
+        except Exception as error:
             raise Skipped("ROS type %s has no LN form: %s" % (ros_type, str(error).splitlines()[0])) from None
         mapping_hash = self.ensure_known(texts, ln_name, None)
         return ln_name + "|" + mapping_hash, codec.cdr_to_ln
@@ -163,23 +171,27 @@ class Player:
                 continue
             try:
                 known = self.clnt.get_message_definition_text(name)
-            except Exception:  # noqa: BLE001 - the manager does not know it
+            except Exception:
                 known = None
             if known is None:
                 try:
                     self.clnt.put_message_definition(name, texts[name])
-                except Exception as error:  # noqa: BLE001
-                    raise Skipped("the manager does not take definition '%s': %s" % (name, lnerror_text(error)))
+                except Exception as error:
+                    raise Skipped(
+                        "the manager does not take definition '%s': %s" % (name, lnerror_text(error))
+                    ) from error
             self.put.add(name)
         manager_hash = self.clnt.get_message_definition(md_name)[2]
         if md_hash and manager_hash != md_hash:
-            raise Skipped("the manager's definition '%s' has hash %s, the recording's %s (the definition changed "
-                          "since the recording; an LN system with the recorded one is needed)"
-                          % (md_name, manager_hash, md_hash))
+            raise Skipped(
+                "the manager's definition '%s' has hash %s, the recording's %s (the definition changed "
+                "since the recording; an LN system with the recorded one is needed)" % (md_name, manager_hash, md_hash)
+            )
         return manager_hash
 
     def prepare(self, wanted):
         import links_and_nodes as ln
+
         for channel in sorted(self.rec.channels.values(), key=lambda c: c.topic):
             names = {channel.topic, channel.metadata.get(TOPIC, ""), ln_name_for(channel.topic)}
             if wanted is not None and not names & wanted:
@@ -196,8 +208,11 @@ class Player:
                 continue
             self.topics[channel.id] = [ln_topic, md_name.split("|")[0], decode, port, 0]
         if wanted is not None:
-            known = {n for c in self.rec.channels.values()
-                     for n in (c.topic, c.metadata.get(TOPIC, ""), ln_name_for(c.topic))}
+            known = {
+                n
+                for c in self.rec.channels.values()
+                for n in (c.topic, c.metadata.get(TOPIC, ""), ln_name_for(c.topic))
+            }
             for name in sorted(wanted - known):
                 self.note("the recording has no topic '%s'" % name)
 
@@ -236,10 +251,11 @@ class Player:
             topic = self.topics[channel.id]
             try:
                 packet = topic[2](message.data)
-            except Exception as error:  # noqa: BLE001 - a message the LN form cannot hold
+            except Exception as error:
                 if channel.topic not in bad:
-                    self.note("skipping messages of %s that do not convert: %s"
-                              % (channel.topic, str(error).splitlines()[0]))
+                    self.note(
+                        "skipping messages of %s that do not convert: %s" % (channel.topic, str(error).splitlines()[0])
+                    )
                 bad[channel.topic] = bad.get(channel.topic, 0) + 1
                 continue
             stamp = seconds_from_ns(message.publish_time) if message.publish_time else None
@@ -260,8 +276,10 @@ class Progress:
         if not self.enabled or time.monotonic() < self.next:
             return
         self.next = time.monotonic() + PROGRESS_PERIOD
-        sys.stderr.write("\rplaying %s  %s of %s  %d messages\033[K" % (
-            self.path, human_duration(time.monotonic() - self.started), human_duration(self.duration), self.count))
+        sys.stderr.write(
+            "\rplaying %s  %s of %s  %d messages\033[K"
+            % (self.path, human_duration(time.monotonic() - self.started), human_duration(self.duration), self.count)
+        )
         sys.stderr.flush()
 
     def clear(self):
@@ -297,8 +315,10 @@ def run(cli):
     try:
         player.prepare(set(args.topics) if args.topics else None)
         if not player.topics:
-            raise CliError("nothing to play in %s" % args.file,
-                           "see 'ln bag info %s'" % args.file if not args.topics else "check --topics")
+            raise CliError(
+                "nothing to play in %s" % args.file,
+                "see 'ln bag info %s'" % args.file if not args.topics else "check --topics",
+            )
         player.wait_for_subscribers(args.wait)
         start_ns = rec.start_time + int(args.start * 1e9)
         progress = Progress(sys.stderr.isatty() and not cli.json, args.file, (rec.end_time - start_ns) / 1e9)
@@ -317,12 +337,18 @@ def run(cli):
     finally:
         player.close()
         rec.close()
-    summary = {"file": args.file, "messages": progress.count, "interrupted": interrupted,
-               "topics": [{"ln_topic": t[0], "definition": t[1], "messages": t[4]} for t in player.topics.values()],
-               "skipped": player.skipped}
+    summary = {
+        "file": args.file,
+        "messages": progress.count,
+        "interrupted": interrupted,
+        "topics": [{"ln_topic": t[0], "definition": t[1], "messages": t[4]} for t in player.topics.values()],
+        "skipped": player.skipped,
+    }
     if cli.json:
         cli.out.json(summary)
     else:
-        cli.out.line("played %d messages of %d topics from %s%s" % (
-            progress.count, len(player.topics), args.file, " (interrupted)" if interrupted else ""))
+        cli.out.line(
+            "played %d messages of %d topics from %s%s"
+            % (progress.count, len(player.topics), args.file, " (interrupted)" if interrupted else "")
+        )
     return 0

@@ -42,16 +42,17 @@ class Recording:
         head = self._file.read(len(MAGIC))
         if head != MAGIC:
             self._file.close()
-            raise BagError("%s is not an MCAP file (%s)" % (
-                path, "it is empty" if not head else "it starts with %r" % head[:8]))
+            raise BagError(
+                "%s is not an MCAP file (%s)" % (path, "it is empty" if not head else "it starts with %r" % head[:8])
+            )
         self.size = os.path.getsize(path)
-        self.schemas = {}         # id -> mcap Schema
-        self.channels = {}        # id -> mcap Channel
-        self.counts = {}          # channel id -> messages
+        self.schemas = {}  # id -> mcap Schema
+        self.channels = {}  # id -> mcap Channel
+        self.counts = {}  # channel id -> messages
         self.message_count = 0
         self.start_time = self.end_time = 0
         self.indexed = False
-        self.problem = None       # why only part of the file is readable
+        self.problem = None  # why only part of the file is readable
         self._read_summary() or self._scan()
 
     def close(self):
@@ -105,8 +106,12 @@ class Recording:
                     continue
                 yield record
         except DAMAGE as error:
-            self.problem = "%s: %s; read up to byte %d of %d" % (self.path, describe_damage(error),
-                                                                self._file.tell(), self.size)
+            self.problem = "%s: %s; read up to byte %d of %d" % (
+                self.path,
+                describe_damage(error),
+                self._file.tell(),
+                self.size,
+            )
 
     # ------------------------------------------------------------- messages
     def messages(self, channel_ids=None, start_time=None):
@@ -118,19 +123,24 @@ class Recording:
             self._file.seek(0)
             try:
                 for _, channel, message in SeekingReader(self._file).iter_messages(
-                        topics=topics, start_time=start_time, log_time_order=True):
+                    topics=topics, start_time=start_time, log_time_order=True
+                ):
                     if wanted is None or channel.id in wanted:
                         yield channel, message
             except DAMAGE as error:
                 raise BagError("%s: %s" % (self.path, describe_damage(error))) from None
             return
         for record in self._records():
-            if isinstance(record, Message) and (wanted is None or record.channel_id in wanted) and \
-                    (start_time is None or record.log_time >= start_time):
+            if (
+                isinstance(record, Message)
+                and (wanted is None or record.channel_id in wanted)
+                and (start_time is None or record.log_time >= start_time)
+            ):
                 channel = self.channels.get(record.channel_id)
                 if channel is None:
-                    raise BagError("%s: a message on channel %d, which the file never declares"
-                                   % (self.path, record.channel_id))
+                    raise BagError(
+                        "%s: a message on channel %d, which the file never declares" % (self.path, record.channel_id)
+                    )
                 yield channel, record
 
     def schema_of(self, channel):

@@ -72,8 +72,8 @@ class Definitions:
     def mapping(self, md_name, part=""):
         def fetch(missing):
             self.texts[missing] = self.clnt.get_message_definition_text(missing)
-        return load_fetching(lambda name: TopicMapping(name, dict(self.texts), part=part), md_name, fetch,
-                             self.fetched)
+
+        return load_fetching(lambda name: TopicMapping(name, dict(self.texts), part=part), md_name, fetch, self.fetched)
 
 
 def output_paths(args):
@@ -101,15 +101,20 @@ class Session:
         self.clnt = cli.client()
         self.definitions = Definitions(self.clnt)
         self.selection = Selection(self.args.topics, self.args.all, self.args.exclude)
-        self.topics = {}      # LN topic -> ROS type
-        self.failed = {}      # LN topic -> why it is not recorded
+        self.topics = {}  # LN topic -> ROS type
+        self.failed = {}  # LN topic -> why it is not recorded
         self.waiting_said = set()
         self.progress = Progress(sys.stderr.isatty() and not cli.json)
         self.services = None
         try:
             self.writer = McapWriter(path)
-            self.recorder = Recorder(self.writer, cli.manager_address, client_name="ln_record",
-                                     max_messages=self.args.count or 0, max_seconds=self.args.duration or 0.0)
+            self.recorder = Recorder(
+                self.writer,
+                cli.manager_address,
+                client_name="ln_record",
+                max_messages=self.args.count or 0,
+                max_seconds=self.args.duration or 0.0,
+            )
         except BagError as error:
             raise CliError(str(error)) from None
 
@@ -130,12 +135,19 @@ class Session:
         try:
             mapping = self.definitions.mapping(md_name)
             if topic.hash and mapping.ln_hash != topic.hash:
-                raise BagError("the manager's text of '%s' has hash %s, but the topic uses %s"
-                               % (md_name, mapping.ln_hash, topic.hash))
+                raise BagError(
+                    "the manager's text of '%s' has hash %s, but the topic uses %s"
+                    % (md_name, mapping.ln_hash, topic.hash)
+                )
             buffers = self.args.buffers or buffers_for(topic.rate, mapping.packet_size)
-            self.recorder.add_topic(topic.name, ros_topic_for(topic.name), mapping,
-                                    channel_metadata(topic.name, mapping, topic.publisher), buffers)
-        except Exception as error:  # noqa: BLE001 - one topic's problem must not end the recording
+            self.recorder.add_topic(
+                topic.name,
+                ros_topic_for(topic.name),
+                mapping,
+                channel_metadata(topic.name, mapping, topic.publisher),
+                buffers,
+            )
+        except Exception as error:
             self.failed[topic.name] = str(error).strip().splitlines()[0]
             self.note("not recording topic '%s': %s" % (topic.name, self.failed[topic.name]))
             return
@@ -156,8 +168,8 @@ class ServiceCallWriter:
 
     def __init__(self, session):
         self.session = session
-        self.channels = {}     # (service, interface, part) -> (channel id, mapping)
-        self.counts = {}       # service -> messages recorded (requests + responses)
+        self.channels = {}  # (service, interface, part) -> (channel id, mapping)
+        self.counts = {}  # service -> messages recorded (requests + responses)
 
     def record(self, service, interface, client, item_type, flags, request_id, completion_time, payload):
         log_time = time.time_ns()
@@ -166,11 +178,14 @@ class ServiceCallWriter:
         if key not in self.channels:
             mapping = self.session.definitions.mapping(interface, part)
             metadata = channel_metadata(service, mapping, client if part == "response" else None, part)
-            self.channels[key] = (self.session.recorder.add_channel(ros_topic_for(service, part), mapping, metadata),
-                                  mapping)
+            self.channels[key] = (
+                self.session.recorder.add_channel(ros_topic_for(service, part), mapping, metadata),
+                mapping,
+            )
         channel, mapping = self.channels[key]
-        self.session.recorder.post_message(channel, request_id & 0xFFFFFFFF, log_time,
-                                           ns_from_seconds(completion_time), mapping.ln_to_cdr(flat))
+        self.session.recorder.post_message(
+            channel, request_id & 0xFFFFFFFF, log_time, ns_from_seconds(completion_time), mapping.ln_to_cdr(flat)
+        )
         self.counts[service] = self.counts.get(service, 0) + 1
 
 
@@ -185,7 +200,7 @@ class ServiceCalls(ServiceCallWriter):
         ServiceCallWriter.__init__(self, session)
         clnt = session.clnt
         self.name = clnt.name + ".log_service"
-        self.failed = {}       # service -> why its calls are not recorded
+        self.failed = {}  # service -> why its calls are not recorded
         self.provider = clnt.get_service_provider(self.name, "ln/log_service")
         self.provider.set_handler(self.handle)
         self.provider.do_register(self.GROUP)
@@ -194,13 +209,21 @@ class ServiceCalls(ServiceCallWriter):
 
     def handle(self, request, req, resp):
         import numpy as np
+
         service = str(req.service_name)
         if service not in self.failed and self.session.selection.wants_service(service):
             try:
-                self.record(service, str(req.service_interface), str(req.client_name), int(req.item_type),
-                            int(req.flags), int(req.request_id), float(req.completion_time),
-                            np.asarray(req.data, dtype=np.uint8).tobytes())
-            except Exception as error:  # noqa: BLE001 - one service's problem must not end the recording
+                self.record(
+                    service,
+                    str(req.service_interface),
+                    str(req.client_name),
+                    int(req.item_type),
+                    int(req.flags),
+                    int(req.request_id),
+                    float(req.completion_time),
+                    np.asarray(req.data, dtype=np.uint8).tobytes(),
+                )
+            except Exception as error:
                 self.failed[service] = str(error).strip().splitlines()[0]
                 self.session.note("not recording calls of service '%s': %s" % (service, self.failed[service]))
         resp.error_message = ""
@@ -228,14 +251,18 @@ class Progress:
         total = sum(s["messages"] for s in stats)
         size = sum(s["bytes"] for s in stats)
         lost = sum(s["lost"] for s in stats)
-        lines = ["recording %s  %s  %d messages  %s  %d topics  lost %d"
-                 % (path, human_duration(seconds), total, human_bytes(size), len(stats), lost)]
-        shown = sorted(stats, key=lambda s: (-s["lost"], s["topic"]))[:self.MAX_TOPIC_LINES]
+        lines = [
+            "recording %s  %s  %d messages  %s  %d topics  lost %d"
+            % (path, human_duration(seconds), total, human_bytes(size), len(stats), lost)
+        ]
+        shown = sorted(stats, key=lambda s: (-s["lost"], s["topic"]))[: self.MAX_TOPIC_LINES]
         width = max((len(s["topic"]) for s in shown), default=0)
         for s in shown:
             error = "  (%s)" % s["error"] if s["error"] else ""
-            lines.append("  %-*s  %9d msgs  %10s  lost %d%s"
-                         % (width, s["topic"], s["messages"], human_bytes(s["bytes"]), s["lost"], error))
+            lines.append(
+                "  %-*s  %9d msgs  %10s  lost %d%s"
+                % (width, s["topic"], s["messages"], human_bytes(s["bytes"]), s["lost"], error)
+            )
         if len(stats) > len(shown):
             lines.append("  ... %d more topics" % (len(stats) - len(shown)))
         self.clear()
@@ -274,8 +301,11 @@ def run(cli):
             os.rmdir(bag_dir)
         if session is not None and not isinstance(error, CliError):
             from links_and_nodes.cli.common import describe_error
-            raise CliError("--services: cannot record service calls: %s" % describe_error(error),
-                           "the manager's service logging (ln_register_as_service_logger) is needed") from None
+
+            raise CliError(
+                "--services: cannot record service calls: %s" % describe_error(error),
+                "the manager's service logging (ln_register_as_service_logger) is needed",
+            ) from None
         raise
     previous_term = signal.signal(signal.SIGTERM, _interrupt)
     started = time.monotonic()
@@ -316,22 +346,42 @@ def _interrupt(signum, frame):
 
 def report(cli, path, bag_dir, seconds, stats, session, interrupted, written):
     out = cli.out
-    summary = {"file": path, "rosbag2": bag_dir, "seconds": round(seconds, 3), "interrupted": interrupted,
-               "file_bytes": written["file_bytes"], "write_seconds": round(written["write_seconds"], 6),
-               "messages": sum(s["messages"] for s in stats), "bytes": sum(s["bytes"] for s in stats),
-               "lost": sum(s["lost"] for s in stats),
-               "topics": [dict(s, type=session.topics.get(s["topic"], "")) for s in stats],
-               "not_recorded": session.failed}
+    summary = {
+        "file": path,
+        "rosbag2": bag_dir,
+        "seconds": round(seconds, 3),
+        "interrupted": interrupted,
+        "file_bytes": written["file_bytes"],
+        "write_seconds": round(written["write_seconds"], 6),
+        "messages": sum(s["messages"] for s in stats),
+        "bytes": sum(s["bytes"] for s in stats),
+        "lost": sum(s["lost"] for s in stats),
+        "topics": [dict(s, type=session.topics.get(s["topic"], "")) for s in stats],
+        "not_recorded": session.failed,
+    }
     if session.services:
         summary["services"] = dict(session.services.counts)
         summary["not_recorded"] = dict(session.failed, **session.services.failed)
     if cli.json:
         out.json(summary)
         return
-    out.line("recorded %d messages (%s) of %d topics in %s to %s%s"
-             % (summary["messages"], human_bytes(summary["bytes"]), len(stats), human_duration(seconds),
-                bag_dir or path, ", lost %d" % summary["lost"] if summary["lost"] else ""))
+    out.line(
+        "recorded %d messages (%s) of %d topics in %s to %s%s"
+        % (
+            summary["messages"],
+            human_bytes(summary["bytes"]),
+            len(stats),
+            human_duration(seconds),
+            bag_dir or path,
+            ", lost %d" % summary["lost"] if summary["lost"] else "",
+        )
+    )
     if stats:
-        out.table(("TOPIC", "TYPE", "MESSAGES", "BYTES", "LOST"),
-                  [(s["topic"], session.topics.get(s["topic"], ""), s["messages"], human_bytes(s["bytes"]), s["lost"])
-                   for s in sorted(stats, key=lambda s: s["topic"])], numeric=(2, 3, 4))
+        out.table(
+            ("TOPIC", "TYPE", "MESSAGES", "BYTES", "LOST"),
+            [
+                (s["topic"], session.topics.get(s["topic"], ""), s["messages"], human_bytes(s["bytes"]), s["lost"])
+                for s in sorted(stats, key=lambda s: s["topic"])
+            ],
+            numeric=(2, 3, 4),
+        )

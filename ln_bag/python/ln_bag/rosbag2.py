@@ -25,13 +25,18 @@ def write_metadata(directory, mcap_path):
         topics = []
         for channel in sorted(rec.channels.values(), key=lambda c: c.topic):
             schema = rec.schema_of(channel)
-            topics.append({"topic_metadata": {
-                "name": channel.topic,
-                "type": schema.name if schema else "",
-                "serialization_format": channel.message_encoding,
-                "offered_qos_profiles": yaml.safe_load(channel.metadata.get("offered_qos_profiles", "")) or [],
-                "type_description_hash": "",
-            }, "message_count": rec.counts.get(channel.id, 0)})
+            topics.append(
+                {
+                    "topic_metadata": {
+                        "name": channel.topic,
+                        "type": schema.name if schema else "",
+                        "serialization_format": channel.message_encoding,
+                        "offered_qos_profiles": yaml.safe_load(channel.metadata.get("offered_qos_profiles", "")) or [],
+                        "type_description_hash": "",
+                    },
+                    "message_count": rec.counts.get(channel.id, 0),
+                }
+            )
         duration = max(0, rec.end_time - rec.start_time)
         relative = os.path.relpath(mcap_path, directory)
         information = {
@@ -44,8 +49,14 @@ def write_metadata(directory, mcap_path):
             "topics_with_message_count": topics,
             "compression_format": "",
             "compression_mode": "",
-            "files": [{"path": relative, "starting_time": {"nanoseconds_since_epoch": rec.start_time},
-                       "duration": {"nanoseconds": duration}, "message_count": rec.message_count}],
+            "files": [
+                {
+                    "path": relative,
+                    "starting_time": {"nanoseconds_since_epoch": rec.start_time},
+                    "duration": {"nanoseconds": duration},
+                    "message_count": rec.message_count,
+                }
+            ],
             "custom_data": {"recorded_by": "ln_core ln record"},
             "ros_distro": "jazzy",
         }

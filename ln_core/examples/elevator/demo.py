@@ -37,8 +37,10 @@ def main():
     args = parser.parse_args()
 
     work = Path(tempfile.mkdtemp(prefix="elevator-demo-"))
-    print("demo: network %s; logs in %s" % ("isolated (netns)" if ros_testing.network_is_isolated()
-                                            else "NOT isolated (LOCALHOST DDS settings)", work))
+    print(
+        "demo: network %s; logs in %s"
+        % ("isolated (netns)" if ros_testing.network_is_isolated() else "NOT isolated (LOCALHOST DDS settings)", work)
+    )
     print("demo: ROS 2 interfaces for the elevator definitions (ln_ros2_gen + colcon, cached)")
     install = ros_testing.build_interfaces([MSGDEFS], "elevator", log=str(work / "interfaces.log"))
     ros_env = ros_testing.interface_env(install)
@@ -72,12 +74,16 @@ def main():
                     raise SystemExit("demo: --%s cpp needs --cpp-dir (build.sh %s DIR)" % (role, args.ln))
                 cmd = [Path(args.cpp_dir) / ("elevator_%s" % role)]
             launch("elevator_%s.%s" % (role, lang), cmd, ln_env, ready="ready")
-        launch("ln_ros2_bridge", [sys.executable, "-m", "ln_ros2_bridge", "--config", HERE / "bridge.yaml",
-                                  "--ln-manager", system.address],
-               ln_env, ready="bridging service elevator03.prompt")
+        launch(
+            "ln_ros2_bridge",
+            [sys.executable, "-m", "ln_ros2_bridge", "--config", HERE / "bridge.yaml", "--ln-manager", system.address],
+            ln_env,
+            ready="bridging service elevator03.prompt",
+        )
         print("demo: ROS 2 listener (rclpy, no LN) ...")
-        listener = launch("ros_listener", [sys.executable, HERE / "ros_listener.py", "--floor", str(args.floor)],
-                          ros_env)
+        listener = launch(
+            "ros_listener", [sys.executable, HERE / "ros_listener.py", "--floor", str(args.floor)], ros_env
+        )
         try:
             status = listener.wait(timeout=120)
         except Exception:
@@ -95,6 +101,7 @@ def main():
                 print("---- %s (tail) ----\n%s" % (name, ln_testing.tail(work / ("%s.log" % name), 15)))
         if not args.keep and status == 0:
             import shutil
+
             shutil.rmtree(work, ignore_errors=True)
     print("demo: %s" % ("PASSED" if status == 0 else "FAILED"))
     return status
@@ -107,6 +114,7 @@ def run_with_lnc(args, work, ros_env):
     stops the manager, which stops them all in reverse order."""
     import signal
     import time
+
     manager_exe, package = ln_testing.LnCore.locate()
     env = dict(ros_env, ELEVATOR_SIM=args.sim, ELEVATOR_CONTROL=args.control, ELEVATOR_FLOOR=str(args.floor))
     env["PYTHONPATH"] = os.pathsep.join(p for p in [package, env.get("PYTHONPATH", "")] if p)
@@ -123,6 +131,7 @@ def run_with_lnc(args, work, ros_env):
         os.environ["PYTHONPATH"] = env["PYTHONPATH"]
         sys.path.insert(0, package)
         import links_and_nodes as ln
+
         clnt = ln.client("elevator_demo", address)
         try:
             seen = {}
@@ -138,7 +147,7 @@ def run_with_lnc(args, work, ros_env):
                         listener = p
                 if listener is not None and listener.state in ("stopped", "failed") and listener.last_exit:
                     break
-                time.sleep(0.1)   # watching the manager's account of its processes
+                time.sleep(0.1)  # watching the manager's account of its processes
             print("demo: ros_listener's output:")
             for line in clnt.get_process_output("ros_listener").lines:
                 if not line.startswith("[ln_manager]"):
@@ -148,8 +157,10 @@ def run_with_lnc(args, work, ros_env):
             elif listener.last_exit == "exit status 0":
                 status = 0
             else:
-                print("demo: the listener ended with %s%s" % (listener.last_exit,
-                                                              ": " + listener.error if listener.error else ""))
+                print(
+                    "demo: the listener ended with %s%s"
+                    % (listener.last_exit, ": " + listener.error if listener.error else "")
+                )
         finally:
             clnt.close()
     finally:
@@ -163,6 +174,7 @@ def run_with_lnc(args, work, ros_env):
     print("demo: %s" % ("PASSED" if status == 0 else "FAILED"))
     if status == 0 and not args.keep:
         import shutil
+
         shutil.rmtree(work, ignore_errors=True)
     return status
 

@@ -18,8 +18,8 @@
 namespace {
 volatile std::sig_atomic_t stop_requested = 0;
 void on_signal(int) { stop_requested = 1; }
-constexpr double max_speed = 2.0;   // floors per second
-constexpr double arrived = 0.005;   // floors
+constexpr double max_speed = 2.0;  // floors per second
+constexpr double arrived = 0.005;  // floors
 }  // namespace
 
 class ElevatorServer : public elevator::request::elevator_call_base {
@@ -97,8 +97,10 @@ int main(int argc, char* argv[]) {
   double move_timeout = 30.0;
   for (int i = 1; i + 1 < argc; ++i) {
     const std::string arg = argv[i];
-    if (arg == "--floors") floors = std::atoi(argv[++i]);
-    else if (arg == "--move-timeout") move_timeout = std::atof(argv[++i]);
+    if (arg == "--floors")
+      floors = std::atoi(argv[++i]);
+    else if (arg == "--move-timeout")
+      move_timeout = std::atof(argv[++i]);
   }
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);

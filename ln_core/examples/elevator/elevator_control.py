@@ -17,8 +17,8 @@ import time
 
 import links_and_nodes as ln
 
-MAX_SPEED = 2.0      # floors per second
-ARRIVED = 0.005      # floors
+MAX_SPEED = 2.0  # floors per second
+ARRIVED = 0.005  # floors
 
 
 def main():
@@ -53,7 +53,7 @@ def main():
         while time.monotonic() < deadline and not stop:
             state = sensors.read(1.0) or state
             if state is None:
-                break   # no simulator
+                break  # no simulator
             distance = target - state.position
             if abs(distance) < ARRIVED and state.at_floor:
                 command(0, 0.0)
@@ -66,8 +66,9 @@ def main():
         resp.reached_floor = reached
         if reached != target:
             resp.error_code = 2
-            resp.error_message = "no sensor data" if state is None else \
-                "did not reach floor %d in %.0f s" % (target, args.move_timeout)
+            resp.error_message = (
+                "no sensor data" if state is None else "did not reach floor %d in %.0f s" % (target, args.move_timeout)
+            )
         print("elevator_control: call for floor %d -> %d" % (target, reached), flush=True)
         request.respond()
         return 0

@@ -27,9 +27,12 @@ int main(int argc, char* argv[]) {
   double rate = 50.0, duration = 0.0;
   for (int i = 1; i + 1 < argc; ++i) {
     const std::string arg = argv[i];
-    if (arg == "--floors") floors = std::atoi(argv[++i]);
-    else if (arg == "--rate") rate = std::atof(argv[++i]);
-    else if (arg == "--duration") duration = std::atof(argv[++i]);
+    if (arg == "--floors")
+      floors = std::atoi(argv[++i]);
+    else if (arg == "--rate")
+      rate = std::atof(argv[++i]);
+    else if (arg == "--duration")
+      duration = std::atof(argv[++i]);
   }
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
@@ -43,9 +46,9 @@ int main(int argc, char* argv[]) {
   using clock = std::chrono::steady_clock;
   const auto dt = std::chrono::duration<double>(1.0 / rate);
   auto next_step = clock::now();
-  const auto end = duration > 0 ? next_step + std::chrono::duration_cast<clock::duration>(
-                                                  std::chrono::duration<double>(duration))
-                                : clock::time_point::max();
+  const auto end =
+      duration > 0 ? next_step + std::chrono::duration_cast<clock::duration>(std::chrono::duration<double>(duration))
+                   : clock::time_point::max();
   double position = 0.0, sim_time = 0.0, speed = 0.0;
   int direction = 0;
   while (!stop_requested && clock::now() < end) {

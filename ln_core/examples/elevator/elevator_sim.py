@@ -16,8 +16,8 @@ import time
 
 import links_and_nodes as ln
 
-AT_FLOOR = 1e-3      # |position - floor| below this counts as level with the floor
-SNAP = 0.02          # a stopped car this close to a floor is pulled level (the brakes)
+AT_FLOOR = 1e-3  # |position - floor| below this counts as level with the floor
+SNAP = 0.02  # a stopped car this close to a floor is pulled level (the brakes)
 
 
 def main():

@@ -20,7 +20,7 @@ def main():
     clnt = ln.client("elevator_ui", [sys.argv[0]] + ln_args)
     service = clnt.get_service("elevator03.prompt", "elevator/request/elevator_call")
     failures = 0
-    for text in (args.floors or (line.strip() for line in sys.stdin)):
+    for text in args.floors or (line.strip() for line in sys.stdin):
         try:
             floor = int(text)
         except ValueError:

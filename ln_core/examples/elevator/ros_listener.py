@@ -14,11 +14,10 @@ import threading
 import time
 
 import rclpy
-from rclpy.executors import SingleThreadedExecutor
-from rclpy.qos import qos_profile_sensor_data
-
 from elevator_ln_msgs.msg import SensorsFloorCount
 from elevator_ln_msgs.srv import RequestElevatorCall
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.qos import qos_profile_sensor_data
 
 
 def main():
@@ -40,20 +39,23 @@ def main():
     def spin():
         while not stop.is_set():
             executor.spin_once(timeout_sec=0.05)
+
     spinner = threading.Thread(target=spin, daemon=True)
     spinner.start()
     ok = True
     try:
         deadline = time.monotonic() + args.timeout
         while len(samples) < args.samples and time.monotonic() < deadline:
-            time.sleep(0.02)   # the executor thread fills `samples`
+            time.sleep(0.02)  # the executor thread fills `samples`
         if len(samples) < args.samples:
             print("listener: only %d sensor samples within %.0f s" % (len(samples), args.timeout))
             return 1
         first, last = samples[0], samples[args.samples - 1]
         rate = (args.samples - 1) / max(1e-9, last.time - first.time)
-        print("listener: %d samples on /elevator03/sensors (simulated %.0f Hz), last: time=%.2f position=%.2f "
-              "floor=%d at_floor=%d" % (len(samples), rate, last.time, last.position, last.floor, last.at_floor))
+        print(
+            "listener: %d samples on /elevator03/sensors (simulated %.0f Hz), last: time=%.2f position=%.2f "
+            "floor=%d at_floor=%d" % (len(samples), rate, last.time, last.position, last.floor, last.at_floor)
+        )
         if not client.wait_for_service(timeout_sec=args.timeout):
             print("listener: /elevator03/prompt not available")
             return 1
@@ -67,18 +69,29 @@ def main():
                 print("listener: no answer for floor %d within %.0f s" % (floor, args.timeout))
                 return 1
             answer = future.result()
-            print("listener: call floor %d -> reached_floor=%d error_code=%d %s(%.1f s)"
-                  % (floor, answer.reached_floor, answer.error_code,
-                     ("'%s' " % answer.error_message) if answer.error_message else "", time.monotonic() - start))
+            print(
+                "listener: call floor %d -> reached_floor=%d error_code=%d %s(%.1f s)"
+                % (
+                    floor,
+                    answer.reached_floor,
+                    answer.error_code,
+                    ("'%s' " % answer.error_message) if answer.error_message else "",
+                    time.monotonic() - start,
+                )
+            )
             if floor == args.floor:
                 ok &= answer.reached_floor == floor and answer.error_code == 0
                 settled = samples[-1]
-                print("listener: sensors now: position=%.3f floor=%d at_floor=%d"
-                      % (settled.position, settled.floor, settled.at_floor))
+                print(
+                    "listener: sensors now: position=%.3f floor=%d at_floor=%d"
+                    % (settled.position, settled.floor, settled.at_floor)
+                )
             else:
                 ok &= answer.error_code != 0
-        print("listener: %s" % ("OK: the LN elevator went to floor %d on a ROS 2 service call" % args.floor
-                                if ok else "FAILED"))
+        print(
+            "listener: %s"
+            % ("OK: the LN elevator went to floor %d on a ROS 2 service call" % args.floor if ok else "FAILED")
+        )
         return 0 if ok else 1
     finally:
         stop.set()

@@ -53,10 +53,9 @@
 #include <vector>
 
 #if defined(__GNUC__) || defined(__clang__)
-#  define LN_PRINTF_FORMAT(format_index, first_arg) \
-    __attribute__((format(printf, format_index, first_arg)))
+#define LN_PRINTF_FORMAT(format_index, first_arg) __attribute__((format(printf, format_index, first_arg)))
 #else
-#  define LN_PRINTF_FORMAT(format_index, first_arg)
+#define LN_PRINTF_FORMAT(format_index, first_arg)
 #endif
 
 namespace ln {
@@ -100,10 +99,8 @@ class exception : public std::exception {
 
   exception(const std::string& message)  // NOLINT: implicit as in LN 2.9
       : msg(message), error(LNE_UNKNOWN), error_code(0) {}
-  exception(const std::string& message, ln_error_t code)
-      : msg(message), error(code), error_code(0) {}
-  exception(const std::string& message, ln_error_t code, int number)
-      : msg(message), error(code), error_code(number) {}
+  exception(const std::string& message, ln_error_t code) : msg(message), error(code), error_code(0) {}
+  exception(const std::string& message, ln_error_t code, int number) : msg(message), error(code), error_code(number) {}
 
   const char* what() const noexcept override { return msg.c_str(); }
 };
@@ -128,8 +125,7 @@ class mutex_t {
 /// constructed with invalid_mutex = true.
 class mutex_holder {
  public:
-  explicit mutex_holder(mutex_t& mutex, bool invalid_mutex = false)
-      : mutex_(mutex), engaged_(!invalid_mutex) {
+  explicit mutex_holder(mutex_t& mutex, bool invalid_mutex = false) : mutex_(mutex), engaged_(!invalid_mutex) {
     if (engaged_) mutex_.lock();
   }
   ~mutex_holder() {
@@ -180,9 +176,8 @@ class event_connection {
 
  private:
   friend class client;
-  event_connection(client* owner, const std::string& name, const std::string& connect_signature,
-                   void* connect_data, uint32_t connect_data_len, handler_t handler,
-                   void* user_data, bool is_flat);
+  event_connection(client* owner, const std::string& name, const std::string& connect_signature, void* connect_data,
+                   uint32_t connect_data_len, handler_t handler, void* user_data, bool is_flat);
   ~event_connection();
   static void dispatch(ln_client, ln_event_call call, void* self);
 
@@ -279,8 +274,7 @@ class client {
   /// Definition text, message size, hash and flattened text of a message
   /// definition (flat text empty if the manager cannot provide it).
   void get_message_definition(std::string message_definition_name, std::string& message_definition,
-                              unsigned int& message_size, std::string& hash,
-                              std::string& flat_message_definition);
+                              unsigned int& message_size, std::string& hash, std::string& flat_message_definition);
   /// Definition text, message size and hash of a message definition.
   void get_message_definition(std::string message_definition_name, std::string& message_definition,
                               unsigned int& message_size, std::string& hash);
@@ -289,27 +283,23 @@ class client {
                               unsigned int& message_size);
   /// Message definition name, text, size and hash of a known topic.
   void get_message_definition_for_topic(std::string topic_name, std::string& message_definition_name,
-                                        std::string& message_definition, unsigned int& message_size,
-                                        std::string& hash);
+                                        std::string& message_definition, unsigned int& message_size, std::string& hash);
   /// Message definition name, text and size of a known topic (deprecated in
   /// LN 2.9).
   void get_message_definition_for_topic(std::string topic_name, std::string& message_definition_name,
                                         std::string& message_definition, unsigned int& message_size);
   /// Hands a definition text to the manager; returns the name it is stored
   /// under.
-  std::string put_message_definition(std::string message_definition_name,
-                                     std::string message_definition);
+  std::string put_message_definition(std::string message_definition_name, std::string message_definition);
   /// Interface, definition text and signature of a registered service.
   void get_service_signature_for_service(std::string service_name, std::string& service_interface,
-                                         std::string& service_definition,
-                                         std::string& service_signature);
+                                         std::string& service_definition, std::string& service_signature);
   /// Definition text and signature of a service interface.
   void get_service_signature(std::string service_interface, std::string& service_definition,
                              std::string& service_signature);
   /// Byte offset and length of a member ("a.b[2]") in a message.
   void locate_member_in_message_definition(std::string message_definition_name, std::string member,
-                                           unsigned int& member_offset,
-                                           unsigned int& member_byte_len);
+                                           unsigned int& member_offset, unsigned int& member_byte_len);
 
   /// Becomes the publisher of a topic (see ln_publish_with_buffers()).
   /// @p message_def_name may carry "|HASH" (generated *_MD_NAME).
@@ -321,8 +311,8 @@ class client {
   /// @param rate -1 every packet; > 0 at most that many per second;
   ///        RATE_ON_REQUEST_LAST (-2) for sporadic on-demand reads.
   /// @param need_reliable_transport across hosts: TCP instead of UDP.
-  inport* subscribe(std::string topic_name, std::string message_def_name, double rate = -1,
-                    unsigned int buffers = 1, bool need_reliable_transport = false);
+  inport* subscribe(std::string topic_name, std::string message_def_name, double rate = -1, unsigned int buffers = 1,
+                    bool need_reliable_transport = false);
   /// Ends the subscription and releases the port.
   void unsubscribe(inport* port);
 
@@ -339,11 +329,9 @@ class client {
   [[noreturn]] void throw_error(const char* format, ...) LN_PRINTF_FORMAT(2, 3);
   /// Throws ln::exception for an errno-style value (LNE_CHECK_ERROR_CODE,
   /// error_code = retval).
-  [[noreturn]] static void throw_retval_error(int retval, const char* format, ...)
-      LN_PRINTF_FORMAT(2, 3);
+  [[noreturn]] static void throw_retval_error(int retval, const char* format, ...) LN_PRINTF_FORMAT(2, 3);
   /// As throw_error(int, const char*, ...) without client detail.
-  [[noreturn]] static void throw_error_no_client(int ret, const char* format, ...)
-      LN_PRINTF_FORMAT(2, 3);
+  [[noreturn]] static void throw_error_no_client(int ret, const char* format, ...) LN_PRINTF_FORMAT(2, 3);
 
   /// Waits for requests to the providers of a group and handles them in
   /// this thread, one at a time (see ln_wait_and_handle_service_group_requests()).
@@ -370,8 +358,7 @@ class client {
   /// *_SIGNATURE; @p service_interface its message definition name.
   service* get_service(std::string service_name, std::string service_interface, std::string signature);
   /// A handle for providing a service: set_handler() then do_register().
-  service* get_service_provider(std::string service_name, std::string service_interface,
-                                std::string signature);
+  service* get_service_provider(std::string service_name, std::string service_interface, std::string signature);
   /// Releases a service handle; a provider is unregistered first.
   void release_service(service* svc);
 
@@ -388,14 +375,12 @@ class client {
 
   /// Connects to an event source. @p event_connect_signature is the
   /// generated *_CONNECT_SIGNATURE, @p connect_data the *_connect_t struct.
-  event_connection* connect_to_event(std::string event_name, std::string event_connect_signature,
-                                     void* connect_data, event_connection::handler_t handler,
-                                     void* user_data = nullptr);
+  event_connection* connect_to_event(std::string event_name, std::string event_connect_signature, void* connect_data,
+                                     event_connection::handler_t handler, void* user_data = nullptr);
   /// As connect_to_event() with the connect data already flattened.
   event_connection* connect_to_event_flat(std::string event_name, std::string event_connect_signature,
                                           void* connect_data_flat, uint32_t connect_data_flat_len,
-                                          event_connection::handler_t handler,
-                                          void* user_data = nullptr);
+                                          event_connection::handler_t handler, void* user_data = nullptr);
   /// Disconnects and releases an event connection.
   void disconnect_from_event(event_connection* conn);
 
@@ -405,16 +390,14 @@ class client {
   /// Makes a service this client provides (ln/log_service) the logger of
   /// the services matching the comma-separated patterns (see
   /// ln_register_as_service_logger()).
-  void register_as_service_logger(std::string logger_service_name,
-                                  std::string service_name_patterns_to_log);
+  void register_as_service_logger(std::string logger_service_name, std::string service_name_patterns_to_log);
   /// Sets a client setting (see ln_client_set_float_parameter()); throws
   /// for unknown names and invalid values.
   void set_float_parameter(std::string parameter_name, float value);
 
   /// The parameters other clients provide below @p group_prefix; include
   /// ln/parameter_client.h (which defines it) to use it.
-  parameters::parameter_proxy get_parameters(std::string group_prefix = "",
-                                             bool strict_type_checks = false);
+  parameters::parameter_proxy get_parameters(std::string group_prefix = "", bool strict_type_checks = false);
 
   /// ln_core: waits until a provider of @p service_name is registered
   /// (never starts one). timeout < 0 waits without limit, 0 only checks.
@@ -425,12 +408,10 @@ class client {
   /// appears or disappears, and once right away with the current state. It
   /// runs in a library thread and must return quickly. One handler per name;
   /// a new one replaces it, an empty std::function removes it.
-  void set_service_availability_handler(const std::string& service_name,
-                                        availability_handler_t handler);
+  void set_service_availability_handler(const std::string& service_name, availability_handler_t handler);
   /// ln_core: as set_service_availability_handler() for the publisher of a
   /// topic.
-  void set_publisher_availability_handler(const std::string& topic_name,
-                                          availability_handler_t handler);
+  void set_publisher_availability_handler(const std::string& topic_name, availability_handler_t handler);
 
   /// ln_core: the topics the manager knows, in the order they appeared.
   std::vector<topic_info> list_topics();
@@ -450,8 +431,7 @@ class client {
 
   void connect_with(int ret);
   void forget(service* svc);
-  void set_availability_handler(bool for_service, const std::string& watched_name,
-                                availability_handler_t handler);
+  void set_availability_handler(bool for_service, const std::string& watched_name, availability_handler_t handler);
   static void dispatch_availability(ln_client, const char* watched_name, int available, void* slot);
 
   bool owns_client_;
@@ -472,7 +452,7 @@ class client {
 /// What input and output ports have in common.
 class port_base {
  public:
-  client* clnt;               ///< owning client
+  client* clnt;  ///< owning client
   std::string topic_name;
   std::string topic_md;       ///< message definition name as given
   unsigned int message_size;  ///< bytes per packet
@@ -545,8 +525,8 @@ class inport : public port_base {
 
  private:
   friend class client;
-  inport(client* owner, const std::string& topic, const std::string& md_name, double rate,
-         unsigned int buffers, bool need_reliable_transport);
+  inport(client* owner, const std::string& topic, const std::string& md_name, double rate, unsigned int buffers,
+         bool need_reliable_transport);
   ~inport();
 };
 
@@ -581,8 +561,7 @@ class borrowed_sample {
 
  private:
   friend class inport;
-  borrowed_sample(inport* lender, const void* packet, unsigned int packet_size,
-                  const sample_info& packet_info) noexcept
+  borrowed_sample(inport* lender, const void* packet, unsigned int packet_size, const sample_info& packet_info) noexcept
       : port_(lender), data_(packet), size_(packet_size), info_(packet_info) {}
 
   inport* port_ = nullptr;
@@ -819,9 +798,9 @@ class string_buffer {
 class logger {
  public:
   client* clnt;
-  ln_logger _logger;   ///< the C handle
+  ln_logger _logger;  ///< the C handle
   std::string name;
-  logger_data* data;   ///< result of the last download (owned by the logger)
+  logger_data* data;  ///< result of the last download (owned by the logger)
 
   /// Records @p log_size samples of a topic, every @p divisor-th packet.
   void add_topic(std::string topic_name, uint64_t log_size, unsigned int divisor = 1);
@@ -894,8 +873,8 @@ std::string dsa_dss1_sign_message(const std::string& pem_private_key_filename, c
 /// True if @p signature is valid for @p message and the OpenSSH public key
 /// file, false if it is not (LN 2.9 throws then); throws std::runtime_error
 /// when the key cannot be read.
-bool dsa_dss1_verify_message_signature(const std::string& openssh_public_key_filename,
-                                       const std::string& message, const std::string& signature);
+bool dsa_dss1_verify_message_signature(const std::string& openssh_public_key_filename, const std::string& message,
+                                       const std::string& signature);
 /// As dsa_dss1_verify_message_signature() with the key given as text.
 bool dsa_dss1_verify_message_signature_memkey(const std::string& openssh_public_key_contents,
                                               const std::string& message, const std::string& signature);

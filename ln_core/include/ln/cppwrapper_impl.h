@@ -128,8 +128,7 @@ inline void client::connect_with(int ret) {
 
 inline client::~client() {
   // First, so that no handler runs into a half-destroyed client.
-  for (auto& watch : service_watches_)
-    ln_set_service_availability_handler(clnt, watch.first.c_str(), nullptr, nullptr);
+  for (auto& watch : service_watches_) ln_set_service_availability_handler(clnt, watch.first.c_str(), nullptr, nullptr);
   for (auto& watch : publisher_watches_)
     ln_set_publisher_availability_handler(clnt, watch.first.c_str(), nullptr, nullptr);
   for (auto& connection : event_connections_) delete connection.second;
@@ -211,9 +210,9 @@ inline std::string client::describe_message_definition(std::string message_defin
   return description;
 }
 
-inline void client::get_message_definition(std::string message_definition_name,
-                                           std::string& message_definition, unsigned int& message_size,
-                                           std::string& hash, std::string& flat_message_definition) {
+inline void client::get_message_definition(std::string message_definition_name, std::string& message_definition,
+                                           unsigned int& message_size, std::string& hash,
+                                           std::string& flat_message_definition) {
   char* md = nullptr;
   char* md_hash = nullptr;
   char* flat = nullptr;
@@ -225,9 +224,8 @@ inline void client::get_message_definition(std::string message_definition_name,
   detail::take_c_string(flat, flat_message_definition);
 }
 
-inline void client::get_message_definition(std::string message_definition_name,
-                                           std::string& message_definition, unsigned int& message_size,
-                                           std::string& hash) {
+inline void client::get_message_definition(std::string message_definition_name, std::string& message_definition,
+                                           unsigned int& message_size, std::string& hash) {
   char* md = nullptr;
   char* md_hash = nullptr;
   const int ret = ln_get_message_definition_v17(clnt, message_definition_name.c_str(), &md, &message_size, &md_hash);
@@ -236,8 +234,8 @@ inline void client::get_message_definition(std::string message_definition_name,
   detail::take_c_string(md_hash, hash);
 }
 
-inline void client::get_message_definition(std::string message_definition_name,
-                                           std::string& message_definition, unsigned int& message_size) {
+inline void client::get_message_definition(std::string message_definition_name, std::string& message_definition,
+                                           unsigned int& message_size) {
   char* md = nullptr;
   const int ret = ln_get_message_definition(clnt, message_definition_name.c_str(), &md, &message_size);
   if (ret != 0) throw_error(ret, "ln::client::get_message_definition('" + message_definition_name + "')");
@@ -259,8 +257,7 @@ inline void client::get_message_definition_for_topic(std::string topic_name, std
 }
 
 inline void client::get_message_definition_for_topic(std::string topic_name, std::string& message_definition_name,
-                                                     std::string& message_definition,
-                                                     unsigned int& message_size) {
+                                                     std::string& message_definition, unsigned int& message_size) {
   char* md_name = nullptr;
   char* md = nullptr;
   const int ret = ln_get_message_definition_for_topic(clnt, topic_name.c_str(), &md_name, &md, &message_size);
@@ -269,11 +266,10 @@ inline void client::get_message_definition_for_topic(std::string topic_name, std
   detail::take_c_string(md, message_definition);
 }
 
-inline std::string client::put_message_definition(std::string message_definition_name,
-                                                  std::string message_definition) {
+inline std::string client::put_message_definition(std::string message_definition_name, std::string message_definition) {
   char* stored_as = nullptr;
-  const int ret = ln_put_message_definition(clnt, message_definition_name.c_str(), message_definition.c_str(),
-                                            &stored_as);
+  const int ret =
+      ln_put_message_definition(clnt, message_definition_name.c_str(), message_definition.c_str(), &stored_as);
   if (ret != 0) throw_error(ret, "ln::client::put_message_definition('" + message_definition_name + "')");
   std::string stored_name;
   detail::take_c_string(stored_as, stored_name);
@@ -281,13 +277,11 @@ inline std::string client::put_message_definition(std::string message_definition
 }
 
 inline void client::get_service_signature_for_service(std::string service_name, std::string& service_interface,
-                                                      std::string& service_definition,
-                                                      std::string& service_signature) {
+                                                      std::string& service_definition, std::string& service_signature) {
   char* iface = nullptr;
   char* definition = nullptr;
   char* signature = nullptr;
-  const int ret =
-      ln_get_service_signature_for_service(clnt, service_name.c_str(), &iface, &definition, &signature);
+  const int ret = ln_get_service_signature_for_service(clnt, service_name.c_str(), &iface, &definition, &signature);
   if (ret != 0) throw_error(ret, "ln::client::get_service_signature_for_service('" + service_name + "')");
   detail::take_c_string(iface, service_interface);
   detail::take_c_string(definition, service_definition);
@@ -305,13 +299,12 @@ inline void client::get_service_signature(std::string service_interface, std::st
 }
 
 inline void client::locate_member_in_message_definition(std::string message_definition_name, std::string member,
-                                                        unsigned int& member_offset,
-                                                        unsigned int& member_byte_len) {
+                                                        unsigned int& member_offset, unsigned int& member_byte_len) {
   const int ret = ln_locate_member_in_message_definition(clnt, message_definition_name.c_str(), member.c_str(),
                                                          &member_offset, &member_byte_len);
   if (ret != 0)
-    throw_error(ret, "ln::client::locate_member_in_message_definition('" + message_definition_name + "', '" + member +
-                  "')");
+    throw_error(ret,
+                "ln::client::locate_member_in_message_definition('" + message_definition_name + "', '" + member + "')");
 }
 
 inline outport* client::publish(std::string topic_name, std::string message_def_name, unsigned int buffers) {
@@ -385,8 +378,7 @@ inline void client::thread_pool_setschedparam(std::string pool_name, int policy,
   if (ret < 0) throw_error(ret, "ln::client::thread_pool_setschedparam('" + pool_name + "')");
 }
 
-inline service* client::get_service(std::string service_name, std::string service_interface,
-                                    std::string signature) {
+inline service* client::get_service(std::string service_name, std::string service_interface, std::string signature) {
   service* svc = new service(*this, service_name, service_interface, signature, false);
   std::lock_guard<std::mutex> lock(mutex_);
   services_.push_back(svc);
@@ -459,8 +451,7 @@ inline void client::disconnect_from_event(event_connection* conn) {
     std::lock_guard<std::mutex> lock(mutex_);
     auto found = conn != nullptr ? event_connections_.find(conn->id) : event_connections_.end();
     if (found == event_connections_.end() || found->second != conn)
-      throw exception("ln::client::disconnect_from_event: not a connection of this client",
-                      LNE_INVALID_PARAMETER);
+      throw exception("ln::client::disconnect_from_event: not a connection of this client", LNE_INVALID_PARAMETER);
     event_connections_.erase(found);
   }
   delete conn;
@@ -489,13 +480,11 @@ inline bool client::wait_for_service(const std::string& service_name, double tim
   return ret == 1;
 }
 
-inline void client::set_service_availability_handler(const std::string& service_name,
-                                                     availability_handler_t handler) {
+inline void client::set_service_availability_handler(const std::string& service_name, availability_handler_t handler) {
   set_availability_handler(true, service_name, std::move(handler));
 }
 
-inline void client::set_publisher_availability_handler(const std::string& topic_name,
-                                                       availability_handler_t handler) {
+inline void client::set_publisher_availability_handler(const std::string& topic_name, availability_handler_t handler) {
   set_availability_handler(false, topic_name, std::move(handler));
 }
 
@@ -565,13 +554,12 @@ inline void client::set_availability_handler(bool for_service, const std::string
   std::unique_ptr<availability_slot> slot;
   if (handler) slot.reset(new availability_slot{this, std::move(handler)});
   const ln_availability_handler trampoline = slot ? &client::dispatch_availability : nullptr;
-  const int ret = for_service ? ln_set_service_availability_handler(clnt, watched_name.c_str(), trampoline,
-                                                                    slot.get())
-                              : ln_set_publisher_availability_handler(clnt, watched_name.c_str(), trampoline,
-                                                                      slot.get());
+  const int ret = for_service
+                      ? ln_set_service_availability_handler(clnt, watched_name.c_str(), trampoline, slot.get())
+                      : ln_set_publisher_availability_handler(clnt, watched_name.c_str(), trampoline, slot.get());
   if (ret != 0)
     throw_error(ret, std::string("ln::client::set_") + (for_service ? "service" : "publisher") +
-                  "_availability_handler('" + watched_name + "')");
+                         "_availability_handler('" + watched_name + "')");
   std::lock_guard<std::mutex> lock(mutex_);
   availability_slots& watches = for_service ? service_watches_ : publisher_watches_;
   std::unique_ptr<availability_slot>& current = watches[watched_name];
@@ -580,12 +568,10 @@ inline void client::set_availability_handler(bool for_service, const std::string
   if (!current) watches.erase(watched_name);
 }
 
-inline void client::dispatch_availability(ln_client c_client, const char* watched_name, int available,
-                                          void* slot) {
+inline void client::dispatch_availability(ln_client c_client, const char* watched_name, int available, void* slot) {
   const availability_slot* watch = static_cast<const availability_slot*>(slot);
-  detail::run_guarded(c_client, "availability handler", [&] {
-    watch->handler(watched_name != nullptr ? watched_name : "", available != 0);
-  });
+  detail::run_guarded(c_client, "availability handler",
+                      [&] { watch->handler(watched_name != nullptr ? watched_name : "", available != 0); });
 }
 
 // ---------------------------------------------------------------- ports
@@ -759,8 +745,8 @@ inline void service_request::fail(int ret, const std::string& context) const {
 inline void service_request::set_data(void* data, const char* signature) {
   const int ret = ln_service_request_set_data(req_, data, signature);
   if (ret != 0)
-    fail(ret, std::string("set_data(signature '") + (signature != nullptr ? signature : "") +
-                  "', service signature '" + svc->signature_ + "')");
+    fail(ret, std::string("set_data(signature '") + (signature != nullptr ? signature : "") + "', service signature '" +
+                  svc->signature_ + "')");
 }
 
 inline void service_request::get_request_data(char** buffer, uint64_t* buffer_len) {
@@ -897,11 +883,10 @@ inline service::service(client& owner, const std::string& service_name, const st
       interface_(service_interface),
       signature_(signature),
       is_provider_(is_provider) {
-  const int ret = ln_service_init(owner.clnt, &svc, service_name.c_str(), service_interface.c_str(),
-                                  signature.c_str());
+  const int ret = ln_service_init(owner.clnt, &svc, service_name.c_str(), service_interface.c_str(), signature.c_str());
   if (ret != 0)
     owner.throw_error(ret, std::string("ln::client::") + (is_provider ? "get_service_provider" : "get_service") + "('" +
-                        service_name + "')");
+                               service_name + "')");
 }
 
 inline service::~service() {
@@ -925,8 +910,7 @@ inline void service::set_handler(handler_t handler, void* user_data) {
 
 inline void service::do_register(const char* group_name) {
   require_provider("do_register");
-  if (handler_ == nullptr)
-    fail(-LNE_SVC_NO_HANDLER, "ln::service('" + name_ + "')::do_register: set_handler() first");
+  if (handler_ == nullptr) fail(-LNE_SVC_NO_HANDLER, "ln::service('" + name_ + "')::do_register: set_handler() first");
   int ret = ln_service_provider_set_handler(svc, &service::dispatch_request, this);
   if (ret == 0) ret = ln_service_provider_register_in_group(clnt->clnt, svc, group_name);
   if (ret != 0) fail(ret, "ln::service('" + name_ + "')::do_register");
@@ -960,17 +944,15 @@ inline int service::dispatch_request(ln_client, ln_service_request request, void
   // Tell the caller why; if that fails too (e.g. the handler had already
   // responded), at least the code reaches it.
   const std::string message = "handler of service '" + provider->name_ + "' threw: " + failure;
-  return ln_service_request_respond_error(request, -LNE_SVC_HANDLER_EXC, message.c_str()) == 0
-             ? 0
-             : -LNE_SVC_HANDLER_EXC;
+  return ln_service_request_respond_error(request, -LNE_SVC_HANDLER_EXC, message.c_str()) == 0 ? 0
+                                                                                               : -LNE_SVC_HANDLER_EXC;
 }
 
 inline void service::dispatch_fd_event(ln_client c_client, ln_svc_client_event_t event, int fd, void* self) {
   service* const provider = static_cast<service*>(self);
   if (provider->fd_handler_ == nullptr) return;
-  detail::run_guarded(c_client, "service client fd handler", [&] {
-    provider->fd_handler_(*provider->clnt, event, fd, provider->fd_handler_data_);
-  });
+  detail::run_guarded(c_client, "service client fd handler",
+                      [&] { provider->fd_handler_(*provider->clnt, event, fd, provider->fd_handler_data_); });
 }
 
 inline void service::call(void* data, double timeout) {
@@ -978,10 +960,10 @@ inline void service::call(void* data, double timeout) {
   if (ret != 0) fail(ret, "ln::service('" + name_ + "')::call");
 }
 
-inline void service::callv(struct iovec* iov, unsigned int iov_len, uint8_t* iov_element_lens,
-                           char** response_buffer, uint32_t* response_len, uint8_t* need_swap, double timeout) {
-  const int ret = ln_service_callv_with_timeout(svc, iov, iov_len, iov_element_lens, response_buffer,
-                                                response_len, need_swap, timeout);
+inline void service::callv(struct iovec* iov, unsigned int iov_len, uint8_t* iov_element_lens, char** response_buffer,
+                           uint32_t* response_len, uint8_t* need_swap, double timeout) {
+  const int ret = ln_service_callv_with_timeout(svc, iov, iov_len, iov_element_lens, response_buffer, response_len,
+                                                need_swap, timeout);
   if (ret != 0) fail(ret, "ln::service('" + name_ + "')::callv");
 }
 
@@ -1046,15 +1028,14 @@ inline void* event_call::get_buffer(uint32_t* len) {
   return buffer;
 }
 
-inline event_connection::event_connection(client* owner, const std::string& name,
-                                          const std::string& connect_signature, void* connect_data,
-                                          uint32_t connect_data_len, handler_t handler, void* user_data,
-                                          bool is_flat)
+inline event_connection::event_connection(client* owner, const std::string& name, const std::string& connect_signature,
+                                          void* connect_data, uint32_t connect_data_len, handler_t handler,
+                                          void* user_data, bool is_flat)
     : clnt(owner), event_name(name), conn(nullptr), id(0), handler_(handler), user_data_(user_data) {
   const int ret = is_flat ? ln_event_connect_flat(owner->clnt, &conn, name.c_str(), connect_signature.c_str(),
                                                   connect_data, connect_data_len, &event_connection::dispatch, this)
-                          : ln_event_connect(owner->clnt, &conn, name.c_str(), connect_signature.c_str(),
-                                             connect_data, &event_connection::dispatch, this);
+                          : ln_event_connect(owner->clnt, &conn, name.c_str(), connect_signature.c_str(), connect_data,
+                                             &event_connection::dispatch, this);
   if (ret != 0) owner->throw_error(ret, "ln::client::connect_to_event('" + name + "')");
   id = ln_event_connection_get_id(conn);
 }
@@ -1194,8 +1175,7 @@ inline void logger_data::save(std::string filename) {
 inline logger_data* logger_data::load(std::string filename) {
   ln_logger_data contents = nullptr;
   const int ret = ln_logger_data_load(&contents, filename.c_str());
-  if (ret != 0)
-    detail::throw_failure(ret, "ln::logger_data::load('" + filename + "')", ln_get_error_message(nullptr));
+  if (ret != 0) detail::throw_failure(ret, "ln::logger_data::load('" + filename + "')", ln_get_error_message(nullptr));
   return new logger_data(nullptr, contents, true);
 }
 
@@ -1203,8 +1183,7 @@ inline logger_data* logger_data::load(std::string filename) {
 
 namespace detail {
 [[noreturn]] inline void throw_dsa_failure(const char* function, int ret) {
-  throw std::runtime_error(std::string(function) + " returned " + std::to_string(ret) + ": " +
-                           ln_format_error(ret));
+  throw std::runtime_error(std::string(function) + " returned " + std::to_string(ret) + ": " + ln_format_error(ret));
 }
 
 inline bool verify_dsa_signature(int ret, const char* function) {

@@ -32,7 +32,7 @@
  */
 
 #if defined(__cplusplus) && !defined(NO_CPP_WRAPPER)
-#  include "cppwrapper.h"
+#include "cppwrapper.h"
 #endif
 
 #ifndef LN_H
@@ -42,8 +42,8 @@
 #include <math.h>
 #include <stdint.h>
 #if !defined(_WIN32) && !defined(__WIN32__)
-#  include <sys/socket.h>
-#  include <sys/uio.h>
+#include <sys/socket.h>
+#include <sys/uio.h>
 #endif
 
 /* Scatter-gather element of the vector service calls (POSIX <sys/uio.h>).
@@ -54,9 +54,9 @@ struct iovec;
 /** Marks the functions the shared library exports (it is built with hidden
     visibility so that nothing else leaks). */
 #if defined(__GNUC__) || defined(__clang__)
-#  define LN_API __attribute__((visibility("default")))
+#define LN_API __attribute__((visibility("default")))
 #else
-#  define LN_API
+#define LN_API
 #endif
 
 #ifdef __cplusplus
@@ -101,75 +101,75 @@ LN_API int ln_get_library_version(void);
     starts at 1 and the values are those of LN 2.9, so codes are
     interchangeable with LN programs and logs. */
 enum ln_error_t {
-  LNE_CHECK_ERRNO = 1,             /**< a system call failed; see errno */
-  LNE_NO_MEM = 2,                  /**< out of memory */
-  LNE_NO_MANAGER_ADDRESS = 3,      /**< neither --ln-manager nor LN_MANAGER given */
-  LNE_INVALID_MANAGER_ADDRESS = 4, /**< manager address is not HOST:PORT */
-  LNE_INVALID_HOSTNAME = 5,        /**< host is neither a name nor an IPv4 address */
-  LNE_UNKNOWN_HOSTNAME = 6,        /**< host name does not resolve */
-  LNE_HOST_WRONG_NET = 7,          /**< host resolved to a non-IPv4 address */
-  LNE_GOT_INVALID_RESPONSE = 8,    /**< malformed answer from the manager */
-  LNE_REGISTER_DENIED = 9,         /**< manager refused to register the client */
-  LNE_CLIENT_NOT_INITIALIZED = 10, /**< client handle is not initialised */
-  LNE_REQUEST_FAILED = 11,         /**< manager reported an error; see ln_get_error_message() */
-  LNE_FIELD_NOT_IN_HEADER = 12,    /**< field missing in a manager message */
+  LNE_CHECK_ERRNO = 1,                 /**< a system call failed; see errno */
+  LNE_NO_MEM = 2,                      /**< out of memory */
+  LNE_NO_MANAGER_ADDRESS = 3,          /**< neither --ln-manager nor LN_MANAGER given */
+  LNE_INVALID_MANAGER_ADDRESS = 4,     /**< manager address is not HOST:PORT */
+  LNE_INVALID_HOSTNAME = 5,            /**< host is neither a name nor an IPv4 address */
+  LNE_UNKNOWN_HOSTNAME = 6,            /**< host name does not resolve */
+  LNE_HOST_WRONG_NET = 7,              /**< host resolved to a non-IPv4 address */
+  LNE_GOT_INVALID_RESPONSE = 8,        /**< malformed answer from the manager */
+  LNE_REGISTER_DENIED = 9,             /**< manager refused to register the client */
+  LNE_CLIENT_NOT_INITIALIZED = 10,     /**< client handle is not initialised */
+  LNE_REQUEST_FAILED = 11,             /**< manager reported an error; see ln_get_error_message() */
+  LNE_FIELD_NOT_IN_HEADER = 12,        /**< field missing in a manager message */
   LNE_STRING_LENGTH_SPEC_MISSING = 13, /**< string format lacks a length */
-  LNE_PORT_NOT_FOUND = 14,         /**< no such port */
-  LNE_INVALID_PORT_OBJECT = 15,    /**< handle is not a port of the expected kind */
-  LNE_SHM_IS_TOO_SMALL = 16,       /**< shared-memory segment too small */
-  LNE_SHM_IS_TOO_BIG = 17,         /**< shared-memory segment too big */
-  LNE_SHM_DOES_NOT_EXIT = 18,      /**< shared-memory segment does not exist (LN's spelling) */
-  LNE_PACKET_TOO_LARGE = 19,       /**< packet larger than the topic's message size */
-  LNE_SHM_READ_ERROR = 20,         /**< reading the shared-memory segment failed */
-  LNE_LOST_CONNECTION = 21,        /**< connection to the manager lost */
-  LNE_REGISTER_FAILED = 22,        /**< registering with the manager failed (daemon running?) */
-  LNE_SVC_IS_PROVIDER = 23,        /**< caller operation on a provider handle */
-  LNE_SVC_IS_CLIENT = 24,          /**< provider operation on a caller handle */
-  LNE_SVC_RECV_RESP = 25,          /**< receiving the service response failed */
-  LNE_SVC_RECV_RESP_MEM = 26,      /**< no memory for the service response */
-  LNE_SVC_ALREADY_REGISTERED = 27, /**< service provider already registered */
-  LNE_SVC_NOT_REGISTERED = 28,     /**< service provider not registered yet */
-  LNE_SVC_RECV_REQ = 29,           /**< receiving the service request failed */
-  LNE_SVC_RECV_REQ_MEM = 30,       /**< no memory for the service request */
-  LNE_SVC_REQ_SET_DATA_WRONG = 31, /**< signature given to set_data does not match the service */
-  LNE_SVC_HANDLER_NO_RESP = 32,    /**< handler returned 0 without responding */
-  LNE_INVALID_REQ_FIELD_FORMAT = 33, /**< invalid field format character */
-  LNE_USER_DEFINED_ERROR = 34,     /**< provider handler returned its own (positive) error */
-  LNE_SVC_NO_HANDLER = 35,         /**< registering a provider without handler */
-  LNE_SVC_HANDLER_EXC = 36,        /**< provider handler threw an exception */
-  LNE_SVC_REQ_RUNNING = 37,        /**< a call is already running on this handle */
-  LNE_SVC_REQ_NOT_RUNNING = 38,    /**< no asynchronous call running */
-  LNE_SVC_REQ_ABORTED = 39,        /**< the call was aborted */
-  LNE_NO_PROVIDER_FOUND = 40,      /**< nothing known provides this service/topic */
-  LNE_START_PROVIDER_FAILED = 41,  /**< starting the providing process failed */
-  LNE_ERROR_GETTING_SHM_FD = 42,   /**< no file descriptor for the shared-memory name */
-  LNE_SHM_NAME_TOO_LONG = 43,      /**< shared-memory name too long */
-  LNE_NOT_YET_IMPLEMENTED = 44,    /**< feature not implemented */
-  LNE_NO_LOGGER_TOPICS = 45,       /**< logger has no topics */
-  LNE_INTERNAL_ERROR = 46,         /**< internal error (a bug) */
-  LNE_TOPIC_ID_OUT_OF_RANGE = 47,  /**< logger topic index out of range */
-  LNE_LOG_FILE_TOO_NEW = 48,       /**< log file format unknown or newer */
-  LNE_WRONG_BYTE_ORDER = 49,       /**< data is not in host byte order */
-  LNE_INVALID_SHM_MAGIC = 50,      /**< shared-memory segment has a foreign layout */
-  LNE_SHM_VERSION_TOO_NEW = 51,    /**< shared-memory layout newer than this library */
-  LNE_WRONG_SHM_SIZE = 52,         /**< shared-memory segment size inconsistent */
-  LNE_INVALID_SIGNATURE = 53,      /**< invalid event or DSA signature */
-  LNE_INVALID_PARAMETER = 54,      /**< invalid argument */
-  LNE_SVC_RESP_LATER = 55,         /**< handler return value: response follows later */
-  LNE_SVC_GRP_UNKNOWN = 56,        /**< unknown service group */
-  LNE_THREADP_INIT = 57,           /**< thread pool unavailable */
-  LNE_NOT_ON_THIS_OS = 58,         /**< not available on this operating system */
-  LNE_PORT_UNBLOCKED = 59,         /**< blocking read ended by ln_unblock() */
-  LNE_UNKNOWN_PARAMETER = 60,      /**< unknown parameter name */
-  LNE_SVC_HANDLER_MULTI_RESP = 61, /**< handler responded more than once */
-  LNE_MANAGER_TOO_OLD = 62,        /**< manager lacks a needed feature */
-  LNE_INVALID_DSA_SIGNATURE = 63,  /**< DSA signature does not verify */
-  LNE_SVC_TIMEOUT = 64,            /**< service call timed out */
-  LNE_SVC_GRP_HANDLED_IN_POOL = 65, /**< group already served by a thread pool */
-  LNE_CLNT_NAME_IN_USE = 66,       /**< exact client name already taken */
-  LNE_CHECK_ERROR_CODE = 67,       /**< C++ only: see ln::exception::error_code */
-  LNE_UNKNOWN = 68,                /**< unknown error; see the message text */
-  LNE_WRONG_MD_HASH = 69           /**< message definition has another hash than expected */
+  LNE_PORT_NOT_FOUND = 14,             /**< no such port */
+  LNE_INVALID_PORT_OBJECT = 15,        /**< handle is not a port of the expected kind */
+  LNE_SHM_IS_TOO_SMALL = 16,           /**< shared-memory segment too small */
+  LNE_SHM_IS_TOO_BIG = 17,             /**< shared-memory segment too big */
+  LNE_SHM_DOES_NOT_EXIT = 18,          /**< shared-memory segment does not exist (LN's spelling) */
+  LNE_PACKET_TOO_LARGE = 19,           /**< packet larger than the topic's message size */
+  LNE_SHM_READ_ERROR = 20,             /**< reading the shared-memory segment failed */
+  LNE_LOST_CONNECTION = 21,            /**< connection to the manager lost */
+  LNE_REGISTER_FAILED = 22,            /**< registering with the manager failed (daemon running?) */
+  LNE_SVC_IS_PROVIDER = 23,            /**< caller operation on a provider handle */
+  LNE_SVC_IS_CLIENT = 24,              /**< provider operation on a caller handle */
+  LNE_SVC_RECV_RESP = 25,              /**< receiving the service response failed */
+  LNE_SVC_RECV_RESP_MEM = 26,          /**< no memory for the service response */
+  LNE_SVC_ALREADY_REGISTERED = 27,     /**< service provider already registered */
+  LNE_SVC_NOT_REGISTERED = 28,         /**< service provider not registered yet */
+  LNE_SVC_RECV_REQ = 29,               /**< receiving the service request failed */
+  LNE_SVC_RECV_REQ_MEM = 30,           /**< no memory for the service request */
+  LNE_SVC_REQ_SET_DATA_WRONG = 31,     /**< signature given to set_data does not match the service */
+  LNE_SVC_HANDLER_NO_RESP = 32,        /**< handler returned 0 without responding */
+  LNE_INVALID_REQ_FIELD_FORMAT = 33,   /**< invalid field format character */
+  LNE_USER_DEFINED_ERROR = 34,         /**< provider handler returned its own (positive) error */
+  LNE_SVC_NO_HANDLER = 35,             /**< registering a provider without handler */
+  LNE_SVC_HANDLER_EXC = 36,            /**< provider handler threw an exception */
+  LNE_SVC_REQ_RUNNING = 37,            /**< a call is already running on this handle */
+  LNE_SVC_REQ_NOT_RUNNING = 38,        /**< no asynchronous call running */
+  LNE_SVC_REQ_ABORTED = 39,            /**< the call was aborted */
+  LNE_NO_PROVIDER_FOUND = 40,          /**< nothing known provides this service/topic */
+  LNE_START_PROVIDER_FAILED = 41,      /**< starting the providing process failed */
+  LNE_ERROR_GETTING_SHM_FD = 42,       /**< no file descriptor for the shared-memory name */
+  LNE_SHM_NAME_TOO_LONG = 43,          /**< shared-memory name too long */
+  LNE_NOT_YET_IMPLEMENTED = 44,        /**< feature not implemented */
+  LNE_NO_LOGGER_TOPICS = 45,           /**< logger has no topics */
+  LNE_INTERNAL_ERROR = 46,             /**< internal error (a bug) */
+  LNE_TOPIC_ID_OUT_OF_RANGE = 47,      /**< logger topic index out of range */
+  LNE_LOG_FILE_TOO_NEW = 48,           /**< log file format unknown or newer */
+  LNE_WRONG_BYTE_ORDER = 49,           /**< data is not in host byte order */
+  LNE_INVALID_SHM_MAGIC = 50,          /**< shared-memory segment has a foreign layout */
+  LNE_SHM_VERSION_TOO_NEW = 51,        /**< shared-memory layout newer than this library */
+  LNE_WRONG_SHM_SIZE = 52,             /**< shared-memory segment size inconsistent */
+  LNE_INVALID_SIGNATURE = 53,          /**< invalid event or DSA signature */
+  LNE_INVALID_PARAMETER = 54,          /**< invalid argument */
+  LNE_SVC_RESP_LATER = 55,             /**< handler return value: response follows later */
+  LNE_SVC_GRP_UNKNOWN = 56,            /**< unknown service group */
+  LNE_THREADP_INIT = 57,               /**< thread pool unavailable */
+  LNE_NOT_ON_THIS_OS = 58,             /**< not available on this operating system */
+  LNE_PORT_UNBLOCKED = 59,             /**< blocking read ended by ln_unblock() */
+  LNE_UNKNOWN_PARAMETER = 60,          /**< unknown parameter name */
+  LNE_SVC_HANDLER_MULTI_RESP = 61,     /**< handler responded more than once */
+  LNE_MANAGER_TOO_OLD = 62,            /**< manager lacks a needed feature */
+  LNE_INVALID_DSA_SIGNATURE = 63,      /**< DSA signature does not verify */
+  LNE_SVC_TIMEOUT = 64,                /**< service call timed out */
+  LNE_SVC_GRP_HANDLED_IN_POOL = 65,    /**< group already served by a thread pool */
+  LNE_CLNT_NAME_IN_USE = 66,           /**< exact client name already taken */
+  LNE_CHECK_ERROR_CODE = 67,           /**< C++ only: see ln::exception::error_code */
+  LNE_UNKNOWN = 68,                    /**< unknown error; see the message text */
+  LNE_WRONG_MD_HASH = 69               /**< message definition has another hash than expected */
 };
 
 /** Returns a static, human-readable description of an error code. Accepts
@@ -290,75 +290,47 @@ typedef void* ln_packet;
 
 /** Message-definition name, definition text and message size of a topic
     known to the manager. Output strings are malloc()ed; the caller frees. */
-LN_API int ln_get_message_definition_for_topic(
-    ln_client clnt,
-    const char* topic_name,
-    char** message_definition_name,
-    char** message_definition,
-    unsigned int* message_size);
+LN_API int ln_get_message_definition_for_topic(ln_client clnt, const char* topic_name, char** message_definition_name,
+                                               char** message_definition, unsigned int* message_size);
 
 /** As ln_get_message_definition_for_topic(), plus the definition's hash
     (malloc()ed, caller frees). */
-LN_API int ln_get_message_definition_for_topic_v17(
-    ln_client clnt,
-    const char* topic_name,
-    char** message_definition_name,
-    char** message_definition,
-    unsigned int* message_size,
-    char** hash);
+LN_API int ln_get_message_definition_for_topic_v17(ln_client clnt, const char* topic_name,
+                                                   char** message_definition_name, char** message_definition,
+                                                   unsigned int* message_size, char** hash);
 
 /** Definition text and message size of a named message definition, resolved
     by the manager on its search path. Output strings are malloc()ed; the
     caller frees. */
-LN_API int ln_get_message_definition(
-    ln_client clnt,
-    const char* message_definition_name,
-    char** message_definition,
-    unsigned int* message_size);
+LN_API int ln_get_message_definition(ln_client clnt, const char* message_definition_name, char** message_definition,
+                                     unsigned int* message_size);
 
 /** As ln_get_message_definition(), plus the hash (malloc()ed). */
-LN_API int ln_get_message_definition_v17(
-    ln_client clnt,
-    const char* message_definition_name,
-    char** message_definition,
-    unsigned int* message_size,
-    char** hash);
+LN_API int ln_get_message_definition_v17(ln_client clnt, const char* message_definition_name, char** message_definition,
+                                         unsigned int* message_size, char** hash);
 
 /** As ln_get_message_definition_v17(), plus the flattened definition (all
     sub-types expanded; malloc()ed). @p *flat_message_definition is NULL when
     the manager cannot provide it. */
-LN_API int ln_get_message_definition_v21(
-    ln_client clnt,
-    const char* message_definition_name,
-    char** message_definition,
-    unsigned int* message_size,
-    char** hash,
-    char** flat_message_definition);
+LN_API int ln_get_message_definition_v21(ln_client clnt, const char* message_definition_name, char** message_definition,
+                                         unsigned int* message_size, char** hash, char** flat_message_definition);
 
 /** Human-readable description of a message definition (layout, offsets and
     sizes) as a NUL-terminated string, malloc()ed; the caller frees. */
-LN_API int ln_describe_message_definition(
-    ln_client clnt,
-    const char* message_definition_name,
-    char** message_definition);
+LN_API int ln_describe_message_definition(ln_client clnt, const char* message_definition_name,
+                                          char** message_definition);
 
 /** Byte offset and length of a member inside a message, for member paths
     such as "pose.position[2]". */
-LN_API int ln_locate_member_in_message_definition(
-    ln_client clnt,
-    const char* message_definition_name,
-    const char* member,
-    unsigned int* member_offset,
-    unsigned int* member_byte_len);
+LN_API int ln_locate_member_in_message_definition(ln_client clnt, const char* message_definition_name,
+                                                  const char* member, unsigned int* member_offset,
+                                                  unsigned int* member_byte_len);
 
 /** Hands a message definition (text) to the manager, for definitions that
     are not on the manager's search path. @p *real_message_definition_name
     receives the name the manager stored it under (malloc()ed). */
-LN_API int ln_put_message_definition(
-    ln_client clnt,
-    const char* message_definition_name,
-    const char* message_definition,
-    char** real_message_definition_name);
+LN_API int ln_put_message_definition(ln_client clnt, const char* message_definition_name,
+                                     const char* message_definition, char** real_message_definition_name);
 
 /** Asks the manager to make sure a service or topic of this name is
     provided: if nothing provides it yet, the manager starts a configured
@@ -382,8 +354,8 @@ typedef void* ln_inport;
 
 /** Subscribes to a topic with one receive buffer. See
     ln_subscribe_with_buffers(). */
-LN_API int ln_subscribe(ln_client clnt, const char* topic_name, const char* message_definition_name,
-                        ln_inport* port, double rate, int reliable_transport);
+LN_API int ln_subscribe(ln_client clnt, const char* topic_name, const char* message_definition_name, ln_inport* port,
+                        double rate, int reliable_transport);
 
 /** Subscribes to a topic. A topic may be subscribed before it is published;
     reads then find no data until a publisher appears.
@@ -403,9 +375,8 @@ LN_API int ln_subscribe(ln_client clnt, const char* topic_name, const char* mess
            sees the newest packet; with N it can fall behind by up to N
            packets and still read them in order; falling further behind skips
            to the newest. */
-LN_API int ln_subscribe_with_buffers(ln_client clnt, const char* topic_name,
-                                     const char* message_definition_name, ln_inport* port,
-                                     double rate, int reliable_transport, unsigned int buffers);
+LN_API int ln_subscribe_with_buffers(ln_client clnt, const char* topic_name, const char* message_definition_name,
+                                     ln_inport* port, double rate, int reliable_transport, unsigned int buffers);
 
 /** Ends a subscription, releases the port and sets *port to NULL. A read
     blocked on it in another thread must have been unblocked first. */
@@ -443,8 +414,7 @@ LN_API int ln_unblock(ln_inport port);
 typedef void* ln_outport;
 
 /** Publishes a topic with one buffer. See ln_publish_with_buffers(). */
-LN_API int ln_publish(ln_client clnt, const char* topic_name, const char* message_definition_name,
-                      ln_outport* port);
+LN_API int ln_publish(ln_client clnt, const char* topic_name, const char* message_definition_name, ln_outport* port);
 
 /** Becomes the publisher of a topic. A topic has at most one publisher; a
     second one is refused (-LNE_REQUEST_FAILED, reason in
@@ -452,9 +422,8 @@ LN_API int ln_publish(ln_client clnt, const char* topic_name, const char* messag
     @param message_definition_name as for ln_subscribe_with_buffers().
     @param buffers ring-buffer slots offered to local subscribers (the
            segment grows to the largest number a local subscriber asks for). */
-LN_API int ln_publish_with_buffers(ln_client clnt, const char* topic_name,
-                                   const char* message_definition_name, unsigned int buffers,
-                                   ln_outport* port);
+LN_API int ln_publish_with_buffers(ln_client clnt, const char* topic_name, const char* message_definition_name,
+                                   unsigned int buffers, ln_outport* port);
 
 /** Stops publishing, releases the port and sets *port to NULL. */
 LN_API int ln_unpublish(ln_outport* port);
@@ -496,10 +465,10 @@ typedef void* ln_multi_waiter;
 /** Descriptor a multi-waiter can signal through (see
     ln_multi_waiter_start_pipe_notifier_thread()). */
 #if defined(__WIN32__)
-#  ifndef HAVE_LN_PIPE_FD
-#    define HAVE_LN_PIPE_FD
+#ifndef HAVE_LN_PIPE_FD
+#define HAVE_LN_PIPE_FD
 typedef void* ln_pipe_fd_t;
-#  endif
+#endif
 #else
 typedef int ln_pipe_fd_t;
 #endif
@@ -545,8 +514,8 @@ typedef void* ln_service_request;
     @param signature the generated *_SIGNATURE string; caller and provider
            must agree on it.
     A handle becomes a provider when it is registered; otherwise it calls. */
-LN_API int ln_service_init(ln_client clnt, ln_service* svc, const char* service_name,
-                           const char* service_interface, const char* signature);
+LN_API int ln_service_init(ln_client clnt, ln_service* svc, const char* service_name, const char* service_interface,
+                           const char* signature);
 
 /** Releases a service handle (providers are unregistered first, a running
     asynchronous call is aborted) and sets *svc to NULL. */
@@ -583,15 +552,13 @@ LN_API int ln_service_call_abort(ln_service svc);
     @param[out] need_swap set non-zero when the provider's byte order
            differs and the response has to be swapped by the caller.
     @return as ln_service_call(). */
-LN_API int ln_service_callv(ln_service svc, struct iovec* iov, unsigned int iov_len,
-                            uint8_t* iov_element_lens, char** response_buffer,
-                            uint32_t* response_len, uint8_t* need_swap);
+LN_API int ln_service_callv(ln_service svc, struct iovec* iov, unsigned int iov_len, uint8_t* iov_element_lens,
+                            char** response_buffer, uint32_t* response_len, uint8_t* need_swap);
 
 /** ln_service_callv() with a timeout as for ln_service_call_with_timeout(). */
 LN_API int ln_service_callv_with_timeout(ln_service svc, struct iovec* iov, unsigned int iov_len,
-                                         uint8_t* iov_element_lens, char** response_buffer,
-                                         uint32_t* response_len, uint8_t* need_swap,
-                                         double timeout);
+                                         uint8_t* iov_element_lens, char** response_buffer, uint32_t* response_len,
+                                         uint8_t* need_swap, double timeout);
 
 /** Starts a call and returns at once. At most one asynchronous call per
     handle runs at a time (-LNE_SVC_REQ_RUNNING otherwise).
@@ -604,13 +571,12 @@ LN_API int ln_service_call_async(ln_service svc, void* data, ln_service_request*
 
 /** Asynchronous variant of ln_service_callv(). Fetch the response with
     ln_service_callv_async_get_response() once finished. */
-LN_API int ln_service_callv_async(ln_service svc, struct iovec* iov, unsigned int iov_len,
-                                  uint8_t* iov_element_lens, ln_service_request* req);
+LN_API int ln_service_callv_async(ln_service svc, struct iovec* iov, unsigned int iov_len, uint8_t* iov_element_lens,
+                                  ln_service_request* req);
 
 /** Raw response of a finished ln_service_callv_async() call (belongs to the
     handle). @return as ln_service_call(). */
-LN_API int ln_service_callv_async_get_response(ln_service svc, char** response_buffer,
-                                               uint32_t* response_len);
+LN_API int ln_service_callv_async_get_response(ln_service svc, char** response_buffer, uint32_t* response_len);
 
 /** Response of a finished ln_service_callv_async() call unpacked into
     @p data, the complete generated service struct (not only its response
@@ -750,13 +716,11 @@ LN_API int ln_thread_pool_setschedparam(ln_client clnt, const char* pool_name, i
 
 /** Definition text and signature of a service interface (message definition
     name). Outputs malloc()ed; the caller frees. */
-LN_API int ln_get_service_signature(ln_client clnt, const char* service_interface, char** definition,
-                                    char** signature);
+LN_API int ln_get_service_signature(ln_client clnt, const char* service_interface, char** definition, char** signature);
 /** Interface, definition text and signature of a registered service.
     Outputs malloc()ed; the caller frees. */
-LN_API int ln_get_service_signature_for_service(ln_client clnt, const char* service_name,
-                                                char** service_interface, char** definition,
-                                                char** signature);
+LN_API int ln_get_service_signature_for_service(ln_client clnt, const char* service_name, char** service_interface,
+                                                char** definition, char** signature);
 /** Names of the registered services with the given interface, separated
     by newlines ("" if none), as one malloc()ed string (the caller frees). */
 LN_API int ln_client_find_services_with_interface(ln_client clnt, const char* interface_name, char** services);
@@ -867,12 +831,12 @@ struct logger_topic_ {
   uint32_t divisor;
   /* Filled in by a download or load: */
   uint32_t n_samples;
-  uint32_t sample_size;    /**< distance between samples in bytes: 20 + message
-                                size, 20 with only_ts, 0 for a topic never seen
-                                published */
-  char* md_name;           /**< message definition name ("" if never seen) */
-  char* md;                /**< the definition in LN 2.9's Python dict notation */
-  logger_sample* samples;  /**< n_samples samples, oldest first */
+  uint32_t sample_size;   /**< distance between samples in bytes: 20 + message
+                               size, 20 with only_ts, 0 for a topic never seen
+                               published */
+  char* md_name;          /**< message definition name ("" if never seen) */
+  char* md;               /**< the definition in LN 2.9's Python dict notation */
+  logger_sample* samples; /**< n_samples samples, oldest first */
 };
 
 /** Number of topics in logger data. */
@@ -917,15 +881,14 @@ typedef void (*ln_event_handler)(ln_client clnt, ln_event_call call, void* user_
     @return 0, -LNE_REQUEST_FAILED when this client is connected to the
             event already or the manager refuses (ln_get_error_message()). */
 LN_API int ln_event_connect(ln_client clnt, ln_event_connection* conn, const char* event_name,
-                            const char* connect_signature, void* connect_data,
-                            ln_event_handler handler, void* user_data);
+                            const char* connect_signature, void* connect_data, ln_event_handler handler,
+                            void* user_data);
 /** As ln_event_connect() with the connect data already flattened. */
 LN_API int ln_event_connect_flat(ln_client clnt, ln_event_connection* conn, const char* event_name,
-                                 const char* connect_signature, void* connect_data_flat,
-                                 uint32_t connect_data_flat_len, ln_event_handler handler,
-                                 void* user_data);
+                                 const char* connect_signature, void* connect_data_flat, uint32_t connect_data_flat_len,
+                                 ln_event_handler handler, void* user_data);
 /** Disconnects (no event reaches the handler afterwards) and releases; sets
-    *conn to NULL. */
+ *conn to NULL. */
 LN_API int ln_event_connection_deinit(ln_event_connection* conn);
 /** The connection's id, unique per client from 1 (LN 2.9 gives 0 to every
     connection to an event that is not "ln.*"). */
@@ -971,24 +934,21 @@ LN_API void ln_get_v16_features(unsigned int* is_with_sys_futex, unsigned int* i
     Signs @p message with the private key; @p *signature_out is malloc()ed,
     the caller frees it. */
 LN_API int ln_dsa_dss1_sign_message(const char* pem_private_key_filename, const uint8_t* message,
-                                    unsigned int message_len, uint8_t** signature_out,
-                                    unsigned int* signature_out_len);
+                                    unsigned int message_len, uint8_t** signature_out, unsigned int* signature_out_len);
 /** Verifies a signature against an OpenSSH public key file.
     @return 0 valid, -LNE_INVALID_DSA_SIGNATURE when it does not verify (also
     when it is no DER signature at all), other < 0 on error. */
-LN_API int ln_dsa_dss1_verify_message_signature(const char* openssh_public_key_filename,
-                                                const uint8_t* message, unsigned int message_len,
-                                                const uint8_t* signature, unsigned int signature_len);
+LN_API int ln_dsa_dss1_verify_message_signature(const char* openssh_public_key_filename, const uint8_t* message,
+                                                unsigned int message_len, const uint8_t* signature,
+                                                unsigned int signature_len);
 /** As ln_dsa_dss1_verify_message_signature() with the key line given as text
     (a trailing comment is allowed). */
-LN_API int ln_dsa_dss1_verify_message_signature_memkey(const char* openssh_public_key_contents,
-                                                       const uint8_t* message, unsigned int message_len,
-                                                       const uint8_t* signature,
+LN_API int ln_dsa_dss1_verify_message_signature_memkey(const char* openssh_public_key_contents, const uint8_t* message,
+                                                       unsigned int message_len, const uint8_t* signature,
                                                        unsigned int signature_len);
 /** Writes a new 1024-bit DSA key pair: the PEM private key (mode 0600) and
     the OpenSSH public key; existing files are replaced atomically. */
-LN_API int ln_dsa_dss1_generate_key_pair(const char* pem_private_key_filename,
-                                         const char* openssh_public_key_filename);
+LN_API int ln_dsa_dss1_generate_key_pair(const char* pem_private_key_filename, const char* openssh_public_key_filename);
 
 /**@}*/
 
@@ -1039,8 +999,7 @@ LN_API int read_from_shm_source(shm_source_t, double* ts, uint32_t* packet_count
                                 int blocking);
 LN_API int read_from_shm_source_timeout(shm_source_t, double* ts, uint32_t* packet_counter, void* data,
                                         unsigned int len, double timeout);
-LN_API int read_last_from_shm_source(shm_source_t, double* ts, uint32_t* packet_counter, void* data,
-                                     unsigned int len);
+LN_API int read_last_from_shm_source(shm_source_t, double* ts, uint32_t* packet_counter, void* data, unsigned int len);
 /** Waits until the segment's newest packet number differs from
     *packet_counter (timeout < 0: no limit), stores it there and counts it as
     read: 1, 0 (timeout, errno ETIMEDOUT) or -2 (unblocked). */
@@ -1049,7 +1008,7 @@ LN_API int unblock_shm_source(shm_source_t source_);
 
 #ifdef __ANDROID__
 LN_API int get_shm_fd(void* source_or_target, unsigned int* shm_size);
-#  define ANDROID_FD_UNIX_SOCKET "\0ln_android_fd_unix_socket"
+#define ANDROID_FD_UNIX_SOCKET "\0ln_android_fd_unix_socket"
 #endif
 
 /**@}*/
@@ -1087,8 +1046,7 @@ typedef struct ln_sample_info {
     @param[out] info filled when a packet was copied; may be NULL.
     @return 1 packet copied, 0 none within the timeout, -LNE_PORT_UNBLOCKED,
             or another error. */
-LN_API int ln_read_with_info(ln_inport port, void* packet, unsigned int size, ln_sample_info* info,
-                             double timeout);
+LN_API int ln_read_with_info(ln_inport port, void* packet, unsigned int size, ln_sample_info* info, double timeout);
 
 /** Zero-copy read: lends the next unread packet in place instead of copying
     it.
@@ -1197,11 +1155,11 @@ typedef struct ln_topic_info {
     arrays (possibly just the NULL), sorted by name. */
 typedef struct ln_client_info {
   const char* name;
-  int64_t id;              /**< the manager's id of the client */
-  int64_t pid;             /**< process id on its host (0 if it did not say) */
-  const char* host;        /**< host name */
-  const char* host_id;     /**< boot id + network namespace: clients with equal
-                                ids share memory */
+  int64_t id;                    /**< the manager's id of the client */
+  int64_t pid;                   /**< process id on its host (0 if it did not say) */
+  const char* host;              /**< host name */
+  const char* host_id;           /**< boot id + network namespace: clients with equal
+                                      ids share memory */
   const char* const* published;  /**< topics it publishes */
   const char* const* subscribed; /**< topics it subscribes to */
   const char* const* services;   /**< services it provides */
@@ -1210,21 +1168,21 @@ typedef struct ln_client_info {
 /** One service of ln_list_services(). */
 typedef struct ln_service_info {
   const char* name;
-  const char* interface;   /**< service definition name, may carry "|hash" */
-  const char* signature;   /**< the provider's service signature */
-  const char* provider;    /**< client name of the provider */
-  const char* group;       /**< its service group, "" for none */
+  const char* interface; /**< service definition name, may carry "|hash" */
+  const char* signature; /**< the provider's service signature */
+  const char* provider;  /**< client name of the provider */
+  const char* group;     /**< its service group, "" for none */
 } ln_service_info;
 
 /** The manager itself (ln_get_manager_status()). */
 typedef struct ln_manager_status {
-  const char* version;     /**< e.g. "ln_core 0.1.0" */
-  int64_t pid;             /**< process id of the manager */
-  const char* address;     /**< "IP:PORT" it listens on */
-  double uptime;           /**< seconds since it started listening */
-  unsigned int clients;    /**< clients registered now */
-  unsigned int topics;     /**< topics known now */
-  unsigned int services;   /**< services registered now */
+  const char* version;   /**< e.g. "ln_core 0.1.0" */
+  int64_t pid;           /**< process id of the manager */
+  const char* address;   /**< "IP:PORT" it listens on */
+  double uptime;         /**< seconds since it started listening */
+  unsigned int clients;  /**< clients registered now */
+  unsigned int topics;   /**< topics known now */
+  unsigned int services; /**< services registered now */
   /** Its message-definition search path, in search order, NULL-terminated. */
   const char* const* message_definition_dirs;
 } ln_manager_status;
@@ -1278,27 +1236,27 @@ LN_API void ln_free_list(void* list);
 /** One process, state or group (ln_list_processes()). */
 typedef struct ln_process_info {
   const char* name;
-  const char* kind;       /**< "process", "state" or "group" */
+  const char* kind; /**< "process", "state" or "group" */
   /** processes: "stopped", "starting" (waiting for its dependencies),
       "started" (runs; not ready yet, or without a ready condition), "ready",
       "stopping", "restarting" (waiting for its automatic restart), "failed";
       states: "UP", "DOWN", "unknown", "checking", "going up", "going down",
       "error"; groups: "N/M running" */
   const char* state;
-  const char* requested;  /**< on its way: "start", "stop", "up", "down", "check" or "" */
-  int64_t pid;            /**< 0 when it does not run */
-  double uptime;          /**< seconds since it started; 0 when it does not run */
-  unsigned int restarts;  /**< automatic restarts so far */
+  const char* requested; /**< on its way: "start", "stop", "up", "down", "check" or "" */
+  int64_t pid;           /**< 0 when it does not run */
+  double uptime;         /**< seconds since it started; 0 when it does not run */
+  unsigned int restarts; /**< automatic restarts so far */
   /** Processes: ready (or running without a ready condition); states: UP;
       groups: every member process runs. */
   int ready;
-  const char* last_exit;  /**< how it ended last: "exit status 3", "killed by SIGKILL", "" */
-  const char* error;      /**< why it failed or cannot start, "" */
-  const char* command;    /**< a process's command, a state's check command */
+  const char* last_exit; /**< how it ended last: "exit status 3", "killed by SIGKILL", "" */
+  const char* error;     /**< why it failed or cannot start, "" */
+  const char* command;   /**< a process's command, a state's check command */
   /** What it depends on (NULL-terminated): "a|b" is satisfied by either
       (providers), "!s" needs state s DOWN. */
   const char* const* depends_on;
-  const char* const* members;  /**< groups: their processes and states (NULL-terminated) */
+  const char* const* members; /**< groups: their processes and states (NULL-terminated) */
 } ln_process_info;
 
 /** Lists the manager's processes, states and groups (in that order, each in
@@ -1320,10 +1278,10 @@ LN_API int ln_control_process(ln_client clnt, const char* name, const char* acti
 /** Output of a process or state (ln_get_process_output()); lines are
     numbered from 1 in the order the manager received them. */
 typedef struct ln_process_output {
-  const char* const* lines;  /**< NULL-terminated, oldest first, without newlines */
-  uint64_t first;            /**< number of lines[0] */
-  uint64_t last;             /**< number of the newest line the manager has (0: none yet) */
-  uint64_t dropped;          /**< lines after `after` that the manager no longer keeps */
+  const char* const* lines; /**< NULL-terminated, oldest first, without newlines */
+  uint64_t first;           /**< number of lines[0] */
+  uint64_t last;            /**< number of the newest line the manager has (0: none yet) */
+  uint64_t dropped;         /**< lines after `after` that the manager no longer keeps */
 } ln_process_output;
 
 /** The lines a process or state printed after line number `after` (0: all

@@ -12,8 +12,8 @@
  * attribute, so the region itself is packed with #pragma pack instead.
  */
 #if defined(_MSC_VER)
-#  define LN_PACKED
-#  pragma pack(push, 1)
+#define LN_PACKED
+#pragma pack(push, 1)
 #else
-#  define LN_PACKED __attribute__((__packed__))
+#define LN_PACKED __attribute__((__packed__))
 #endif

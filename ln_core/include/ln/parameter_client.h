@@ -68,8 +68,8 @@ struct parameter_value {
   std::string description;
   std::string data_type;  ///< "double", "float3", "int16[2, 3]"
   DataType element_data_type = LN_DOUBLE;
-  std::size_t scalar_size = 0;      ///< bytes per element
-  std::vector<std::size_t> shape;   ///< {} scalar, {n}, {rows, cols}
+  std::size_t scalar_size = 0;     ///< bytes per element
+  std::vector<std::size_t> shape;  ///< {} scalar, {n}, {rows, cols}
   ScalarKind scalar_kind = ScalarKind::unknown;
   bool override_enabled = false;
 
@@ -124,8 +124,8 @@ class parameter_proxy {
   void get_into_data_vector(const std::string& signal_name, DataType data_type, ValueSource value_source,
                             std::size_t n_elements, void* data) const;
   void get_into_data_matrix(const std::string& signal_name, DataType data_type, ValueSource value_source,
-                            std::size_t rows, std::size_t cols, void* data, MatrixLayout layout = MatrixLayout::row_major,
-                            std::size_t major_stride_bytes = 0) const;
+                            std::size_t rows, std::size_t cols, void* data,
+                            MatrixLayout layout = MatrixLayout::row_major, std::size_t major_stride_bytes = 0) const;
 
   /// Ends the override: the output follows the input again.
   void reset_override(const std::string& signal_name, bool wait_step = true) const;

@@ -32,10 +32,14 @@ uint32_t element_type_id() {
   if (!std::is_integral<clean_t>::value) return static_cast<uint32_t>(-1);
   const bool is_signed = std::is_signed<clean_t>::value;
   switch (sizeof(clean_t)) {
-    case 1: return is_signed ? LN_INT8 : LN_UINT8;
-    case 2: return is_signed ? LN_INT16 : LN_UINT16;
-    case 4: return is_signed ? LN_INT32 : LN_UINT32;
-    default: return is_signed ? LN_INT64 : LN_UINT64;
+    case 1:
+      return is_signed ? LN_INT8 : LN_UINT8;
+    case 2:
+      return is_signed ? LN_INT16 : LN_UINT16;
+    case 4:
+      return is_signed ? LN_INT32 : LN_UINT32;
+    default:
+      return is_signed ? LN_INT64 : LN_UINT64;
   }
 }
 
@@ -43,9 +47,10 @@ uint32_t element_type_id() {
 /// as double.
 template <typename T>
 struct element {
-  typedef typename std::conditional<
-      std::is_same<T, bool>::value, uint8_t,
-      typename std::conditional<std::is_same<T, long double>::value, double, T>::type>::type storage;
+  typedef
+      typename std::conditional<std::is_same<T, bool>::value, uint8_t,
+                                typename std::conditional<std::is_same<T, long double>::value, double, T>::type>::type
+          storage;
   static uint32_t type() { return element_type_id<T>(); }
 };
 
@@ -74,7 +79,9 @@ struct fetched {
   fetched() = default;
   fetched(const fetched&) = delete;
   fetched& operator=(const fetched&) = delete;
-  fetched(fetched&& other) noexcept : clnt(other.clnt), value(other.value) { std::memset(&other.value, 0, sizeof other.value); }
+  fetched(fetched&& other) noexcept : clnt(other.clnt), value(other.value) {
+    std::memset(&other.value, 0, sizeof other.value);
+  }
   ~fetched() { ln_parameter_value_free(&value); }
 
   void require_shape(unsigned rank, const uint32_t* dims) const {
@@ -113,8 +120,9 @@ struct flat {
 /// Reading (from_value) and writing (to_flat) of each supported C++ type.
 template <typename T, typename Enable = void>
 struct value_io {
-  static_assert(sizeof(T) == 0, "LN parameters hold arithmetic scalars, std::vector/std::array of them, "
-                                "and nested ones for matrices");
+  static_assert(sizeof(T) == 0,
+                "LN parameters hold arithmetic scalars, std::vector/std::array of them, "
+                "and nested ones for matrices");
 };
 
 template <typename T>
@@ -237,7 +245,7 @@ struct value_io<std::array<std::array<T, C>, R>, typename std::enable_if<std::is
 template <typename T, std::size_t R, std::size_t C>
 struct value_io<T[R][C], typename std::enable_if<std::is_arithmetic<T>::value>::type> {
   typedef typename element<T>::storage storage;
-  static flat<storage> to_flat(const T (&value)[R][C]) {
+  static flat<storage> to_flat(const T(&value)[R][C]) {
     flat<storage> f;
     f.type = element<T>::type();
     f.rank = 2;
@@ -262,8 +270,8 @@ inline std::vector<uint8_t> pack_matrix(const void* data, std::size_t element_by
   const uint8_t* in = static_cast<const uint8_t*>(data);
   for (std::size_t r = 0; r < rows; ++r)
     for (std::size_t c = 0; c < cols; ++c) {
-      const std::size_t from = layout == MatrixLayout::row_major ? r * stride + c * element_bytes
-                                                                 : c * stride + r * element_bytes;
+      const std::size_t from =
+          layout == MatrixLayout::row_major ? r * stride + c * element_bytes : c * stride + r * element_bytes;
       std::memcpy(out.data() + (r * cols + c) * element_bytes, in + from, element_bytes);
     }
   return out;
@@ -288,7 +296,9 @@ inline parameter_proxy parameter_proxy::get_parameters(std::string group_name) c
 }
 
 inline bool parameter_proxy::strict_type_checks() const { return _strict_type_checks; }
-inline void parameter_proxy::set_strict_type_checks(bool strict_type_checks) { _strict_type_checks = strict_type_checks; }
+inline void parameter_proxy::set_strict_type_checks(bool strict_type_checks) {
+  _strict_type_checks = strict_type_checks;
+}
 
 inline std::string parameter_proxy::_full_signal_name(const std::string& signal_name) const {
   return _group_prefix.empty() ? signal_name : _group_prefix + "." + signal_name;
@@ -382,7 +392,8 @@ inline void parameter_proxy::get_into_data_vector(const std::string& signal_name
 
 inline void parameter_proxy::get_into_data_matrix(const std::string& signal_name, DataType data_type,
                                                   ValueSource value_source, std::size_t rows, std::size_t cols,
-                                                  void* data, MatrixLayout layout, std::size_t major_stride_bytes) const {
+                                                  void* data, MatrixLayout layout,
+                                                  std::size_t major_stride_bytes) const {
   const std::size_t bytes = detail::element_size(data_type);
   if (bytes == 0 || data == nullptr)
     throw std::runtime_error("parameter '" + _full_signal_name(signal_name) + "': invalid data type or null data");
@@ -390,9 +401,9 @@ inline void parameter_proxy::get_into_data_matrix(const std::string& signal_name
   const uint32_t dims[2] = {static_cast<uint32_t>(rows), static_cast<uint32_t>(cols)};
   v.require_shape(2, dims);
   std::vector<uint8_t> row_major(rows * cols * bytes);
-  const int ret = ln_parameter_value_read(v.clnt, &v.value, value_source == ValueSource::output ? 1 : 0, data_type,
-                                          row_major.data(), rows * cols,
-                                          _strict_type_checks ? LN_PARAMETER_STRICT_TYPES : 0);
+  const int ret =
+      ln_parameter_value_read(v.clnt, &v.value, value_source == ValueSource::output ? 1 : 0, data_type,
+                              row_major.data(), rows * cols, _strict_type_checks ? LN_PARAMETER_STRICT_TYPES : 0);
   if (ret != 0) detail::fail(v.clnt, ret, "reading parameter '" + _full_signal_name(signal_name) + "'");
   const std::size_t dense = bytes * (layout == MatrixLayout::row_major ? cols : rows);
   const std::size_t stride = major_stride_bytes == 0 ? dense : major_stride_bytes;
@@ -409,7 +420,8 @@ inline void parameter_proxy::get_into_data_matrix(const std::string& signal_name
 inline void parameter_proxy::reset_override(const std::string& signal_name, bool wait_step) const {
   if (_clnt == nullptr) throw std::runtime_error("ln::parameters::parameter_proxy is not bound to a client");
   const std::string name = _full_signal_name(signal_name);
-  const int ret = ln_parameter_override_text(_clnt->clnt, name.c_str(), nullptr, wait_step ? LN_PARAMETER_WAIT_STEP : 0);
+  const int ret =
+      ln_parameter_override_text(_clnt->clnt, name.c_str(), nullptr, wait_step ? LN_PARAMETER_WAIT_STEP : 0);
   if (ret != 0) detail::fail(_clnt->clnt, ret, "ending the override of parameter '" + name + "'");
 }
 
@@ -424,10 +436,21 @@ inline parameter_value parameter_proxy::get_internal_value(const std::string& si
   for (unsigned i = 0; i < v.value.n_dims; ++i) out.shape.push_back(v.value.dims[i]);
   out.override_enabled = v.value.override_enabled != 0;
   switch (v.value.type) {
-    case LN_DOUBLE: case LN_SINGLE: out.scalar_kind = ScalarKind::floating; break;
-    case LN_BOOLEAN: out.scalar_kind = ScalarKind::boolean; break;
-    case LN_UINT8: case LN_UINT16: case LN_UINT32: case LN_UINT64: out.scalar_kind = ScalarKind::unsigned_integer; break;
-    default: out.scalar_kind = ScalarKind::signed_integer;
+    case LN_DOUBLE:
+    case LN_SINGLE:
+      out.scalar_kind = ScalarKind::floating;
+      break;
+    case LN_BOOLEAN:
+      out.scalar_kind = ScalarKind::boolean;
+      break;
+    case LN_UINT8:
+    case LN_UINT16:
+    case LN_UINT32:
+    case LN_UINT64:
+      out.scalar_kind = ScalarKind::unsigned_integer;
+      break;
+    default:
+      out.scalar_kind = ScalarKind::signed_integer;
   }
   if (out.scalar_kind == ScalarKind::floating) {
     out.input_float = v.read<double>(false, false);

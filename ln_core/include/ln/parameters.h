@@ -112,7 +112,8 @@ struct port_description_fields {
         input(input_),
         output(output_),
         row_major(row_major_) {
-    if (before_update) before_update_callback = [before_update](void* v) { return before_update(*static_cast<Value*>(v)); };
+    if (before_update)
+      before_update_callback = [before_update](void* v) { return before_update(*static_cast<Value*>(v)); };
     if (after_update) after_update_callback = [after_update](void* v) { after_update(*static_cast<Value*>(v)); };
   }
 };
@@ -132,9 +133,10 @@ struct port_description<T, typename std::enable_if<std::is_arithmetic<T>::value,
 
 /// C arrays of up to two dimensions, stored row-major.
 template <typename T>
-struct port_description<T, typename std::enable_if<std::is_array<T>::value &&
-                                                       std::is_arithmetic<typename std::remove_all_extents<T>::type>::value,
-                                                   T>::type> : detail::port_description_fields<T> {
+struct port_description<
+    T, typename std::enable_if<
+           std::is_array<T>::value && std::is_arithmetic<typename std::remove_all_extents<T>::type>::value, T>::type>
+    : detail::port_description_fields<T> {
   typedef typename std::remove_all_extents<T>::type scalar_type;
 
   port_description(std::string signal_name_, std::string signal_description_, T* input_, T* output_,
@@ -179,8 +181,8 @@ class parameter_block {
   /// reason in error_message(), if a name is empty or already provided by
   /// this client, a type or shape is invalid, or an input is null.
   bool register_parameters(std::vector<port_description_void2>& port_descriptions);
-  [[deprecated("Please register_parameters with a signal description")]]
-  bool register_parameters(std::vector<port_description_void>& port_descriptions);
+  [[deprecated("Please register_parameters with a signal description")]] bool register_parameters(
+      std::vector<port_description_void>& port_descriptions);
   template <typename... Types>
   bool register_parameters(port_description<Types>... port_descriptions) {
     std::vector<port_description_void2> flat{_flatten(port_descriptions)...};
@@ -194,8 +196,8 @@ class parameter_block {
   /// One step with other pointers, one per parameter in registration order
   /// (an output may be null); only_inputs: write no output.
   void update(const void** input_signals, void** output_signals, bool only_inputs);
-  [[deprecated("Please pass input_signals as const void **")]]
-  void update(void** input_signals, void** output_signals, bool only_inputs);
+  [[deprecated("Please pass input_signals as const void **")]] void update(void** input_signals, void** output_signals,
+                                                                           bool only_inputs);
 
   /// ln_core: why the last register_parameters() returned false.
   const std::string& error_message() const { return error_message_; }
@@ -205,8 +207,16 @@ class parameter_block {
  private:
   template <typename T>
   static port_description_void2 _flatten(port_description<T>& d) {
-    return port_description_void2{d.signal_name.c_str(), d.signal_description.c_str(), d.width, d.type_id, d.num_dims,
-                                  d.dims, d.input, d.output, d.before_update_callback, d.after_update_callback,
+    return port_description_void2{d.signal_name.c_str(),
+                                  d.signal_description.c_str(),
+                                  d.width,
+                                  d.type_id,
+                                  d.num_dims,
+                                  d.dims,
+                                  d.input,
+                                  d.output,
+                                  d.before_update_callback,
+                                  d.after_update_callback,
                                   d.row_major};
   }
   void run_update(const void* const* inputs, void* const* outputs, bool only_inputs);

@@ -77,14 +77,14 @@ typedef void (*ln_parameter_applied)(void* value, void* user_data);
 
 /** One parameter of a block. */
 typedef struct ln_parameter_signal {
-  const char* name;        /**< below the block's name; "a.b" makes a subgroup */
-  const char* description; /**< shown to users; may be NULL */
-  unsigned int type;       /**< LN_PARAM_* */
-  unsigned int n_dims;     /**< 1 or 2 */
-  const uint32_t* dims;    /**< n_dims sizes, each >= 1; {1} is a scalar */
-  int row_major;           /**< layout of 2-D values in input/output (0: column-major) */
-  void* input;             /**< the program's value; read by every update */
-  void* output;            /**< the value in effect, written by every update; may be NULL */
+  const char* name;                  /**< below the block's name; "a.b" makes a subgroup */
+  const char* description;           /**< shown to users; may be NULL */
+  unsigned int type;                 /**< LN_PARAM_* */
+  unsigned int n_dims;               /**< 1 or 2 */
+  const uint32_t* dims;              /**< n_dims sizes, each >= 1; {1} is a scalar */
+  int row_major;                     /**< layout of 2-D values in input/output (0: column-major) */
+  void* input;                       /**< the program's value; read by every update */
+  void* output;                      /**< the value in effect, written by every update; may be NULL */
   ln_parameter_check before_update;  /**< may be NULL */
   ln_parameter_applied after_update; /**< may be NULL */
   void* user_data;                   /**< passed to both */
@@ -125,16 +125,16 @@ LN_API int ln_parameter_block_deinit(ln_parameter_block* block);
 /** One parameter as its provider reports it. The strings and buffers are
     allocated by the library; release them with ln_parameter_value_free(). */
 typedef struct ln_parameter_value {
-  char* name;        /**< full name */
+  char* name; /**< full name */
   char* description;
-  char* data_type;   /**< LN's form: "double", "float3", "int16[2, 3]" */
-  unsigned int type; /**< LN_PARAM_* */
+  char* data_type;     /**< LN's form: "double", "float3", "int16[2, 3]" */
+  unsigned int type;   /**< LN_PARAM_* */
   unsigned int n_dims; /**< 0 scalar, 1 vector, 2 matrix (also 1 x n) */
   uint32_t dims[2];
   int override_enabled;
-  void* input;       /**< the provider's own value, row-major */
-  void* output;      /**< the value in effect, row-major */
-  uint32_t size;     /**< bytes of input (and of output) */
+  void* input;   /**< the provider's own value, row-major */
+  void* output;  /**< the value in effect, row-major */
+  uint32_t size; /**< bytes of input (and of output) */
 } ln_parameter_value;
 
 /** Reads parameter @p name (full name, e.g. "controller.gain") from the

@@ -8,6 +8,7 @@
   bench_py.py pub1m TAG / read1m TAG N 1 MiB packets: reads into numpy (and borrowed, on ln_core)
 Uses LN_MANAGER; message definitions from tests/msgdefs (pytest/p64, p1m, small_srv).
 """
+
 import json
 import statistics
 import sys
@@ -18,8 +19,14 @@ import links_and_nodes as ln
 
 def stats(name, samples):
     samples = sorted(samples)
-    return json.dumps({"case": name, "n": len(samples), "median_us": round(statistics.median(samples) * 1e6, 2),
-                       "p99_us": round(samples[int(len(samples) * 0.99) - 1] * 1e6, 2)})
+    return json.dumps(
+        {
+            "case": name,
+            "n": len(samples),
+            "median_us": round(statistics.median(samples) * 1e6, 2),
+            "p99_us": round(samples[int(len(samples) * 0.99) - 1] * 1e6, 2),
+        }
+    )
 
 
 def pong(tag, md="pytest/p64"):
@@ -139,6 +146,7 @@ def read1m(tag, n):
 
     print(stats("py_read_1MiB_into_numpy", timed(copy_read)), flush=True)
     if hasattr(inp, "borrow"):
+
         def borrow_read():
             nonlocal total
             with inp.borrow(False) as packet:
@@ -146,11 +154,17 @@ def read1m(tag, n):
                     return False
                 total += int(packet.pad[4096])
             return True
+
         print(stats("py_borrow_1MiB_numpy_view", timed(borrow_read)), flush=True)
 
 
 if __name__ == "__main__":
     mode, args = sys.argv[1], sys.argv[2:]
-    {"pong": lambda: pong(args[0]), "ping": lambda: ping(args[0], int(args[1])),
-     "provide": lambda: provide(args[0]), "call": lambda: call(args[0], int(args[1])),
-     "pub1m": lambda: pub1m(args[0]), "read1m": lambda: read1m(args[0], int(args[1]))}[mode]()
+    {
+        "pong": lambda: pong(args[0]),
+        "ping": lambda: ping(args[0], int(args[1])),
+        "provide": lambda: provide(args[0]),
+        "call": lambda: call(args[0], int(args[1])),
+        "pub1m": lambda: pub1m(args[0]),
+        "read1m": lambda: read1m(args[0], int(args[1])),
+    }[mode]()

@@ -8,6 +8,7 @@ port; its daemons are ended afterwards), then runs bench_py.py for both with
 the same pinning (same core: both on CPU 1; split: CPUs 1 and 0) and prints
 the median of the per-run medians. Every process runs under a timeout.
 """
+
 import argparse
 import json
 import os
@@ -27,8 +28,13 @@ BENCH = os.path.join(HERE, "bench_py.py")
 
 
 def run_pair(python, env, server_args, client_args, server_cpu, client_cpu, wait_ready=False):
-    server = subprocess.Popen(["taskset", "-c", str(server_cpu), "timeout", "300", python, BENCH, *server_args],
-                              env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    server = subprocess.Popen(
+        ["taskset", "-c", str(server_cpu), "timeout", "300", python, BENCH, *server_args],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         if wait_ready:
             line = server.stdout.readline().strip()
@@ -36,8 +42,12 @@ def run_pair(python, env, server_args, client_args, server_cpu, client_cpu, wait
                 raise RuntimeError("server: %s %s" % (line, server.stderr.read()))
         else:
             time.sleep(1.0)
-        out = subprocess.run(["taskset", "-c", str(client_cpu), "timeout", "300", python, BENCH, *client_args],
-                             env=env, capture_output=True, text=True)
+        out = subprocess.run(
+            ["taskset", "-c", str(client_cpu), "timeout", "300", python, BENCH, *client_args],
+            env=env,
+            capture_output=True,
+            text=True,
+        )
         if out.returncode != 0:
             raise RuntimeError(out.stderr)
         return json.loads(out.stdout.strip().splitlines()[-1])
@@ -69,8 +79,15 @@ def main():
                         r = run_pair(python, env, ["pong", tag], ["ping", tag, str(args.n)], a, b)
                         results.setdefault(("pub/sub RTT 64 B", placement, name), []).append(r)
                         try:
-                            r = run_pair(python, env, ["provide", "bench.srv." + tag], ["call", "bench.srv." + tag,
-                                         str(args.n)], a, b, wait_ready=True)
+                            r = run_pair(
+                                python,
+                                env,
+                                ["provide", "bench.srv." + tag],
+                                ["call", "bench.srv." + tag, str(args.n)],
+                                a,
+                                b,
+                                wait_ready=True,
+                            )
                             results.setdefault(("service RTT small", placement, name), []).append(r)
                         except RuntimeError as error:
                             print("%s service benchmark failed: %s" % (name, str(error).strip()[-200:]))
@@ -80,8 +97,16 @@ def main():
     print("| test | placement | system | median us | p99 us |")
     print("|---|---|---|---|---|")
     for (test, placement, name), runs in sorted(results.items()):
-        print("| %s | %s | %s | %.1f | %.1f |" % (test, placement, name, statistics.median(r["median_us"] for r in runs),
-                                              statistics.median(r["p99_us"] for r in runs)))
+        print(
+            "| %s | %s | %s | %.1f | %.1f |"
+            % (
+                test,
+                placement,
+                name,
+                statistics.median(r["median_us"] for r in runs),
+                statistics.median(r["p99_us"] for r in runs),
+            )
+        )
 
 
 if __name__ == "__main__":

@@ -18,23 +18,40 @@ event_connection_wrapper.id/disconnect(), client.close() and typed errors (LNErr
 """
 
 from . import _ln
-from ._ln import LN_LIBRARY_VERSION, RATE_AS_PUBLISHED, RATE_ON_REQUEST_LAST  # noqa: F401
-from ._errors import *  # noqa: F401,F403  (LNE_* constants)
-from ._errors import ERROR_CODES, LNError, error_name  # noqa: F401
-from ._packets import FieldError, FieldTypeError, FieldValueError, Part as ln_packet_part  # noqa: F401
-from ._client import client, port_wrapper, multi_waiter, borrowed_packet  # noqa: F401
-from ._services import service_wrapper, request_wrapper, ServiceFuture, SVC_RESP_LATER  # noqa: F401
-from ._events import event_connection_wrapper  # noqa: F401
-from ._introspection import topic_info, client_info, service_info, manager_status  # noqa: F401
-from ._loggers import logger, logger_data, logger_topic_, logger_data_wrapper, topic_cursor_wrapper  # noqa: F401
-from ._parameters import parameters_proxy, ParameterBlock, ParameterSignal, ParameterOutputs  # noqa: F401
-from ._ln import (  # noqa: F401  (parameter element types, as LN 2.9 exports them)
-    LN_PARAM_BOOLEAN, LN_PARAM_DOUBLE, LN_PARAM_INT16, LN_PARAM_INT32, LN_PARAM_INT64, LN_PARAM_INT8,
-    LN_PARAM_SINGLE, LN_PARAM_UINT16, LN_PARAM_UINT32, LN_PARAM_UINT64, LN_PARAM_UINT8)
-from ._introspection import process_info, process_output  # noqa: F401
-from ._mainloop import GLibMainloop, MainloopInterface, MainloopMultiWaiter, SelectMainloop  # noqa: F401
-from ._wrapped import (  # noqa: F401
-    ServiceErrorResponse, service_provider, services_wrapper, wrapped_service, wrapped_service_provider)
+from ._client import borrowed_packet, client, multi_waiter, port_wrapper
+from ._errors import *  # noqa: F403  (LNE_* constants)
+from ._errors import ERROR_CODES, LNError, error_name
+from ._events import event_connection_wrapper
+from ._introspection import client_info, manager_status, process_info, process_output, service_info, topic_info
+from ._ln import (
+    LN_LIBRARY_VERSION,
+    LN_PARAM_BOOLEAN,
+    LN_PARAM_DOUBLE,
+    LN_PARAM_INT8,
+    LN_PARAM_INT16,
+    LN_PARAM_INT32,
+    LN_PARAM_INT64,
+    LN_PARAM_SINGLE,
+    LN_PARAM_UINT8,
+    LN_PARAM_UINT16,
+    LN_PARAM_UINT32,
+    LN_PARAM_UINT64,
+    RATE_AS_PUBLISHED,
+    RATE_ON_REQUEST_LAST,
+)
+from ._loggers import logger, logger_data, logger_data_wrapper, logger_topic_, topic_cursor_wrapper
+from ._mainloop import GLibMainloop, MainloopInterface, MainloopMultiWaiter, SelectMainloop
+from ._packets import FieldError, FieldTypeError, FieldValueError
+from ._packets import Part as ln_packet_part
+from ._parameters import ParameterBlock, ParameterOutputs, ParameterSignal, parameters_proxy
+from ._services import SVC_RESP_LATER, ServiceFuture, request_wrapper, service_wrapper
+from ._wrapped import (
+    ServiceErrorResponse,
+    service_provider,
+    services_wrapper,
+    wrapped_service,
+    wrapped_service_provider,
+)
 
 ln_packet = ln_packet_part
 LN_MANAGER_CLIENT_ID = 0xFFFFFFFF
@@ -47,4 +64,4 @@ dsa_dss1_sign_message = _ln.dsa_dss1_sign_message
 dsa_dss1_generate_key_pair = _ln.dsa_dss1_generate_key_pair
 get_monotonic_time = _ln.get_monotonic_time
 format_error = _ln.format_error
-from ._packets import ctor_name as get_packet_ctor_name  # noqa: E402,F401
+from ._packets import ctor_name as get_packet_ctor_name  # noqa: E402

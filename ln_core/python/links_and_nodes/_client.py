@@ -3,8 +3,8 @@
 import atexit
 import weakref
 
-from . import _ln, _introspection
-from ._errors import LNError, LNE_INVALID_PARAMETER, LNE_NOT_YET_IMPLEMENTED
+from . import _introspection, _ln
+from ._errors import LNE_INVALID_PARAMETER, LNE_NOT_YET_IMPLEMENTED, LNError
 from ._packets import Compiler, ln29_definition
 
 _live_clients = weakref.WeakSet()
@@ -43,8 +43,9 @@ class client:
         elif isinstance(ln_manager_or_args, bytes):
             native = _ln.Client(client_name, ln_manager_or_args.decode(), None)
         else:
-            raise TypeError("ln_manager_or_args must be 'HOST:PORT', a list of arguments or None, not %r"
-                            % (ln_manager_or_args,))
+            raise TypeError(
+                "ln_manager_or_args must be 'HOST:PORT', a list of arguments or None, not %r" % (ln_manager_or_args,)
+            )
         self._native = native
         self.name = native.name
         self._compiler = Compiler()
@@ -125,12 +126,17 @@ class client:
     def _topic_model(self, md_name):
         model = self._model(md_name)
         if model["kind"] != "plain":
-            raise LNError("'%s' is a %s definition, not a topic message" % (md_name, model["kind"]),
-                          LNE_INVALID_PARAMETER, 0)
+            raise LNError(
+                "'%s' is a %s definition, not a topic message" % (md_name, model["kind"]), LNE_INVALID_PARAMETER, 0
+            )
         cls = self._compiler.part_class(model)
         if not cls._fixed:
-            raise LNError("'%s' has dynamic fields, which topics cannot carry (LN sends fixed-size "
-                          "packets): use a fixed array and a count field" % md_name, LNE_INVALID_PARAMETER, 0)
+            raise LNError(
+                "'%s' has dynamic fields, which topics cannot carry (LN sends fixed-size "
+                "packets): use a fixed array and a count field" % md_name,
+                LNE_INVALID_PARAMETER,
+                0,
+            )
         return model, cls
 
     def publish(self, topic_name, message_definition_name="", buffers=1):
@@ -141,19 +147,20 @@ class client:
         native = _ln.OutPort(self._native, topic_name, message_definition_name, buffers)
         return port_wrapper(md_name, cls, native, self, topic_name)
 
-    def subscribe(self, topic_name, message_definition_name=None, rate=-1, buffers=1,
-                  need_reliable_transport=False):
+    def subscribe(self, topic_name, message_definition_name=None, rate=-1, buffers=1, need_reliable_transport=False):
         """Subscribes to a topic; `message_definition_name` None asks the manager."""
         if message_definition_name is None or message_definition_name == "":
             message_definition_name = self._native.get_message_definition_for_topic(topic_name)[0]
         elif not isinstance(message_definition_name, str):
-            raise TypeError("subscribe: message_definition_name must be None or a str, not %r"
-                            % (message_definition_name,))
+            raise TypeError(
+                "subscribe: message_definition_name must be None or a str, not %r" % (message_definition_name,)
+            )
         buffers = _checked_buffers(buffers)
         md_name = message_definition_name.split("|")[0]
         model, cls = self._topic_model(md_name)
-        native = _ln.InPort(self._native, topic_name, message_definition_name, float(rate), buffers,
-                            bool(need_reliable_transport))
+        native = _ln.InPort(
+            self._native, topic_name, message_definition_name, float(rate), buffers, bool(need_reliable_transport)
+        )
         return port_wrapper(md_name, cls, native, self, topic_name, need_reliable_transport)
 
     def unpublish(self, port):
@@ -169,6 +176,7 @@ class client:
     def get_logger(self, logger_name):
         """The topic logger of that name (made on first use); the manager records."""
         from ._loggers import logger
+
         return logger(_ln.get_logger(self._native, logger_name))
 
     # -- services ---------------------------------------------------------
@@ -177,20 +185,24 @@ class client:
         used. With a `mainloop` (a MainloopInterface), call() runs that loop
         while it waits."""
         from ._services import service_wrapper
+
         if interface_name:
             definition, signature = self._native.get_service_signature(interface_name)
         else:
             interface_name, definition, signature = self._native.get_service_signature_for_service(service_name)
-        return service_wrapper(self, service_name, interface_name, definition, signature, is_provider=False,
-                               mainloop=mainloop)
+        return service_wrapper(
+            self, service_name, interface_name, definition, signature, is_provider=False, mainloop=mainloop
+        )
 
     def get_service_provider(self, service_name, interface_name, mainloop=None):
         """A service to provide: set_handler(), then do_register(). With a
         `mainloop`, do_register() makes that loop handle the requests."""
         from ._services import service_wrapper
+
         definition, signature = self._native.get_service_signature(interface_name)
-        svc = service_wrapper(self, service_name, interface_name, definition, signature, is_provider=True,
-                              mainloop=mainloop)
+        svc = service_wrapper(
+            self, service_name, interface_name, definition, signature, is_provider=True, mainloop=mainloop
+        )
         self._services.add(svc)
         return svc
 
@@ -294,6 +306,7 @@ class client:
         (LN_PARAMETER_PREFIX in front), as a parameters_proxy; fails if there
         are none, unless allow_empty."""
         from ._parameters import parameters_proxy
+
         return parameters_proxy(self, parameter_group_prefix, allow_empty)
 
     def parameter_block(self, parameter_group_name, always_publish=False, topic_name=""):
@@ -301,6 +314,7 @@ class client:
         "<LN_PARAMETER_PREFIX><parameter_group_name>.<name>": add(), register(),
         then update() once per loop iteration (see ParameterBlock)."""
         from ._parameters import ParameterBlock
+
         return ParameterBlock(self, parameter_group_name, always_publish, topic_name)
 
     def connect_to_event(self, event_name, event_md, callback, **connect_args):
@@ -310,6 +324,7 @@ class client:
         fnmatch patterns event_pattern, name_pattern, md_pattern and
         client_pattern). See links_and_nodes._events."""
         from ._events import event_connection_wrapper
+
         return event_connection_wrapper(self, event_name, event_md, callback, connect_args)
 
 
@@ -345,8 +360,10 @@ class port_wrapper:
         try:
             data = memoryview(value).cast("B")
         except TypeError:
-            raise TypeError("port.packet takes a packet of '%s' or a bytes-like object of its %d bytes, not %s"
-                            % (self.msg_def_name, size, type(value).__name__)) from None
+            raise TypeError(
+                "port.packet takes a packet of '%s' or a bytes-like object of its %d bytes, not %s"
+                % (self.msg_def_name, size, type(value).__name__)
+            ) from None
         if data.nbytes != size:
             raise ValueError("port.packet: '%s' messages are %d bytes, got %d" % (self.msg_def_name, size, data.nbytes))
         self._packet._decode(data)

@@ -23,10 +23,14 @@ globals().update(ERROR_CODES)
 LNError = _ln.LNError
 LNError.__module__ = "links_and_nodes"
 LNError.message = property(lambda self: self.args[0] if self.args else "", doc="the error text")
-LNError.code = property(lambda self: self.args[1] if len(self.args) > 1 else LNE_UNKNOWN,  # noqa: F821
-                        doc="the LNE_* number")
-LNError.user_code = property(lambda self: self.args[2] if len(self.args) > 2 else 0,
-                             doc="for LNE_USER_DEFINED_ERROR: the error code the provider's handler returned")
+LNError.code = property(
+    lambda self: self.args[1] if len(self.args) > 1 else LNE_UNKNOWN,  # noqa: F821
+    doc="the LNE_* number",
+)
+LNError.user_code = property(
+    lambda self: self.args[2] if len(self.args) > 2 else 0,
+    doc="for LNE_USER_DEFINED_ERROR: the error code the provider's handler returned",
+)
 LNError.__str__ = lambda self: str(self.args[0]) if self.args else ""
 
 

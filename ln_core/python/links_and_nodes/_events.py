@@ -14,7 +14,7 @@ pool), one event at a time.
 import weakref
 
 from . import _ln
-from ._errors import LNError, LNE_INVALID_SIGNATURE
+from ._errors import LNE_INVALID_SIGNATURE, LNError
 
 
 class event_connection_wrapper:
@@ -34,8 +34,11 @@ class event_connection_wrapper:
             interface, definition, _ = clnt.get_service_signature_for_service(name)
         model = clnt._model(interface, definition)
         if model["kind"] != "event":
-            raise LNError("'%s' is a %s definition, not an event definition" % (interface, model["kind"]),
-                          LNE_INVALID_SIGNATURE, 0)
+            raise LNError(
+                "'%s' is a %s definition, not an event definition" % (interface, model["kind"]),
+                LNE_INVALID_SIGNATURE,
+                0,
+            )
         self.clnt, self.name, self.interface, self.callback = clnt, name, interface, callback
         self.connect_args = connect_args
         self.connection = None
@@ -45,16 +48,18 @@ class event_connection_wrapper:
         connect = clnt._compiler.part_class(model, "fields", "::connect")(name=name + ".connect")
         for field, value in connect_args.items():
             if field not in connect._field_types:
-                raise AttributeError("event definition '%s' has no connect field '%s'; its connect fields: %s"
-                                     % (interface, field, ", ".join(connect._fields) or "(none)"))
+                raise AttributeError(
+                    "event definition '%s' has no connect field '%s'; its connect fields: %s"
+                    % (interface, field, ", ".join(connect._fields) or "(none)")
+                )
             setattr(connect, field, value)
         call_class = clnt._compiler.part_class(model, "response_fields", "::call")
-        self.event_data = type(call_class.__name__, (call_class,), {"__slots__": ("connection",)})(
-            name=name + ".call")
+        self.event_data = type(call_class.__name__, (call_class,), {"__slots__": ("connection",)})(name=name + ".call")
         self.event_data.connection = self
         self.connect_data = bytes(connect._flat())
-        self._native = _ln.EventConnection(clnt._native, name, self.connect_signature, self.connect_data,
-                                           _deliverer(weakref.ref(self)))
+        self._native = _ln.EventConnection(
+            clnt._native, name, self.connect_signature, self.connect_data, _deliverer(weakref.ref(self))
+        )
         clnt._event_connections.add(self)
 
     @property
@@ -85,4 +90,5 @@ def _deliverer(wrapper_ref):
         wrapper = wrapper_ref()
         if wrapper is not None:
             wrapper._deliver(data)
+
     return deliver

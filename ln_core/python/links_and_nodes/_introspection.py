@@ -2,13 +2,14 @@
 services and itself (client.list_topics() & co.). Every result is an
 immutable NamedTuple; ``._asdict()`` gives a JSON-ready dict."""
 
-from typing import List, NamedTuple
+from typing import NamedTuple
 
 from . import _ln
 
 
 class topic_info(NamedTuple):
     """A topic the manager knows (published or only subscribed)."""
+
     name: str
     message_definition: str
     hash: str
@@ -25,6 +26,7 @@ class topic_info(NamedTuple):
 
 class client_info(NamedTuple):
     """A client registered with the manager."""
+
     name: str
     id: int
     pid: int
@@ -33,15 +35,16 @@ class client_info(NamedTuple):
     #: boot id + network namespace: clients with equal ids share memory
     host_id: str
     #: topic names it publishes (sorted)
-    published: List[str]
+    published: list[str]
     #: topic names it subscribes to (sorted)
-    subscribed: List[str]
+    subscribed: list[str]
     #: service names it provides (sorted)
-    services: List[str]
+    services: list[str]
 
 
 class service_info(NamedTuple):
     """A service registered with the manager."""
+
     name: str
     #: the service definition name (may carry "|hash")
     interface: str
@@ -54,6 +57,7 @@ class service_info(NamedTuple):
 
 class manager_status(NamedTuple):
     """The manager itself."""
+
     version: str
     pid: int
     #: "IP:PORT" it listens on
@@ -64,11 +68,12 @@ class manager_status(NamedTuple):
     topics: int
     services: int
     #: its message-definition search path, in search order
-    message_definition_dirs: List[str]
+    message_definition_dirs: list[str]
 
 
 class process_info(NamedTuple):
     """A process, state or group of the manager's config."""
+
     name: str
     #: "process", "state" or "group"
     kind: str
@@ -93,14 +98,15 @@ class process_info(NamedTuple):
     #: a process's command, a state's check command
     command: str
     #: what it depends on ("a|b": either; "!s": state s DOWN)
-    depends_on: List[str]
+    depends_on: list[str]
     #: groups: their processes and states
-    members: List[str]
+    members: list[str]
 
 
 class process_output(NamedTuple):
     """Lines a process or state printed (client.get_process_output())."""
-    lines: List[str]
+
+    lines: list[str]
     #: number of lines[0]
     first: int
     #: number of the newest line the manager has (0: none yet); ask again

@@ -74,6 +74,7 @@ def _sources(md_name, md_text):
 
 class logger_sample_header:
     """A sample of a logger that records only timestamps (set_only_ts)."""
+
     __slots__ = ("log_ts", "src_ts", "packet_counter")
     _fields = ()
 
@@ -89,6 +90,7 @@ class logger_sample_header:
 
 class logger_topic_:
     """ln.h's logger_topic of one recorded topic (read-only)."""
+
     __slots__ = ("name", "log_size", "divisor", "n_samples", "sample_size", "md_name", "md", "_samples")
 
     def __init__(self, fields):
@@ -118,7 +120,7 @@ class topic_cursor:
         if not 0 <= idx < topic.n_samples:
             raise IndexError("sample %s is out of range (0..%d)" % (idx, topic.n_samples - 1))
         start = idx * topic.sample_size
-        target_buffer[:topic.sample_size] = topic._samples[start:start + topic.sample_size]
+        target_buffer[: topic.sample_size] = topic._samples[start : start + topic.sample_size]
 
 
 class topic_cursor_wrapper:
@@ -133,8 +135,10 @@ class topic_cursor_wrapper:
             model = _ln.model_from_sources(self.topic.md_name, _sources(self.topic.md_name, self.topic.md))
             part = _compiler.part_class(model)
             if part._size != self.topic.sample_size - _HEADER.size:
-                raise ValueError("topic %r: samples of %d bytes do not hold packets of %r (%d bytes)"
-                                 % (self.name, self.topic.sample_size, self.topic.md_name, part._size))
+                raise ValueError(
+                    "topic %r: samples of %d bytes do not hold packets of %r (%d bytes)"
+                    % (self.name, self.topic.sample_size, self.topic.md_name, part._size)
+                )
             self._packet_class = type(part.__name__, (part,), {"__slots__": ("log_ts", "src_ts", "packet_counter")})
         # As in LN 2.9: None when the topic was never seen published.
         self.packet = self._new_packet() if self.topic.md else None
@@ -149,7 +153,7 @@ class topic_cursor_wrapper:
             raise IndexError("index %s is out of range" % idx)
         start = idx * topic.sample_size
         if self._packet_class is not None:
-            packet = self._packet_class(bytearray(topic._samples[start + _HEADER.size:start + topic.sample_size]))
+            packet = self._packet_class(bytearray(topic._samples[start + _HEADER.size : start + topic.sample_size]))
         else:
             packet = logger_sample_header()
         packet.log_ts, packet.src_ts, packet.packet_counter = _HEADER.unpack_from(topic._samples, start)
@@ -224,11 +228,19 @@ class logger_data_wrapper:
         self.data.save(fn)
 
     def get_dict(self, do_print=False, do_transform_topic_name=False, use_attr_dict=False):
-        return self.unpack_into(dict(), do_print=do_print, do_transform_topic_name=do_transform_topic_name,
-                                use_attr_dict=use_attr_dict)
+        return self.unpack_into(
+            dict(), do_print=do_print, do_transform_topic_name=do_transform_topic_name, use_attr_dict=use_attr_dict
+        )
 
-    def unpack_into(self, user_dict, src_ts_name="_packet_source_ts", stack_fields=None, do_print=True,
-                    do_transform_topic_name=False, use_attr_dict=True):
+    def unpack_into(
+        self,
+        user_dict,
+        src_ts_name="_packet_source_ts",
+        stack_fields=None,
+        do_print=True,
+        do_transform_topic_name=False,
+        use_attr_dict=True,
+    ):
         """Per topic a dict of numpy arrays, one row per sample: the packet
         fields (nested parts as nested dicts, arrays of parts as lists of
         them) and `src_ts_name`, _packet_counter, _packet_log_ts. With

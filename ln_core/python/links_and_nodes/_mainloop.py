@@ -13,7 +13,7 @@ import select
 import time
 import traceback
 
-__all__ = ["MainloopInterface", "SelectMainloop", "GLibMainloop", "MainloopMultiWaiter"]
+__all__ = ["GLibMainloop", "MainloopInterface", "MainloopMultiWaiter", "SelectMainloop"]
 
 
 class MainloopInterface:
@@ -195,8 +195,12 @@ def _glib_mainloop_class():
             return self._attach(GLib.idle_source_new(), callback, args, "idle")
 
         def fd_add(self, fd, condition, callback, *args):
-            flags = {"in": GLib.IOCondition.IN, "out": GLib.IOCondition.OUT, "err": GLib.IOCondition.ERR,
-                     "hup": GLib.IOCondition.HUP}
+            flags = {
+                "in": GLib.IOCondition.IN,
+                "out": GLib.IOCondition.OUT,
+                "err": GLib.IOCondition.ERR,
+                "hup": GLib.IOCondition.HUP,
+            }
             mask = 0
             for c in _conditions(condition):
                 mask |= flags[c]
@@ -232,8 +236,9 @@ class MainloopMultiWaiter:
 
     def __init__(self, client, mainloop):
         if not isinstance(mainloop, MainloopInterface):
-            raise TypeError("MainloopMultiWaiter: mainloop must be a links_and_nodes.MainloopInterface, not %r"
-                            % (mainloop,))
+            raise TypeError(
+                "MainloopMultiWaiter: mainloop must be a links_and_nodes.MainloopInterface, not %r" % (mainloop,)
+            )
         self.clnt = client
         self.mainloop = mainloop
         self.waiter = client.get_multi_waiter()
@@ -288,9 +293,11 @@ def wait_until(loop, done, timeout=None):
     timed_out = [False]
     source = None
     if timeout:
+
         def expire():
             timed_out[0] = True
             return False
+
         source = loop.timeout_add(timeout, expire)
     while not done() and not timed_out[0]:
         loop.iterate(True)

@@ -80,8 +80,10 @@ def _check_integral_array(obj, name, src, dtype):
     info = np.iinfo(dtype)
     lo, hi = int(src.min()), int(src.max())  # exact: float64 rounds int64's maximum up to 2**63
     if lo < info.min or hi > info.max:
-        raise FieldValueError("%s: values must lie in [%d, %d] for %s, got %s..%s"
-                              % (_where(obj, name), info.min, info.max, dtype, lo, hi))
+        raise FieldValueError(
+            "%s: values must lie in [%d, %d] for %s, got %s..%s"
+            % (_where(obj, name), info.min, info.max, dtype, lo, hi)
+        )
 
 
 def _as_numeric_array(obj, name, value, dtype, count=None):
@@ -96,8 +98,9 @@ def _as_numeric_array(obj, name, value, dtype, count=None):
     elif isinstance(value, (bytes, bytearray, memoryview)):
         data = memoryview(value).cast("B")
         if data.nbytes % dtype.itemsize:
-            raise FieldValueError("%s: %d bytes are not a whole number of %s values"
-                                  % (_where(obj, name), data.nbytes, dtype))
+            raise FieldValueError(
+                "%s: %d bytes are not a whole number of %s values" % (_where(obj, name), data.nbytes, dtype)
+            )
         src = np.frombuffer(data, dtype=dtype)
     elif isinstance(value, str):
         raise FieldTypeError("%s: expects a sequence of numbers, got a str" % _where(obj, name))
@@ -112,8 +115,9 @@ def _as_numeric_array(obj, name, value, dtype, count=None):
         try:  # numpy's own conversion: numeric strings, None
             src = np.array(src, dtype=dtype)
         except (TypeError, ValueError, OverflowError) as error:
-            raise FieldTypeError("%s: expects numbers (%s), got %r: %s"
-                                 % (_where(obj, name), dtype, value, error)) from None
+            raise FieldTypeError(
+                "%s: expects numbers (%s), got %r: %s" % (_where(obj, name), dtype, value, error)
+            ) from None
     src = src.reshape(-1)
     if count is not None and src.size != count:
         raise FieldValueError("%s: expects %d values, got %d" % (_where(obj, name), count, src.size))
@@ -127,8 +131,9 @@ def _char_codes(obj, name, value, count):
     sequence or an integer array, as LN 2.9 takes them for `char x[N]`."""
     src = np.asarray(value)
     if src.dtype.kind not in "biu":
-        raise FieldTypeError("%s: expects a str, bytes or %d integer character codes, got %r"
-                             % (_where(obj, name), count, value))
+        raise FieldTypeError(
+            "%s: expects a str, bytes or %d integer character codes, got %r" % (_where(obj, name), count, value)
+        )
     src = src.reshape(-1)
     if src.size != count:
         raise FieldValueError("%s: expects %d character codes, got %d" % (_where(obj, name), count, src.size))
@@ -138,6 +143,7 @@ def _char_codes(obj, name, value, count):
 
 
 # --------------------------------------------------------------- descriptors
+
 
 class _Scalar:
     __slots__ = ("name", "offset", "get", "set", "ctype")
@@ -177,8 +183,9 @@ class _Scalar:
         if isinstance(value, float) or not hasattr(value, "__index__"):
             return FieldTypeError("%s: expects an integer (%s), got %r" % (_where(obj, self.name), self.ctype, value))
         info = np.iinfo(PRIMITIVES[self.ctype][1])
-        return FieldValueError("%s: %r is out of range [%d, %d] for %s"
-                               % (_where(obj, self.name), value, info.min, info.max, self.ctype))
+        return FieldValueError(
+            "%s: %r is out of range [%d, %d] for %s" % (_where(obj, self.name), value, info.min, info.max, self.ctype)
+        )
 
 
 class _LenientFloat(_Scalar):
@@ -227,6 +234,7 @@ class _TextChar(_Char):
 
 class _Array:
     """Fixed numeric array: a numpy view into the buffer."""
+
     __slots__ = ("name", "offset", "count", "dtype", "shape")
 
     def __init__(self, name, offset, count, dtype):
@@ -247,8 +255,11 @@ class _Array:
             view = self.__get__(obj)
         if value is view:
             return
-        if (type(value) is np.ndarray and (value.dtype is self.dtype or value.dtype == self.dtype)
-                and value.shape == self.shape):
+        if (
+            type(value) is np.ndarray
+            and (value.dtype is self.dtype or value.dtype == self.dtype)
+            and value.shape == self.shape
+        ):
             # e.g. the same field of a received packet: nothing to convert or check
             view[...] = value
             return
@@ -263,6 +274,7 @@ class _Array:
 class _CharArray:
     """`char s[N]`: a str, UTF-8 encoded, NUL padded; also takes bytes and N
     character codes (a list, tuple or integer array)."""
+
     __slots__ = ("name", "offset", "count")
 
     def __init__(self, name, offset, count):
@@ -272,7 +284,7 @@ class _CharArray:
         if obj is None:
             return self
         start = obj._off + self.offset
-        raw = bytes(memoryview(obj._buf)[start:start + self.count]).rstrip(b"\0")
+        raw = bytes(memoryview(obj._buf)[start : start + self.count]).rstrip(b"\0")
         return raw.decode("utf-8", "surrogateescape")
 
     def __set__(self, obj, value):
@@ -281,9 +293,11 @@ class _CharArray:
         else:
             data = _encode_text(obj, self.name, value)
         if len(data) > self.count:
-            raise FieldValueError("%s: holds at most %d bytes, got %d" % (_where(obj, self.name), self.count, len(data)))
+            raise FieldValueError(
+                "%s: holds at most %d bytes, got %d" % (_where(obj, self.name), self.count, len(data))
+            )
         start = obj._off + self.offset
-        memoryview(obj._buf)[start:start + self.count] = data.ljust(self.count, b"\0")
+        memoryview(obj._buf)[start : start + self.count] = data.ljust(self.count, b"\0")
 
     def __delete__(self, obj):
         self.__set__(obj, b"")
@@ -302,6 +316,7 @@ def _encode_text(obj, name, value):
 
 class _Sub:
     """A sub-type by value: a nested part viewing the same buffer."""
+
     __slots__ = ("name", "offset", "cls")
 
     def __init__(self, name, offset, cls):
@@ -324,6 +339,7 @@ class _Sub:
 
 class _SubArray:
     """A fixed array of sub-types: a list of nested parts."""
+
     __slots__ = ("name", "offset", "count", "cls")
 
     def __init__(self, name, offset, count, cls):
@@ -337,7 +353,8 @@ class _SubArray:
             size = self.cls._size
             parts = obj._cache[self.name] = [
                 self.cls(obj._buf, obj._off + self.offset + i * size, name="%s[%d]" % (self.name, i))
-                for i in range(self.count)]
+                for i in range(self.count)
+            ]
         return parts
 
     def __set__(self, obj, value):
@@ -360,6 +377,7 @@ class _SubArray:
 
 class _DynNumeric:
     """`T* x`: a numpy array held beside the buffer."""
+
     __slots__ = ("name", "dtype")
 
     def __init__(self, name, dtype):
@@ -405,6 +423,7 @@ class _DynNumeric:
 class _DynText:
     """`char* s`: a str (kept UTF-8 encoded, so bad text fails on assignment).
     As in LN 2.9, None is "" and any other object its str()."""
+
     __slots__ = ("name",)
 
     def __init__(self, name):
@@ -435,7 +454,7 @@ class _DynText:
         pos += 4
         if pos + n > len(data):
             raise ValueError("truncated data for field '%s'" % self.name)
-        obj._dyn[self.name] = bytes(data[pos:pos + n])
+        obj._dyn[self.name] = bytes(data[pos : pos + n])
         return pos + n
 
     def length(self, obj):
@@ -444,6 +463,7 @@ class _DynText:
 
 class _DynSub:
     """`sub_t* l`: a list of parts of the sub-type."""
+
     __slots__ = ("name", "cls")
 
     def __init__(self, name, cls):
@@ -459,7 +479,9 @@ class _DynSub:
 
     def __set__(self, obj, value):
         if isinstance(value, (str, bytes, dict)) or not hasattr(value, "__iter__"):
-            raise FieldTypeError("%s: expects a list of %s items or dicts" % (_where(obj, self.name), self.cls._type_name))
+            raise FieldTypeError(
+                "%s: expects a list of %s items or dicts" % (_where(obj, self.name), self.cls._type_name)
+            )
         items = []
         for i, item in enumerate(value):
             if type(item) is self.cls:
@@ -478,8 +500,10 @@ class _DynSub:
         out.append(_U32.pack(len(items)))
         for item in items:
             if type(item) is not self.cls:
-                raise FieldTypeError("%s: items must be %s parts (use %s()), got %r"
-                                     % (_where(obj, self.name), self.cls._type_name, ctor_name(self.cls._type_name), item))
+                raise FieldTypeError(
+                    "%s: items must be %s parts (use %s()), got %r"
+                    % (_where(obj, self.name), self.cls._type_name, ctor_name(self.cls._type_name), item)
+                )
             item._encode_into(out)
 
     def decode(self, obj, data, pos):
@@ -503,6 +527,7 @@ class _PyObject:
     """`pyobject x` of a service (LN's local type name for ln2/pyobject): any
     Python object, pickled into the ln2/pyobject part `x_packet` when sent.
     A `pyobject x[N]` is a list of N objects, a `pyobject* x` a list."""
+
     __slots__ = ("name", "inner", "count")
 
     def __init__(self, name, inner, count):
@@ -521,7 +546,9 @@ class _PyObject:
             if isinstance(value, dict) or not hasattr(value, "__len__"):
                 raise FieldTypeError("%s: expects a list of Python objects" % _where(obj, self.name))
             if self.count is not None and len(value) != self.count:
-                raise FieldValueError("%s: expects %d objects, got %d" % (_where(obj, self.name), self.count, len(value)))
+                raise FieldValueError(
+                    "%s: expects %d objects, got %d" % (_where(obj, self.name), self.count, len(value))
+                )
             value = list(value)
         obj._dyn[self.name] = value
 
@@ -587,6 +614,7 @@ def _unpickle(part):
 
 class _Length:
     """`x_len` of a dynamic field: always the current length of `x`."""
+
     __slots__ = ("name", "target")
 
     def __init__(self, name, target):
@@ -608,8 +636,10 @@ class _Length:
 
 # ------------------------------------------------------------------- parts
 
+
 class Part:
     """One message (or sub-type) instance; fields are attributes."""
+
     __slots__ = ("_buf", "_off", "_cache", "_dyn", "_name")
     _fields = ()
     _field_types = {}
@@ -667,8 +697,11 @@ class Part:
     __repr__ = __str__
 
     def __eq__(self, other):
-        return (isinstance(other, Part) and other._type_name == self._type_name
-                and bytes(self._flat()) == bytes(other._flat()))
+        return (
+            isinstance(other, Part)
+            and other._type_name == self._type_name
+            and bytes(self._flat()) == bytes(other._flat())
+        )
 
     __hash__ = None
 
@@ -691,23 +724,30 @@ class Part:
         if isinstance(value, dict):
             for key, item in value.items():
                 if key not in self._field_types:
-                    raise AttributeError("'%s' (field '%s') has no field '%s'; fields: %s"
-                                         % (self._type_name, field_name, key, ", ".join(self._fields)))
+                    raise AttributeError(
+                        "'%s' (field '%s') has no field '%s'; fields: %s"
+                        % (self._type_name, field_name, key, ", ".join(self._fields))
+                    )
                 setattr(self, key, item)
             return
         # Like LN 2.9: any object with these fields (a part of another packet,
         # a plain object); the length companions follow their data.
         cls = type(self)
         wanted = [k for k in self._fields if not isinstance(getattr(cls, k), _Length)]
-        if value is None or isinstance(value, (str, bytes, int, float, list, tuple)) or not all(
-                hasattr(value, k) for k in wanted):
-            raise FieldTypeError("field '%s': expects a %s part, a dict or an object with the fields %s, got %r"
-                                 % (field_name, self._type_name, ", ".join(wanted), value))
+        if (
+            value is None
+            or isinstance(value, (str, bytes, int, float, list, tuple))
+            or not all(hasattr(value, k) for k in wanted)
+        ):
+            raise FieldTypeError(
+                "field '%s': expects a %s part, a dict or an object with the fields %s, got %r"
+                % (field_name, self._type_name, ", ".join(wanted), value)
+            )
         for key in wanted:
             setattr(self, key, getattr(value, key))
 
     def _clear(self):
-        memoryview(self._buf)[self._off:self._off + self._size] = bytes(self._size)
+        memoryview(self._buf)[self._off : self._off + self._size] = bytes(self._size)
         self._dyn.clear()
         for value in self._cache.values():
             if isinstance(value, Part):
@@ -722,7 +762,7 @@ class Part:
         if self._fixed:
             if self._off == 0 and len(self._buf) == self._size:
                 return self._buf
-            return bytes(memoryview(self._buf)[self._off:self._off + self._size])
+            return bytes(memoryview(self._buf)[self._off : self._off + self._size])
         out = []
         self._encode_into(out)
         return b"".join(out)
@@ -732,7 +772,7 @@ class Part:
         off = self._off
         for step in self._plan:
             if type(step) is tuple:
-                out.append(bytes(mv[off + step[0]:off + step[1]]))
+                out.append(bytes(mv[off + step[0] : off + step[1]]))
             elif isinstance(step, (_Sub,)):
                 step.__get__(self)._encode_into(out)
             elif isinstance(step, _SubArray):
@@ -746,7 +786,7 @@ class Part:
         if self._fixed:
             if len(data) != self._size:
                 raise ValueError("'%s': expected %d bytes, got %d" % (self._type_name, self._size, len(data)))
-            memoryview(self._buf)[self._off:self._off + self._size] = data
+            memoryview(self._buf)[self._off : self._off + self._size] = data
             return
         end = self._decode_from(data, 0)
         if end != len(data):
@@ -760,7 +800,7 @@ class Part:
                 n = step[1] - step[0]
                 if pos + n > len(data):
                     raise ValueError("'%s': data too short" % self._type_name)
-                mv[off + step[0]:off + step[1]] = data[pos:pos + n]
+                mv[off + step[0] : off + step[1]] = data[pos : pos + n]
                 pos += n
             elif isinstance(step, _Sub):
                 pos = step.__get__(self)._decode_from(data, pos)
@@ -902,9 +942,15 @@ class Compiler:
         # dynamic fields without a companion field still answer x_len
         for length_name, desc in pending_lengths.items():
             namespace[length_name] = _Length(length_name, desc)
-        namespace.update(_fields=tuple(names), _field_types=types, _field_ctor_names=field_ctors, _size=offset,
-                         _fixed=fixed,
-                         _plan=tuple(plan), _min_flat=min_flat if not fixed else offset)
+        namespace.update(
+            _fields=tuple(names),
+            _field_types=types,
+            _field_ctor_names=field_ctors,
+            _size=offset,
+            _fixed=fixed,
+            _plan=tuple(plan),
+            _min_flat=min_flat if not fixed else offset,
+        )
         return type(_identifier(type_name), (Part,), namespace)
 
 
@@ -919,6 +965,7 @@ def _make_ctor(cls, field_name):
         if fields:
             part._assign(fields, field_name)
         return part
+
     return ctor
 
 
@@ -929,7 +976,7 @@ def ln29_definition(model):
 
     def convert(fields, defines):
         out = []
-        for name, spelling, prim, sub, dynamic, count, _ in fields:
+        for name, spelling, _prim, sub, dynamic, count, _ in fields:
             out.append([spelling + ("*" if dynamic else ""), name, count])
             if sub and spelling not in defines:
                 defines[spelling] = None
@@ -937,7 +984,6 @@ def ln29_definition(model):
         return out
 
     defines = {}
-    result = {"fields": convert(model["fields"], defines),
-              "resp_fields": convert(model["response_fields"], defines)}
+    result = {"fields": convert(model["fields"], defines), "resp_fields": convert(model["response_fields"], defines)}
     result["defines"] = defines
     return result

@@ -30,9 +30,9 @@ from collections import OrderedDict
 import numpy as np
 
 from . import _ln
-from ._errors import LNError, LNE_UNKNOWN_PARAMETER, LNE_REQUEST_FAILED
+from ._errors import LNE_REQUEST_FAILED, LNE_UNKNOWN_PARAMETER, LNError
 
-__all__ = ["parameters_proxy", "ParameterBlock", "ParameterSignal", "ParameterOutputs"]
+__all__ = ["ParameterBlock", "ParameterOutputs", "ParameterSignal", "parameters_proxy"]
 
 QUERY_INTERFACE = "ln/parameters/query_dict"
 OVERRIDE_INTERFACE = "ln/parameters/override_dict_single"
@@ -44,10 +44,23 @@ TOPIC_INTERFACE = "ln/parameters/request_parameter_topic"
 # (it evaluates the text with numpy's names and Python's builtins in scope:
 # dtype=float is float64 there although providers write it for float32).
 _LITERAL_NAMES = {
-    "True": True, "False": False, "None": None, "nan": np.nan, "inf": np.inf,
-    "double": np.float64, "float": float, "bool": bool, "int": int,
-    "int8": np.int8, "uint8": np.uint8, "int16": np.int16, "uint16": np.uint16,
-    "int32": np.int32, "uint32": np.uint32, "int64": np.int64, "uint64": np.uint64,
+    "True": True,
+    "False": False,
+    "None": None,
+    "nan": np.nan,
+    "inf": np.inf,
+    "double": np.float64,
+    "float": float,
+    "bool": bool,
+    "int": int,
+    "int8": np.int8,
+    "uint8": np.uint8,
+    "int16": np.int16,
+    "uint16": np.uint16,
+    "int32": np.int32,
+    "uint32": np.uint32,
+    "int64": np.int64,
+    "uint64": np.uint64,
 }
 
 
@@ -82,7 +95,7 @@ def parse_parameter_text(text):
     try:
         return _literal(ast.parse(text.strip(), mode="eval").body)
     except (SyntaxError, ValueError, TypeError) as e:
-        raise LNError("cannot read the parameter answer %r: %s" % (text[:200], e), LNE_REQUEST_FAILED, 0)
+        raise LNError("cannot read the parameter answer %r: %s" % (text[:200], e), LNE_REQUEST_FAILED, 0) from e
 
 
 def _format_element(value):
@@ -105,6 +118,7 @@ def format_parameter_value(value):
             if a.ndim == 0:
                 return _format_element(a.item())
             return "[" + ", ".join(nested(x) for x in a) + "]"
+
         return "array(%s)" % nested(array)
     if isinstance(value, np.generic):
         value = value.item()
@@ -114,6 +128,7 @@ def format_parameter_value(value):
 
 
 # ---------------------------------------------------------------- client side
+
 
 class _Hooks:
     """LN 2.9's hooked_object: add_hook(where, fn, from_who=None, arg=None);
@@ -158,8 +173,18 @@ class parameters_proxy(_Hooks):
     effect as of the last refresh; assignment overrides (None ends the
     override); subgroups ("a.b.c") are proxies too."""
 
-    def __init__(self, clnt, parameters_name, allow_empty=False, update_on_write=True, do_parameter_scan=True,
-                 record_call_stacks=False, parent=None, debug=False, use_parameter_prefix=True):
+    def __init__(
+        self,
+        clnt,
+        parameters_name,
+        allow_empty=False,
+        update_on_write=True,
+        do_parameter_scan=True,
+        record_call_stacks=False,
+        parent=None,
+        debug=False,
+        use_parameter_prefix=True,
+    ):
         object.__setattr__(self, "_parameters", OrderedDict())
         object.__setattr__(self, "_sub_blocks", OrderedDict())
         self._init_hooks()
@@ -214,7 +239,7 @@ class parameters_proxy(_Hooks):
                     elif full_name == self.parameters_name:
                         short_name = "value"
                     elif full_name.startswith(group):
-                        short_name = full_name[len(group):]
+                        short_name = full_name[len(group) :]
                     else:
                         continue
                     value["service"] = service_name
@@ -223,10 +248,16 @@ class parameters_proxy(_Hooks):
                     if known is None:
                         self._add_parameter(short_name, value)
                     elif known["service"] != service_name:
-                        warnings.warn("parameter %r is provided by %s and %s; using the first" % (
-                            full_name, known["service"], service_name), RuntimeWarning, stacklevel=3)
+                        warnings.warn(
+                            "parameter %r is provided by %s and %s; using the first"
+                            % (full_name, known["service"], service_name),
+                            RuntimeWarning,
+                            stacklevel=3,
+                        )
             if not self.allow_empty and not self._parameters and not self._sub_blocks:
-                raise LNError("no parameters matching %r found" % (self.parameters_name + "*"), LNE_UNKNOWN_PARAMETER, 0)
+                raise LNError(
+                    "no parameters matching %r found" % (self.parameters_name + "*"), LNE_UNKNOWN_PARAMETER, 0
+                )
 
     def _lookup(self, short_name):
         proxy = self
@@ -246,8 +277,13 @@ class parameters_proxy(_Hooks):
         if block is None:
             name = "%s.%s" % (self.parameters_name, group) if self.parameters_name else group
             block = self._sub_blocks[group] = parameters_proxy(
-                self.clnt, name, update_on_write=self._update_on_write, do_parameter_scan=False, parent=self,
-                use_parameter_prefix=False)
+                self.clnt,
+                name,
+                update_on_write=self._update_on_write,
+                do_parameter_scan=False,
+                parent=self,
+                use_parameter_prefix=False,
+            )
         block._add_parameter(rest, value)
 
     def _all_parameters(self):
@@ -287,8 +323,11 @@ class parameters_proxy(_Hooks):
                 svc.req.wait_step = 1 if wait_step else 0
                 svc()
                 if svc.resp.error:
-                    raise LNError("overriding parameter %r with %r failed: %s" % (full_name, new_value, svc.resp.error),
-                                  LNE_REQUEST_FAILED, 0)
+                    raise LNError(
+                        "overriding parameter %r with %r failed: %s" % (full_name, new_value, svc.resp.error),
+                        LNE_REQUEST_FAILED,
+                        0,
+                    )
             refreshed = {}
             for _, name, value in self._all_parameters():
                 if short_name is not None and name != short_name:
@@ -438,22 +477,47 @@ class parameters_proxy(_Hooks):
 # ---------------------------------------------------------------- provider side
 
 _DTYPE_ALIASES = {
-    "double": np.float64, "float64": np.float64, "float64_t": np.float64,
-    "single": np.float32, "float": np.float32, "float32": np.float32, "float32_t": np.float32,
-    "bool": np.bool_, "boolean": np.bool_,
-    "int8": np.int8, "int8_t": np.int8, "uint8": np.uint8, "uint8_t": np.uint8,
-    "int16": np.int16, "int16_t": np.int16, "short": np.int16, "uint16": np.uint16, "uint16_t": np.uint16,
-    "int32": np.int32, "int32_t": np.int32, "int": np.int32, "uint32": np.uint32, "uint32_t": np.uint32,
-    "int64": np.int64, "int64_t": np.int64, "uint64": np.uint64, "uint64_t": np.uint64,
+    "double": np.float64,
+    "float64": np.float64,
+    "float64_t": np.float64,
+    "single": np.float32,
+    "float": np.float32,
+    "float32": np.float32,
+    "float32_t": np.float32,
+    "bool": np.bool_,
+    "boolean": np.bool_,
+    "int8": np.int8,
+    "int8_t": np.int8,
+    "uint8": np.uint8,
+    "uint8_t": np.uint8,
+    "int16": np.int16,
+    "int16_t": np.int16,
+    "short": np.int16,
+    "uint16": np.uint16,
+    "uint16_t": np.uint16,
+    "int32": np.int32,
+    "int32_t": np.int32,
+    "int": np.int32,
+    "uint32": np.uint32,
+    "uint32_t": np.uint32,
+    "int64": np.int64,
+    "int64_t": np.int64,
+    "uint64": np.uint64,
+    "uint64_t": np.uint64,
 }
 
 _TYPE_IDS = {
-    np.dtype(np.float64): _ln.LN_PARAM_DOUBLE, np.dtype(np.float32): _ln.LN_PARAM_SINGLE,
-    np.dtype(np.int8): _ln.LN_PARAM_INT8, np.dtype(np.uint8): _ln.LN_PARAM_UINT8,
-    np.dtype(np.int16): _ln.LN_PARAM_INT16, np.dtype(np.uint16): _ln.LN_PARAM_UINT16,
-    np.dtype(np.int32): _ln.LN_PARAM_INT32, np.dtype(np.uint32): _ln.LN_PARAM_UINT32,
+    np.dtype(np.float64): _ln.LN_PARAM_DOUBLE,
+    np.dtype(np.float32): _ln.LN_PARAM_SINGLE,
+    np.dtype(np.int8): _ln.LN_PARAM_INT8,
+    np.dtype(np.uint8): _ln.LN_PARAM_UINT8,
+    np.dtype(np.int16): _ln.LN_PARAM_INT16,
+    np.dtype(np.uint16): _ln.LN_PARAM_UINT16,
+    np.dtype(np.int32): _ln.LN_PARAM_INT32,
+    np.dtype(np.uint32): _ln.LN_PARAM_UINT32,
     np.dtype(np.bool_): _ln.LN_PARAM_BOOLEAN,
-    np.dtype(np.int64): _ln.LN_PARAM_INT64, np.dtype(np.uint64): _ln.LN_PARAM_UINT64,
+    np.dtype(np.int64): _ln.LN_PARAM_INT64,
+    np.dtype(np.uint64): _ln.LN_PARAM_UINT64,
 }
 
 
@@ -463,7 +527,7 @@ def _normalize_dtype(dtype):
     try:
         dtype = np.dtype(dtype)
     except TypeError:
-        raise TypeError("unsupported parameter dtype %r" % (dtype,))
+        raise TypeError("unsupported parameter dtype %r" % (dtype,)) from None
     if dtype not in _TYPE_IDS:
         raise TypeError("unsupported parameter dtype %r (bool, int8..uint64, float32, float64)" % (dtype,))
     return dtype
@@ -563,7 +627,7 @@ class ParameterOutputs(_Named):
         try:
             return self.__dict__["_values"][name]
         except KeyError:
-            raise AttributeError(name)
+            raise AttributeError(name) from None
 
     def get(self, name, default=None):
         return self._values.get(name, default)
@@ -631,8 +695,9 @@ class ParameterBlock(_Named):
             self.register()
         return False
 
-    def add(self, name, value, description="", dtype=None, shape=None, output=True, before_update=None,
-            after_update=None):
+    def add(
+        self, name, value, description="", dtype=None, shape=None, output=True, before_update=None, after_update=None
+    ):
         """Adds a parameter with initial value `value` (dtype and shape from
         it unless given). before_update(new_value) -> bool may refuse an
         override (runs in a library thread); after_update(value) runs in
@@ -651,11 +716,25 @@ class ParameterBlock(_Named):
             shape = _normalize_shape(value, shape)
             array = _checked_array(value, dtype, shape, name)
             initial = array.item() if shape == () else array.copy()
-            signal = ParameterSignal(self, len(self._signals), name, "" if description is None else str(description),
-                                     dtype, shape, bool(output), initial)
-            self._bridge.add_signal(name, signal.description, _TYPE_IDS[dtype], list(shape or (1,)),
-                                    self._wrap(before_update, dtype, shape, name, refuse_on_error=True),
-                                    self._wrap(after_update, dtype, shape, name, refuse_on_error=False), bool(output))
+            signal = ParameterSignal(
+                self,
+                len(self._signals),
+                name,
+                "" if description is None else str(description),
+                dtype,
+                shape,
+                bool(output),
+                initial,
+            )
+            self._bridge.add_signal(
+                name,
+                signal.description,
+                _TYPE_IDS[dtype],
+                list(shape or (1,)),
+                self._wrap(before_update, dtype, shape, name, refuse_on_error=True),
+                self._wrap(after_update, dtype, shape, name, refuse_on_error=False),
+                bool(output),
+            )
             self._bridge.set_input(signal._index, array.tobytes())
             self._signals[name] = signal
             if name.isidentifier() and not name.startswith("_") and not hasattr(self, name):
@@ -674,6 +753,7 @@ class ParameterBlock(_Named):
                 warnings.warn("parameter %r: %s failed: %r" % (name, callback, e), RuntimeWarning)
                 return False if refuse_on_error else None
             return bool(result) if refuse_on_error else None
+
         return from_bytes
 
     def register(self):
@@ -734,4 +814,7 @@ class ParameterBlock(_Named):
 
     def __repr__(self):
         return "<ln.ParameterBlock %r signals=%r registered=%r>" % (
-            self.parameter_group_name, list(self._signals), self._registered)
+            self.parameter_group_name,
+            list(self._signals),
+            self._registered,
+        )

@@ -6,8 +6,14 @@ import traceback
 import warnings
 
 from . import _ln
-from ._errors import (LNError, LNE_SVC_HANDLER_EXC, LNE_SVC_REQ_NOT_RUNNING, LNE_SVC_REQ_RUNNING, LNE_SVC_RESP_LATER,
-                      LNE_SVC_TIMEOUT)
+from ._errors import (
+    LNE_SVC_HANDLER_EXC,
+    LNE_SVC_REQ_NOT_RUNNING,
+    LNE_SVC_REQ_RUNNING,
+    LNE_SVC_RESP_LATER,
+    LNE_SVC_TIMEOUT,
+    LNError,
+)
 from ._mainloop import MainloopInterface, default_glib_mainloop, wait_until
 from ._packets import ln29_definition
 
@@ -19,6 +25,7 @@ SVC_RESP_LATER = -LNE_SVC_RESP_LATER
 
 class request_wrapper:
     """The request a provider's handler is answering."""
+
     __slots__ = ("service", "request", "name")
 
     def __init__(self, service, request):
@@ -49,8 +56,10 @@ class service_wrapper:
 
     def __init__(self, clnt, name, interface, definition, signature, is_provider=False, mainloop=None):
         if mainloop is not None and not isinstance(mainloop, MainloopInterface):
-            raise TypeError("mainloop must be a links_and_nodes.MainloopInterface (e.g. ln.SelectMainloop() or "
-                            "ln.GLibMainloop()), not %r" % (mainloop,))
+            raise TypeError(
+                "mainloop must be a links_and_nodes.MainloopInterface (e.g. ln.SelectMainloop() or "
+                "ln.GLibMainloop()), not %r" % (mainloop,)
+            )
         self.name = name
         self.interface = interface
         self.signature = signature
@@ -76,8 +85,11 @@ class service_wrapper:
         self._loop_sources = []  # (loop, source id) of do_register_with_mainloop
 
     def __repr__(self):
-        return "<links_and_nodes.service %r (%s)%s>" % (self.name, self.interface,
-                                                       " provider" if self._is_provider else "")
+        return "<links_and_nodes.service %r (%s)%s>" % (
+            self.name,
+            self.interface,
+            " provider" if self._is_provider else "",
+        )
 
     # -- calling ----------------------------------------------------------
     def __call__(self, *args, **kwargs):
@@ -109,8 +121,10 @@ class service_wrapper:
         types = req._field_types
         for key, value in kwargs.items():
             if key not in types:
-                raise AttributeError("service '%s' (%s) has no request field '%s'; fields: %s"
-                                     % (self.name, self.interface, key, ", ".join(req._fields)))
+                raise AttributeError(
+                    "service '%s' (%s) has no request field '%s'; fields: %s"
+                    % (self.name, self.interface, key, ", ".join(req._fields))
+                )
             setattr(req, key, value)
 
     def call(self, *args, **kwargs):
@@ -187,8 +201,10 @@ class service_wrapper:
         the loop waits for the running one."""
         loop = kwargs.pop("_mainloop", None) or self._mainloop
         if loop is None:
-            raise TypeError("call_via_mainloop(): service %r has no main loop; pass _mainloop= or get the "
-                            "service with mainloop=" % self.name)
+            raise TypeError(
+                "call_via_mainloop(): service %r has no main loop; pass _mainloop= or get the "
+                "service with mainloop=" % self.name
+            )
         timeout = kwargs.pop("_timeout", None) if "_timeout" in kwargs else kwargs.pop("timeout", None)
         while not self.lock.acquire(blocking=False):
             loop.iterate(True)
@@ -224,8 +240,12 @@ class service_wrapper:
             try:
                 handler(*args, **kwargs)
             except Exception:
-                log.error("error in the async-finish handler %r of service %s:\n%s", handler, self.name,
-                          traceback.format_exc())
+                log.error(
+                    "error in the async-finish handler %r of service %s:\n%s",
+                    handler,
+                    self.name,
+                    traceback.format_exc(),
+                )
             return False
 
         self._finish_watch = (loop, loop.fd_add(fd, "in", on_finished))
@@ -243,8 +263,9 @@ class service_wrapper:
 
     def gobject_on_async_finish(self, handler, *args, **kwargs):
         """Deprecated in LN 2.9 (PyGTK): mainloop_on_async_finish() on GLib's default context."""
-        warnings.warn("gobject_on_async_finish() is deprecated: use mainloop_on_async_finish()",
-                      DeprecationWarning, stacklevel=2)
+        warnings.warn(
+            "gobject_on_async_finish() is deprecated: use mainloop_on_async_finish()", DeprecationWarning, stacklevel=2
+        )
         return self.mainloop_on_async_finish(default_glib_mainloop(), handler, *args, **kwargs)
 
     def call_future(self, *args, **kwargs):
@@ -272,8 +293,9 @@ class service_wrapper:
         """Registers the provider and lets `loop` handle its group's requests
         (as wait_and_handle_service_group_requests(group_name, 0) would)."""
         if not isinstance(loop, MainloopInterface):
-            raise TypeError("do_register_with_mainloop: loop must be a links_and_nodes.MainloopInterface, not %r"
-                            % (loop,))
+            raise TypeError(
+                "do_register_with_mainloop: loop must be a links_and_nodes.MainloopInterface, not %r" % (loop,)
+            )
         if self.cb is None:
             raise LNError("service %r: set_handler() before do_register()" % self.name, 35, 0)
         self._mainloop = loop
@@ -287,8 +309,9 @@ class service_wrapper:
 
     def do_register_gobject(self, group_name=None):
         """Deprecated in LN 2.9 (PyGTK): do_register_with_mainloop() on GLib's default context."""
-        warnings.warn("do_register_gobject() is deprecated: use do_register_with_mainloop()", DeprecationWarning,
-                      stacklevel=2)
+        warnings.warn(
+            "do_register_gobject() is deprecated: use do_register_with_mainloop()", DeprecationWarning, stacklevel=2
+        )
         return self.do_register_with_mainloop(default_glib_mainloop(), group_name)
 
     do_register_gtk = do_register_gobject

@@ -24,8 +24,9 @@ log = logging.getLogger("links_and_nodes")
 def _public_fields(part_class):
     """Field names without the `_len` companions of dynamic fields."""
     types = part_class._field_types
-    return [name for name in part_class._fields
-            if not (name.endswith("_len") and types.get(name[:-4], "").endswith("*"))]
+    return [
+        name for name in part_class._fields if not (name.endswith("_len") and types.get(name[:-4], "").endswith("*"))
+    ]
 
 
 def _sub_class(part, name):
@@ -76,8 +77,18 @@ class ServiceErrorResponse(Exception):
 class wrapped_service:
     """One wrapped service of a services_wrapper (callable)."""
 
-    def __init__(self, clnt, service_name, interface, default_arguments=None, preprocessors=None,
-                 postprocessors=None, postprocessor=None, call_method="call", throw_on_these_error_indicators=None):
+    def __init__(
+        self,
+        clnt,
+        service_name,
+        interface,
+        default_arguments=None,
+        preprocessors=None,
+        postprocessors=None,
+        postprocessor=None,
+        call_method="call",
+        throw_on_these_error_indicators=None,
+    ):
         if isinstance(call_method, MainloopInterface):
             mainloop = call_method
         elif isinstance(call_method, (tuple, list)) and call_method and call_method[0] == "call_via_mainloop":
@@ -92,8 +103,9 @@ class wrapped_service:
         self.postprocessors = postprocessors or {}
         self.postprocessor = postprocessor
         self.call = self.svc.call_via_mainloop if mainloop is not None else getattr(self.svc, call_method)
-        self.throw_on_these_error_indicators = (["error_message"] if throw_on_these_error_indicators is None
-                                                else throw_on_these_error_indicators)
+        self.throw_on_these_error_indicators = (
+            ["error_message"] if throw_on_these_error_indicators is None else throw_on_these_error_indicators
+        )
         self.lock = threading.RLock()
 
     def __call__(self, *args, **kwargs):
@@ -108,15 +120,19 @@ class wrapped_service:
                 if name in values:
                     raise TypeError("argument %r given by position and by name" % name)
                 if name not in self.req_fields:
-                    raise AttributeError("service %r has no request field %r; fields: %s"
-                                         % (self.svc.name, name, ", ".join(self.req_fields)))
+                    raise AttributeError(
+                        "service %r has no request field %r; fields: %s"
+                        % (self.svc.name, name, ", ".join(self.req_fields))
+                    )
                 values[name] = value
             for name, value in self.default_arguments.items():
                 values.setdefault(name, value)
             missing = [name for name in self.req_fields if name not in values]
             if missing:
-                raise TypeError("service %r needs the request field(s) %s; pass them or give "
-                                "default_arguments to wrap_service()" % (self.svc.name, ", ".join(missing)))
+                raise TypeError(
+                    "service %r needs the request field(s) %s; pass them or give "
+                    "default_arguments to wrap_service()" % (self.svc.name, ", ".join(missing))
+                )
             for name, value in values.items():
                 pre = self.preprocessors.get(name)
                 if pre is not None:
@@ -156,14 +172,32 @@ class services_wrapper:
         self.services = {}
         self.default_call_method = "call" if mainloop is None else mainloop
 
-    def wrap_service(self, postfix, interface, default_arguments=None, preprocessors=None, postprocessors=None,
-                     postprocessor=None, method_name=None, call_method=None, throw_on_these_error_indicators=None):
+    def wrap_service(
+        self,
+        postfix,
+        interface,
+        default_arguments=None,
+        preprocessors=None,
+        postprocessors=None,
+        postprocessor=None,
+        method_name=None,
+        call_method=None,
+        throw_on_these_error_indicators=None,
+    ):
         """Adds self.<method_name> (default: postfix with '.' -> '_') calling
         the service "<prefix>.<postfix>" with interface `interface`."""
         service_name = self.service_prefix + "." + postfix if self.service_prefix else postfix
-        svc = wrapped_service(self.clnt, service_name, interface, default_arguments, preprocessors, postprocessors,
-                              postprocessor, call_method or self.default_call_method,
-                              throw_on_these_error_indicators)
+        svc = wrapped_service(
+            self.clnt,
+            service_name,
+            interface,
+            default_arguments,
+            preprocessors,
+            postprocessors,
+            postprocessor,
+            call_method or self.default_call_method,
+            throw_on_these_error_indicators,
+        )
         self.services[service_name] = svc
         setattr(self, method_name or postfix.replace(".", "_"), svc)
         return svc
@@ -172,9 +206,20 @@ class services_wrapper:
 class wrapped_service_provider:
     """One wrapped provider of a service_provider."""
 
-    def __init__(self, provider, service_name, interface, method, preprocessors=None, postprocessor=None,
-                 cleanup=None, group_name=None, register_method="do_register", pass_request=False,
-                 utf8_decode_char_fields=True):
+    def __init__(
+        self,
+        provider,
+        service_name,
+        interface,
+        method,
+        preprocessors=None,
+        postprocessor=None,
+        cleanup=None,
+        group_name=None,
+        register_method="do_register",
+        pass_request=False,
+        utf8_decode_char_fields=True,
+    ):
         self.provider = provider
         self.clnt = provider.clnt
         self.svc = self.clnt.get_service_provider(service_name, interface)
@@ -210,8 +255,12 @@ class wrapped_service_provider:
         except Exception:
             if not self.has_error_message:
                 raise
-            log.error("exception in handler %s of service provider %s:\n%s",
-                      self.method, self.svc.name, traceback.format_exc())
+            log.error(
+                "exception in handler %s of service provider %s:\n%s",
+                self.method,
+                self.svc.name,
+                traceback.format_exc(),
+            )
             ret = {"error_message": traceback.format_exc()}
         if self.postprocessor:
             self.postprocessor(self, resp, ret)
@@ -240,8 +289,10 @@ class wrapped_service_provider:
                 _set_field(resp, other, ret)
             return
         if not isinstance(ret, dict):
-            raise TypeError("service %s: the handler has to return a dict with the response fields %s, not %r"
-                            % (self.svc.name, ", ".join(fields), ret))
+            raise TypeError(
+                "service %s: the handler has to return a dict with the response fields %s, not %r"
+                % (self.svc.name, ", ".join(fields), ret)
+            )
         for name in fields:
             if name in ret:
                 _set_field(resp, name, ret[name])
@@ -262,22 +313,43 @@ class service_provider:
         self.default_register_method = default_register_method if mainloop is None else mainloop
         self.keep_running = True
 
-    def wrap_service_provider(self, postfix, interface, preprocessors=None, postprocessor=None, cleanup=None,
-                              method=None, method_name=None, group_name=None, register_method=None,
-                              pass_request=False, utf8_decode_char_fields=True):
+    def wrap_service_provider(
+        self,
+        postfix,
+        interface,
+        preprocessors=None,
+        postprocessor=None,
+        cleanup=None,
+        method=None,
+        method_name=None,
+        group_name=None,
+        register_method=None,
+        pass_request=False,
+        utf8_decode_char_fields=True,
+    ):
         """Serves "<prefix>.<postfix>" (interface `interface`) by self.<method_name>
         (default: postfix with '.' -> '_') or by `method`."""
         service_name = self.service_prefix + "." + postfix if self.service_prefix else postfix
         if method is None:
             method_name = method_name or postfix.replace(".", "_")
             if not hasattr(self, method_name):
-                raise AttributeError("there is no method named %r in this class! define it or pass method= "
-                                     "or method_name=" % method_name)
+                raise AttributeError(
+                    "there is no method named %r in this class! define it or pass method= or method_name=" % method_name
+                )
             method = getattr(self, method_name)
         svc = self.services[service_name] = wrapped_service_provider(
-            self, service_name, interface, method, preprocessors=preprocessors, postprocessor=postprocessor,
-            cleanup=cleanup, group_name=group_name, register_method=register_method or self.default_register_method,
-            pass_request=pass_request, utf8_decode_char_fields=utf8_decode_char_fields)
+            self,
+            service_name,
+            interface,
+            method,
+            preprocessors=preprocessors,
+            postprocessor=postprocessor,
+            cleanup=cleanup,
+            group_name=group_name,
+            register_method=register_method or self.default_register_method,
+            pass_request=pass_request,
+            utf8_decode_char_fields=utf8_decode_char_fields,
+        )
         return svc
 
     def handle_service_group_requests(self, group_name=None):

@@ -75,13 +75,17 @@ class LoggerData {
 class Logger {
  public:
   Logger(nb::object client, ln_logger handle, std::string name, WithClient with_client, nb::object ln_error)
-      : client_(std::move(client)), handle_(handle), name_(std::move(name)), with_client_(with_client),
+      : client_(std::move(client)),
+        handle_(handle),
+        name_(std::move(name)),
+        with_client_(with_client),
         ln_error_(std::move(ln_error)) {}
 
   const std::string& name() const { return name_; }
 
   void add_topic(const std::string& topic, std::uint64_t log_size, unsigned int divisor) {
-    call("add_topic('" + topic + "')", [&] { return ln_logger_add_topic64(handle_, topic.c_str(), log_size, divisor); });
+    call("add_topic('" + topic + "')",
+         [&] { return ln_logger_add_topic64(handle_, topic.c_str(), log_size, divisor); });
   }
   void clear_topics() {
     call("clear_topics", [&] { return ln_logger_clear_topics(handle_); });
@@ -148,8 +152,10 @@ void register_loggers(nb::module_& module, WithClient with_client) {
       .def("enable", &Logger::enable)
       .def("disable", &Logger::disable)
       .def("manager_save", &Logger::manager_save, "filename"_a, "format"_a = "auto")
-      .def("download", [](Logger& self) { return self.download(false); }, nb::rv_policy::take_ownership)
-      .def("direct_download", [](Logger& self) { return self.download(true); }, nb::rv_policy::take_ownership);
+      .def(
+          "download", [](Logger& self) { return self.download(false); }, nb::rv_policy::take_ownership)
+      .def(
+          "direct_download", [](Logger& self) { return self.download(true); }, nb::rv_policy::take_ownership);
   module.def(
       "get_logger",
       [with_client, ln_error](nb::object client, const std::string& name) {

@@ -27,9 +27,12 @@ namespace {
 
 const char* kind_name(Kind kind) {
   switch (kind) {
-    case Kind::Service: return "service";
-    case Kind::Event: return "event";
-    default: return "plain";
+    case Kind::Service:
+      return "service";
+    case Kind::Event:
+      return "event";
+    default:
+      return "plain";
   }
 }
 
@@ -126,7 +129,10 @@ nb::dict build_model(const std::string& name, const std::optional<std::string>& 
       candidates.push_back(quoted);
       bool found = false;
       for (const std::string& candidate : candidates) {
-        if (sources.count(candidate)) { found = true; break; }
+        if (sources.count(candidate)) {
+          found = true;
+          break;
+        }
         if (!is_valid_definition_name(candidate)) continue;
         if (auto text = fetch(candidate)) {
           sources[candidate] = *text;

@@ -20,7 +20,6 @@ nanobind::dict definition_to_python(const ln::md::Definition& definition);
 /// Rebuilds definition `name` (with `root_text` as its text, or fetched)
 /// from texts obtained through `fetch`, using the md parser to learn the
 /// imports. Throws ln::md::Error.
-nanobind::dict build_model(const std::string& name, const std::optional<std::string>& root_text,
-                           const Fetch& fetch);
+nanobind::dict build_model(const std::string& name, const std::optional<std::string>& root_text, const Fetch& fetch);
 
 }  // namespace lnpy

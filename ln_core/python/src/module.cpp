@@ -7,9 +7,9 @@
 // in slices of at most kSlice seconds with the GIL released and check for
 // Python signals between slices, so Ctrl-C interrupts them.
 #include <nanobind/nanobind.h>
+#include <nanobind/stl/map.h>
 #include <nanobind/stl/optional.h>
 #include <nanobind/stl/string.h>
-#include <nanobind/stl/map.h>
 #include <nanobind/stl/vector.h>
 
 #include <fcntl.h>
@@ -28,11 +28,11 @@
 #include <set>
 #include <thread>
 
-#include "ln/ln.h"
 #include "introspection.hpp"
+#include "ln/ln.h"
 #include "loggers.hpp"
-#include "parameters.hpp"
 #include "model.hpp"
+#include "parameters.hpp"
 
 namespace nb = nanobind;
 using namespace nb::literals;
@@ -84,9 +84,7 @@ void require_no_nul(const std::optional<std::string>& value, const char* what) {
 
 [[noreturn]] void throw_closed() { throw Failure{LNE_CLIENT_NOT_INITIALIZED, "the client was closed"}; }
 
-double now() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
+double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 
 // Runs step(slice_timeout) until it returns non-zero or `timeout` passed
 // (timeout < 0: no limit; 0: one poll with the GIL held). Between slices
@@ -158,8 +156,8 @@ struct Buffer {
   Buffer(nb::handle object, bool writable, const char* what) {
     if (PyObject_GetBuffer(object.ptr(), &view, writable ? PyBUF_WRITABLE : PyBUF_SIMPLE) != 0) {
       PyErr_Clear();
-      throw nb::type_error((std::string(what) + " must be a " + (writable ? "writable " : "") +
-                            "bytes-like object").c_str());
+      throw nb::type_error(
+          (std::string(what) + " must be a " + (writable ? "writable " : "") + "bytes-like object").c_str());
     }
   }
   ~Buffer() { PyBuffer_Release(&view); }
@@ -174,7 +172,7 @@ struct Buffer {
 struct ClientState {
   std::atomic<ln_client> handle{nullptr};
   std::atomic<int> busy{0};
-  std::atomic<int> loans{0};  // borrowed packets not yet released
+  std::atomic<int> loans{0};              // borrowed packets not yet released
   std::atomic<std::uint64_t> handled{0};  // requests given to Python handlers
   std::mutex mutex;
   std::set<ln_inport> inports;
@@ -917,7 +915,8 @@ class MultiWaiter {
     if (ret < 0) fail(ret, "multi_waiter." + what, state_->handle);
   }
   ln_multi_waiter get() {
-    if (waiter_ == nullptr || state_->handle == nullptr) throw Failure{LNE_CLIENT_NOT_INITIALIZED, "the client is closed"};
+    if (waiter_ == nullptr || state_->handle == nullptr)
+      throw Failure{LNE_CLIENT_NOT_INITIALIZED, "the client is closed"};
     return waiter_;
   }
   StatePtr state_;
@@ -1014,7 +1013,9 @@ class Request {
   void respond(nb::handle flat) {
     ln_service_request request = get();
     Buffer buffer(flat, false, "response");
-    struct iovec iov{buffer.data(), buffer.size()};
+    struct iovec iov {
+      buffer.data(), buffer.size()
+    };
     int ret;
     if (buffer.size() < 65536) {
       ret = ln_service_request_respondv(request, &iov, 1);  // fits the socket buffer: does not block
@@ -1077,14 +1078,16 @@ class Service {
     Use use(*state_);
     ln_service svc = get();
     Buffer buffer(flat, false, "request");
-    struct iovec iov{buffer.data(), buffer.size()};
+    struct iovec iov {
+      buffer.data(), buffer.size()
+    };
     uint8_t element_len = 1;
     char* response = nullptr;
     uint32_t response_len = 0;
     uint8_t need_swap = 0;
     int ret;
-    const bool watched = interruptible_ && PyThread_get_thread_ident() == main_thread_ident &&
-                         CallInterrupter::ensure_installed();
+    const bool watched =
+        interruptible_ && PyThread_get_thread_ident() == main_thread_ident && CallInterrupter::ensure_installed();
     if (watched) {
       CallInterrupter::set_current(svc);
       if (PyErr_CheckSignals() != 0) {  // a Ctrl-C that came just before
@@ -1118,7 +1121,9 @@ class Service {
     ln_service svc = get();
     Buffer buffer(flat, false, "request");
     async_request_.assign(buffer.data(), buffer.size());
-    struct iovec iov{async_request_.data(), async_request_.size()};
+    struct iovec iov {
+      async_request_.data(), async_request_.size()
+    };
     uint8_t element_len = 1;
     const int ret = ln_service_callv_async(svc, &iov, 1, &element_len, &async_);
     if (ret < 0) fail(ret, "call_async of service '" + name_ + "'", state_->handle);
@@ -1130,8 +1135,8 @@ class Service {
     if (async_ == nullptr) throw Failure{LNE_SVC_REQ_NOT_RUNNING, "no asynchronous call is running"};
     ln_service_request request = async_;
     int retval = 0;
-    const int done = wait_in_slices(
-        timeout, state_.get(), [&](double slice) { return ln_service_request_wait(request, slice, &retval); });
+    const int done = wait_in_slices(timeout, state_.get(),
+                                    [&](double slice) { return ln_service_request_wait(request, slice, &retval); });
     if (done < 0) {
       async_ = nullptr;
       fail(done, "call_async of service '" + name_ + "'", state_->handle);
@@ -1272,7 +1277,8 @@ class Service {
   }
 
   ln_service get() {
-    if (svc_ == nullptr || state_->handle == nullptr) throw Failure{LNE_CLIENT_NOT_INITIALIZED, "the service was released"};
+    if (svc_ == nullptr || state_->handle == nullptr)
+      throw Failure{LNE_CLIENT_NOT_INITIALIZED, "the service was released"};
     return svc_;
   }
 
@@ -1293,8 +1299,8 @@ class Service {
 // service group, with the GIL; links_and_nodes/_events.py unpacks it.
 class EventConnection {
  public:
-  EventConnection(Client& client, const std::string& name, const std::string& connect_signature,
-                  nb::bytes connect_flat, nb::object callback)
+  EventConnection(Client& client, const std::string& name, const std::string& connect_signature, nb::bytes connect_flat,
+                  nb::object callback)
       : state_(client.state()), callback_(std::move(callback)) {
     Use use(*state_);
     int ret;
@@ -1380,42 +1386,48 @@ NB_MODULE(_ln, m) {
     if (ret == -LNE_CHECK_ERRNO) fail(ret, what + " (" + std::strerror(errno) + ")");
     if (ret < 0) fail(ret, what);
   };
-  m.def("dsa_dss1_sign_message",
-        [check_dsa](const std::string& key_file, nb::handle message) {
-          if (!PyBytes_Check(message.ptr())) throw nb::value_error("dsa_dss1_sign_message: message is not a bytes object");
-          uint8_t* signature = nullptr;
-          unsigned int length = 0;
-          check_dsa(ln_dsa_dss1_sign_message(key_file.c_str(), reinterpret_cast<const uint8_t*>(PyBytes_AS_STRING(message.ptr())),
-                                             static_cast<unsigned int>(PyBytes_GET_SIZE(message.ptr())), &signature, &length),
-                    "dsa_dss1_sign_message('" + key_file + "')");
-          nb::bytes out(reinterpret_cast<const char*>(signature), length);
-          std::free(signature);
-          return out;
-        },
-        "pem_private_key_file"_a, "message"_a, "The DSA/SHA-1 signature (DER) of `message` (bytes).");
-  m.def("dsa_dss1_generate_key_pair",
-        [check_dsa](const std::string& private_file, const std::string& public_file) {
-          check_dsa(ln_dsa_dss1_generate_key_pair(private_file.c_str(), public_file.c_str()),
-                    "dsa_dss1_generate_key_pair('" + private_file + "', '" + public_file + "')");
-        },
-        "pem_private_key_file"_a, "openssh_public_key_file"_a,
-        "Writes a new DSA key pair: PEM private key (mode 0600), OpenSSH public key.");
+  m.def(
+      "dsa_dss1_sign_message",
+      [check_dsa](const std::string& key_file, nb::handle message) {
+        if (!PyBytes_Check(message.ptr()))
+          throw nb::value_error("dsa_dss1_sign_message: message is not a bytes object");
+        uint8_t* signature = nullptr;
+        unsigned int length = 0;
+        check_dsa(ln_dsa_dss1_sign_message(
+                      key_file.c_str(), reinterpret_cast<const uint8_t*>(PyBytes_AS_STRING(message.ptr())),
+                      static_cast<unsigned int>(PyBytes_GET_SIZE(message.ptr())), &signature, &length),
+                  "dsa_dss1_sign_message('" + key_file + "')");
+        nb::bytes out(reinterpret_cast<const char*>(signature), length);
+        std::free(signature);
+        return out;
+      },
+      "pem_private_key_file"_a, "message"_a, "The DSA/SHA-1 signature (DER) of `message` (bytes).");
+  m.def(
+      "dsa_dss1_generate_key_pair",
+      [check_dsa](const std::string& private_file, const std::string& public_file) {
+        check_dsa(ln_dsa_dss1_generate_key_pair(private_file.c_str(), public_file.c_str()),
+                  "dsa_dss1_generate_key_pair('" + private_file + "', '" + public_file + "')");
+      },
+      "pem_private_key_file"_a, "openssh_public_key_file"_a,
+      "Writes a new DSA key pair: PEM private key (mode 0600), OpenSSH public key.");
 
-  m.def("model_from_sources",
-        [](const std::string& name, const std::map<std::string, std::string>& sources) {
-          return build_model(name, std::nullopt, [&](const std::string& wanted) -> std::optional<std::string> {
-            auto it = sources.find(wanted);
-            if (it == sources.end()) return std::nullopt;
-            return it->second;
-          });
-        },
-        "name"_a, "sources"_a, "The model of definition `name` built from {name: text}.");
-  m.def("model_from_dirs",
-        [](const std::string& name, const std::vector<std::string>& dirs) {
-          ln::md::Library library(ln::md::SearchPath::exactly(dirs));
-          return definition_to_python(library.load(name));
-        },
-        "name"_a, "dirs"_a, "The model of definition `name` found in `dirs`.");
+  m.def(
+      "model_from_sources",
+      [](const std::string& name, const std::map<std::string, std::string>& sources) {
+        return build_model(name, std::nullopt, [&](const std::string& wanted) -> std::optional<std::string> {
+          auto it = sources.find(wanted);
+          if (it == sources.end()) return std::nullopt;
+          return it->second;
+        });
+      },
+      "name"_a, "sources"_a, "The model of definition `name` built from {name: text}.");
+  m.def(
+      "model_from_dirs",
+      [](const std::string& name, const std::vector<std::string>& dirs) {
+        ln::md::Library library(ln::md::SearchPath::exactly(dirs));
+        return definition_to_python(library.load(name));
+      },
+      "name"_a, "dirs"_a, "The model of definition `name` found in `dirs`.");
 
   nb::class_<Client>(m, "Client")
       .def(nb::init<const std::string&, std::optional<std::string>, std::optional<std::vector<std::string>>>(),
@@ -1449,12 +1461,11 @@ NB_MODULE(_ln, m) {
       .def("set_thread_safe", &Client::set_thread_safe)
       .def("set_float_parameter", &Client::set_float_parameter)
       .def("register_as_service_logger", &Client::register_as_service_logger)
-      .def("set_availability_handler", &Client::set_availability_handler, "service"_a, "name"_a,
-           "callback"_a.none());
+      .def("set_availability_handler", &Client::set_availability_handler, "service"_a, "name"_a, "callback"_a.none());
 
   nb::class_<EventConnection>(m, "EventConnection")
-      .def(nb::init<Client&, const std::string&, const std::string&, nb::bytes, nb::object>(), "client"_a,
-           "name"_a, "connect_signature"_a, "connect_flat"_a, "callback"_a)
+      .def(nb::init<Client&, const std::string&, const std::string&, nb::bytes, nb::object>(), "client"_a, "name"_a,
+           "connect_signature"_a, "connect_flat"_a, "callback"_a)
       .def("disconnect", &EventConnection::disconnect)
       .def_prop_ro("id", &EventConnection::id);
 
@@ -1469,9 +1480,10 @@ NB_MODULE(_ln, m) {
   nb::class_<InPort>(m, "InPort")
       .def(nb::init<Client&, const std::string&, const std::string&, double, unsigned int, bool>())
       .def("read", &InPort::read, "data"_a, "blocking_or_timeout"_a.none())
-      .def("borrow",
-           [](nb::handle self, nb::handle timeout) { return nb::inst_ptr<InPort>(self)->borrow(self, timeout); },
-           "blocking_or_timeout"_a.none())
+      .def(
+          "borrow",
+          [](nb::handle self, nb::handle timeout) { return nb::inst_ptr<InPort>(self)->borrow(self, timeout); },
+          "blocking_or_timeout"_a.none())
       .def("has_publisher", &InPort::has_publisher)
       .def("unblock", &InPort::unblock)
       .def("unsubscribe", &InPort::unsubscribe)

@@ -168,9 +168,7 @@ class ParameterBlockBridge {
     bool has_output = true;
     nb::object before_update, after_update;  // called with the value as bytes
 
-    nb::bytes as_bytes(const void* value) const {
-      return nb::bytes(static_cast<const char*>(value), input.size());
-    }
+    nb::bytes as_bytes(const void* value) const { return nb::bytes(static_cast<const char*>(value), input.size()); }
     // Runs in the thread that handles the override request.
     static int check(void* value, void* user_data) {
       auto* self = static_cast<Signal*>(user_data);
@@ -250,11 +248,16 @@ void register_parameters(nb::module_& module, WithClient with_client) {
       .def("update", &ParameterBlockBridge::update)
       .def("registered", &ParameterBlockBridge::registered);
   for (const auto& [name, id] : {std::pair<const char*, int>{"LN_PARAM_DOUBLE", LN_PARAM_DOUBLE},
-                                 {"LN_PARAM_SINGLE", LN_PARAM_SINGLE}, {"LN_PARAM_INT8", LN_PARAM_INT8},
-                                 {"LN_PARAM_UINT8", LN_PARAM_UINT8}, {"LN_PARAM_INT16", LN_PARAM_INT16},
-                                 {"LN_PARAM_UINT16", LN_PARAM_UINT16}, {"LN_PARAM_INT32", LN_PARAM_INT32},
-                                 {"LN_PARAM_UINT32", LN_PARAM_UINT32}, {"LN_PARAM_BOOLEAN", LN_PARAM_BOOLEAN},
-                                 {"LN_PARAM_INT64", LN_PARAM_INT64}, {"LN_PARAM_UINT64", LN_PARAM_UINT64}})
+                                 {"LN_PARAM_SINGLE", LN_PARAM_SINGLE},
+                                 {"LN_PARAM_INT8", LN_PARAM_INT8},
+                                 {"LN_PARAM_UINT8", LN_PARAM_UINT8},
+                                 {"LN_PARAM_INT16", LN_PARAM_INT16},
+                                 {"LN_PARAM_UINT16", LN_PARAM_UINT16},
+                                 {"LN_PARAM_INT32", LN_PARAM_INT32},
+                                 {"LN_PARAM_UINT32", LN_PARAM_UINT32},
+                                 {"LN_PARAM_BOOLEAN", LN_PARAM_BOOLEAN},
+                                 {"LN_PARAM_INT64", LN_PARAM_INT64},
+                                 {"LN_PARAM_UINT64", LN_PARAM_UINT64}})
     module.attr(name) = id;
 }
 

@@ -80,6 +80,7 @@ def builtins_manager(tmp_path_factory):
 @pytest.fixture
 def clnt(manager):
     import links_and_nodes as ln
+
     c = ln.client("pytest")
     yield c
     c.close()
@@ -106,8 +107,9 @@ def handshake(pub, sub, timeout=5.0):
 
 def run_python(manager, script, *args, timeout=30, **env):
     """Runs a Python script in a client process; returns CompletedProcess."""
-    return subprocess.run([sys.executable, script, *args], env=manager.env(**env), capture_output=True,
-                          text=True, timeout=timeout)
+    return subprocess.run(
+        [sys.executable, script, *args], env=manager.env(**env), capture_output=True, text=True, timeout=timeout
+    )
 
 
 def which_compiler():
@@ -130,4 +132,5 @@ def nyi():
             if error.code == ln.LNE_NOT_YET_IMPLEMENTED:
                 pytest.skip("libln: %s" % error)
             raise
+
     return guard

@@ -5,9 +5,8 @@ import ctypes
 import os
 import stat
 
-import pytest
-
 import links_and_nodes as ln
+import pytest
 
 
 def c_verify(public_key_file, message, signature):

@@ -6,9 +6,8 @@ import struct
 import threading
 import time
 
-import pytest
-
 import links_and_nodes as ln
+import pytest
 
 
 def handle_until(clnt, condition, timeout=5.0):
@@ -20,9 +19,15 @@ def handle_until(clnt, condition, timeout=5.0):
 
 def test_resource_events_arrive_as_messages(clnt, manager, unique):
     seen = []
-    conn = clnt.connect_to_event("ln.resource_event", "ln/resource_event",
-                                 lambda ev: seen.append((ev.event, ev.name, ev.md, ev.client, ev.connection)),
-                                 event_pattern="*", name_pattern="*.%s" % unique, md_pattern="*", client_pattern="*")
+    conn = clnt.connect_to_event(
+        "ln.resource_event",
+        "ln/resource_event",
+        lambda ev: seen.append((ev.event, ev.name, ev.md, ev.client, ev.connection)),
+        event_pattern="*",
+        name_pattern="*.%s" % unique,
+        md_pattern="*",
+        client_pattern="*",
+    )
     assert conn.connect_signature.startswith("ln/resource_event: uint32_t 4 1,char* 1 1")
     assert conn.id == 1
     handle_until(clnt, lambda: any(e[0] == "initial_sync_done" for e in seen))
@@ -44,15 +49,23 @@ def test_resource_events_arrive_as_messages(clnt, manager, unique):
 
 def test_other_programs_emit_events_through_the_handler_service(clnt, manager, unique):
     got = []
-    conn = clnt.connect_to_event("my.event_%s" % unique, "ln/resource_event", got.append,
-                                 event_pattern="", name_pattern="", md_pattern="", client_pattern="")
+    conn = clnt.connect_to_event(
+        "my.event_%s" % unique,
+        "ln/resource_event",
+        got.append,
+        event_pattern="",
+        name_pattern="",
+        md_pattern="",
+        client_pattern="",
+    )
     emitter = ln.client("py_emitter_" + unique)
     try:
         handler = emitter.get_service("my.event_%s.%s" % (unique, clnt.name), "ln/event/call")
         flat = b"".join(struct.pack("<I", len(s)) + s for s in (b"hello", b"n", b"", b"c"))
         stop = threading.Event()
-        serving = threading.Thread(target=lambda: [clnt.wait_and_handle_service_group_requests(None, 0.05)
-                                                   for _ in iter(stop.is_set, True)])
+        serving = threading.Thread(
+            target=lambda: [clnt.wait_and_handle_service_group_requests(None, 0.05) for _ in iter(stop.is_set, True)]
+        )
         serving.start()
         try:
             handler.call(data=flat, signature=conn.call_signature)

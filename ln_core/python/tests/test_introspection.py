@@ -9,10 +9,8 @@ import sys
 import threading
 import time
 
-import pytest
-
 import links_and_nodes as ln
-
+import pytest
 from conftest import MSGDEFS
 
 PUBLISHER_SCRIPT = """
@@ -43,21 +41,41 @@ def topic_named(clnt, name):
 
 
 def test_results_are_named_tuples_with_the_contracted_fields():
-    assert ln.topic_info._fields == ("name", "message_definition", "hash", "message_size", "publisher",
-                                     "subscribers", "packets", "rate")
-    assert ln.client_info._fields == ("name", "id", "pid", "host", "host_id", "published", "subscribed",
-                                      "services")
+    assert ln.topic_info._fields == (
+        "name",
+        "message_definition",
+        "hash",
+        "message_size",
+        "publisher",
+        "subscribers",
+        "packets",
+        "rate",
+    )
+    assert ln.client_info._fields == ("name", "id", "pid", "host", "host_id", "published", "subscribed", "services")
     assert ln.service_info._fields == ("name", "interface", "signature", "provider", "group")
-    assert ln.manager_status._fields == ("version", "pid", "address", "uptime", "clients", "topics", "services",
-                                         "message_definition_dirs")
+    assert ln.manager_status._fields == (
+        "version",
+        "pid",
+        "address",
+        "uptime",
+        "clients",
+        "topics",
+        "services",
+        "message_definition_dirs",
+    )
 
 
 def test_lists_a_publisher_in_another_process(manager, clnt, unique, tmp_path):
     topic = "pytest.intro.%s" % unique
     script = tmp_path / "publisher.py"
     script.write_text(PUBLISHER_SCRIPT)
-    proc = subprocess.Popen([sys.executable, str(script), unique, topic], env=manager.env(), stdin=subprocess.PIPE,
-                            stdout=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [sys.executable, str(script), unique, topic],
+        env=manager.env(),
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
     try:
         assert proc.stdout.readline().strip() == "publishing"
         sub = clnt.subscribe(topic, "pytest/point")
@@ -133,8 +151,9 @@ def test_rate_while_writing_and_zero_after(clnt, unique):
     finally:
         stop.set()
         thread.join()
-    idle = wait_for(lambda: (lambda t: t if t and t.rate == 0 and t.packets == written else None)(
-        topic_named(clnt, topic)))
+    idle = wait_for(
+        lambda: (lambda t: t if t and t.rate == 0 and t.packets == written else None)(topic_named(clnt, topic))
+    )
     assert idle, "after writing %d packets: %r" % (written, topic_named(clnt, topic))
     assert idle.publisher == clnt.name
     clnt.unpublish(port)

@@ -3,16 +3,15 @@ topic_cursor_wrapper) against ln_core's manager, which records."""
 
 import struct
 
+import links_and_nodes as ln
 import numpy as np
 import pytest
-
-import links_and_nodes as ln
 
 
 def write_all_types(port, values):
     for i in values:
         port.packet.i32 = i
-        port.packet.u64 = 2 ** 40 + i
+        port.packet.u64 = 2**40 + i
         port.packet.vec = [i, i + 0.5, -i]
         port.packet.name = "n%d" % i
         port.packet.corners[1].x = i * 2.0
@@ -67,7 +66,7 @@ def test_downloads_stay_valid_and_get_dict_gives_arrays(clnt, unique):
     d = second.get_dict()
     t = d[topic]
     assert list(t["i32"]) == [2, 4, 6]
-    assert list(t["u64"]) == [2 ** 40 + 2, 2 ** 40 + 4, 2 ** 40 + 6]
+    assert list(t["u64"]) == [2**40 + 2, 2**40 + 4, 2**40 + 6]
     assert t["vec"].shape == (3, 3) and list(t["vec"][1]) == [4.0, 4.5, -4.0]
     assert list(t["name"]) == ["n2", "n4", "n6"]
     assert list(t["corners"][1]["x"]) == [4.0, 8.0, 12.0]
@@ -97,7 +96,7 @@ def test_save_load_and_manager_save(clnt, unique, tmp_path):
     assert len(raw) == 4 * (20 + 16)
     assert struct.unpack_from("=ddIdd", raw, 36)[2:] == (2, 1.0, 0.0)
     lg.manager_save(str(tmp_path / "log.pcap"), "pcap")
-    assert (tmp_path / "log.pcap").read_bytes()[:4] == struct.pack("=I", 0xa1b2c3d4)
+    assert (tmp_path / "log.pcap").read_bytes()[:4] == struct.pack("=I", 0xA1B2C3D4)
     with pytest.raises(ln.LNError) as info:
         lg.manager_save(str(tmp_path / "log.pickle"))
     assert info.value.code == ln.LNE_REQUEST_FAILED and "pickle" in str(info.value)

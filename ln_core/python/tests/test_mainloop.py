@@ -3,9 +3,8 @@ multi-waiters driven by one thread's event loop."""
 
 import time
 
-import pytest
-
 import links_and_nodes as ln
+import pytest
 
 DEADLINE = 10.0
 

@@ -4,13 +4,11 @@ import gc
 import threading
 import time
 
+import links_and_nodes as ln
 import numpy as np
 import pytest
-
-import links_and_nodes as ln
-from links_and_nodes import _ln
-
 from conftest import handshake
+from links_and_nodes import _ln
 
 
 def test_native_layer_checks_its_arguments(clnt, unique):

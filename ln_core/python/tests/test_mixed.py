@@ -3,15 +3,12 @@ against ln_core's headers and libln): topics both ways, services both ways."""
 
 import os
 import subprocess
-import sys
 import threading
 import time
 
+import links_and_nodes as ln
 import numpy as np
 import pytest
-
-import links_and_nodes as ln
-
 from conftest import LN_CORE, MSGDEFS, which_compiler
 
 CPP = os.path.join(os.path.dirname(os.path.abspath(__file__)), "cpp")
@@ -32,15 +29,44 @@ def programs(tmp_path_factory):
     if not (generate and lib and compiler):
         pytest.skip("needs ln_generate, libln (LN_CORE_GENERATE, LN_CORE_LIB) and g++")
     out = tmp_path_factory.mktemp("cpp")
-    subprocess.run([generate, "-f", "--md-dir", MSGDEFS, "-o", str(out / "test_messages.h"), "pytest/all_types",
-                    "pytest/echo", "pytest/point"], check=True, capture_output=True)
+    subprocess.run(
+        [
+            generate,
+            "-f",
+            "--md-dir",
+            MSGDEFS,
+            "-o",
+            str(out / "test_messages.h"),
+            "pytest/all_types",
+            "pytest/echo",
+            "pytest/point",
+        ],
+        check=True,
+        capture_output=True,
+    )
     libdir = os.path.dirname(os.path.realpath(lib))
     built = {}
     for name in PROGRAMS:
         exe = str(out / name)
-        result = subprocess.run([compiler, "-std=c++17", "-O1", "-I", str(out), "-I", include,
-                                 os.path.join(CPP, name + ".cpp"), "-o", exe, lib, "-Wl,-rpath," + libdir,
-                                 "-lpthread"], capture_output=True, text=True)
+        result = subprocess.run(
+            [
+                compiler,
+                "-std=c++17",
+                "-O1",
+                "-I",
+                str(out),
+                "-I",
+                include,
+                os.path.join(CPP, name + ".cpp"),
+                "-o",
+                exe,
+                lib,
+                "-Wl,-rpath," + libdir,
+                "-lpthread",
+            ],
+            capture_output=True,
+            text=True,
+        )
         if result.returncode != 0:
             pytest.fail("building %s failed:\n%s" % (name, result.stderr))
         built[name] = exe
@@ -50,8 +76,7 @@ def programs(tmp_path_factory):
 def test_python_publisher_cpp_subscriber(manager, clnt, programs, unique):
     topic = "mixed.py2cpp." + unique
     port = clnt.publish(topic, "pytest/all_types")
-    sub = subprocess.Popen([programs["topic_sub"], topic, "3"], env=manager.env(), stdout=subprocess.PIPE,
-                           text=True)
+    sub = subprocess.Popen([programs["topic_sub"], topic, "3"], env=manager.env(), stdout=subprocess.PIPE, text=True)
     try:
         assert sub.stdout.readline().strip() == "subscribed"
         done = threading.Event()
@@ -118,12 +143,22 @@ def python_echo_handler(request, req, resp):
 
 
 def call_echo(svc):
-    svc.call(counter=41, vec=[0, 2, 0], values=[1, 2, 3.5], text="hello from C++", origin={"x": 0.5},
-             points=[{"x": 1, "y": 2}, {"x": 3, "y": 4}])
+    svc.call(
+        counter=41,
+        vec=[0, 2, 0],
+        values=[1, 2, 3.5],
+        text="hello from C++",
+        origin={"x": 0.5},
+        points=[{"x": 1, "y": 2}, {"x": 3, "y": 4}],
+    )
     r = svc.resp
     return "counter=%d sum=%g values=%s text=%s points=%s" % (
-        r.counter, r.sum, ",".join("%g" % v for v in r.values), r.text,
-        ",".join("(%g,%g)" % (p.x, p.y) for p in r.points))
+        r.counter,
+        r.sum,
+        ",".join("%g" % v for v in r.values),
+        r.text,
+        ",".join("(%g,%g)" % (p.x, p.y) for p in r.points),
+    )
 
 
 EXPECTED_ECHO = "counter=42 sum=7 values=2,4,7 text=cpp: hello from C++ points=(3,4),(1,2)"
@@ -131,8 +166,9 @@ EXPECTED_ECHO = "counter=42 sum=7 values=2,4,7 text=cpp: hello from C++ points=(
 
 def test_cpp_provider_python_caller(manager, clnt, programs, unique, nyi):
     name = "mixed.cpp_echo." + unique
-    provider = subprocess.Popen([programs["echo_provider"], name], env=manager.env(), stdout=subprocess.PIPE,
-                                stderr=subprocess.PIPE, text=True)
+    provider = subprocess.Popen(
+        [programs["echo_provider"], name], env=manager.env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
     try:
         line = provider.stdout.readline().strip()
         if line != "ready":
@@ -160,8 +196,9 @@ def test_python_provider_cpp_caller(manager, clnt, programs, unique, nyi):
     result = {}
 
     def run_caller():
-        result["out"] = subprocess.run([programs["echo_caller"], name], env=manager.env(), capture_output=True,
-                                       text=True, timeout=30)
+        result["out"] = subprocess.run(
+            [programs["echo_caller"], name], env=manager.env(), capture_output=True, text=True, timeout=30
+        )
 
     caller = threading.Thread(target=run_caller)
     caller.start()

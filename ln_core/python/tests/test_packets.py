@@ -2,14 +2,12 @@
 
 import copy
 
+import links_and_nodes as ln
 import numpy as np
 import pytest
-
-import links_and_nodes as ln
+from conftest import MSGDEFS
 from links_and_nodes import _ln
 from links_and_nodes._packets import Compiler
-
-from conftest import MSGDEFS
 
 
 def part(name, section="fields", service=False):
@@ -34,10 +32,10 @@ def test_model_from_sources_resolves_imports_like_the_parser():
 def test_scalars_round_trip_through_the_buffer():
     p = part("pytest/all_types")
     p.f, p.d, p.i8, p.u8, p.i16, p.u16 = 1.5, 2.25, -5, 250, -300, 60000
-    p.i32, p.u32, p.i64, p.u64 = -70000, 4000000000, -2**40, 2**63
+    p.i32, p.u32, p.i64, p.u64 = -70000, 4000000000, -(2**40), 2**63
     p.c = "A"
     assert (p.f, p.d, p.i8, p.u8, p.i16, p.u16) == (1.5, 2.25, -5, 250, -300, 60000)
-    assert (p.i32, p.u32, p.i64, p.u64, p.c) == (-70000, 4000000000, -2**40, 2**63, 65)
+    assert (p.i32, p.u32, p.i64, p.u64, p.c) == (-70000, 4000000000, -(2**40), 2**63, 65)
     assert len(p._buf) == type(p)._size
 
 
@@ -76,23 +74,26 @@ def test_char_arrays_are_text_and_subtypes_nested_parts():
     assert "origin" in str(p)
 
 
-@pytest.mark.parametrize("field,value,error", [
-    ("u8", 256, ln.FieldValueError),
-    ("i8", -129, ln.FieldValueError),
-    ("u32", -1, ln.FieldValueError),
-    ("u32", 1.5, ln.FieldTypeError),
-    ("d", "x", ln.FieldTypeError),
-    ("vec", [1, 2], ln.FieldValueError),
-    ("vec", ["a", "b", "c"], ln.FieldTypeError),
-    ("small", [1, 2, 3, 70000], ln.FieldValueError),
-    ("small", [1.5, 2, 3, 4], ln.FieldTypeError),
-    ("name", "far too long", ln.FieldValueError),
-    ("name", "\udc80\ud800", ln.FieldValueError),
-    ("name", 5, ln.FieldTypeError),
-    ("c", 300, ln.FieldValueError),
-    ("origin", 3, ln.FieldTypeError),
-    ("corners", [{}, {}, {}], ln.FieldValueError),
-])
+@pytest.mark.parametrize(
+    "field,value,error",
+    [
+        ("u8", 256, ln.FieldValueError),
+        ("i8", -129, ln.FieldValueError),
+        ("u32", -1, ln.FieldValueError),
+        ("u32", 1.5, ln.FieldTypeError),
+        ("d", "x", ln.FieldTypeError),
+        ("vec", [1, 2], ln.FieldValueError),
+        ("vec", ["a", "b", "c"], ln.FieldTypeError),
+        ("small", [1, 2, 3, 70000], ln.FieldValueError),
+        ("small", [1.5, 2, 3, 4], ln.FieldTypeError),
+        ("name", "far too long", ln.FieldValueError),
+        ("name", "\udc80\ud800", ln.FieldValueError),
+        ("name", 5, ln.FieldTypeError),
+        ("c", 300, ln.FieldValueError),
+        ("origin", 3, ln.FieldTypeError),
+        ("corners", [{}, {}, {}], ln.FieldValueError),
+    ],
+)
 def test_bad_values_raise_naming_the_field_and_leave_the_packet_alone(field, value, error):
     p = part("pytest/all_types")
     before = bytes(p._buf)
@@ -146,6 +147,7 @@ def test_copy_is_independent():
 
 # LN 2.9's forms (tests/ln29_behaviour/test_ln29b_python_fields.py compares
 # all of them with LN 2.9 itself)
+
 
 def test_char_arrays_also_take_character_codes_and_bytes():
     p = part("pytest/all_types")
@@ -233,17 +235,21 @@ def test_service_parts_read_char_as_text_and_take_none_and_text_for_floats():
 
 
 def test_a_define_repeated_in_the_response_section():
-    sources = {"s/svc": 'service\nrequest\ndefine item_t as "item"\nitem_t a\n'
-                        'response\ndefine item_t as "item"\nitem_t b\n',
-               "s/item": "double x\n"}
+    sources = {
+        "s/svc": 'service\nrequest\ndefine item_t as "item"\nitem_t a\nresponse\ndefine item_t as "item"\nitem_t b\n',
+        "s/item": "double x\n",
+    }
     model = _ln.model_from_sources("s/svc", sources)
     assert model["fields"][0][3] == model["response_fields"][0][3] == "s/item"
 
 
 def test_pyobject_fields_pickle_any_python_object():
     pyobject = "uint8_t* data\nint data_len\nint is_pickle\n"
-    sources = {"p/svc": 'service\nrequest\ndefine pyobject as "ln2/pyobject"\npyobject args\n'
-                        'pyobject pair[2]\npyobject* many\nresponse\n', "ln2/pyobject": pyobject}
+    sources = {
+        "p/svc": 'service\nrequest\ndefine pyobject as "ln2/pyobject"\npyobject args\n'
+        'pyobject pair[2]\npyobject* many\nresponse\n',
+        "ln2/pyobject": pyobject,
+    }
     model = _ln.model_from_sources("p/svc", sources)
     cls = Compiler().part_class(model, "fields", service=True)
     req = cls(name="req")
@@ -261,6 +267,7 @@ def test_pyobject_fields_pickle_any_python_object():
     # text instead of a pickle: a literal (LN 2.9 evaluates any expression)
     received.args_packet.data, received.args_packet.is_pickle = b"[1, 'x']", 0
     from links_and_nodes._packets import _unpickle
+
     assert _unpickle(received.args_packet) == [1, "x"]
 
 

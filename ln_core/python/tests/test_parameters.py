@@ -8,11 +8,9 @@ import subprocess
 import threading
 import time
 
+import links_and_nodes as ln
 import numpy as np
 import pytest
-
-import links_and_nodes as ln
-
 from conftest import LN_CORE, which_compiler
 
 CPP = os.path.join(os.path.dirname(os.path.abspath(__file__)), "cpp")
@@ -80,7 +78,12 @@ def test_ln29_names():
 def test_block_values_types_and_outputs(provider, unique):
     block = make_block(provider, "b" + unique)
     assert (block.gain.dtype, block.n.dtype, block.vec.dtype, block.mat.dtype, block.flag.dtype) == (
-        np.float64, np.int64, np.float64, np.int16, np.bool_)
+        np.float64,
+        np.int64,
+        np.float64,
+        np.int16,
+        np.bool_,
+    )
     assert block.vec.shape == (3,) and block.mat.shape == (2, 3) and block.gain.shape == ()
     out = block.update()
     assert out.gain == 1.5 and isinstance(out.gain, float)
@@ -101,8 +104,12 @@ def test_proxy_reads_overrides_and_resets(provider, caller, unique):
     assert params.gain == 1.5 and params.n == 3 and params.flag is True
     assert params.vec.tolist() == [1.0, 2.0, 3.0] and params.mat.dtype == np.int16
     assert params.sub.deep == 0.25
-    assert params.get_dict(full=True)["gain"] == {"input": 1.5, "output": 1.5, "override_enabled": False,
-                                                  "description": "the gain"}
+    assert params.get_dict(full=True)["gain"] == {
+        "input": 1.5,
+        "output": 1.5,
+        "override_enabled": False,
+        "description": "the gain",
+    }
     assert params["gain"]["full_name"] == group + ".gain"
     with Loop(block):
         params.gain = 2.5
@@ -127,8 +134,13 @@ def test_callbacks_check_and_learn_of_overrides(provider, caller, unique):
     group = "c" + unique
     block = provider.parameter_block(group)
     seen, threads = [], []
-    block.add("limit", 5, dtype="int32", before_update=lambda v: v < 10,
-              after_update=lambda v: (seen.append(v), threads.append(threading.current_thread())))
+    block.add(
+        "limit",
+        5,
+        dtype="int32",
+        before_update=lambda v: v < 10,
+        after_update=lambda v: (seen.append(v), threads.append(threading.current_thread())),
+    )
     block.add("plain", 0.0, output=False)
     block.register()
     block.update()
@@ -257,6 +269,7 @@ def test_topics_of_names_that_are_no_tree(provider, caller, unique):
 
 # ------------------------------------------------------------------ with C++
 
+
 @pytest.fixture(scope="module")
 def cpp(tmp_path_factory):
     """param_provider and param_client, built against ln_core's headers and libln."""
@@ -269,9 +282,23 @@ def cpp(tmp_path_factory):
     built = {}
     for name in ("param_provider", "param_client"):
         exe = str(out / name)
-        result = subprocess.run([compiler, "-std=c++17", "-O1", "-I", include, os.path.join(CPP, name + ".cpp"), "-o",
-                                 exe, lib, "-Wl,-rpath," + os.path.dirname(os.path.realpath(lib)), "-lpthread"],
-                                capture_output=True, text=True)
+        result = subprocess.run(
+            [
+                compiler,
+                "-std=c++17",
+                "-O1",
+                "-I",
+                include,
+                os.path.join(CPP, name + ".cpp"),
+                "-o",
+                exe,
+                lib,
+                "-Wl,-rpath," + os.path.dirname(os.path.realpath(lib)),
+                "-lpthread",
+            ],
+            capture_output=True,
+            text=True,
+        )
         assert result.returncode == 0, "building %s failed:\n%s" % (name, result.stderr)
         built[name] = exe
     return built
@@ -279,8 +306,9 @@ def cpp(tmp_path_factory):
 
 def test_cpp_provider_python_client(manager, caller, cpp, unique):
     group = "cpp" + unique
-    program = subprocess.Popen([cpp["param_provider"], group], env=manager.env(), stdin=subprocess.PIPE,
-                               stdout=subprocess.PIPE, text=True)
+    program = subprocess.Popen(
+        [cpp["param_provider"], group], env=manager.env(), stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True
+    )
     try:
         assert program.stdout.readline().strip() == "ready"
         params = caller.get_parameters(group)
@@ -310,13 +338,22 @@ def test_python_provider_cpp_client(manager, provider, cpp, unique):
     block = make_block(provider, group, small=dict(value=3, dtype="int8"))
     block.update()
     with Loop(block):
-        result = subprocess.run([cpp["param_client"], group], env=manager.env(), capture_output=True, text=True,
-                                timeout=60)
+        result = subprocess.run(
+            [cpp["param_client"], group], env=manager.env(), capture_output=True, text=True, timeout=60
+        )
     assert result.returncode == 0, result.stderr
     lines = result.stdout.splitlines()
     assert lines[:9] == [
-        "gain: 1.500000", "n: 3", "mat: 2x3 5", "flag: true", "description: the gain", "set gain: 2.500000",
-        "set vec: 6.000000", "set n: 2", "set mat: 6"]
+        "gain: 1.500000",
+        "n: 3",
+        "mat: 2x3 5",
+        "flag: true",
+        "description: the gain",
+        "set gain: 2.500000",
+        "set vec: 6.000000",
+        "set n: 2",
+        "set mat: 6",
+    ]
     assert lines[9].startswith("wrong shape: error ") and "shape [3]" in lines[9]
     assert lines[10].startswith("too big: error ") and "1000 does not fit int8" in lines[10]
     assert lines[11].startswith("unknown: error ") and "'%s.nothere'" % group in lines[11]

@@ -11,27 +11,39 @@ import subprocess
 import sys
 import time
 
-import pytest
-
 import ln_testing  # tests/support, on sys.path through conftest.py
+import pytest
 from conftest import MSGDEFS, Manager
 
 QUICKSTART = os.path.join(os.path.dirname(os.path.abspath(__file__)), "quickstart")
 
 
 def run_counter(python, env):
-    sub = subprocess.Popen([python, "counter_subscriber.py", "5"], cwd=QUICKSTART, env=env, stdout=subprocess.PIPE,
-                           stderr=subprocess.PIPE, text=True)
-    pub = subprocess.run([python, "counter_publisher.py", "5"], cwd=QUICKSTART, env=env, capture_output=True,
-                         text=True, timeout=60)
+    sub = subprocess.Popen(
+        [python, "counter_subscriber.py", "5"],
+        cwd=QUICKSTART,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    pub = subprocess.run(
+        [python, "counter_publisher.py", "5"], cwd=QUICKSTART, env=env, capture_output=True, text=True, timeout=60
+    )
     sub_out, sub_err = sub.communicate(timeout=60)
     assert pub.returncode == 0 and sub.returncode == 0, pub.stderr + sub_err
     return pub.stdout + sub_out
 
 
 def run_area(python, env):
-    provider = subprocess.Popen([python, "-u", "area_provider_wrapped.py"], cwd=QUICKSTART, env=env,
-                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    provider = subprocess.Popen(
+        [python, "-u", "area_provider_wrapped.py"],
+        cwd=QUICKSTART,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         first = provider.stdout.readline().strip()
         if first != "ready":
@@ -41,8 +53,9 @@ def run_area(python, env):
                 pytest.skip("libln: services not implemented yet")
             raise AssertionError("provider failed: %s" % error)
         time.sleep(0.2)
-        client = subprocess.run([python, "area_client_wrapped.py"], cwd=QUICKSTART, env=env, capture_output=True,
-                                text=True, timeout=60)
+        client = subprocess.run(
+            [python, "area_client_wrapped.py"], cwd=QUICKSTART, env=env, capture_output=True, text=True, timeout=60
+        )
     finally:
         provider.send_signal(signal.SIGINT)
         try:

@@ -6,15 +6,15 @@ import struct
 import threading
 import time
 
-import pytest
-
 import links_and_nodes as ln
+import pytest
 
 
 def serve_in_thread(clnt, stop):
     def run():
         while not stop.is_set():
             clnt.wait_and_handle_service_group_requests(None, 0.05)
+
     thread = threading.Thread(target=run, daemon=True)
     thread.start()
     return thread
@@ -30,22 +30,35 @@ def test_python_logger_gets_both_items_of_a_call(manager, unique):
         log = logger.get_service_provider("log.%s" % unique, "ln/log_service")
 
         def on_log(request, req, resp):
-            items.append((req.item_type, req.client_name, req.service_name, req.service_interface, req.flags,
-                          req.client_id, req.request_id, bytes(req.data)))
+            items.append(
+                (
+                    req.item_type,
+                    req.client_name,
+                    req.service_name,
+                    req.service_interface,
+                    req.flags,
+                    req.client_id,
+                    req.request_id,
+                    bytes(req.data),
+                )
+            )
             request.respond()
             return 0
+
         log.set_handler(on_log)
         log.do_register()
         logger.register_as_service_logger("log.%s" % unique, "area.%s" % unique)
         area = provider.get_service_provider("area.%s" % unique, "area_service/circle_area")
 
         def on_area(request, req, resp):
-            resp.area = 3 * req.radius ** 2
+            resp.area = 3 * req.radius**2
             request.respond()
             return 0
+
         area.set_handler(on_area)
         area.do_register()
-        threads = [serve_in_thread(logger, stop), serve_in_thread(provider, stop)]
+        for node in (logger, provider):
+            serve_in_thread(node, stop)
         svc = caller.get_service("area.%s" % unique, "area_service/circle_area")
         svc.req.radius = 2.0
         svc.call()
@@ -56,7 +69,8 @@ def test_python_logger_gets_both_items_of_a_call(manager, unique):
         items.sort()
         assert [i[:5] for i in items] == [
             (0, caller.name, "area.%s" % unique, "area_service/circle_area", 2),
-            (1, provider.name, "area.%s" % unique, "area_service/circle_area", 0)]
+            (1, provider.name, "area.%s" % unique, "area_service/circle_area", 0),
+        ]
         assert items[0][5:7] == items[1][5:7], "client and request id pair the items"
         request_data, response_data = items[0][7], items[1][7]
         assert struct.unpack_from("<IH", request_data) == (len(request_data), ln.LN_LIBRARY_VERSION)

@@ -3,14 +3,12 @@ stand-in for the native Service: no manager, no libln services needed."""
 
 import math
 
+import links_and_nodes as ln
 import numpy as np
 import pytest
-
-import links_and_nodes as ln
+from conftest import MSGDEFS
 from links_and_nodes import _ln, _services
 from links_and_nodes._packets import Compiler
-
-from conftest import MSGDEFS
 
 PROVIDERS = {}
 
@@ -116,8 +114,7 @@ def test_request_and_response_travel_flat(fake):
     provider.set_handler(echo_handler)
     provider.do_register()
     svc = fake.get_service("e", "pytest/echo")
-    svc.call(counter=1, vec=[0, 0, 0.5], values=[1, 2], text="hi", origin={"x": 1.0},
-             points=[{"x": 2.0, "y": 3.0}])
+    svc.call(counter=1, vec=[0, 0, 0.5], values=[1, 2], text="hi", origin={"x": 1.0}, points=[{"x": 2.0, "y": 3.0}])
     r = svc.resp
     assert (r.counter, r.sum, list(r.values), r.text) == (2, 3.5, [2.0, 4.0], "hi!")
     assert [(p.x, p.y) for p in r.points] == [(1.0, 0.0), (2.0, 3.0)]
@@ -158,7 +155,7 @@ class Areas(ln.service_provider):
     def compute_circle_area(self, radius):
         if radius < 0:
             return {"area": math.nan, "error_code": 1, "error_message": "negative radius"}
-        return {"area": math.pi * radius ** 2, "error_code": 0, "error_message": ""}
+        return {"area": math.pi * radius**2, "error_code": 0, "error_message": ""}
 
     def tri(self, base, height):
         raise ValueError("no triangles")
@@ -195,8 +192,7 @@ def test_single_field_and_ln_string_shapes(fake):
 
         def echo(self, counter, vec, values, text, origin, points):
             assert isinstance(origin, dict) and isinstance(points, list)
-            return {"counter": counter, "sum": float(sum(values)), "values": values, "text": text,
-                    "points": [origin]}
+            return {"counter": counter, "sum": float(sum(values)), "values": values, "text": text, "points": [origin]}
 
     Echo(fake)
 

@@ -8,12 +8,10 @@ import textwrap
 import threading
 import time
 
+import links_and_nodes as ln
+import ln_testing  # tests/support, on sys.path through conftest.py
 import numpy as np
 import pytest
-
-import ln_testing  # tests/support, on sys.path through conftest.py
-
-import links_and_nodes as ln
 
 
 class Provider:
@@ -47,6 +45,7 @@ def serve(nyi):
         with nyi():
             providers.append(Provider(name, interface, handler))
         return providers[-1]
+
     yield start
     for p in providers:
         p.stop()
@@ -85,8 +84,13 @@ def test_dynamic_fields_text_and_sub_types(clnt, serve, unique):
     serve("svc.echo." + unique, "pytest/echo", echo_handler)
     svc = clnt.get_service("svc.echo." + unique)  # interface from the manager
     assert svc.interface == "pytest/echo"
-    svc.call(counter=1, values=[1.0, 2.0, 4.0], text="grüße", origin={"x": 9.0, "y": 8.0},
-             points=[svc.req.new_point_t_packet(x=1.0)])
+    svc.call(
+        counter=1,
+        values=[1.0, 2.0, 4.0],
+        text="grüße",
+        origin={"x": 9.0, "y": 8.0},
+        points=[svc.req.new_point_t_packet(x=1.0)],
+    )
     r = svc.resp
     assert r.counter == 2 and r.sum == 7.0
     assert isinstance(r.values, np.ndarray) and list(r.values) == [4.0, 2.0, 1.0] and r.values_len == 3
@@ -169,12 +173,14 @@ def sleepy(request, req, resp):
 
 def recorded(handler, started, finished):
     """`handler`, setting the events `started` and `finished` around each call."""
+
     def run(request, req, resp):
         started.set()
         try:
             return handler(request, req, resp)
         finally:
             finished.set()
+
     return run
 
 
@@ -213,6 +219,7 @@ def test_wait_for_service_and_availability(clnt, serve, unique, nyi):
     def wait():
         waiting.set()
         found.append(clnt.wait_for_service(name, 10))
+
     waiter = threading.Thread(target=wait)
     waiter.start()
     assert waiting.wait(10)
@@ -241,8 +248,7 @@ def test_ctrl_c_interrupts_a_blocking_call(manager, serve, tmp_path, unique):
     serve(name, "pytest/sleep", recorded(sleepy, handling, threading.Event()))
     script = tmp_path / "call.py"
     script.write_text(CALL_SCRIPT)
-    proc = subprocess.Popen([sys.executable, str(script), name], env=manager.env(), stdout=subprocess.PIPE,
-                            text=True)
+    proc = subprocess.Popen([sys.executable, str(script), name], env=manager.env(), stdout=subprocess.PIPE, text=True)
     try:
         assert proc.stdout.readline().strip() == "calling"
         assert handling.wait(20), "the call never reached the provider"  # so the caller blocks in call()
@@ -256,6 +262,7 @@ def test_ctrl_c_interrupts_a_blocking_call(manager, serve, tmp_path, unique):
 
 # ------------------------------------------------------------- wrapped API
 
+
 class Areas(ln.service_provider):
     print_ready = False
 
@@ -267,7 +274,7 @@ class Areas(ln.service_provider):
     def compute_circle_area(self, radius):
         if radius < 0:
             return {"area": math.nan, "error_code": 1, "error_message": "negative radius"}
-        return {"area": math.pi * radius ** 2, "error_code": 0, "error_message": ""}
+        return {"area": math.pi * radius**2, "error_code": 0, "error_message": ""}
 
     def compute_triangle_area(self, base, height):
         raise ValueError("no triangles today")

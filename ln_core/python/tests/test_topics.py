@@ -1,6 +1,5 @@
 """Topics through ln_core's manager and libln."""
 
-import os
 import signal
 import subprocess
 import sys
@@ -8,11 +7,9 @@ import textwrap
 import threading
 import time
 
+import links_and_nodes as ln
 import numpy as np
 import pytest
-
-import links_and_nodes as ln
-
 from conftest import handshake
 
 
@@ -203,8 +200,7 @@ SIGINT_SCRIPT = textwrap.dedent("""
 def test_ctrl_c_interrupts_a_blocking_read(manager, tmp_path, unique):
     script = tmp_path / "sigint.py"
     script.write_text(SIGINT_SCRIPT)
-    proc = subprocess.Popen([sys.executable, str(script), unique], env=manager.env(), stdout=subprocess.PIPE,
-                            text=True)
+    proc = subprocess.Popen([sys.executable, str(script), unique], env=manager.env(), stdout=subprocess.PIPE, text=True)
     try:
         assert proc.stdout.readline().strip() == "reading"
         time.sleep(0.3)
@@ -237,9 +233,13 @@ def test_publisher_availability_handler(clnt, unique, nyi):
 
 
 def test_environment_names_the_client(manager):
-    out = subprocess.run([sys.executable, "-c", "import links_and_nodes as ln; print(ln.client('x').name)"],
-                         env=manager.env(LN_PROGRAM_NAME="renamed_by_env"), capture_output=True, text=True,
-                         timeout=30)
+    out = subprocess.run(
+        [sys.executable, "-c", "import links_and_nodes as ln; print(ln.client('x').name)"],
+        env=manager.env(LN_PROGRAM_NAME="renamed_by_env"),
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
     assert out.stdout.strip().startswith("renamed_by_env"), out.stderr
 
 

@@ -138,14 +138,16 @@ int ln_client_set_float_parameter(ln_client clnt, const char* name, float value)
       client->set_debug_level(std::isfinite(value) ? static_cast<int>(value) : 0);
     } else if (setting == "reconnect_interval") {
       if (!(value > 0) || !std::isfinite(value) || value > 3600)
-        throw ln::clientlib::Failure(LNE_INVALID_PARAMETER, "reconnect_interval must be between 0 and 3600 seconds, not " +
-                                                 std::to_string(value));
+        throw ln::clientlib::Failure(
+            LNE_INVALID_PARAMETER,
+            "reconnect_interval must be between 0 and 3600 seconds, not " + std::to_string(value));
       client->set_reconnect_interval(std::chrono::milliseconds(std::max(1L, std::lround(value * 1000.0))));
     } else if (setting != "win32_async_ping_timeout" && setting != "win32_async_ping_interval" &&
                setting != "win32_wait_for_service_request_timeout") {
-      throw ln::clientlib::Failure(LNE_UNKNOWN_PARAMETER, "unknown client setting '" + setting +
-                                               "' (debug, reconnect_interval, win32_async_ping_timeout, "
-                                               "win32_async_ping_interval, win32_wait_for_service_request_timeout)");
+      throw ln::clientlib::Failure(LNE_UNKNOWN_PARAMETER,
+                                   "unknown client setting '" + setting +
+                                       "' (debug, reconnect_interval, win32_async_ping_timeout, "
+                                       "win32_async_ping_interval, win32_wait_for_service_request_timeout)");
     }
     return 0;
   });

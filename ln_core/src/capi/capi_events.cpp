@@ -44,25 +44,31 @@ extern "C" {
 
 int ln_event_connect(ln_client clnt, ln_event_connection* conn, const char* event_name, const char* connect_signature,
                      void* connect_data, ln_event_handler handler, void* user_data) {
-  return connect(clnt, conn, event_name, connect_signature, [&](const std::string& side) {
-    services::MessageLayout layout;
-    const services::Status compiled = services::MessageLayout::compile(side, layout);
-    if (!compiled.ok()) throw Failure(LNE_INVALID_SIGNATURE, "invalid connect signature: " + compiled.detail());
-    require(connect_data != nullptr || layout.empty(), "connect_data");
-    std::string flat;
-    const services::Status flattened = services::flatten(layout, connect_data, services::Limits{}, flat);
-    if (!flattened.ok()) throw Failure(-flattened.code(), "connect data: " + flattened.detail());
-    return flat;
-  }, handler, user_data);
+  return connect(
+      clnt, conn, event_name, connect_signature,
+      [&](const std::string& side) {
+        services::MessageLayout layout;
+        const services::Status compiled = services::MessageLayout::compile(side, layout);
+        if (!compiled.ok()) throw Failure(LNE_INVALID_SIGNATURE, "invalid connect signature: " + compiled.detail());
+        require(connect_data != nullptr || layout.empty(), "connect_data");
+        std::string flat;
+        const services::Status flattened = services::flatten(layout, connect_data, services::Limits{}, flat);
+        if (!flattened.ok()) throw Failure(-flattened.code(), "connect data: " + flattened.detail());
+        return flat;
+      },
+      handler, user_data);
 }
 
 int ln_event_connect_flat(ln_client clnt, ln_event_connection* conn, const char* event_name,
                           const char* connect_signature, void* connect_data_flat, uint32_t connect_data_flat_len,
                           ln_event_handler handler, void* user_data) {
-  return connect(clnt, conn, event_name, connect_signature, [&](const std::string&) {
-    require(connect_data_flat != nullptr || connect_data_flat_len == 0, "connect_data_flat");
-    return std::string(static_cast<const char*>(connect_data_flat), connect_data_flat_len);
-  }, handler, user_data);
+  return connect(
+      clnt, conn, event_name, connect_signature,
+      [&](const std::string&) {
+        require(connect_data_flat != nullptr || connect_data_flat_len == 0, "connect_data_flat");
+        return std::string(static_cast<const char*>(connect_data_flat), connect_data_flat_len);
+      },
+      handler, user_data);
 }
 
 int ln_event_connection_deinit(ln_event_connection* conn) {

@@ -7,8 +7,8 @@
 #include "client/loggers.hpp"
 
 using ln::capi::client_from;
-using ln::capi::guarded;
 using ln::capi::clientless;
+using ln::capi::guarded;
 using ln::capi::require;
 using ln::clientlib::Client;
 using ln::clientlib::ClientLoggers;
@@ -29,8 +29,9 @@ int with_logger(ln_logger handle, Body&& body) noexcept {
 
 LoggerData& live_data(ln_logger_data handle) {
   if (!LoggerData::alive(handle))
-    throw Failure(LNE_INVALID_PARAMETER, "not a logger data handle (or one that was freed or replaced by a later "
-                                         "download)");
+    throw Failure(LNE_INVALID_PARAMETER,
+                  "not a logger data handle (or one that was freed or replaced by a later "
+                  "download)");
   return *static_cast<LoggerData*>(handle);
 }
 
@@ -137,8 +138,9 @@ int ln_logger_data_deinit(ln_logger_data* logger_data) {
     require(logger_data != nullptr, "logger_data");
     LoggerData& data = live_data(*logger_data);
     if (!data.loaded())
-      throw Failure(LNE_INVALID_PARAMETER, "downloaded logger data belongs to its logger; only data from "
-                                           "ln_logger_data_load() is freed with ln_logger_data_deinit()");
+      throw Failure(LNE_INVALID_PARAMETER,
+                    "downloaded logger data belongs to its logger; only data from "
+                    "ln_logger_data_load() is freed with ln_logger_data_deinit()");
     delete &data;
     *logger_data = nullptr;
     return 0;
@@ -167,8 +169,10 @@ int ln_logger_data_get_topic(ln_logger_data logger_data, unsigned int topic_id, 
     LoggerData& data = live_data(logger_data);
     logger_topic* found = data.topic(topic_id);
     if (found == nullptr)
-      throw Failure(LNE_TOPIC_ID_OUT_OF_RANGE, "topic id " + std::to_string(topic_id) + " is out of range: the "
-                                               "data has " + std::to_string(data.size()) + " topic(s)");
+      throw Failure(LNE_TOPIC_ID_OUT_OF_RANGE, "topic id " + std::to_string(topic_id) +
+                                                   " is out of range: the "
+                                                   "data has " +
+                                                   std::to_string(data.size()) + " topic(s)");
     *topic = found;
     return 0;
   });

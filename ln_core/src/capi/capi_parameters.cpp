@@ -129,8 +129,10 @@ int ln_parameter_value_read(ln_client clnt, const ln_parameter_value* value, int
     view.name = value->name != nullptr ? value->name : "";
     view.data_type = value->data_type != nullptr ? value->data_type : "";
     view.type = type_of(value->type);
-    if (value->n_dims == 0) view.shape.dims = {1};
-    else view.shape.dims.assign(value->dims, value->dims + std::min(value->n_dims, 2u));
+    if (value->n_dims == 0)
+      view.shape.dims = {1};
+    else
+      view.shape.dims.assign(value->dims, value->dims + std::min(value->n_dims, 2u));
     const std::size_t bytes = view.shape.elements() * ln::paramcore::element_size(view.type);
     if (bytes != value->size || (output ? value->output : value->input) == nullptr)
       throw Failure(LNE_INVALID_PARAMETER, "the ln_parameter_value is not one ln_parameter_get() filled");

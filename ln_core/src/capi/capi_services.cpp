@@ -103,7 +103,8 @@ int register_in_group(ln_client clnt, ln_service svc, const char* group_name) {
   return guarded(client, [&] {
     std::lock_guard<std::mutex> lock(service->mutex);
     if (service->handler == nullptr)
-      throw Failure(LNE_SVC_NO_HANDLER, "service '" + service->name + "' has no handler; call ln_service_provider_set_handler first");
+      throw Failure(LNE_SVC_NO_HANDLER,
+                    "service '" + service->name + "' has no handler; call ln_service_provider_set_handler first");
     if (service->provider_id != 0)
       throw Failure(LNE_SVC_ALREADY_REGISTERED, "service '" + service->name + "' is already registered");
     service->provider_id = service->glue->register_provider(service->name, service->interface, service->signature,
@@ -207,13 +208,12 @@ int ln_service_call_abort(ln_service svc) {
 
 int ln_service_callv(ln_service svc, struct iovec* iov, unsigned int iov_len, uint8_t* iov_element_lens,
                      char** response_buffer, uint32_t* response_len, uint8_t* need_swap) {
-  return ln_service_callv_with_timeout(svc, iov, iov_len, iov_element_lens, response_buffer, response_len,
-                                       need_swap, 0);
+  return ln_service_callv_with_timeout(svc, iov, iov_len, iov_element_lens, response_buffer, response_len, need_swap,
+                                       0);
 }
 
 int ln_service_callv_with_timeout(ln_service svc, struct iovec* iov, unsigned int iov_len, uint8_t*,
-                                  char** response_buffer, uint32_t* response_len, uint8_t* need_swap,
-                                  double timeout) {
+                                  char** response_buffer, uint32_t* response_len, uint8_t* need_swap, double timeout) {
   Service* service = service_from(svc);
   if (service == nullptr) return -LNE_INVALID_PARAMETER;
   if ((iov == nullptr && iov_len != 0) || response_buffer == nullptr || response_len == nullptr)
@@ -238,8 +238,7 @@ int ln_service_call_async(ln_service svc, void* data, ln_service_request* req) {
   return 0;
 }
 
-int ln_service_callv_async(ln_service svc, struct iovec* iov, unsigned int iov_len, uint8_t*,
-                           ln_service_request* req) {
+int ln_service_callv_async(ln_service svc, struct iovec* iov, unsigned int iov_len, uint8_t*, ln_service_request* req) {
   Service* service = service_from(svc);
   if (service == nullptr || req == nullptr || (iov == nullptr && iov_len != 0)) return -LNE_INVALID_PARAMETER;
   services::AsyncCall* call = nullptr;
@@ -386,12 +385,12 @@ int ln_service_provider_set_client_fd_handler(ln_service svc, ln_service_fd_hand
 
 // ------------------------------------------------------- groups and pools
 
-#define LN_WITH_GLUE(clnt, expression)                                        \
-  Client* client = client_from(clnt);                                         \
-  if (client == nullptr) return -LNE_CLIENT_NOT_INITIALIZED;                  \
-  return guarded(client, [&] {                                                \
+#define LN_WITH_GLUE(clnt, expression)                                          \
+  Client* client = client_from(clnt);                                           \
+  if (client == nullptr) return -LNE_CLIENT_NOT_INITIALIZED;                    \
+  return guarded(client, [&] {                                                  \
     services::Dispatcher& dispatcher = ServicesGlue::of(*client)->dispatcher(); \
-    return report(client, expression);                                        \
+    return report(client, expression);                                          \
   })
 
 int ln_wait_and_handle_service_group_requests(ln_client clnt, const char* group_name, double timeout) {
@@ -542,9 +541,9 @@ int ln_set_service_availability_handler(ln_client clnt, const char* service_name
   if (client == nullptr) return -LNE_CLIENT_NOT_INITIALIZED;
   return guarded(client, [&] {
     require(service_name != nullptr, "service_name");
-    ServicesGlue::of(*client)->set_availability_handler(
-        false, client->service_mapping().apply(service_name),
-        reinterpret_cast<ServicesGlue::AvailabilityHandler>(handler), user_data);
+    ServicesGlue::of(*client)->set_availability_handler(false, client->service_mapping().apply(service_name),
+                                                        reinterpret_cast<ServicesGlue::AvailabilityHandler>(handler),
+                                                        user_data);
     return 0;
   });
 }
@@ -555,9 +554,9 @@ int ln_set_publisher_availability_handler(ln_client clnt, const char* topic_name
   if (client == nullptr) return -LNE_CLIENT_NOT_INITIALIZED;
   return guarded(client, [&] {
     require(topic_name != nullptr, "topic_name");
-    ServicesGlue::of(*client)->set_availability_handler(
-        true, client->topic_mapping().apply(topic_name),
-        reinterpret_cast<ServicesGlue::AvailabilityHandler>(handler), user_data);
+    ServicesGlue::of(*client)->set_availability_handler(true, client->topic_mapping().apply(topic_name),
+                                                        reinterpret_cast<ServicesGlue::AvailabilityHandler>(handler),
+                                                        user_data);
     return 0;
   });
 }

@@ -64,11 +64,15 @@ int from_shm_error(const ShmError& error) {
     case ShmErrc::system_error:
       return error.sys_errno() == ENAMETOOLONG ? failure(-LNE_SHM_NAME_TOO_LONG, ENAMETOOLONG)
                                                : failure(-LNE_CHECK_ERRNO, error.sys_errno());
-    case ShmErrc::bad_magic: return failure(-LNE_INVALID_SHM_MAGIC, EINVAL);
-    case ShmErrc::bad_version: return failure(-LNE_SHM_VERSION_TOO_NEW, EINVAL);
+    case ShmErrc::bad_magic:
+      return failure(-LNE_INVALID_SHM_MAGIC, EINVAL);
+    case ShmErrc::bad_version:
+      return failure(-LNE_SHM_VERSION_TOO_NEW, EINVAL);
     case ShmErrc::too_small:
-    case ShmErrc::bad_layout: return failure(-LNE_WRONG_SHM_SIZE, EINVAL);
-    default: return failure(-LNE_INVALID_PARAMETER, EINVAL);
+    case ShmErrc::bad_layout:
+      return failure(-LNE_WRONG_SHM_SIZE, EINVAL);
+    default:
+      return failure(-LNE_INVALID_PARAMETER, EINVAL);
   }
 }
 
@@ -89,9 +93,8 @@ int new_handle(void** out, const char* name, Side side, Make&& make) noexcept {
 
 int create_handle(void** out, const char* name, Side side, unsigned element_size, unsigned n_elements,
                   unsigned version) noexcept {
-  return new_handle(out, name, side, [&](const std::string& n) {
-    return Segment::create(n, element_size, n_elements, version);
-  });
+  return new_handle(out, name, side,
+                    [&](const std::string& n) { return Segment::create(n, element_size, n_elements, version); });
 }
 
 int open_handle(void** out, const char* name, Side side) noexcept {
@@ -115,17 +118,22 @@ std::chrono::nanoseconds wait_time(double seconds) {
 
 int read_result(ReadResult result) {
   switch (result) {
-    case ReadResult::packet: return 1;
-    case ReadResult::nothing_new: return 0;
-    case ReadResult::timeout: return failure(0, ETIMEDOUT);
-    case ReadResult::unblocked: return kUnblocked;
-    case ReadResult::torn: return failure(-LNE_SHM_READ_ERROR, EAGAIN);
+    case ReadResult::packet:
+      return 1;
+    case ReadResult::nothing_new:
+      return 0;
+    case ReadResult::timeout:
+      return failure(0, ETIMEDOUT);
+    case ReadResult::unblocked:
+      return kUnblocked;
+    case ReadResult::torn:
+      return failure(-LNE_SHM_READ_ERROR, EAGAIN);
   }
   return failure(-LNE_INTERNAL_ERROR, EINVAL);
 }
 
 int read_next(shm_source_t source, double* ts, uint32_t* packet_counter, void* data, unsigned int len,
-                std::chrono::nanoseconds timeout, bool is_timed) {
+              std::chrono::nanoseconds timeout, bool is_timed) {
   Handle* handle = from(source, Side::source);
   if (handle == nullptr || (data == nullptr && len > 0)) return failure(-LNE_INVALID_PARAMETER, EINVAL);
   double timestamp = 0;
@@ -219,8 +227,7 @@ int read_from_shm_source_timeout(shm_source_t source, double* ts, uint32_t* pack
   return keeping_errno([&] { return read_next(source, ts, packet_counter, data, len, wait_time(timeout), true); });
 }
 
-int read_last_from_shm_source(shm_source_t source, double* ts, uint32_t* packet_counter, void* data,
-                              unsigned int len) {
+int read_last_from_shm_source(shm_source_t source, double* ts, uint32_t* packet_counter, void* data, unsigned int len) {
   return keeping_errno([&] {
     Handle* handle = from(source, Side::source);
     if (handle == nullptr || (data == nullptr && len > 0)) return failure(-LNE_INVALID_PARAMETER, EINVAL);

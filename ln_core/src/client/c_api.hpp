@@ -3,6 +3,6 @@
 #pragma once
 
 #ifndef NO_CPP_WRAPPER
-#  define NO_CPP_WRAPPER
+#define NO_CPP_WRAPPER
 #endif
 #include <ln/ln.h>

@@ -1,8 +1,8 @@
 #include "client/client.hpp"
 
+#include <algorithm>
 #include <cstring>
 #include <tuple>
-#include <algorithm>
 
 #include <unistd.h>
 
@@ -68,13 +68,15 @@ double connect_timeout_from_environment() {
 // Connects, and while the manager refuses (not listening yet) tries again
 // until `wait_seconds` passed.
 UniqueFd connect_waiting(const sockaddr_in& address, double wait_seconds) {
-  const auto deadline = std::chrono::steady_clock::now() +
-                        std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(wait_seconds));
+  const auto deadline =
+      std::chrono::steady_clock::now() +
+      std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(wait_seconds));
   auto pause = milliseconds(10);
   for (;;) {
     const auto left = std::chrono::duration_cast<milliseconds>(deadline - std::chrono::steady_clock::now());
     try {
-      return connect_tcp(address, wait_seconds > 0 ? std::clamp(left, milliseconds(1), kConnectTimeout) : kConnectTimeout);
+      return connect_tcp(address,
+                         wait_seconds > 0 ? std::clamp(left, milliseconds(1), kConnectTimeout) : kConnectTimeout);
     } catch (const Failure&) {
       if (std::chrono::steady_clock::now() + pause >= deadline) throw;
     }
@@ -147,7 +149,8 @@ Client::Client(Settings settings, CommandLine command_line)
   service_mapping_.add_from_environment(std::getenv("LN_MAP_SERVICES"));
   for (const std::string& arg : remaining_args_) remaining_args_block_.append(arg).push_back('\0');
   set_name(settings_.requested_name);
-  peer_server_.add_method(std::string(method::open_segment), [this](PeerRequest& request) { serve_open_segment(request); });
+  peer_server_.add_method(std::string(method::open_segment),
+                          [this](PeerRequest& request) { serve_open_segment(request); });
   peer_server_.start(new_peer_socket_name());
 }
 
@@ -203,8 +206,8 @@ void Client::register_with_manager() {
     throw Failure(failure.code(), std::string("registering with the ln_manager: ") + failure.what());
   }
   registered_.store(true);
-  debug("registered as '%s' (client id %lld) with the ln_manager at %s", name(),
-        static_cast<long long>(client_id()), settings_.address.text().c_str());
+  debug("registered as '%s' (client id %lld) with the ln_manager at %s", name(), static_cast<long long>(client_id()),
+        settings_.address.text().c_str());
 }
 
 void Client::set_name(const std::string& name) {
@@ -299,14 +302,18 @@ void Client::add_notification_handler(std::string method_name, NotificationHandl
   auto add = [this, method_name = std::move(method_name), handler = std::move(handler)]() mutable {
     notification_handlers_[method_name].push_back(std::move(handler));
   };
-  if (loop_.in_loop_thread()) add();
-  else loop_.post(std::move(add));
+  if (loop_.in_loop_thread())
+    add();
+  else
+    loop_.post(std::move(add));
 }
 
 void Client::add_reconnect_handler(std::function<void()> handler) {
   auto add = [this, handler = std::move(handler)]() mutable { reconnect_handlers_.push_back(std::move(handler)); };
-  if (loop_.in_loop_thread()) add();
-  else loop_.post(std::move(add));
+  if (loop_.in_loop_thread())
+    add();
+  else
+    loop_.post(std::move(add));
 }
 
 std::shared_ptr<void> Client::part_state(const std::string& part, const std::function<std::shared_ptr<void>()>& make) {
@@ -346,8 +353,10 @@ InPort* Client::find_inport_locked(std::int64_t subscription_id) const {
 
 OutPort* Client::publish(const std::string& topic_name, const std::string& md_name, unsigned buffers) {
   require_registered();
-  if (md_name.empty()) throw Failure(LNE_INVALID_PARAMETER, "publishing '" + topic_name + "' needs a message definition name");
-  if (buffers < 1) throw Failure(LNE_INVALID_PARAMETER, "publishing '" + topic_name + "': buffers must be at least 1, not 0");
+  if (md_name.empty())
+    throw Failure(LNE_INVALID_PARAMETER, "publishing '" + topic_name + "' needs a message definition name");
+  if (buffers < 1)
+    throw Failure(LNE_INVALID_PARAMETER, "publishing '" + topic_name + "': buffers must be at least 1, not 0");
   const std::string topic = topic_mapping_.apply(topic_name);
   auto owned = std::make_unique<OutPort>(errors_, topic, without_hash(md_name), buffers);
   OutPort* port = owned.get();
@@ -376,7 +385,8 @@ OutPort* Client::publish(const std::string& topic_name, const std::string& md_na
       topic_id = answer.get_int("topic_id");
       message_size = static_cast<std::uint32_t>(answer.get_int("message_size", 0, transport::layout::kMaxMessageSize));
       hash = answer.get_string("hash");
-      port->set_segment_limit(static_cast<std::uint64_t>(std::max<std::int64_t>(answer.get_int_or("segment_limit", 0), 0)));
+      port->set_segment_limit(
+          static_cast<std::uint64_t>(std::max<std::int64_t>(answer.get_int_or("segment_limit", 0), 0)));
       port->want_history(static_cast<std::uint32_t>(answer.get_int_or("subscriber_buffers", 1)));
       std::lock_guard<std::mutex> lock(registry_mutex_);
       Registration& registration = registrations_.at(port);
@@ -429,8 +439,8 @@ OutPort* Client::publish(const std::string& topic_name, const std::string& md_na
 
 template <typename Port>
 std::pair<std::unique_ptr<Port>, std::int64_t> Client::forget_port(std::vector<std::unique_ptr<Port>>& ports,
-                                                                   std::map<std::int64_t, Port*>& by_id,
-                                                                   Port* port, const char* kind) {
+                                                                   std::map<std::int64_t, Port*>& by_id, Port* port,
+                                                                   const char* kind) {
   const auto found = std::find_if(ports.begin(), ports.end(), [&](const auto& p) { return p.get() == port; });
   if (found == ports.end()) throw Failure(LNE_INVALID_PORT_OBJECT, std::string("not an ") + kind + " of this client");
   std::unique_ptr<Port> owned = std::move(*found);
@@ -498,7 +508,8 @@ InPort* Client::subscribe(const std::string& topic_name, const std::string& md_n
         .set("reliable", reliable)
         .set("receive_address", receive_address);
     request(std::move(subscribe), kRequestTimeout, [&](const Message& answer) {
-      port->message_size_ = static_cast<std::uint32_t>(answer.get_int("message_size", 0, transport::layout::kMaxMessageSize));
+      port->message_size_ =
+          static_cast<std::uint32_t>(answer.get_int("message_size", 0, transport::layout::kMaxMessageSize));
       port->hash_ = answer.get_string("hash");
       port->md_name_ = without_hash(answer.get_string_or("message_definition", port->md_name_));
       if (handle_subscribe_answer(port, answer)) open_publisher_segment(port, serial, answer);
@@ -752,8 +763,9 @@ void Client::serve_open_segment(PeerRequest& request, bool may_wait) {
   if (request.connection->over_tcp())
     return request.fail(LNE_REQUEST_FAILED, "shared-memory segments cannot be handed over TCP (peer on another host)");
   if (!request.connection->local_user_allowed())
-    return request.fail(LNE_REQUEST_FAILED, "shared-memory segments are only handed to processes of the same user "
-                                            "(or of users LN_PEER_ALLOW_UIDS lists)");
+    return request.fail(LNE_REQUEST_FAILED,
+                        "shared-memory segments are only handed to processes of the same user "
+                        "(or of users LN_PEER_ALLOW_UIDS lists)");
   const std::int64_t topic_id = request.message.get_int_or("topic_id", -1);
   const std::int64_t subscription_id = request.message.get_int_or("subscription_id", -1);
   const std::string topic = request.message.get_string_or("topic", "");
@@ -767,8 +779,8 @@ void Client::serve_open_segment(PeerRequest& request, bool may_wait) {
     OutPort* port = find_outport_locked(topic_id, topic);
     if (port == nullptr) return request.fail(LNE_PORT_NOT_FOUND, "this client does not publish topic '" + topic + "'");
     const Registration& registration = registrations_.at(port);
-    if (may_wait && subscription_id >= 0 && registration.manager_id >= 0 &&
-        registration.session == link_.session() && registration.joined_after.count(subscription_id) == 0) {
+    if (may_wait && subscription_id >= 0 && registration.manager_id >= 0 && registration.session == link_.session() &&
+        registration.joined_after.count(subscription_id) == 0) {
       // The manager answered the subscriber before telling us: wait for its
       // subscribers_changed, so that the subscriber gets no packet before
       // has_subscriber() counts it and every one after. A subscriber it
@@ -801,7 +813,8 @@ void Client::serve_open_segment(PeerRequest& request, bool may_wait) {
     if (auto it = joined.find(subscription_id); it != joined.end()) joined_after = it->second;
   }
   if (grown != nullptr) send_publisher_ready(grown);
-  if (!offer.fd.valid()) return request.fail(LNE_ERROR_GETTING_SHM_FD, "the segment of topic '" + topic + "' is not ready");
+  if (!offer.fd.valid())
+    return request.fail(LNE_ERROR_GETTING_SHM_FD, "the segment of topic '" + topic + "' is not ready");
   std::uint64_t last_sequence = offer.last_sequence;
   // Packets from before a segment switch are not in this one: a reader
   // must not wait for them.
@@ -1039,8 +1052,7 @@ void Client::resubscribe(InPort* port) {
       it->second.in_flight = false;
       if (reply.error != 0) {
         debug("subscribing to '%s' again failed: %s", port->topic().c_str(), reply.error_text.c_str());
-        errors_.set("subscribing to '" + port->topic() + "' again after a manager restart failed: " +
-                    reply.error_text);
+        errors_.set("subscribing to '" + port->topic() + "' again after a manager restart failed: " + reply.error_text);
         return;
       }
     }

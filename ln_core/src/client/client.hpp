@@ -30,9 +30,9 @@
 #include <chrono>
 #include <functional>
 #include <map>
-#include <optional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -90,8 +90,7 @@ class Client {
   // ---- topics
   OutPort* publish(const std::string& topic, const std::string& md_name, unsigned buffers);
   void unpublish(OutPort* port);
-  InPort* subscribe(const std::string& topic, const std::string& md_name, double rate, unsigned buffers,
-                    bool reliable);
+  InPort* subscribe(const std::string& topic, const std::string& md_name, double rate, unsigned buffers, bool reliable);
   void unsubscribe(InPort* port);
   /// True if `port` is a port of this client.
   bool owns(const PortBase* port) const;
@@ -184,10 +183,10 @@ class Client {
   struct Registration {
     std::int64_t manager_id = -1;  // topic_id of an outport, subscription_id of an inport
     std::int64_t topic_id = -1;
-    std::uint64_t session = 0;     // the manager session it belongs to
-    bool in_flight = false;        // a (re-)registration request is out
-    std::uint64_t serial = 0;      // tells a port apart from a later one at the same address
-    std::string md_requested;      // the message definition as the program gave it
+    std::uint64_t session = 0;          // the manager session it belongs to
+    bool in_flight = false;             // a (re-)registration request is out
+    std::uint64_t serial = 0;           // tells a port apart from a later one at the same address
+    std::string md_requested;           // the message definition as the program gave it
     PacketCountReports packet_reports;  // outports: what the manager knows of the count
     // Outports: each subscription the manager listed (this session's ids;
     // local ones and remote ones) -> the newest sequence when this port

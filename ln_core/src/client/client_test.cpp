@@ -7,8 +7,8 @@
 #include <unistd.h>
 
 #include <cerrno>
-#include <cstring>
 #include <cstdlib>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -144,7 +144,8 @@ TEST_F(ClientTest, BadManagerAddressesFailWithLnsErrors) {
   EXPECT_STREQ(ln_format_error(-LNE_CHECK_ERRNO), "errno 111 - Connection refused");
   EXPECT_EQ(client, nullptr);
   // without a client, ln_get_error_message(NULL) tells why the last ln_init* of this thread failed
-  EXPECT_EQ(std::string(ln_get_error_message(nullptr)), "connecting to the ln_manager at " + refused + ": Connection refused");
+  EXPECT_EQ(std::string(ln_get_error_message(nullptr)),
+            "connecting to the ln_manager at " + refused + ": Connection refused");
   ::setenv("LN_MANAGER_CONNECT_TIMEOUT", "later", 1);
   EXPECT_EQ(ln_init_to_manager(&client, "x", refused.c_str()), -LNE_INVALID_PARAMETER);
   ::unsetenv("LN_MANAGER_CONNECT_TIMEOUT");

@@ -55,9 +55,12 @@ std::unique_ptr<DatagramFaults> datagram_faults_from_environment() {
     if (equals == std::string::npos) continue;
     const std::uint64_t every = std::strtoull(item.c_str() + equals + 1, nullptr, 10);
     const std::string name = item.substr(0, equals);
-    if (name == "drop") faults->drop = every;
-    else if (name == "duplicate") faults->duplicate = every;
-    else if (name == "reorder") faults->reorder = every;
+    if (name == "drop")
+      faults->drop = every;
+    else if (name == "duplicate")
+      faults->duplicate = every;
+    else if (name == "reorder")
+      faults->reorder = every;
   }
   return faults;
 }

@@ -14,17 +14,27 @@ namespace {
 // Type numbers of LN's flattened definitions (those of Simulink's data types).
 int flat_type_id(md::Primitive type) {
   switch (type) {
-    case md::Primitive::Double: return 0;
-    case md::Primitive::Float: return 1;
+    case md::Primitive::Double:
+      return 0;
+    case md::Primitive::Float:
+      return 1;
     case md::Primitive::Char:
-    case md::Primitive::Int8: return 2;
-    case md::Primitive::UInt8: return 3;
-    case md::Primitive::Int16: return 4;
-    case md::Primitive::UInt16: return 5;
-    case md::Primitive::Int32: return 6;
-    case md::Primitive::UInt32: return 7;
-    case md::Primitive::Int64: return -1;
-    case md::Primitive::UInt64: return -2;
+    case md::Primitive::Int8:
+      return 2;
+    case md::Primitive::UInt8:
+      return 3;
+    case md::Primitive::Int16:
+      return 4;
+    case md::Primitive::UInt16:
+      return 5;
+    case md::Primitive::Int32:
+      return 6;
+    case md::Primitive::UInt32:
+      return 7;
+    case md::Primitive::Int64:
+      return -1;
+    case md::Primitive::UInt64:
+      return -2;
   }
   return 0;
 }
@@ -66,7 +76,8 @@ void describe_fields(const std::vector<md::Field>& fields, bool with_offsets, st
     if (field.count != 1) line += "[" + std::to_string(field.count) + "]";
     if (with_offsets && !field.dynamic) {
       const std::size_t element = field.primitive ? md::size_of(*field.primitive) : md::packet_size(*field.sub);
-      line += "  (offset " + std::to_string(layout.offsets[i]) + ", size " + std::to_string(element * field.count) + ")";
+      line +=
+          "  (offset " + std::to_string(layout.offsets[i]) + ", size " + std::to_string(element * field.count) + ")";
     }
     out += line + "\n";
   }
@@ -88,7 +99,8 @@ FetchedDefinition FetchedDefinition::from_answer(const protocol::Message& answer
     throw Failure(LNE_GOT_INVALID_RESPONSE, "message definition answer without matching names and texts");
   try {
     fetched.library_ = std::make_shared<md::Library>(md::SearchPath::exactly({}));
-    for (std::size_t i = 0; i < fetched.names_.size(); ++i) fetched.library_->add_source(fetched.names_[i], fetched.texts_[i]);
+    for (std::size_t i = 0; i < fetched.names_.size(); ++i)
+      fetched.library_->add_source(fetched.names_[i], fetched.texts_[i]);
     fetched.definition_ = &fetched.library_->load(fetched.names_.front());
   } catch (const md::Error& error) {
     throw Failure(LNE_GOT_INVALID_RESPONSE,
@@ -129,7 +141,11 @@ std::string FetchedDefinition::describe() const {
     if (!shown.insert(definition.name).second) continue;
     out += "name: " + definition.name + "\n";
     out += "hash: " + definition.hash + "\n";
-    out += std::string("type: ") + (definition.is_service() ? "service" : definition.is_event() ? "event" : "packet") + "\n";
+    out += std::string("type: ") +
+           (definition.is_service() ? "service"
+            : definition.is_event() ? "event"
+                                    : "packet") +
+           "\n";
     const bool plain = !definition.is_service() && !definition.is_event();
     if (plain) out += "size: " + std::to_string(md::packet_size(definition)) + "\n";
     if (!definition.fields.empty()) {

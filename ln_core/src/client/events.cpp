@@ -14,7 +14,7 @@ namespace method = protocol::method;
 using protocol::Message;
 using services::Status;
 
-constexpr std::uint64_t kCallTag = 0x4c4e45564e43414cull;        // stale handles fail the check
+constexpr std::uint64_t kCallTag = 0x4c4e45564e43414cull;  // stale handles fail the check
 constexpr std::uint64_t kConnectionTag = 0x4c4e45564e434f4eull;
 
 // The generated request struct of ln/event/call (its response is empty).
@@ -63,10 +63,10 @@ Status EventCall::set_data(const char* call_signature, void* call_data) {
                         ? Status::failure(LNE_INVALID_SIGNATURE, "no '<definition>: ' prefix")
                         : services::MessageLayout::compile(signature_.substr(colon + 2), layout);
   if (!compiled.ok())
-    return Status::failure(LNE_INVALID_SIGNATURE, "the event's signature '" + std::string(signature_) +
-                                                      "' is invalid: " + compiled.detail());
-  Status filled = services::unflatten(layout, const_cast<char*>(data_.data()), data_.size(), call_data,
-                                      services::Limits{}, arena_);
+    return Status::failure(LNE_INVALID_SIGNATURE,
+                           "the event's signature '" + std::string(signature_) + "' is invalid: " + compiled.detail());
+  Status filled =
+      services::unflatten(layout, const_cast<char*>(data_.data()), data_.size(), call_data, services::Limits{}, arena_);
   if (!filled.ok()) return Status::failure(LNE_SVC_RECV_REQ, "malformed event data: " + filled.detail());
   return {};
 }

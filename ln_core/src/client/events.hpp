@@ -89,7 +89,7 @@ class EventConnection {
   EventHandler handler_ = nullptr;
   void* user_data_ = nullptr;
   std::uint32_t provider_id_ = 0;
-  std::int64_t manager_id_ = -1;  // connect_event's id (ln.* events, this manager session)
+  std::int64_t manager_id_ = -1;                     // connect_event's id (ln.* events, this manager session)
   std::unique_ptr<services::ServiceCaller> caller_;  // delivery: calls the handler service
   std::weak_ptr<EventHub> hub_;
 };

@@ -116,8 +116,9 @@ TEST_F(EventsTest, ResourceEventsReachTheDefaultGroupInOrder) {
   ln_event_connection connection = connect_resources(watcher, seen, strings("*", "*", "*", "*"));
   EXPECT_EQ(ln_event_connection_get_id(connection), 1u);
   ASSERT_TRUE(handle_until(watcher, [&] { return seen.copy().size() >= 2; })) << seen.copy().size();
-  EXPECT_EQ(seen.copy(), (std::vector<std::string>{"service_new_provider ln.resource_event.watcher ln/event/call watcher",
-                                                   "initial_sync_done   "}));
+  EXPECT_EQ(seen.copy(),
+            (std::vector<std::string>{"service_new_provider ln.resource_event.watcher ln/event/call watcher",
+                                      "initial_sync_done   "}));
 
   ln_client other = connect_client("other");
   ln_outport port = nullptr;
@@ -144,14 +145,15 @@ TEST_F(EventsTest, HandlersRunInAThreadPoolWhenTheDefaultGroupIsThere) {
   ln_client provider = connect_client("provider");
   ln_service service = nullptr;
   ASSERT_EQ(ln_service_init(provider, &service, "svc.one", "ln/string_request", "uint32_t 4 1,char* 1 1|"), 0);
-  ASSERT_EQ(ln_service_provider_set_handler(service, [](ln_client, ln_service_request, void*) { return 0; }, nullptr),
+  ASSERT_EQ(ln_service_provider_set_handler(
+                service, [](ln_client, ln_service_request, void*) { return 0; }, nullptr),
             0);
   ASSERT_EQ(ln_service_provider_register(provider, service), 0);
   ASSERT_EQ(ln_service_deinit(&service), 0);
   EXPECT_TRUE(wait_until([&] { return seen.copy().size() >= 3; }, 30s)) << seen.copy().size();
-  EXPECT_EQ(seen.copy(), (std::vector<std::string>{"initial_sync_done   ",
-                                                   "service_new_provider svc.one ln/string_request provider",
-                                                   "service_del_provider svc.one ln/string_request provider"}));
+  EXPECT_EQ(seen.copy(),
+            (std::vector<std::string>{"initial_sync_done   ", "service_new_provider svc.one ln/string_request provider",
+                                      "service_del_provider svc.one ln/string_request provider"}));
   EXPECT_EQ(ln_event_connection_deinit(&connection), 0);
 }
 
@@ -165,18 +167,19 @@ TEST_F(EventsTest, OtherProgramsEmitEventsThroughTheHandlerService) {
   } received;
   ln_event_connection connection = nullptr;
   four_strings_t connect = strings("", "", "", "");
-  ASSERT_EQ(ln_event_connect(listener, &connection, "my.event", kResourceSignature, &connect,
-                             [](ln_client, ln_event_call call, void* user) {
-                               auto* r = static_cast<Received*>(user);
-                               void* data = nullptr;
-                               uint32_t len = 0;
-                               ln_event_call_get_buffer(call, &data, &len);
-                               r->buffers.emplace_back(static_cast<char*>(data), len);
-                               four_strings_t event{};
-                               r->matching.push_back(ln_event_call_set_data(call, kResourceSignature, &event));
-                               r->wrong_signature.push_back(ln_event_call_set_data(call, "x/y: int8_t 1 1", &event));
-                             },
-                             &received),
+  ASSERT_EQ(ln_event_connect(
+                listener, &connection, "my.event", kResourceSignature, &connect,
+                [](ln_client, ln_event_call call, void* user) {
+                  auto* r = static_cast<Received*>(user);
+                  void* data = nullptr;
+                  uint32_t len = 0;
+                  ln_event_call_get_buffer(call, &data, &len);
+                  r->buffers.emplace_back(static_cast<char*>(data), len);
+                  four_strings_t event{};
+                  r->matching.push_back(ln_event_call_set_data(call, kResourceSignature, &event));
+                  r->wrong_signature.push_back(ln_event_call_set_data(call, "x/y: int8_t 1 1", &event));
+                },
+                &received),
             0);
   EXPECT_GT(ln_event_connection_get_id(connection), 0u) << "unique per client";
 
@@ -217,9 +220,9 @@ TEST_F(EventsTest, BadConnectsFailClearly) {
   EXPECT_EQ(ln_event_connect(client, &connection, "ln.resource_event", "no definition prefix", &connect,
                              record_resource_event, &seen),
             -LNE_INVALID_SIGNATURE);
-  EXPECT_EQ(ln_event_connect(client, &connection, "ln.unknown", kResourceSignature, &connect, record_resource_event,
-                             &seen),
-            -LNE_REQUEST_FAILED);
+  EXPECT_EQ(
+      ln_event_connect(client, &connection, "ln.unknown", kResourceSignature, &connect, record_resource_event, &seen),
+      -LNE_REQUEST_FAILED);
   EXPECT_NE(std::string(ln_get_error_message(client)).find("unknown event 'ln.unknown'"), std::string::npos)
       << ln_get_error_message(client);
   EXPECT_EQ(ln_wait_for_service(client, "ln.unknown.bad", 0), 0) << "a refused connection leaves no service";
@@ -264,7 +267,8 @@ TEST_F(EventsTest, ConnectionsSurviveAManagerRestart) {
   // Published until the watcher, announced again after the restart, hears of it.
   ASSERT_EQ(ln_publish(other, "after.restart", "test/vec3", &port), 0);
   EXPECT_TRUE(handle_until(
-      watcher, [&] {
+      watcher,
+      [&] {
         for (const std::string& line : seen.copy())
           if (line == "topic_new_publisher after.restart test/vec3 other") return true;
         return false;

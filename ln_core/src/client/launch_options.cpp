@@ -21,8 +21,7 @@ CommandLine parse_command_line(int argc, const char* const* argv, bool exact_nam
     const int values_left = argc - i - 1;
     if (i > 0 && values_left >= 1 && is_option(arg, "--ln-manager", "-ln_manager")) {
       parsed.manager_address = argv[++i];
-    } else if (i > 0 && values_left >= 1 && !exact_name &&
-               is_option(arg, "--ln-program-name", "-ln_program_name")) {
+    } else if (i > 0 && values_left >= 1 && !exact_name && is_option(arg, "--ln-program-name", "-ln_program_name")) {
       parsed.program_name = argv[++i];
     } else if (i > 0 && values_left >= 2 && is_option(arg, "--ln-map-topic", "-ln_map_topic")) {
       parsed.topic_mappings.push_back({argv[i + 1], argv[i + 2]});
@@ -45,8 +44,7 @@ std::optional<std::string> choose_manager_address(const std::optional<std::strin
 }
 
 RequestedName choose_client_name(const char* name_in_code, const char* program_name_env,
-                                 const std::optional<std::string>& program_name_argument,
-                                 const std::string& fallback) {
+                                 const std::optional<std::string>& program_name_argument, const std::string& fallback) {
   static constexpr char kExact[] = "exact:";
   const std::string in_code = name_in_code != nullptr ? name_in_code : "";
   if (in_code.compare(0, sizeof kExact - 1, kExact) == 0) {

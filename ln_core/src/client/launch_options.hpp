@@ -14,8 +14,8 @@ namespace ln::clientlib {
 /// The LN options found in argv. Every other argument (argv[0] included)
 /// stays in `remaining`, in order.
 struct CommandLine {
-  std::optional<std::string> manager_address;  ///< --ln-manager / -ln_manager
-  std::optional<std::string> program_name;     ///< --ln-program-name / -ln_program_name
+  std::optional<std::string> manager_address;       ///< --ln-manager / -ln_manager
+  std::optional<std::string> program_name;          ///< --ln-program-name / -ln_program_name
   std::vector<NameMapping::Rule> topic_mappings;    ///< --ln-map-topic SRC DST
   std::vector<NameMapping::Rule> service_mappings;  ///< --ln-map-service SRC DST
   std::vector<std::string> remaining;
@@ -43,7 +43,6 @@ struct RequestedName {
 /// --ln-program-name replaces both. An empty result falls back to
 /// `fallback` (the program's name).
 RequestedName choose_client_name(const char* name_in_code, const char* program_name_env,
-                                 const std::optional<std::string>& program_name_argument,
-                                 const std::string& fallback);
+                                 const std::optional<std::string>& program_name_argument, const std::string& fallback);
 
 }  // namespace ln::clientlib

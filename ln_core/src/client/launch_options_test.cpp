@@ -9,12 +9,14 @@
 namespace ln::clientlib {
 namespace {
 
-CommandLine parse(std::vector<const char*> args) { return parse_command_line(static_cast<int>(args.size()), args.data()); }
+CommandLine parse(std::vector<const char*> args) {
+  return parse_command_line(static_cast<int>(args.size()), args.data());
+}
 
 TEST(CommandLine, TakesLnOptionsInBothSpellingsAndKeepsTheRest) {
-  const CommandLine parsed = parse({"prog", "-x", "--ln-manager", "h:1", "file", "-ln_program_name", "n",
-                                    "--ln-map-topic", "a", "b", "-ln_map_topic", "c", "d", "--ln-map-service", "s",
-                                    "t", "tail"});
+  const CommandLine parsed =
+      parse({"prog", "-x", "--ln-manager", "h:1", "file", "-ln_program_name", "n", "--ln-map-topic", "a", "b",
+             "-ln_map_topic", "c", "d", "--ln-map-service", "s", "t", "tail"});
   EXPECT_EQ(parsed.manager_address, "h:1");
   EXPECT_EQ(parsed.program_name, "n");
   ASSERT_EQ(parsed.topic_mappings.size(), 2u);

@@ -63,8 +63,8 @@ class Reader {
     return value;
   }
   [[noreturn]] void damaged(const std::string& what) const {
-    throw Failure(LNE_INVALID_PARAMETER, "'" + filename_ + "' is not valid LN logger data: " + what +
-                                             " (at byte " + std::to_string(at_) + ")");
+    throw Failure(LNE_INVALID_PARAMETER, "'" + filename_ + "' is not valid LN logger data: " + what + " (at byte " +
+                                             std::to_string(at_) + ")");
   }
   bool at_end() const { return at_ == bytes_.size(); }
 
@@ -92,8 +92,10 @@ LoggerData::LoggerData(std::vector<Topic> topics) : topics_(std::move(topics)) {
     if (topic.samples.size() != static_cast<std::uint64_t>(topic.n_samples) * topic.sample_size ||
         (topic.n_samples > 0 && topic.sample_size < protocol::logger::kSampleHeaderSize))
       throw Failure(LNE_INVALID_PARAMETER, "topic '" + topic.name + "': " + std::to_string(topic.n_samples) +
-                                               " samples of " + std::to_string(topic.sample_size) + " bytes do not "
-                                               "match " + std::to_string(topic.samples.size()) + " bytes of data");
+                                               " samples of " + std::to_string(topic.sample_size) +
+                                               " bytes do not "
+                                               "match " +
+                                               std::to_string(topic.samples.size()) + " bytes of data");
     logger_topic view{};
     view.name = topic.name.data();
     view.log_size = topic.log_size;

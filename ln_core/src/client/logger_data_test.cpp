@@ -120,8 +120,12 @@ TEST_F(LoggerDataTest, WritesLn29sLayout) {
 TEST_F(LoggerDataTest, ReadsFilesWithAnyCommentAndVersion2) {
   const auto topics = example_topics();
   FileBuilder v3;
-  v3.put<std::uint16_t>(0x0420).put<std::uint32_t>(3).text("\r# this file comes from another writer\n").put<std::uint32_t>(1);
-  v3.text("a").put<std::uint64_t>(9).put<std::uint32_t>(1).put<std::uint32_t>(1).put<std::uint32_t>(20).text("x").text("y");
+  v3.put<std::uint16_t>(0x0420)
+      .put<std::uint32_t>(3)
+      .text("\r# this file comes from another writer\n")
+      .put<std::uint32_t>(1);
+  v3.text("a").put<std::uint64_t>(9).put<std::uint32_t>(1).put<std::uint32_t>(1).put<std::uint32_t>(20).text("x").text(
+      "y");
   v3.bytes += std::string(20, 'z');
   auto loaded = LoggerData::load(write("v3.lnlog", v3.bytes));
   EXPECT_EQ(loaded->contents(0).log_size, 9u);
@@ -129,7 +133,8 @@ TEST_F(LoggerDataTest, ReadsFilesWithAnyCommentAndVersion2) {
 
   FileBuilder v2;  // LN before 64-bit log sizes: a u32 log_size
   v2.put<std::uint16_t>(0x0420).put<std::uint32_t>(2).text("").put<std::uint32_t>(1);
-  v2.text("a").put<std::uint32_t>(9).put<std::uint32_t>(1).put<std::uint32_t>(0).put<std::uint32_t>(0).text("").text("");
+  v2.text("a").put<std::uint32_t>(9).put<std::uint32_t>(1).put<std::uint32_t>(0).put<std::uint32_t>(0).text("").text(
+      "");
   loaded = LoggerData::load(write("v2.lnlog", v2.bytes));
   EXPECT_EQ(loaded->contents(0).log_size, 9u);
   EXPECT_EQ(loaded->contents(0).n_samples, 0u);
@@ -165,8 +170,7 @@ TEST_F(LoggerDataTest, RefusesForeignAndDamagedFilesWithTheReason) {
   std::mt19937 random(14);
   for (int round = 0; round < 300; ++round) {
     std::string damaged = good;
-    for (int flips = 0; flips < 3; ++flips)
-      damaged[random() % damaged.size()] = static_cast<char>(random());
+    for (int flips = 0; flips < 3; ++flips) damaged[random() % damaged.size()] = static_cast<char>(random());
     const std::string path = write("damaged", damaged);
     try {
       auto loaded = LoggerData::load(path);

@@ -1,8 +1,8 @@
 #include "client/loggers.hpp"
 
 #include <charconv>
-#include <limits>
 #include <cstring>
+#include <limits>
 
 #include "client/client.hpp"
 #include "client/failure.hpp"
@@ -53,8 +53,8 @@ bool Logger::alive(const void* handle) { return live_loggers().contains(handle);
 void Logger::add_topic(const std::string& topic, std::uint64_t log_size, std::uint32_t divisor) {
   if (topic.empty()) throw Failure(LNE_INVALID_PARAMETER, "logger '" + name_ + "': a topic name must not be empty");
   if (log_size == 0)
-    throw Failure(LNE_INVALID_PARAMETER, "logger '" + name_ + "', topic '" + topic +
-                                             "': the log size must be at least 1 sample");
+    throw Failure(LNE_INVALID_PARAMETER,
+                  "logger '" + name_ + "', topic '" + topic + "': the log size must be at least 1 sample");
   const std::string recorded = client_.topic_mapping().apply(topic);
   std::lock_guard<std::mutex> lock(mutex_);
   for (Entry& entry : topics_) {
@@ -80,8 +80,7 @@ void Logger::enable() {
   Message request = client_.new_request(method::logger_enable);
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (topics_.empty())
-      throw Failure(LNE_NO_LOGGER_TOPICS, "logger '" + name_ + "' has no topics: add_topic() first");
+    if (topics_.empty()) throw Failure(LNE_NO_LOGGER_TOPICS, "logger '" + name_ + "' has no topics: add_topic() first");
     StringList names, sizes, divisors;
     for (const Entry& entry : topics_) {
       names.push_back(entry.topic);
@@ -126,8 +125,9 @@ LoggerData* Logger::download() {
     topic.divisor = number_in<std::uint32_t>(divisors, i, "a divisor");
     const auto count = number_in<std::uint64_t>(counts, i, "a sample count");
     if (count > std::numeric_limits<std::uint32_t>::max())
-      throw Failure(LNE_INVALID_PARAMETER, "logger '" + name_ + "', topic '" + topic.name + "': " +
-                                               std::to_string(count) + " samples are more than ln.h's "
+      throw Failure(LNE_INVALID_PARAMETER, "logger '" + name_ + "', topic '" + topic.name +
+                                               "': " + std::to_string(count) +
+                                               " samples are more than ln.h's "
                                                "logger_topic can count (2^32 - 1); use a smaller log size");
     topic.n_samples = static_cast<std::uint32_t>(count);
     topic.sample_size = number_in<std::uint32_t>(sample_sizes, i, "a sample size");

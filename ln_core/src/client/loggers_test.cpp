@@ -156,8 +156,9 @@ TEST_F(LoggerTest, RecordsTheNewestLogSizePacketsOfAPublishedTopic) {
   EXPECT_EQ(topic->n_samples, 5u);
   EXPECT_EQ(topic->sample_size, kSampleSize);
   EXPECT_STREQ(topic->md_name, "test/p64");
-  EXPECT_STREQ(topic->md, "{'fields': [['uint32_t', 'seq', 1], ['uint8_t', 'pad', 60]], 'resp_fields': [], "
-                          "'defines': {}}");
+  EXPECT_STREQ(topic->md,
+               "{'fields': [['uint32_t', 'seq', 1], ['uint8_t', 'pad', 60]], 'resp_fields': [], "
+               "'defines': {}}");
   const auto samples = download(lg);
   EXPECT_EQ(seqs(samples), (std::vector<uint32_t>{4, 5, 6, 7, 8}));
   EXPECT_EQ(counters(samples), (std::vector<uint32_t>{4, 5, 6, 7, 8}));
@@ -335,8 +336,8 @@ TEST_F(LoggerTest, BadInputIsRefusedWithTheReason) {
   EXPECT_NE(std::string(ln_get_error_message(client_)).find("at least 1 sample"), std::string::npos);
   EXPECT_EQ(ln_logger_add_topic(lg, "", 5, 1), -LNE_INVALID_PARAMETER);
   EXPECT_EQ(ln_logger_add_topic(lg, nullptr, 5, 1), -LNE_INVALID_PARAMETER);
-  EXPECT_EQ(ln_logger_add_topic(lg, "lg\tbad", 5, 1), 0);  // the manager checks names ...
-  EXPECT_EQ(ln_logger_enable(lg), -LNE_INVALID_PARAMETER);      // ... when enabled
+  EXPECT_EQ(ln_logger_add_topic(lg, "lg\tbad", 5, 1), 0);   // the manager checks names ...
+  EXPECT_EQ(ln_logger_enable(lg), -LNE_INVALID_PARAMETER);  // ... when enabled
   ASSERT_EQ(ln_logger_clear_topics(lg), 0);
 
   // A log that cannot fit the manager's memory, for a topic known or not.

@@ -226,7 +226,8 @@ void ManagerLink::on_readable(short revents) {
   for (int rounds = 0; rounds < 16; ++rounds) {
     const long n = receive_some(fd, received, unexpected_fds);
     if (n > 0) continue;
-    if (n == 0) reason = "the ln_manager closed the connection";
+    if (n == 0)
+      reason = "the ln_manager closed the connection";
     else if (errno != EAGAIN && errno != EWOULDBLOCK)
       reason = std::string("reading from the ln_manager failed: ") + std::strerror(errno);
     break;

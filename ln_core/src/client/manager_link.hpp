@@ -95,7 +95,7 @@ class ManagerLink {
   std::map<std::uint32_t, Pending> pending_;
   std::uint32_t next_id_ = 1;
 
-  std::mutex send_mutex_;  // one frame at a time on the socket
+  std::mutex send_mutex_;         // one frame at a time on the socket
   protocol::FrameReader reader_;  // loop thread only
 };
 

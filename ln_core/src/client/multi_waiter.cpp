@@ -76,9 +76,14 @@ class MultiWaiter::Sleep {
     for (InPort* port : waiter.ports_) {
       transport::ShmWakeWatch& watch = watches_[count_];
       switch (port->check_before_sleep(watch)) {
-        case InPort::WaitCheck::readable: ++readable_; break;
-        case InPort::WaitCheck::busy: partial_ = true; break;
-        case InPort::WaitCheck::not_readable: break;
+        case InPort::WaitCheck::readable:
+          ++readable_;
+          break;
+        case InPort::WaitCheck::busy:
+          partial_ = true;
+          break;
+        case InPort::WaitCheck::not_readable:
+          break;
       }
       if (!watch.active()) continue;
       if (count_ == kMaxEntries) {

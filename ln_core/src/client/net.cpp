@@ -14,8 +14,8 @@
 #include <cstring>
 #include <fstream>
 
-#include "client/failure.hpp"
 #include "client/c_api.hpp"
+#include "client/failure.hpp"
 
 namespace ln::clientlib {
 namespace {
@@ -58,8 +58,7 @@ ManagerAddress parse_manager_address(const std::string& text) {
   char* end = nullptr;
   errno = 0;
   const unsigned long number = port.empty() ? 0 : std::strtoul(port.c_str(), &end, 10);
-  if (port.empty() || *end != '\0' || errno != 0 || number == 0 || number > 65535 || port[0] == '-' ||
-      port[0] == '+')
+  if (port.empty() || *end != '\0' || errno != 0 || number == 0 || number > 65535 || port[0] == '-' || port[0] == '+')
     throw Failure(LNE_INVALID_MANAGER_ADDRESS,
                   "manager address '" + text + "' has no valid port number (1..65535) after the ':'");
   address.port = static_cast<std::uint16_t>(number);
@@ -100,13 +99,12 @@ UniqueFd start_tcp_connect(const sockaddr_in& address) {
   ::setsockopt(fd.get(), SOL_SOCKET, SO_KEEPALIVE, &one, sizeof one);
   ::setsockopt(fd.get(), IPPROTO_TCP, TCP_KEEPIDLE, &idle, sizeof idle);
   ::setsockopt(fd.get(), IPPROTO_TCP, TCP_KEEPINTVL, &idle, sizeof idle);
-  if (::connect(fd.get(), reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0 &&
-      errno != EINPROGRESS) {
+  if (::connect(fd.get(), reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0 && errno != EINPROGRESS) {
     const int err = errno;
     char ip[INET_ADDRSTRLEN] = "?";
     ::inet_ntop(AF_INET, &address.sin_addr, ip, sizeof ip);
-    throw errno_failure(err, std::string("connecting to the ln_manager at ") + ip + ":" +
-                                 std::to_string(ntohs(address.sin_port)));
+    throw errno_failure(
+        err, std::string("connecting to the ln_manager at ") + ip + ":" + std::to_string(ntohs(address.sin_port)));
   }
   return fd;
 }
@@ -123,8 +121,8 @@ UniqueFd connect_tcp(const sockaddr_in& address, std::chrono::milliseconds timeo
   const int ready = poll_one(fd.get(), POLLOUT, Clock::now() + timeout);
   char ip[INET_ADDRSTRLEN] = "?";
   ::inet_ntop(AF_INET, &address.sin_addr, ip, sizeof ip);
-  const std::string where = std::string("connecting to the ln_manager at ") + ip + ":" +
-                            std::to_string(ntohs(address.sin_port));
+  const std::string where =
+      std::string("connecting to the ln_manager at ") + ip + ":" + std::to_string(ntohs(address.sin_port));
   if (ready <= 0) throw errno_failure(ETIMEDOUT, where);
   if (const int error = finish_connect(fd.get()); error != 0) throw errno_failure(error, where);
   return fd;

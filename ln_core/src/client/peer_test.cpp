@@ -107,7 +107,9 @@ TEST_F(PeerTest, HandlerCanTakeTheConnectionOver) {
 TEST(PeerAccess, SameUserUnlessConfigured) {
   const long me = static_cast<long>(::getuid());
   const long other = me + 1;
-  const auto allowed = [](long uid, bool over_tcp) { return PeerConnection(UniqueFd(), uid, over_tcp).local_user_allowed(); };
+  const auto allowed = [](long uid, bool over_tcp) {
+    return PeerConnection(UniqueFd(), uid, over_tcp).local_user_allowed();
+  };
   const char* saved = std::getenv("LN_PEER_ALLOW_UIDS");
   const std::string old = saved ? saved : "";
   ::unsetenv("LN_PEER_ALLOW_UIDS");
@@ -123,8 +125,10 @@ TEST(PeerAccess, SameUserUnlessConfigured) {
   ::setenv("LN_PEER_ALLOW_UIDS", "*", 1);
   EXPECT_TRUE(allowed(other, false));
   EXPECT_FALSE(allowed(other, true));
-  if (saved) ::setenv("LN_PEER_ALLOW_UIDS", old.c_str(), 1);
-  else ::unsetenv("LN_PEER_ALLOW_UIDS");
+  if (saved)
+    ::setenv("LN_PEER_ALLOW_UIDS", old.c_str(), 1);
+  else
+    ::unsetenv("LN_PEER_ALLOW_UIDS");
 }
 
 }  // namespace

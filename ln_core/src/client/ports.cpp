@@ -35,13 +35,21 @@ double wall_clock_now() noexcept {
 
 int failure_code_of(const ShmError& error) {
   switch (error.code()) {
-    case transport::ShmErrc::system_error: remember_errno(error.sys_errno()); return LNE_CHECK_ERRNO;
-    case transport::ShmErrc::too_small: return LNE_WRONG_SHM_SIZE;
-    case transport::ShmErrc::bad_magic: return LNE_INVALID_SHM_MAGIC;
-    case transport::ShmErrc::bad_version: return LNE_SHM_VERSION_TOO_NEW;
-    case transport::ShmErrc::bad_layout: return LNE_WRONG_SHM_SIZE;
-    case transport::ShmErrc::invalid_config: return LNE_SHM_IS_TOO_BIG;
-    default: return LNE_INVALID_PARAMETER;
+    case transport::ShmErrc::system_error:
+      remember_errno(error.sys_errno());
+      return LNE_CHECK_ERRNO;
+    case transport::ShmErrc::too_small:
+      return LNE_WRONG_SHM_SIZE;
+    case transport::ShmErrc::bad_magic:
+      return LNE_INVALID_SHM_MAGIC;
+    case transport::ShmErrc::bad_version:
+      return LNE_SHM_VERSION_TOO_NEW;
+    case transport::ShmErrc::bad_layout:
+      return LNE_WRONG_SHM_SIZE;
+    case transport::ShmErrc::invalid_config:
+      return LNE_SHM_IS_TOO_BIG;
+    default:
+      return LNE_INVALID_PARAMETER;
   }
 }
 
@@ -116,8 +124,10 @@ std::uint32_t OutPort::history_limit() const noexcept {
   while (too_big - fits > 1) {
     const std::uint32_t middle = fits + (too_big - fits) / 2;
     const std::uint64_t size = transport::topic_segment_size(message_size_, middle);
-    if (size != 0 && size <= segment_limit_) fits = middle;
-    else too_big = middle;
+    if (size != 0 && size <= segment_limit_)
+      fits = middle;
+    else
+      too_big = middle;
   }
   return std::max<std::uint32_t>(fits, 1);  // the manager refused anything that needs more than that
 }
@@ -205,7 +215,8 @@ std::int64_t OutPort::generation() const {
 std::uint64_t OutPort::packets_written() const noexcept {
   // write() may replace the writer (a corrupted segment) from any thread.
   std::unique_lock<std::mutex> lock(write_mutex_, std::try_to_lock);
-  if (lock.owns_lock() && writer_) last_packets_written_.store(writer_->published_sequence(), std::memory_order_relaxed);
+  if (lock.owns_lock() && writer_)
+    last_packets_written_.store(writer_->published_sequence(), std::memory_order_relaxed);
   return last_packets_written_.load(std::memory_order_relaxed);
 }
 
@@ -260,9 +271,12 @@ int OutPort::write(const void* packet, unsigned size, const double* timestamp) n
     }
   }
   switch (status) {
-    case WriteStatus::ok: return 0;
-    case WriteStatus::packet_too_large: return fail(LNE_PACKET_TOO_LARGE, "packet larger than the segment's slots");
-    default: return fail(LNE_INTERNAL_ERROR, "shared-memory write failed: %s", transport::to_string(status));
+    case WriteStatus::ok:
+      return 0;
+    case WriteStatus::packet_too_large:
+      return fail(LNE_PACKET_TOO_LARGE, "packet larger than the segment's slots");
+    default:
+      return fail(LNE_INTERNAL_ERROR, "shared-memory write failed: %s", transport::to_string(status));
   }
 }
 
@@ -483,9 +497,11 @@ int InPort::next_packet(transport::WaitDeadline& deadline, Attempt&& attempt, Sa
     }
     const ReadStatus status = attempt(*reader_, deadline, info);
     switch (status) {
-      case ReadStatus::ok: return 1;
+      case ReadStatus::ok:
+        return 1;
       case ReadStatus::no_data:
-      case ReadStatus::timeout: return 0;
+      case ReadStatus::timeout:
+        return 0;
       case ReadStatus::unblocked: {
         std::lock_guard<std::mutex> lock(state_mutex_);
         if (user_unblock_) {
@@ -540,7 +556,8 @@ int InPort::read(void* packet, unsigned size, ln_sample_info* info, double timeo
     // Straight into the caller's buffer unless a packet may still be
     // rejected (rate limit) or may not fit: a read copies all or nothing.
     const bool direct = rate_ <= 0 && size >= message_size_;
-    if (!direct && bounce_.size() < std::max<std::uint32_t>(message_size_, 1)) bounce_.resize(std::max<std::uint32_t>(message_size_, 1));
+    if (!direct && bounce_.size() < std::max<std::uint32_t>(message_size_, 1))
+      bounce_.resize(std::max<std::uint32_t>(message_size_, 1));
     void* target = direct ? packet : bounce_.data();
     const std::size_t capacity = direct ? size : bounce_.size();
     SampleInfo received;

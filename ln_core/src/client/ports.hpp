@@ -11,8 +11,8 @@
 
 #include <atomic>
 #include <condition_variable>
-#include <functional>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -144,7 +144,7 @@ class OutPort : public PortBase {
     std::int64_t generation = 0;
     std::uint64_t last_sequence = 0;
     std::uint64_t first_sequence = 1;  // of the segment's first packet: earlier ones are not in it
-    std::uint64_t stream = 0;  // names the numbering of its packets (remote.hpp)
+    std::uint64_t stream = 0;          // names the numbering of its packets (remote.hpp)
   };
   SegmentOffer offer_segment() const;
 
@@ -174,8 +174,8 @@ class OutPort : public PortBase {
   std::unique_ptr<transport::ShmWriter> writer_;
   std::int64_t generation_ = 0;
   std::uint64_t first_sequence_ = 1;  // of writer_'s first packet
-  std::uint64_t stream_ = 0;  // random, new whenever the numbering starts again at 1
-  void* loan_ = nullptr;  // buffer handed out by next_buffer, not yet written
+  std::uint64_t stream_ = 0;          // random, new whenever the numbering starts again at 1
+  void* loan_ = nullptr;              // buffer handed out by next_buffer, not yet written
   // A writer replaced while a loan into it was open: kept until that loan's write.
   std::unique_ptr<transport::ShmWriter> retired_;
   void* retired_loan_ = nullptr;
@@ -186,8 +186,7 @@ class OutPort : public PortBase {
 
 class InPort : public PortBase {
  public:
-  InPort(ErrorSlot& errors, std::string topic, std::string md_name, double rate, std::uint32_t buffers,
-         bool reliable);
+  InPort(ErrorSlot& errors, std::string topic, std::string md_name, double rate, std::uint32_t buffers, bool reliable);
   ~InPort() override;
 
   // ---- application threads (one read at a time per port; others wait)
@@ -270,7 +269,7 @@ class InPort : public PortBase {
   const bool on_request_;
   std::atomic<bool> has_publisher_{false};
 
-  std::mutex read_mutex_;  // one reading thread at a time; held while it waits
+  std::mutex read_mutex_;                         // one reading thread at a time; held while it waits
   std::unique_ptr<transport::ShmReader> reader_;  // swapped only with state_mutex_ held as well
   SegmentIdentity current_;
   std::vector<unsigned char> bounce_;  // for rate filtering, short user buffers, on-request reads
@@ -287,7 +286,7 @@ class InPort : public PortBase {
   std::condition_variable state_changed_;
   std::optional<PendingSegment> pending_;
   std::atomic<bool> has_pending_{false};  // pending_ is set; read without the lock on every read
-  std::atomic<int> stream_failure_{0};     // fail_stream()'s code
+  std::atomic<int> stream_failure_{0};    // fail_stream()'s code
   std::string stream_failure_text_;
   bool user_unblock_ = false;
 

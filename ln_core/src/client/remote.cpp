@@ -127,7 +127,7 @@ bool RemoteTarget::parse(const std::string& text, RemoteTarget& target) {
 const unsigned char* PacketAssembler::add(std::uint64_t sequence, std::uint32_t packet_size, std::uint32_t offset,
                                           const unsigned char* fragment, std::size_t fragment_size) {
   if (sequence <= newest_ || sequence < assembling_ || fragment_size_ == 0) return nullptr;  // stale
-  if (offset == 0 && fragment_size == packet_size) {  // a whole packet
+  if (offset == 0 && fragment_size == packet_size) {                                         // a whole packet
     static const unsigned char kEmpty = 0;
     newest_ = sequence;
     assembling_ = 0;
@@ -154,8 +154,6 @@ const unsigned char* PacketAssembler::add(std::uint64_t sequence, std::uint32_t 
 }
 
 // -------------------------------------------------------------- RemoteSender
-
-
 
 RemoteSender::RemoteSender(OutPort& port, RemoteTarget target)
     : port_(port), target_(std::move(target)), faults_(datagram_faults_from_environment()) {
@@ -213,8 +211,7 @@ bool RemoteSender::connect_target() {
 
 bool RemoteSender::send_datagram(const unsigned char* header, const unsigned char* payload, std::size_t length) {
   auto send = [this](const unsigned char* head, const unsigned char* body, std::size_t body_length) {
-    iovec parts[2] = {{const_cast<unsigned char*>(head), kHeaderSize},
-                      {const_cast<unsigned char*>(body), body_length}};
+    iovec parts[2] = {{const_cast<unsigned char*>(head), kHeaderSize}, {const_cast<unsigned char*>(body), body_length}};
     msghdr message{};
     message.msg_iov = parts;
     message.msg_iovlen = 2;
@@ -421,11 +418,10 @@ void RemoteReceiver::deliver_locked(const unsigned char* data, std::size_t size,
   if (route == routes_.end()) {
     // Maybe a subscription whose subscribe answer this client has not
     // processed yet (the publisher heard of it from the manager first).
-    const bool ended =
-        std::find(ended_ids_.begin(), ended_ids_.end(), header.subscription_id) != ended_ids_.end();
+    const bool ended = std::find(ended_ids_.begin(), ended_ids_.end(), header.subscription_id) != ended_ids_.end();
     if (may_hold && !ended && held_bytes_ + size <= kHoldBytes) {
-      held_.push_back({std::chrono::steady_clock::now(), header.subscription_id,
-                       std::vector<unsigned char>(data, data + size)});
+      held_.push_back(
+          {std::chrono::steady_clock::now(), header.subscription_id, std::vector<unsigned char>(data, data + size)});
       held_bytes_ += size;
     }
     return;
@@ -468,7 +464,8 @@ void RemoteReceiver::deliver_locked(const unsigned char* data, std::size_t size,
     } catch (const transport::ShmError& error) {
       inbox.failed = true;
       if (inbox.handlers.fail)
-        inbox.handlers.fail(LNE_SHM_IS_TOO_BIG, std::string("creating the inbox for remote topic data: ") + error.what());
+        inbox.handlers.fail(LNE_SHM_IS_TOO_BIG,
+                            std::string("creating the inbox for remote topic data: ") + error.what());
       return;
     }
     if (!duplicate.valid()) return;
@@ -482,8 +479,8 @@ void RemoteReceiver::deliver_locked(const unsigned char* data, std::size_t size,
     inbox.assembler = PacketAssembler(header.joined_after);
     if (inbox.handlers.adopt) inbox.handlers.adopt(std::move(duplicate), ++inbox.generation, header.joined_after);
   }
-  const unsigned char* packet = inbox.assembler.add(header.sequence, header.packet_size, header.offset,
-                                                    data + kHeaderSize, size - kHeaderSize);
+  const unsigned char* packet =
+      inbox.assembler.add(header.sequence, header.packet_size, header.offset, data + kHeaderSize, size - kHeaderSize);
   if (packet != nullptr) inbox.ring->write_as(header.sequence, packet, header.packet_size, header.timestamp);
 }
 
@@ -569,9 +566,9 @@ void RemoteReceiver::run() {
       on_stream(connection);
     }
     drop_largest_streams_over_budget();
-    connections_.erase(std::remove_if(connections_.begin(), connections_.end(),
-                                      [](const Connection& c) { return !c.socket.valid(); }),
-                       connections_.end());
+    connections_.erase(
+        std::remove_if(connections_.begin(), connections_.end(), [](const Connection& c) { return !c.socket.valid(); }),
+        connections_.end());
   }
 }
 

@@ -234,7 +234,7 @@ class RemoteReceiver {
   std::map<std::int64_t, const void*> routes_;
   std::deque<Held> held_;
   std::size_t held_bytes_ = 0;
-  std::deque<std::int64_t> ended_ids_;  // recently routed elsewhere or closed: not held
+  std::deque<std::int64_t> ended_ids_;   // recently routed elsewhere or closed: not held
   std::vector<Connection> connections_;  // receiver thread only
   std::thread thread_;
 };

@@ -37,9 +37,9 @@ TEST(PacketAssembler, WholePacketsOnlyNewerOnesOnce) {
   const auto p = bytes_of(1, 8);
   EXPECT_EQ(assembler.add(10, 8, 0, p.data(), 8), nullptr);  // the starting point is not wanted
   EXPECT_EQ(assembler.add(11, 8, 0, p.data(), 8), p.data());
-  EXPECT_EQ(assembler.add(11, 8, 0, p.data(), 8), nullptr);  // duplicate
+  EXPECT_EQ(assembler.add(11, 8, 0, p.data(), 8), nullptr);   // duplicate
   EXPECT_EQ(assembler.add(14, 8, 0, p.data(), 8), p.data());  // a gap is the reader's to count
-  EXPECT_EQ(assembler.add(12, 8, 0, p.data(), 8), nullptr);  // late
+  EXPECT_EQ(assembler.add(12, 8, 0, p.data(), 8), nullptr);   // late
   EXPECT_EQ(assembler.add(13, 8, 0, p.data(), 8), nullptr);
   EXPECT_EQ(assembler.newest(), 14u);
   EXPECT_NE(assembler.add(15, 0, 0, nullptr, 0), nullptr);  // an empty packet is a packet too
@@ -152,9 +152,9 @@ class Receiving : public ::testing::Test {
 
   void send(const Datagram& datagram) {
     const auto bytes = datagram.encode();
-    ASSERT_EQ(::sendto(socket_.get(), bytes.data(), bytes.size(), 0, reinterpret_cast<const sockaddr*>(&to_),
-                       sizeof to_),
-              static_cast<ssize_t>(bytes.size()));
+    ASSERT_EQ(
+        ::sendto(socket_.get(), bytes.data(), bytes.size(), 0, reinterpret_cast<const sockaddr*>(&to_), sizeof to_),
+        static_cast<ssize_t>(bytes.size()));
   }
   void send(std::uint64_t sequence, std::uint64_t stream = 1) {
     Datagram datagram;
@@ -176,7 +176,8 @@ class Receiving : public ::testing::Test {
         got.emplace_back(info.sequence, info.lost);
       }
       return !got.empty() && got.back().first >= last;
-    })) << "no packet " << last;
+    })) << "no packet "
+        << last;
     return got;
   }
 
@@ -233,7 +234,7 @@ TEST_F(Receiving, EndedSubscriptionsAreNotHeld) {
   open(4);
   receiver_.route(&owner_, 7);
   receiver_.route(&owner_, 8);  // a new id after a manager restart
-  send(101);  // for id 7, which ended
+  send(101);                    // for id 7, which ended
   std::this_thread::sleep_for(50ms);
   receiver_.route(&owner_, 7);  // ... and is routed again: nothing held for it
   std::this_thread::sleep_for(20ms);

@@ -152,8 +152,8 @@ void ServiceLogging::stop() {
 
 void ServiceLogging::register_logger(const std::string& logger_service, const std::string& patterns) {
   if (!glue_.provides(logger_service))
-    throw Failure(LNE_SVC_NOT_REGISTERED, "can not make '" + logger_service +
-                                              "' a service logger: this client does not provide it");
+    throw Failure(LNE_SVC_NOT_REGISTERED,
+                  "can not make '" + logger_service + "' a service logger: this client does not provide it");
   Message request = client_.new_request(method::register_as_service_logger);
   request.set("logger_service", logger_service).set("patterns", patterns);
   client_.request(std::move(request));

@@ -159,12 +159,14 @@ TEST_F(ServiceLoggingTest, ExistingProvidersAndCallersLogToANewLogger) {
   ASSERT_EQ(ln_register_as_service_logger(logger, "svc.log", "svc.*"), 0) << ln_get_error_message(logger);
   // The add_service_logger notifications travel asynchronously: call until
   // both sides log (bounded).
-  ASSERT_TRUE(wait_until([&] {
-    call(echo, "after");
-    const auto items = book.copy();
-    return std::find(items.begin(), items.end(), "0 svc.echo caller") != items.end() &&
-           std::find(items.begin(), items.end(), "1 svc.echo provider") != items.end();
-  }, 30s));
+  ASSERT_TRUE(wait_until(
+      [&] {
+        call(echo, "after");
+        const auto items = book.copy();
+        return std::find(items.begin(), items.end(), "0 svc.echo caller") != items.end() &&
+               std::find(items.begin(), items.end(), "1 svc.echo provider") != items.end();
+      },
+      30s));
 }
 
 TEST_F(ServiceLoggingTest, ALoggerNeverHoldsUpTheCallsItLogs) {
@@ -237,11 +239,13 @@ TEST_F(ServiceLoggingTest, LoggingResumesAfterAManagerRestart) {
   ASSERT_EQ(ln_service_init(caller, &echo, "svc.echo", "test/echo", kEchoSignature), 0);
   services_.push_back(echo);
   // Once the provider and the logger are registered again, calls are logged again.
-  EXPECT_TRUE(wait_until([&] {
-    call(echo, "again");
-    const auto items = book.copy();
-    return std::find(items.begin(), items.end(), "1 svc.echo provider") != items.end();
-  }, 10s));
+  EXPECT_TRUE(wait_until(
+      [&] {
+        call(echo, "again");
+        const auto items = book.copy();
+        return std::find(items.begin(), items.end(), "1 svc.echo provider") != items.end();
+      },
+      10s));
 }
 
 }  // namespace

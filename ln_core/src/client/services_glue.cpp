@@ -92,7 +92,6 @@ Status read_answer(int fd, Message& out) {
   }
 }
 
-
 }  // namespace
 
 Status ServicesGlue::connect_to_provider(const Message& found, UniqueFd& socket) {
@@ -111,8 +110,7 @@ Status ServicesGlue::connect_to_provider(const Message& found, UniqueFd& socket)
   if (address.empty())
     return Status::failure(LNE_NO_PROVIDER_FOUND,
                            "cannot reach its provider '" + provider + "': " +
-                               (unix_error.empty() ? "it runs on another host and offers no TCP address"
-                                                   : unix_error));
+                               (unix_error.empty() ? "it runs on another host and offers no TCP address" : unix_error));
   try {
     socket = connect_peer_tcp(address, kHandshakeTimeout);
     return {};
@@ -159,12 +157,16 @@ void ServicesGlue::install_hooks() {
   // add_method() there too.
   auto add_call = [this, weak] {
     client_.peer_server().add_method("call", [weak](PeerRequest& request) {
-      if (auto glue = weak.lock()) glue->on_call(request);
-      else request.fail(LNE_SVC_NOT_REGISTERED, "this client provides no services");
+      if (auto glue = weak.lock())
+        glue->on_call(request);
+      else
+        request.fail(LNE_SVC_NOT_REGISTERED, "this client provides no services");
     });
   };
-  if (client_.loop().in_loop_thread()) add_call();
-  else client_.loop().post(add_call);
+  if (client_.loop().in_loop_thread())
+    add_call();
+  else
+    client_.loop().post(add_call);
   const std::pair<std::string_view, bool> availability[] = {
       {method::service_available, true},
       {method::service_gone, false},
@@ -256,15 +258,17 @@ std::uint32_t ServicesGlue::register_provider(const std::string& name, const std
   try {
     // The translation is in place (loop thread) before any caller can look
     // the new id up.
-    client_.request(std::move(request), Client::kRequestTimeout, [this, local_id, name, interface](const Message& answer) {
-      if (answer.has("log_services")) logging_->set_loggers(name, interface, answer.get_list("log_services"));
-      std::lock_guard<std::mutex> lock(mutex_);
-      const std::int64_t manager_id = answer.get_int_or("service_id", -1);
-      auto it = registrations_.find(local_id);
-      if (it == registrations_.end()) return;
-      it->second.manager_id = manager_id;
-      local_by_manager_id_[manager_id] = local_id;
-    });
+    client_.request(std::move(request), Client::kRequestTimeout,
+                    [this, local_id, name, interface](const Message& answer) {
+                      if (answer.has("log_services"))
+                        logging_->set_loggers(name, interface, answer.get_list("log_services"));
+                      std::lock_guard<std::mutex> lock(mutex_);
+                      const std::int64_t manager_id = answer.get_int_or("service_id", -1);
+                      auto it = registrations_.find(local_id);
+                      if (it == registrations_.end()) return;
+                      it->second.manager_id = manager_id;
+                      local_by_manager_id_[manager_id] = local_id;
+                    });
   } catch (...) {
     {
       std::lock_guard<std::mutex> lock(mutex_);
@@ -304,8 +308,9 @@ void ServicesGlue::on_call(PeerRequest& request) {
   // LN_PEER_ALLOW_UIDS says otherwise. Over TCP there is no uid to check
   // (the peer server listens on the address used towards the manager).
   if (!request.connection->over_tcp() && !request.connection->local_user_allowed()) {
-    request.fail(LNE_REQUEST_FAILED, "services are only offered to processes of the same user on this host "
-                                     "(or of users LN_PEER_ALLOW_UIDS lists)");
+    request.fail(LNE_REQUEST_FAILED,
+                 "services are only offered to processes of the same user on this host "
+                 "(or of users LN_PEER_ALLOW_UIDS lists)");
     return;
   }
   const std::int64_t manager_id = request.message.get_int_or("service_id", -1);
@@ -372,8 +377,7 @@ bool ServicesGlue::service_registered(const std::string& name) {
 
 int ServicesGlue::wait_for_service(const std::string& name, double timeout) {
   const bool limited = timeout >= 0;
-  const auto deadline =
-      Clock::now() + std::chrono::microseconds(static_cast<long long>(std::min(timeout, 1e9) * 1e6));
+  const auto deadline = Clock::now() + std::chrono::microseconds(static_cast<long long>(std::min(timeout, 1e9) * 1e6));
   for (;;) {
     std::uint64_t seen;
     {

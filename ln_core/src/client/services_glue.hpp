@@ -88,7 +88,7 @@ class ServicesGlue : public std::enable_shared_from_this<ServicesGlue> {
     AvailabilityHandler handler = nullptr;
     void* user_data = nullptr;
     std::uint64_t generation = 0;
-    int delivered = -1;  // state last given to the handler
+    int delivered = -1;    // state last given to the handler
     bool changed = false;  // a notification came since installing
   };
   struct Event {
@@ -119,7 +119,7 @@ class ServicesGlue : public std::enable_shared_from_this<ServicesGlue> {
   std::shared_ptr<services::AsyncReactor> reactor_;
   std::shared_ptr<ServiceLogging> logging_;
 
-  std::mutex mutex_;  // registrations, ids, watches, events
+  std::mutex mutex_;                                           // registrations, ids, watches, events
   std::map<std::uint32_t, Registration> registrations_;        // by local id
   std::map<std::int64_t, std::uint32_t> local_by_manager_id_;  // loop thread writes
   std::uint32_t next_local_id_ = 1;

@@ -203,8 +203,9 @@ TEST_F(DamagedSegmentTest, ACorruptedSegmentIsReplacedAndSubscribersFollow) {
     EXPECT_EQ(received.seq, seq);
     EXPECT_EQ(info.lost, 0u);
   }
-  EXPECT_TRUE(manager_.wait_for_log("found the shared-memory segment of topic 't.corrupt' corrupted and replaced it "
-                                    "(1 times so far)"));
+  EXPECT_TRUE(
+      manager_.wait_for_log("found the shared-memory segment of topic 't.corrupt' corrupted and replaced it "
+                            "(1 times so far)"));
 }
 
 TEST_F(DamagedSegmentTest, AnOverwrittenRingIsNoticedByThePublisherAndReplaced) {
@@ -739,7 +740,8 @@ TEST_F(WaitingPublisherTest, NoPacketArrivesBeforeThePublisherCountsTheSubscribe
 
 TEST_F(TopicTest, TopicNameMappingFromArguments) {
   const std::string address = manager_.address();
-  std::vector<const char*> argv = {"prog", "--ln-manager", address.c_str(), "--ln-map-topic", "^sensor.", "robot2.sensor."};
+  std::vector<const char*> argv = {"prog",           "--ln-manager", address.c_str(),
+                                   "--ln-map-topic", "^sensor.",     "robot2.sensor."};
   ln_client mapped = nullptr;
   ASSERT_EQ(ln_init(&mapped, "mapped", static_cast<int>(argv.size()), const_cast<char**>(argv.data())), 0);
   ln_outport out = publish("sensor.temp", 1, mapped);
@@ -914,7 +916,8 @@ TEST_F(TopicTest, ManagerRestartKeepsDataFlowingAndReconnects) {
   EXPECT_EQ(received.seq, 77u);
 
   manager_.restart();
-  EXPECT_TRUE(wait_until([&] { return ln_ping(publisher_, 1.0, nullptr) == 0 && ln_ping(subscriber_, 1.0, nullptr) == 0; }));
+  EXPECT_TRUE(
+      wait_until([&] { return ln_ping(publisher_, 1.0, nullptr) == 0 && ln_ping(subscriber_, 1.0, nullptr) == 0; }));
   char* name = nullptr;
   ln_client_get_name(publisher_, &name);
   EXPECT_STREQ(name, "publisher");  // the old name is granted again

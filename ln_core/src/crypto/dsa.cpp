@@ -224,8 +224,8 @@ class SshReader {
   Number mpint() {
     std::string_view bytes;
     if (!string(bytes) || bytes.empty() || (static_cast<std::uint8_t>(bytes[0]) & 0x80)) return nullptr;
-    return Number(BN_bin2bn(reinterpret_cast<const unsigned char*>(bytes.data()), static_cast<int>(bytes.size()),
-                            nullptr));
+    return Number(
+        BN_bin2bn(reinterpret_cast<const unsigned char*>(bytes.data()), static_cast<int>(bytes.size()), nullptr));
   }
   bool done() const { return data_.empty(); }
 
@@ -245,8 +245,7 @@ Key parse_openssh_public_key(std::string_view text, const std::string& origin) {
     return word;
   };
   const std::string_view type = next_word();
-  if (type != kSshDss)
-    fail_key_format(origin + " is not an OpenSSH DSA public key (it should start with 'ssh-dss ')");
+  if (type != kSshDss) fail_key_format(origin + " is not an OpenSSH DSA public key (it should start with 'ssh-dss ')");
   std::string blob;
   if (!base64_decode(next_word(), blob)) fail_key_format(origin + ": the key after 'ssh-dss ' is not valid base64");
   SshReader reader(blob);
@@ -288,9 +287,9 @@ int verify(const Key& key, std::string_view message, std::string_view signature,
   DigestContext context(EVP_MD_CTX_new());
   if (!context || EVP_DigestVerifyInit(context.get(), nullptr, EVP_sha1(), nullptr, key.get()) <= 0)
     fail_crypto("cannot verify with " + origin);
-  const int valid = EVP_DigestVerify(context.get(), reinterpret_cast<const unsigned char*>(signature.data()),
-                                     signature.size(), reinterpret_cast<const unsigned char*>(message.data()),
-                                     message.size());
+  const int valid =
+      EVP_DigestVerify(context.get(), reinterpret_cast<const unsigned char*>(signature.data()), signature.size(),
+                       reinterpret_cast<const unsigned char*>(message.data()), message.size());
   if (valid != 1) fail(LNE_INVALID_DSA_SIGNATURE, "the signature does not verify with " + origin);
   return 0;
 }
@@ -317,8 +316,8 @@ int dsa_sign(const std::string& pem_private_key_file, std::string_view message, 
         EVP_DigestSign(context.get(), nullptr, &length, bytes, message.size()) <= 0)
       fail_crypto("cannot sign with '" + pem_private_key_file + "'");
     std::string out(length, '\0');
-    if (EVP_DigestSign(context.get(), reinterpret_cast<unsigned char*>(out.data()), &length, bytes,
-                       message.size()) <= 0)
+    if (EVP_DigestSign(context.get(), reinterpret_cast<unsigned char*>(out.data()), &length, bytes, message.size()) <=
+        0)
       fail_crypto("cannot sign with '" + pem_private_key_file + "'");
     out.resize(length);
     signature = std::move(out);
@@ -333,8 +332,8 @@ int dsa_verify_with_key_file(const std::string& openssh_public_key_file, std::st
   });
 }
 
-int dsa_verify_with_key_text(std::string_view openssh_public_key, std::string_view message,
-                             std::string_view signature, std::string* detail) {
+int dsa_verify_with_key_text(std::string_view openssh_public_key, std::string_view message, std::string_view signature,
+                             std::string* detail) {
   return run(detail, [&] {
     const std::string origin = "the given public key";
     verify(parse_openssh_public_key(openssh_public_key, origin), message, signature, origin);

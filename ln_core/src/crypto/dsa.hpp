@@ -32,8 +32,8 @@ int dsa_verify_with_key_file(const std::string& openssh_public_key_file, std::st
                              std::string_view signature, std::string* detail = nullptr);
 
 /// Verifies against an OpenSSH public key given as text ("ssh-dss BASE64 ...").
-int dsa_verify_with_key_text(std::string_view openssh_public_key, std::string_view message,
-                             std::string_view signature, std::string* detail = nullptr);
+int dsa_verify_with_key_text(std::string_view openssh_public_key, std::string_view message, std::string_view signature,
+                             std::string* detail = nullptr);
 
 /// Generates a 1024-bit DSA key (160-bit q, as LN 2.9's keys) and writes
 /// both files; the private one with mode 0600. A file that exists is

@@ -47,7 +47,8 @@ constexpr const char* kLn29SignatureHex =
 
 std::string from_hex(const std::string& hex) {
   std::string out;
-  for (std::size_t i = 0; i + 1 < hex.size(); i += 2) out += static_cast<char>(std::stoi(hex.substr(i, 2), nullptr, 16));
+  for (std::size_t i = 0; i + 1 < hex.size(); i += 2)
+    out += static_cast<char>(std::stoi(hex.substr(i, 2), nullptr, 16));
   return out;
 }
 
@@ -109,8 +110,7 @@ TEST_F(DsaTest, MalformedSignaturesAreInvalidNotErrors) {
   flipped[10] = static_cast<char>(flipped[10] ^ 1);
   for (const std::string& bad : {std::string(), signature.substr(0, 1), signature.substr(0, signature.size() - 1),
                                  flipped, signature + std::string(5, '\0'), std::string(200, 'x')})
-    EXPECT_EQ(dsa_verify_with_key_text(kLn29PublicKey, kLn29Message, bad), -LNE_INVALID_DSA_SIGNATURE)
-        << bad.size();
+    EXPECT_EQ(dsa_verify_with_key_text(kLn29PublicKey, kLn29Message, bad), -LNE_INVALID_DSA_SIGNATURE) << bad.size();
 }
 
 TEST_F(DsaTest, BadKeysAreRefusedWithEinval) {

@@ -41,9 +41,15 @@ class Emitter {
     const std::string guard = upper(md::identifier_from_name(def.name)) + "_MD_NAME";
     out_ << "\n#ifndef " << guard;
     switch (def.kind) {
-      case Kind::Plain: emit_plain(def); break;
-      case Kind::Service: emit_service(def); break;
-      case Kind::Event: emit_event(def); break;
+      case Kind::Plain:
+        emit_plain(def);
+        break;
+      case Kind::Service:
+        emit_service(def);
+        break;
+      case Kind::Event:
+        emit_event(def);
+        break;
     }
     out_ << "#endif  /* " << guard << " */\n";
   }
@@ -201,8 +207,8 @@ class Emitter {
          << "\tvirtual ~" << cls << "() {}\n\n"
          << " protected:\n"
          << "\t::ln::event_connection* connection;\n\n"
-         << "\tvoid connect_to_" << base << "(::ln::client* clnt, const std::string event_name, "
-         << base << "_connect_t* connect_data) {\n"
+         << "\tvoid connect_to_" << base << "(::ln::client* clnt, const std::string event_name, " << base
+         << "_connect_t* connect_data) {\n"
          << "\t\tconnection = clnt->connect_to_event(event_name, " << id << "_connect_signature, connect_data,\n"
          << "\t\t\t&handle_event, this);\n"
          << "\t}\n\n"

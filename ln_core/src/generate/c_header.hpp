@@ -28,8 +28,7 @@ struct CHeaderOptions {
 };
 
 /// The complete header text for `definitions` (imports first, each type once).
-std::string emit_c_header(const std::vector<const md::Definition*>& definitions,
-                          const CHeaderOptions& options);
+std::string emit_c_header(const std::vector<const md::Definition*>& definitions, const CHeaderOptions& options);
 
 /// LN's include guard for an output path: basename, upper case, '.' -> '_'.
 std::string guard_for_output(const std::string& output_path);

@@ -62,10 +62,12 @@ TEST_F(CHeader, EmitsLn29ServiceNamesAndBaseClass) {
         "typedef elevator_request_elevator_call_request_t request_t;", "} elevator_request_elevator_call_t;",
         "namespace elevator {\nnamespace request {", "typedef ::elevator_request_elevator_call_t elevator_call_t;",
         "class elevator_call_base {",
-        "void register_elevator_call(::ln::client* clnt, const std::string service_name,\n\t\tconst char* group_name = NULL)",
+        "void register_elevator_call(::ln::client* clnt, const std::string service_name,\n\t\tconst char* group_name = "
+        "NULL)",
         "void unregister_elevator_call()",
         "virtual int on_elevator_call(::ln::service_request& req, elevator_call_t& data) = 0;",
-        "get_service_provider(service_name, \"elevator/request/elevator_call\", elevator_request_elevator_call_signature)",
+        "get_service_provider(service_name, \"elevator/request/elevator_call\", "
+        "elevator_request_elevator_call_signature)",
         "memset(&data.resp, 0, sizeof(data.resp));", "#ifdef LN_MD_PREFIX_NS\nnamespace LN_MD_PREFIX_NS {"})
     EXPECT_NE(h.find(expected), std::string::npos) << expected;
 }
@@ -91,8 +93,9 @@ TEST_F(CHeader, EmitsEvents) {
   EXPECT_NE(h.find("#define ROBOT_ALARM_CALL_SIGNATURE \"robot/alarm: double 8 1\""), std::string::npos);
   EXPECT_NE(h.find("} robot_alarm_connect_t;"), std::string::npos);
   EXPECT_NE(h.find("} robot_alarm_call_t;"), std::string::npos);
-  EXPECT_NE(h.find("void connect_to_alarm(::ln::client* clnt, const std::string event_name, alarm_connect_t* connect_data)"),
-            std::string::npos);
+  EXPECT_NE(
+      h.find("void connect_to_alarm(::ln::client* clnt, const std::string event_name, alarm_connect_t* connect_data)"),
+      std::string::npos);
 }
 
 }  // namespace

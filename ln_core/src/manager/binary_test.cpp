@@ -201,7 +201,6 @@ TEST_F(BinaryTest, RunningOutOfDescriptorsRefusesOnlyNewConnections) {
   EXPECT_EQ(manager.wait_exit(), 0) << manager.stderr_text();
 }
 
-
 // ------------------------------------------------- processes of the config
 
 // A config whose processes record how they stop; %(DIR) is the test's
@@ -210,19 +209,25 @@ TEST_F(BinaryTest, RunningOutOfDescriptorsRefusesOnlyNewConnections) {
 class BinaryProcessTest : public ::testing::Test {
  protected:
   std::string config(const std::string& instance, const std::string& extra = "") {
-    const std::string trap = "trap 'echo stop %(_PROCESS) >> %(CURDIR)/stops; exit 0' TERM; echo up; "
-                             "while :; do sleep 0.05; done";
+    const std::string trap =
+        "trap 'echo stop %(_PROCESS) >> %(CURDIR)/stops; exit 0' TERM; echo up; "
+        "while :; do sleep 0.05; done";
     return dir.write(instance + ".lnc",
-                     "instance\nname: " + instance + "\nmanager: :0\n"
-                     "process base\ncommand: /bin/sh -c \"" + trap + "\"\nready_regex: ^up\n"
-                     "process top\ncommand: /bin/sh -c \"" + trap + "\"\nready_regex: ^up\ndepends_on: base\n"
-                     "process escaper\n"
-                     "command: /bin/sh -c 'setsid /bin/sleep 1000 & echo $! > %(CURDIR)/grandchild; echo up; "
-                     "exec /bin/sleep 1000'\n"
-                     "ready_regex: ^up\n"
-                     "process counter\n"
-                     "command: /bin/sh -c 'i=0; while :; do i=$((i+1)); echo count $i; echo $i > %(CURDIR)/count; "
-                     "sleep 0.02; done'\n" +
+                     "instance\nname: " + instance +
+                         "\nmanager: :0\n"
+                         "process base\ncommand: /bin/sh -c \"" +
+                         trap +
+                         "\"\nready_regex: ^up\n"
+                         "process top\ncommand: /bin/sh -c \"" +
+                         trap +
+                         "\"\nready_regex: ^up\ndepends_on: base\n"
+                         "process escaper\n"
+                         "command: /bin/sh -c 'setsid /bin/sleep 1000 & echo $! > %(CURDIR)/grandchild; echo up; "
+                         "exec /bin/sleep 1000'\n"
+                         "ready_regex: ^up\n"
+                         "process counter\n"
+                         "command: /bin/sh -c 'i=0; while :; do i=$((i+1)); echo count $i; echo $i > %(CURDIR)/count; "
+                         "sleep 0.02; done'\n" +
                          extra);
   }
 
@@ -287,7 +292,8 @@ TEST_F(BinaryProcessTest, SigtermStopsDependentsFirstAndLeavesNoOrphan) {
   manager.signal(SIGTERM);
   EXPECT_EQ(manager.wait_exit(10s), 0) << manager.stderr_text();
   EXPECT_EQ(file("stops"), "stop top\nstop base\n") << "dependents first";
-  for (long pid : {top, escaper, grandchild}) EXPECT_FALSE(process_running(pid)) << pid << "\n" << manager.stderr_text();
+  for (long pid : {top, escaper, grandchild})
+    EXPECT_FALSE(process_running(pid)) << pid << "\n" << manager.stderr_text();
   EXPECT_NE(manager.stderr_text().find("stopping orphaned process " + std::to_string(grandchild)), std::string::npos)
       << manager.stderr_text();
 }
@@ -300,7 +306,8 @@ TEST_F(BinaryProcessTest, AProcessKilledBySigkillLeavesNoOrphan) {
   ASSERT_TRUE(process_running(grandchild));
   ::kill(static_cast<pid_t>(escaper), SIGKILL);
   EXPECT_EQ(wait_state(*client, "escaper", "failed"), 0);
-  EXPECT_TRUE(wait_process_gone(grandchild, 10s)) << "the subreaper stops what lost its parent\n" << manager.stderr_text();
+  EXPECT_TRUE(wait_process_gone(grandchild, 10s)) << "the subreaper stops what lost its parent\n"
+                                                  << manager.stderr_text();
   manager.signal(SIGTERM);
   EXPECT_EQ(manager.wait_exit(10s), 0);
 }
@@ -345,30 +352,36 @@ TEST_F(BinaryProcessTest, KeptProcessesAreAdoptedByTheNextManager) {
   const auto client = client_of(third);
   EXPECT_EQ(wait_state(*client, "counter", "started"), counter) << third.stderr_text();
   // what it printed while no manager read it, and what it prints now
-  const auto first_output = client->call("process_output", [](Message& m) { m.set("name", "counter").set("after", 0); });
+  const auto first_output =
+      client->call("process_output", [](Message& m) { m.set("name", "counter").set("after", 0); });
   const auto& lines = first_output.get_list("lines");
   ASSERT_FALSE(lines.empty());
   std::string all;
   for (const auto& line : lines) all += line + "\n";
   EXPECT_NE(all.find("count " + std::to_string(unread) + "\n"), std::string::npos)
-      << "the keeper kept what it printed while no manager ran:\n" << all;
+      << "the keeper kept what it printed while no manager ran:\n"
+      << all;
   const auto deadline = Clock::now() + 10s;
   std::int64_t last = first_output.get_int("last");
   while (Clock::now() < deadline &&
          client->call("process_output", [&](Message& m) { m.set("name", "counter").set("after", last); })
-             .get_list("lines").empty())
+             .get_list("lines")
+             .empty())
     std::this_thread::sleep_for(5ms);
-  EXPECT_GT(client->call("process_output", [&](Message& m) { m.set("name", "counter").set("after", 0); }).get_int("last"),
-            last) << "its output reaches the new manager";
+  EXPECT_GT(
+      client->call("process_output", [&](Message& m) { m.set("name", "counter").set("after", 0); }).get_int("last"),
+      last)
+      << "its output reaches the new manager";
   third.signal(SIGTERM);
   EXPECT_EQ(third.wait_exit(10s), 0) << third.stderr_text();
   EXPECT_FALSE(process_running(counter)) << "a manager without --keep-processes stops what it adopted";
 }
 
 TEST_F(BinaryProcessTest, ASecondSignalKillsAtOnce) {
-  ManagerProcess manager(dir, {"-c", config("impatient",
-                                            "process stubborn\ncommand: /bin/sh -c \"trap '' TERM; echo up; "
-                                            "while :; do sleep 0.05; done\"\nready_regex: ^up\nterm_timeout: 60\n"),
+  ManagerProcess manager(dir, {"-c",
+                               config("impatient",
+                                      "process stubborn\ncommand: /bin/sh -c \"trap '' TERM; echo up; "
+                                      "while :; do sleep 0.05; done\"\nready_regex: ^up\nterm_timeout: 60\n"),
                                "--start", "stubborn"});
   const auto client = client_of(manager);
   const long stubborn = wait_state(*client, "stubborn", "ready");

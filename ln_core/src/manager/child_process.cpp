@@ -14,9 +14,9 @@
 #include <termios.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
-#include <algorithm>
 #include <fstream>
 #include <sstream>
 
@@ -38,14 +38,22 @@ struct Report {
 
 std::string step_text(int step) {
   switch (step) {
-    case Session: return "cannot create its session";
-    case Terminal: return "cannot open its terminal";
-    case Directory: return "cannot change to its directory";
-    case Limit: return "cannot set a resource limit";
-    case Nice: return "cannot set its nice value";
-    case Scheduling: return "cannot set its scheduling policy/priority";
-    case Affinity: return "cannot set its CPU affinity";
-    default: return "cannot execute its command";
+    case Session:
+      return "cannot create its session";
+    case Terminal:
+      return "cannot open its terminal";
+    case Directory:
+      return "cannot change to its directory";
+    case Limit:
+      return "cannot set a resource limit";
+    case Nice:
+      return "cannot set its nice value";
+    case Scheduling:
+      return "cannot set its scheduling policy/priority";
+    case Affinity:
+      return "cannot set its CPU affinity";
+    default:
+      return "cannot execute its command";
   }
 }
 
@@ -111,8 +119,10 @@ class Fd {
   int first_closed = 3;
   if (request.extra_fd >= 0) {
     if (status_fd == 3) status_fd = ::fcntl(status_fd, F_DUPFD_CLOEXEC, 4);
-    if (request.extra_fd == 3) ::fcntl(3, F_SETFD, 0);
-    else ::dup2(request.extra_fd, 3);
+    if (request.extra_fd == 3)
+      ::fcntl(3, F_SETFD, 0);
+    else
+      ::dup2(request.extra_fd, 3);
     first_closed = 4;
   }
   if (!request.directory.empty() && ::chdir(request.directory.c_str()) != 0) report(true, Directory);
@@ -173,7 +183,8 @@ SpawnedChild spawn_child(const SpawnRequest& request) {
   std::vector<std::string> argv_storage = request.argv;
   if (request.search_path && argv_storage[0].find('/') == std::string::npos) {
     const std::string found = search_path(argv_storage[0], request.environment);
-    if (found.empty()) throw SpawnError("'" + argv_storage[0] + "' is not found in the process's PATH (command not found)");
+    if (found.empty())
+      throw SpawnError("'" + argv_storage[0] + "' is not found in the process's PATH (command not found)");
     argv_storage[0] = found;
   }
   std::vector<char*> argv;
@@ -212,8 +223,8 @@ SpawnedChild spawn_child(const SpawnRequest& request) {
   const pid_t pid = ::fork();
   if (pid < 0) throw SpawnError(errno_text("fork failed"));
   if (pid == 0)
-    run_child(request, argv.data(), envp.data(), request.pty ? slave_name : nullptr, null_fd.get(),
-              output_write.get(), status_write.get(), parent);
+    run_child(request, argv.data(), envp.data(), request.pty ? slave_name : nullptr, null_fd.get(), output_write.get(),
+              status_write.get(), parent);
   status_write.reset();
   output_write.reset();
 
@@ -228,8 +239,10 @@ SpawnedChild spawn_child(const SpawnRequest& request) {
     if (n < 0 && errno == EINTR) continue;
     if (n != static_cast<ssize_t>(sizeof report)) break;
     const std::string text = step_text(report.step) + ": " + std::strerror(report.error);
-    if (report.fatal == 'E') fatal = text;
-    else child.warnings.push_back(text);
+    if (report.fatal == 'E')
+      fatal = text;
+    else
+      child.warnings.push_back(text);
   }
   if (!fatal.empty()) {
     int status = 0;

@@ -42,9 +42,9 @@ struct SpawnRequest {
 };
 
 struct SpawnedChild {
-  pid_t pid = -1;       ///< also its process group and session id
-  int pidfd = -1;       ///< readable once it ended; the caller closes it
-  int output_fd = -1;   ///< non-blocking; pty master or pipe; the caller closes it
+  pid_t pid = -1;      ///< also its process group and session id
+  int pidfd = -1;      ///< readable once it ended; the caller closes it
+  int output_fd = -1;  ///< non-blocking; pty master or pipe; the caller closes it
   /// What could not be applied but did not stop the start (a real-time
   /// policy without the privilege, ...), one sentence each.
   std::vector<std::string> warnings;

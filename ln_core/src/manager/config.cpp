@@ -31,18 +31,41 @@ constexpr int max_glob_depth = 32;
 constexpr int implemented_version[3] = {2, 9, 0};
 
 // Sections of LN 2.9 that describe what a single-host manager does not do.
-const std::set<std::string, std::less<>> ignored_section_types = {
-    "hosts", "network", "topic", "custom_start_tools", "plugin", "gui_plugin"};
+const std::set<std::string, std::less<>> ignored_section_types = {"hosts",  "network",   "topic", "custom_start_tools",
+                                                                  "plugin", "gui_plugin"};
 
-const std::set<std::string, std::less<>> instance_keys_ignored = {
-    "documentation", "groups_opened_default", "groups_sorted_default", "webui_auth_file", "webui_https_cert_file",
-    "webui_https_key_file", "log_file", "log_file_size_limit", "log_file_keep_count", "manager_log_history_size",
-    "daemon_log_history_size", "max_log_items", "pid_file", "daemon_start_script", "daemon_start_shell",
-    "ssh_binary", "additional_ssh_arguments", "daemon_private_key_file", "daemon_public_key_file",
-    "default_change_user_to", "default_expected_user", "default_notebook_path", "scope_process_template",
-    "notebook_process_template", "vncserver_process_template", "allow_x11_tcp_connect",
-    "check_all_states_after_daemon_connect", "flags", "default_resource_limits", "vte_font", "vte_color_style",
-    "disable_all_vte"};
+const std::set<std::string, std::less<>> instance_keys_ignored = {"documentation",
+                                                                  "groups_opened_default",
+                                                                  "groups_sorted_default",
+                                                                  "webui_auth_file",
+                                                                  "webui_https_cert_file",
+                                                                  "webui_https_key_file",
+                                                                  "log_file",
+                                                                  "log_file_size_limit",
+                                                                  "log_file_keep_count",
+                                                                  "manager_log_history_size",
+                                                                  "daemon_log_history_size",
+                                                                  "max_log_items",
+                                                                  "pid_file",
+                                                                  "daemon_start_script",
+                                                                  "daemon_start_shell",
+                                                                  "ssh_binary",
+                                                                  "additional_ssh_arguments",
+                                                                  "daemon_private_key_file",
+                                                                  "daemon_public_key_file",
+                                                                  "default_change_user_to",
+                                                                  "default_expected_user",
+                                                                  "default_notebook_path",
+                                                                  "scope_process_template",
+                                                                  "notebook_process_template",
+                                                                  "vncserver_process_template",
+                                                                  "allow_x11_tcp_connect",
+                                                                  "check_all_states_after_daemon_connect",
+                                                                  "flags",
+                                                                  "default_resource_limits",
+                                                                  "vte_font",
+                                                                  "vte_color_style",
+                                                                  "disable_all_vte"};
 
 std::string strip(std::string_view s) {
   const auto first = s.find_first_not_of(" \t\r\n");
@@ -188,8 +211,10 @@ void collect_files(const std::string& dir, int depth, std::set<std::string>& see
   ::closedir(handle);
   for (const auto& name : names) {
     const std::string path = dir + "/" + name;
-    if (is_directory(path)) collect_files(path, depth + 1, seen_dirs, out);
-    else if (is_regular_file(path)) out.push_back(path);
+    if (is_directory(path))
+      collect_files(path, depth + 1, seen_dirs, out);
+    else if (is_regular_file(path))
+      out.push_back(path);
   }
 }
 
@@ -249,9 +274,9 @@ class LncReader {
         evaluator_([this](const std::string& name) { return define(name); },
                    [this](const std::string& node) { return is_local(node); }) {}
 
-  void read_text(const std::string& text, const std::string& path, int depth, const std::vector<std::string>& prefixes) {
-    if (depth > max_include_depth)
-      throw ConfigError(path, 0, "includes are nested too deeply (an include loop?)");
+  void read_text(const std::string& text, const std::string& path, int depth,
+                 const std::vector<std::string>& prefixes) {
+    if (depth > max_include_depth) throw ConfigError(path, 0, "includes are nested too deeply (an include loop?)");
     FileState saved = file_;
     file_ = FileState{path, 0, prefixes};
     drafts_.files.push_back(path);
@@ -266,7 +291,8 @@ class LncReader {
     LncSettings settings = settings_;
     if (!context_.instance_name.empty()) settings.instance_name = context_.instance_name;
     settings.files = drafts_.files;
-    DraftContext context{log_, [this](Draft& draft, const std::string& use, const ConfigPlace& place) {
+    DraftContext context{log_,
+                         [this](Draft& draft, const std::string& use, const ConfigPlace& place) {
                            apply_template(draft, use, place, 0);
                          },
                          [this](const std::string& node) { return node_map_lookup(node); }};
@@ -408,10 +434,16 @@ class LncReader {
   }
 
   static bool is_directive(const std::string& directive, const std::string& word) {
-    static const std::set<std::string, std::less<>> directives = {
-        "include", "optional_include", "include_glob", "optional_include_glob", "pipe_include",
-        "push_name_prefix", "pop_name_prefix", "add_message_definition_dir", "add_process_default_template",
-        "requires_version"};
+    static const std::set<std::string, std::less<>> directives = {"include",
+                                                                  "optional_include",
+                                                                  "include_glob",
+                                                                  "optional_include_glob",
+                                                                  "pipe_include",
+                                                                  "push_name_prefix",
+                                                                  "pop_name_prefix",
+                                                                  "add_message_definition_dir",
+                                                                  "add_process_default_template",
+                                                                  "requires_version"};
     return directives.count(directive) > 0 || word == "warning:";
   }
 
@@ -462,8 +494,10 @@ class LncReader {
       if (prefix.empty()) fail("push_name_prefix needs a prefix");
       file_.prefixes.push_back(prefix);
     } else if (directive == "pop_name_prefix") {
-      if (file_.prefixes.empty()) log(LogLevel::Warning, "pop_name_prefix: there is no name prefix to pop");
-      else file_.prefixes.pop_back();
+      if (file_.prefixes.empty())
+        log(LogLevel::Warning, "pop_name_prefix: there is no name prefix to pop");
+      else
+        file_.prefixes.pop_back();
     } else if (directive == "add_message_definition_dir") {
       add_message_definition_dir(evaluate(single_line_value(argument)));
     } else if (directive == "add_process_default_template") {
@@ -542,7 +576,9 @@ class LncReader {
     std::string type;
     Draft* draft = nullptr;  ///< process, state, group, template
     bool ignored = false;
-    std::string describe() const { return draft ? "'" + type + " " + draft->name + "' section" : "'" + type + "' section"; }
+    std::string describe() const {
+      return draft ? "'" + type + " " + draft->name + "' section" : "'" + type + "' section";
+    }
   };
 
   static std::string join_prefixes(const std::vector<std::string>& prefixes) {
@@ -557,8 +593,8 @@ class LncReader {
       report_once("the section type '" + type + "'");
       return;
     }
-    const bool named = type == "process" || type == "state" || type == "group" || type == "template" ||
-                       type == "process_template";
+    const bool named =
+        type == "process" || type == "state" || type == "group" || type == "template" || type == "process_template";
     if (!named) {
       if (!raw_name.empty() && type != "defines")
         log(LogLevel::Warning, "the '" + type + "' section has no name; '" + raw_name + "' is ignored");
@@ -575,8 +611,10 @@ class LncReader {
     draft->display_name = display_name;
     draft->prefixes = file_.prefixes;
     draft->place = here();
-    if (draft->type == "template") parse_template_header(*draft, name);
-    else draft->name = name;
+    if (draft->type == "template")
+      parse_template_header(*draft, name);
+    else
+      draft->name = name;
     if (const Draft* existing = drafts_.find_any(draft->name))
       fail("'" + draft->name + "' is defined twice: already as " + existing->type + " at " + existing->place.text());
     section_->draft = draft.get();
@@ -597,8 +635,10 @@ class LncReader {
       start = comma + 1;
       if (param.empty()) continue;
       const auto equals = param.find('=');
-      if (equals == std::string::npos) draft.template_params.emplace_back(param, "");
-      else draft.template_params.emplace_back(strip(param.substr(0, equals)), evaluate(strip(param.substr(equals + 1))));
+      if (equals == std::string::npos)
+        draft.template_params.emplace_back(param, "");
+      else
+        draft.template_params.emplace_back(strip(param.substr(0, equals)), evaluate(strip(param.substr(equals + 1))));
     }
   }
 
@@ -700,9 +740,12 @@ class LncReader {
     } else if (word == "add" || word == "del" || word == "reset") {
       const std::string list = after_first_word(key);
       if (list.empty()) fail("expected '" + word + " KEY: value'");
-      if (word == "add") draft.add_item(list, value, place);
-      else if (word == "del") draft.delete_item(list, value, place);
-      else draft.reset(list, place);
+      if (word == "add")
+        draft.add_item(list, value, place);
+      else if (word == "del")
+        draft.delete_item(list, value, place);
+      else
+        draft.reset(list, place);
     } else if (word == "alt_command" && draft.type == "process") {
       const std::string name = evaluate(after_first_word(key));
       if (name.empty()) fail("alt_command needs a name: 'alt_command NAME: command'");
@@ -734,7 +777,8 @@ class LncReader {
       found = drafts_.find(full, "template");
     }
     if (!found) {
-      if (drafts_.find_any(name)) fail("use_template: '" + name + "' is a " + drafts_.find_any(name)->type + ", not a template");
+      if (drafts_.find_any(name))
+        fail("use_template: '" + name + "' is a " + drafts_.find_any(name)->type + ", not a template");
       fail("use_template: there is no template '" + name + "'");
     }
     if (args.size() > found->template_params.size())

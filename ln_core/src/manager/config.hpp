@@ -56,7 +56,7 @@ struct Dependency {
 
 /// One `set_resource_limits: NAME=VALUE` entry (setrlimit in the child).
 struct ResourceLimit {
-  int resource = 0;     ///< RLIMIT_*
+  int resource = 0;      ///< RLIMIT_*
   long long value = -1;  ///< -1: unlimited
 };
 
@@ -66,10 +66,10 @@ struct ProcessConfig {
   ConfigPlace place;
   std::string command;
   std::vector<std::pair<std::string, std::string>> alt_commands;  ///< name, command
-  std::string node;             ///< as written ("" = this host)
-  std::string remote_host;      ///< non-empty: the node is another host (not supported)
+  std::string node;                                               ///< as written ("" = this host)
+  std::string remote_host;  ///< non-empty: the node is another host (not supported)
   std::vector<std::pair<std::string, std::string>> environment;  ///< KEY, VALUE; unique keys
-  std::vector<std::string> pass_environment;                      ///< name patterns
+  std::vector<std::string> pass_environment;                     ///< name patterns
   std::string change_directory;
   std::vector<std::string> flags;
   std::string ready_regex;
@@ -127,7 +127,7 @@ struct LncSettings {
   std::optional<std::string> manager_host;
   std::optional<std::uint16_t> manager_port;
   std::vector<std::string> message_definition_dirs;  ///< absolute, in config order
-  std::string generated_definition_dir;             ///< "" = the default
+  std::string generated_definition_dir;              ///< "" = the default
   std::vector<ProcessConfig> processes;              ///< in config order
   std::vector<StateConfig> states;
   std::vector<GroupConfig> groups;

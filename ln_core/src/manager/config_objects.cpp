@@ -7,8 +7,8 @@
 #include <ifaddrs.h>
 #include <netinet/in.h>
 #include <sched.h>
-#include <sys/resource.h>
 #include <signal.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -29,12 +29,29 @@ struct KeyTable {
 
 const KeyTable& keys_of(const std::string& type) {
   static const KeyTable process{
-      {"command", "node", "change_directory", "ready_regex", "ready_time", "term_signal", "term_timeout",
-       "auto_restart_interval", "policy", "priority", "affinity", "nice", "output_logfile",
-       "output_logfile_size_limit", "output_logfile_keep_count", "max_output_lines", "warning_regex",
-       "warning_msg", "description", "documentation", "change_user_to"},
-      {"environment", "pass_environment", "flags", "depends_on", "depends_on_restart", "start_before",
-       "start_on_ready", "start_on_successful_stop", "provides", "set_resource_limits"},
+      {"command",
+       "node",
+       "change_directory",
+       "ready_regex",
+       "ready_time",
+       "term_signal",
+       "term_timeout",
+       "auto_restart_interval",
+       "policy",
+       "priority",
+       "affinity",
+       "nice",
+       "output_logfile",
+       "output_logfile_size_limit",
+       "output_logfile_keep_count",
+       "max_output_lines",
+       "warning_regex",
+       "warning_msg",
+       "description",
+       "documentation",
+       "change_user_to"},
+      {"environment", "pass_environment", "flags", "depends_on", "depends_on_restart", "start_before", "start_on_ready",
+       "start_on_successful_stop", "provides", "set_resource_limits"},
       {"map_topic", "map_service"},
       {"max_last_output_lines", "output_buffer_size", "output_encoding", "arch", "start_tool",
        "max_queued_output_bytes", "vte_color_style", "line_highlight_fg_color", "line_highlight_bg_color",
@@ -46,8 +63,7 @@ const KeyTable& keys_of(const std::string& type) {
       {"flags", "node", "depends_on", "depends_on_restart", "provides"},
       {},
       {"arch", "max_queued_output_bytes", "max_last_output_lines", "output_buffer_size", "output_encoding",
-       "output_logfile", "output_logfile_size_limit", "output_logfile_keep_count", "description",
-       "documentation"}};
+       "output_logfile", "output_logfile_size_limit", "output_logfile_keep_count", "description", "documentation"}};
   static const KeyTable group{{}, {"members", "flags"}, {}, {"description", "documentation"}};
   if (type == "process") return process;
   if (type == "state") return state;
@@ -55,15 +71,33 @@ const KeyTable& keys_of(const std::string& type) {
 }
 
 // Process flags ln_core acts on, and those of LN 2.9 it does not.
-const std::set<std::string, std::less<>> process_flags = {
-    "no_error_on_successful_stop", "no_error_on_stop", "start_in_shell", "no_pty", "use_execvpe", "disable_stop",
-    "user_stop_is_successful_stop", "no_default_templates", "no_host_default_templates", "dont_stop_dependent_procs",
-    "no_ln_ld_library_path"};
-const std::set<std::string, std::less<>> process_flags_ignored = {
-    "io_scripts_dont_enforce_blocking_output", "no_shmv3", "no_skip_display", "blocking_output", "disable_gdb_run",
-    "disable_gdb_rerun", "no_vte", "dont_translate_backspace_to_delete", "remove_color_codes", "no_state_led",
-    "no_warning_window", "use_vte", "forward_x11", "disable_forward_x11_to_gui_fallback", "set_user_and_home",
-    "forward_x11_to_gui"};
+const std::set<std::string, std::less<>> process_flags = {"no_error_on_successful_stop",
+                                                          "no_error_on_stop",
+                                                          "start_in_shell",
+                                                          "no_pty",
+                                                          "use_execvpe",
+                                                          "disable_stop",
+                                                          "user_stop_is_successful_stop",
+                                                          "no_default_templates",
+                                                          "no_host_default_templates",
+                                                          "dont_stop_dependent_procs",
+                                                          "no_ln_ld_library_path"};
+const std::set<std::string, std::less<>> process_flags_ignored = {"io_scripts_dont_enforce_blocking_output",
+                                                                  "no_shmv3",
+                                                                  "no_skip_display",
+                                                                  "blocking_output",
+                                                                  "disable_gdb_run",
+                                                                  "disable_gdb_rerun",
+                                                                  "no_vte",
+                                                                  "dont_translate_backspace_to_delete",
+                                                                  "remove_color_codes",
+                                                                  "no_state_led",
+                                                                  "no_warning_window",
+                                                                  "use_vte",
+                                                                  "forward_x11",
+                                                                  "disable_forward_x11_to_gui_fallback",
+                                                                  "set_user_and_home",
+                                                                  "forward_x11_to_gui"};
 const std::set<std::string, std::less<>> state_flags = {"need_check_after_up", "autostart", "os_state"};
 const std::set<std::string, std::less<>> group_flags = {"allow_empty", "show_opened", "show_closed", "sorted",
                                                         "unsorted"};
@@ -143,8 +177,8 @@ class ValueReader {
     std::string lower = strip(*value);
     std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
     std::uint64_t unit = 1;
-    for (const auto& [suffix, factor] : {std::pair<const char*, std::uint64_t>{"gb", 1ull << 30}, {"mb", 1ull << 20},
-                                         {"kb", 1ull << 10}, {"b", 1}}) {
+    for (const auto& [suffix, factor] :
+         {std::pair<const char*, std::uint64_t>{"gb", 1ull << 30}, {"mb", 1ull << 20}, {"kb", 1ull << 10}, {"b", 1}}) {
       const std::string s = suffix;
       if (lower.size() > s.size() && lower.compare(lower.size() - s.size(), s.size(), s) == 0) {
         lower.erase(lower.size() - s.size());
@@ -183,7 +217,9 @@ int parse_policy(const ValueReader& values) {
   if (name == "RR") return SCHED_RR;
   if (name == "BATCH") return SCHED_BATCH;
   if (name == "IDLE") return SCHED_IDLE;
-  values.fail("policy", "'" + *text + "' is not a scheduling policy (SCHED_OTHER, SCHED_FIFO, SCHED_RR, SCHED_BATCH, SCHED_IDLE)");
+  values.fail(
+      "policy",
+      "'" + *text + "' is not a scheduling policy (SCHED_OTHER, SCHED_FIFO, SCHED_RR, SCHED_BATCH, SCHED_IDLE)");
 }
 
 // "0,2,3" or a mask "0x5"
@@ -212,8 +248,7 @@ std::vector<std::pair<std::string, std::string>> parse_mappings(const Draft& dra
   std::vector<std::pair<std::string, std::string>> mappings;
   for (const auto& line : draft.list(key)) {
     const auto arrow = line.find("=>");
-    if (arrow == std::string::npos)
-      ValueReader(draft).fail(key, "expected 'SEARCH => REPLACE', not '" + line + "'");
+    if (arrow == std::string::npos) ValueReader(draft).fail(key, "expected 'SEARCH => REPLACE', not '" + line + "'");
     const std::string from = strip(line.substr(0, arrow)), to = strip(line.substr(arrow + 2));
     if (from != to) mappings.emplace_back(from, to);
   }
@@ -235,7 +270,8 @@ class ModelBuilder {
   void build() {
     for (auto& draft : drafts_.all) {
       if (draft->type == "process" && !draft->has_flag("no_default_templates"))
-        for (const auto& default_template : drafts_.default_templates) context_.apply_template(*draft, default_template.use, default_template.place);
+        for (const auto& default_template : drafts_.default_templates)
+          context_.apply_template(*draft, default_template.use, default_template.place);
       if (draft->type == "process" || draft->type == "state") {
         names_.runnables.push_back(draft.get());
         names_.by_name[draft->name] = draft.get();
@@ -244,8 +280,10 @@ class ModelBuilder {
     }
     collect_providers();
     for (const Draft* draft : names_.runnables) {
-      if (draft->type == "process") settings_.processes.push_back(process(*draft));
-      else settings_.states.push_back(state(*draft));
+      if (draft->type == "process")
+        settings_.processes.push_back(process(*draft));
+      else
+        settings_.states.push_back(state(*draft));
     }
     refuse_cycles();
     for (auto& draft : drafts_.all)
@@ -302,17 +340,20 @@ class ModelBuilder {
       warn(draft.place, "process '" + p.name + "' runs on node '" + p.node + "' (host '" + p.remote_host +
                             "'): ln_core's manager runs processes on its own host only, so it cannot start it");
     if (p.command.empty())
-      warn(draft.place, "process '" + p.name + "' has no command (LN 2.9 asks a GUI user to start it); it cannot be started");
+      warn(draft.place,
+           "process '" + p.name + "' has no command (LN 2.9 asks a GUI user to start it); it cannot be started");
     if (const std::string* user = values.text("change_user_to"); user && !user->empty())
       values.fail("change_user_to", "is not supported by ln_core's manager (processes run as the manager's user)");
     for (const auto& entry : draft.list("environment")) {
       const auto equals = entry.find('=');
-      if (equals == std::string::npos || equals == 0)
-        values.fail("environment", "'" + entry + "' is not NAME=VALUE");
+      if (equals == std::string::npos || equals == 0) values.fail("environment", "'" + entry + "' is not NAME=VALUE");
       const std::string name = entry.substr(0, equals), value = entry.substr(equals + 1);
-      auto same = std::find_if(p.environment.begin(), p.environment.end(), [&](const auto& e) { return e.first == name; });
-      if (same != p.environment.end()) same->second = value;
-      else p.environment.emplace_back(name, value);
+      auto same =
+          std::find_if(p.environment.begin(), p.environment.end(), [&](const auto& e) { return e.first == name; });
+      if (same != p.environment.end())
+        same->second = value;
+      else
+        p.environment.emplace_back(name, value);
     }
     for (const auto& name : draft.list("pass_environment"))
       if (!name.empty()) p.pass_environment.push_back(name);
@@ -346,7 +387,8 @@ class ModelBuilder {
     p.warning_msg = values.text_or("warning_msg");
     p.description = values.text_or("description");
     p.documentation = values.text_or("documentation");
-    for (const auto& limit : draft.list("set_resource_limits")) p.resource_limits.push_back(resource_limit(values, limit));
+    for (const auto& limit : draft.list("set_resource_limits"))
+      p.resource_limits.push_back(resource_limit(values, limit));
     p.depends_on = dependencies(draft, "depends_on", true);
     p.depends_on_restart = dependencies(draft, "depends_on_restart", true);
     for (const auto& dependency : dependencies(draft, "start_before", false))
@@ -361,7 +403,9 @@ class ModelBuilder {
     const auto equals = text.find('=');
     if (equals == std::string::npos) values.fail("set_resource_limits", "'" + text + "' is not NAME=VALUE");
     const auto limit = parse_resource_limit(strip(text.substr(0, equals)));
-    if (!limit) values.fail("set_resource_limits", "'" + text.substr(0, equals) + "' is not a resource limit (RTPRIO, MEMLOCK, NOFILE, CORE, ...)");
+    if (!limit)
+      values.fail("set_resource_limits",
+                  "'" + text.substr(0, equals) + "' is not a resource limit (RTPRIO, MEMLOCK, NOFILE, CORE, ...)");
     std::string value = strip(text.substr(equals + 1));
     std::string lower = value;
     std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
@@ -473,9 +517,11 @@ class ModelBuilder {
         std::vector<std::pair<double, std::string>> matches;
         for (const auto& [what, list] : names_.providers)
           if (fnmatches(candidate, what)) matches.insert(matches.end(), list.begin(), list.end());
-        std::stable_sort(matches.begin(), matches.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+        std::stable_sort(matches.begin(), matches.end(),
+                         [](const auto& a, const auto& b) { return a.first > b.first; });
         for (const auto& match : matches)
-          if (std::find(providers.candidates.begin(), providers.candidates.end(), match.second) == providers.candidates.end())
+          if (std::find(providers.candidates.begin(), providers.candidates.end(), match.second) ==
+              providers.candidates.end())
             providers.candidates.push_back(match.second);
         if (!providers.candidates.empty()) {
           found.push_back(std::move(providers));
@@ -487,7 +533,8 @@ class ModelBuilder {
         for (const auto& candidate : dependency.candidates) {
           const Draft* target = names_.by_name.at(candidate);
           if (target == &draft) values.fail(key, "'" + name + "' is this " + draft.type + " itself");
-          if (target->type == "state" && !states_allowed) values.fail(key, "'" + candidate + "' is a state, not a process");
+          if (target->type == "state" && !states_allowed)
+            values.fail(key, "'" + candidate + "' is a state, not a process");
           if (down && target->type != "state") values.fail(key, "'!" + name + "': only a state can be required DOWN");
         }
       }
@@ -601,7 +648,8 @@ class ModelBuilder {
         matched = true;
       }
     for (const auto& draft : drafts_.all)
-      if (draft->type == "group" && fnmatches(name, draft->name)) matched = members_named(draft->name, visiting, out) || matched;
+      if (draft->type == "group" && fnmatches(name, draft->name))
+        matched = members_named(draft->name, visiting, out) || matched;
     return matched;
   }
 
@@ -654,30 +702,45 @@ std::string Draft::list_key(const std::string& key, const std::string& operation
   if (table.lists.count(key) || table.accumulating.count(key)) return key;
   if (table.lists.count(key + "s")) return key + "s";
   if (table.ignored.count(key)) return key;
-  throw ConfigError(at.file, at.line,
-                    "'" + operation + " " + key + "': only list keys take '" + operation + "' (in " + type + " '" + name + "')");
+  throw ConfigError(
+      at.file, at.line,
+      "'" + operation + " " + key + "': only list keys take '" + operation + "' (in " + type + " '" + name + "')");
 }
 
 void Draft::set(const std::string& key, const std::string& value, const ConfigPlace& at) {
   switch (kind_of(key, at)) {
-    case Kind::Ignored: ignored[key] = at; return;
-    case Kind::Scalar: scalars[key] = value; break;
-    case Kind::List: lists[key] = split_items(value); break;
-    case Kind::Accumulating: lists[key].push_back(value); break;
+    case Kind::Ignored:
+      ignored[key] = at;
+      return;
+    case Kind::Scalar:
+      scalars[key] = value;
+      break;
+    case Kind::List:
+      lists[key] = split_items(value);
+      break;
+    case Kind::Accumulating:
+      lists[key].push_back(value);
+      break;
   }
   where[key] = at;
 }
 
 void Draft::append(const std::string& key, const std::string& value, const ConfigPlace& at) {
   switch (kind_of(key, at)) {
-    case Kind::Ignored: ignored[key] = at; return;
-    case Kind::Scalar: scalars[key] += value; break;
+    case Kind::Ignored:
+      ignored[key] = at;
+      return;
+    case Kind::Scalar:
+      scalars[key] += value;
+      break;
     case Kind::List: {
       auto items = split_items(value);
       lists[key].insert(lists[key].end(), items.begin(), items.end());
       break;
     }
-    case Kind::Accumulating: lists[key].push_back(value); break;
+    case Kind::Accumulating:
+      lists[key].push_back(value);
+      break;
   }
   where[key] = at;
 }
@@ -699,8 +762,9 @@ void Draft::add_item(const std::string& raw_key, const std::string& value, const
   const auto equals = value.find('=');
   if (!list.empty() && list.front().find('=') != std::string::npos && equals != std::string::npos) {
     const std::string prefix = value.substr(0, equals + 1);
-    list.erase(std::remove_if(list.begin(), list.end(), [&](const std::string& item) { return item.rfind(prefix, 0) == 0; }),
-               list.end());
+    list.erase(
+        std::remove_if(list.begin(), list.end(), [&](const std::string& item) { return item.rfind(prefix, 0) == 0; }),
+        list.end());
   }
   list.push_back(value);
 }
@@ -711,16 +775,25 @@ void Draft::delete_item(const std::string& raw_key, const std::string& value, co
       key == "flags" && value.find(',') != std::string::npos ? split_items(value) : std::vector<std::string>{value};
   auto& list = lists[key];
   list.erase(std::remove_if(list.begin(), list.end(),
-                            [&](const std::string& item) { return std::find(remove.begin(), remove.end(), item) != remove.end(); }),
+                            [&](const std::string& item) {
+                              return std::find(remove.begin(), remove.end(), item) != remove.end();
+                            }),
              list.end());
   where[key] = at;
 }
 
 void Draft::reset(const std::string& key, const ConfigPlace& at) {
   switch (kind_of(key, at)) {
-    case Kind::Ignored: ignored.erase(key); return;
-    case Kind::Scalar: scalars.erase(key); break;
-    case Kind::List: case Kind::Accumulating: lists[key].clear(); break;
+    case Kind::Ignored:
+      ignored.erase(key);
+      return;
+    case Kind::Scalar:
+      scalars.erase(key);
+      break;
+    case Kind::List:
+    case Kind::Accumulating:
+      lists[key].clear();
+      break;
   }
   where[key] = at;
 }
@@ -839,17 +912,36 @@ std::optional<int> parse_signal(const std::string& text) {
 }
 
 std::optional<int> parse_resource_limit(const std::string& text) {
-  static const std::pair<const char*, int> limits[] = {
-      {"CORE", RLIMIT_CORE},           {"CORE FILE SIZE", RLIMIT_CORE},     {"DATA", RLIMIT_DATA},
-      {"DATA SEG SIZE", RLIMIT_DATA},  {"NICE", RLIMIT_NICE},               {"SCHEDULING PRIORITY", RLIMIT_NICE},
-      {"FSIZE", RLIMIT_FSIZE},         {"FILE SIZE", RLIMIT_FSIZE},         {"SIGPENDING", RLIMIT_SIGPENDING},
-      {"PENDING SIGNALS", RLIMIT_SIGPENDING}, {"MEMLOCK", RLIMIT_MEMLOCK}, {"MAX LOCKED MEMORY", RLIMIT_MEMLOCK},
-      {"RSS", RLIMIT_RSS},             {"MAX MEMORY SIZE", RLIMIT_RSS},     {"NOFILE", RLIMIT_NOFILE},
-      {"OPEN FILES", RLIMIT_NOFILE},   {"MSGQUEUE", RLIMIT_MSGQUEUE},       {"POSIX MESSAGE QUEUES", RLIMIT_MSGQUEUE},
-      {"RTPRIO", RLIMIT_RTPRIO},       {"REAL-TIME PRIORITY", RLIMIT_RTPRIO}, {"STACK", RLIMIT_STACK},
-      {"STACK SIZE", RLIMIT_STACK},    {"CPU", RLIMIT_CPU},                 {"CPU TIME", RLIMIT_CPU},
-      {"NPROC", RLIMIT_NPROC},         {"MAX USER PROCESSES", RLIMIT_NPROC}, {"AS", RLIMIT_AS},
-      {"VIRTUAL MEMORY", RLIMIT_AS},   {"LOCKS", RLIMIT_LOCKS},             {"FILE LOCKS", RLIMIT_LOCKS}};
+  static const std::pair<const char*, int> limits[] = {{"CORE", RLIMIT_CORE},
+                                                       {"CORE FILE SIZE", RLIMIT_CORE},
+                                                       {"DATA", RLIMIT_DATA},
+                                                       {"DATA SEG SIZE", RLIMIT_DATA},
+                                                       {"NICE", RLIMIT_NICE},
+                                                       {"SCHEDULING PRIORITY", RLIMIT_NICE},
+                                                       {"FSIZE", RLIMIT_FSIZE},
+                                                       {"FILE SIZE", RLIMIT_FSIZE},
+                                                       {"SIGPENDING", RLIMIT_SIGPENDING},
+                                                       {"PENDING SIGNALS", RLIMIT_SIGPENDING},
+                                                       {"MEMLOCK", RLIMIT_MEMLOCK},
+                                                       {"MAX LOCKED MEMORY", RLIMIT_MEMLOCK},
+                                                       {"RSS", RLIMIT_RSS},
+                                                       {"MAX MEMORY SIZE", RLIMIT_RSS},
+                                                       {"NOFILE", RLIMIT_NOFILE},
+                                                       {"OPEN FILES", RLIMIT_NOFILE},
+                                                       {"MSGQUEUE", RLIMIT_MSGQUEUE},
+                                                       {"POSIX MESSAGE QUEUES", RLIMIT_MSGQUEUE},
+                                                       {"RTPRIO", RLIMIT_RTPRIO},
+                                                       {"REAL-TIME PRIORITY", RLIMIT_RTPRIO},
+                                                       {"STACK", RLIMIT_STACK},
+                                                       {"STACK SIZE", RLIMIT_STACK},
+                                                       {"CPU", RLIMIT_CPU},
+                                                       {"CPU TIME", RLIMIT_CPU},
+                                                       {"NPROC", RLIMIT_NPROC},
+                                                       {"MAX USER PROCESSES", RLIMIT_NPROC},
+                                                       {"AS", RLIMIT_AS},
+                                                       {"VIRTUAL MEMORY", RLIMIT_AS},
+                                                       {"LOCKS", RLIMIT_LOCKS},
+                                                       {"FILE LOCKS", RLIMIT_LOCKS}};
   std::string name = strip(text);
   std::transform(name.begin(), name.end(), name.begin(), [](unsigned char c) { return std::toupper(c); });
   if (name.rfind("RLIMIT_", 0) == 0) name.erase(0, 7);

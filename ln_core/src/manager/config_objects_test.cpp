@@ -31,8 +31,8 @@ class LncObjectsTest : public ::testing::Test {
   }
 
   std::size_t logged(const std::string& text) const {
-    return static_cast<std::size_t>(
-        std::count_if(lines.begin(), lines.end(), [&](const std::string& l) { return l.find(text) != std::string::npos; }));
+    return static_cast<std::size_t>(std::count_if(
+        lines.begin(), lines.end(), [&](const std::string& l) { return l.find(text) != std::string::npos; }));
   }
 
   static const ProcessConfig& process(const LncSettings& s, const std::string& name) {
@@ -193,10 +193,12 @@ TEST_F(LncObjectsTest, TemplatesWithArgumentsDefaultsAndNesting) {
   const ProcessConfig& b = process(s, "b");
   EXPECT_EQ(b.command, "/usr/bin/python3 b.py --slow, really");
   EXPECT_EQ(b.flags, (std::vector<std::string>{"no_error_on_successful_stop", "no_pty"}));
-  EXPECT_NE(error_of("process a\nuse_template: missing()\n").find("robot.lnc:2: use_template: there is no template 'missing'"),
+  EXPECT_NE(error_of("process a\nuse_template: missing()\n")
+                .find("robot.lnc:2: use_template: there is no template 'missing'"),
             std::string::npos);
-  EXPECT_NE(error_of("template t(x)\ncommand: %(x)\nprocess a\nuse_template: t(1, 2)\n").find("takes 1 argument(s), got 2"),
-            std::string::npos);
+  EXPECT_NE(
+      error_of("template t(x)\ncommand: %(x)\nprocess a\nuse_template: t(1, 2)\n").find("takes 1 argument(s), got 2"),
+      std::string::npos);
   const std::string nested_error = error_of("template t()\nbogus_key: 1\nprocess a\nuse_template: t()\n");
   EXPECT_NE(nested_error.find("robot.lnc:2: unknown key 'bogus_key'"), std::string::npos) << nested_error;
   EXPECT_NE(nested_error.find("in template 't' used here"), std::string::npos) << nested_error;
@@ -241,7 +243,8 @@ TEST_F(LncObjectsTest, NamePrefixesScopeNamesAndEndWithTheirFile) {
   EXPECT_EQ(names(ctrl.depends_on), (std::vector<std::string>{"robot/arm/driver"})) << "the nearest scope first";
   EXPECT_NO_THROW(process(s, "robot/driver")) << "the include's prefix ended with it";
   EXPECT_EQ(names(process(s, "top").depends_on), (std::vector<std::string>{"robot/arm/ctrl"}));
-  EXPECT_NE(error_of("process x\ncommand: /bin/true\nprocess x\ncommand: /bin/true\n").find("robot.lnc:3: 'x' is defined twice"),
+  EXPECT_NE(error_of("process x\ncommand: /bin/true\nprocess x\ncommand: /bin/true\n")
+                .find("robot.lnc:3: 'x' is defined twice"),
             std::string::npos);
 }
 
@@ -283,7 +286,8 @@ TEST_F(LncObjectsTest, DependencyCyclesAreRefused) {
       "process c\ncommand: /bin/true\ndepends_on: a\n");
   EXPECT_NE(error.find("a dependency cycle"), std::string::npos) << error;
   EXPECT_NE(error.find("a -> b -> c -> a"), std::string::npos) << error;
-  EXPECT_NE(error_of("process a\ncommand: /bin/true\ndepends_on: a\n").find("is this process itself"), std::string::npos);
+  EXPECT_NE(error_of("process a\ncommand: /bin/true\ndepends_on: a\n").find("is this process itself"),
+            std::string::npos);
 }
 
 TEST_F(LncObjectsTest, GroupsExpandGlobsNestedGroupsAndExclusions) {

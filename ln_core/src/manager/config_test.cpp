@@ -183,8 +183,9 @@ TEST_F(ConfigTest, ErrorsNameFileAndLine) {
             std::string::npos);
   EXPECT_NE(error_of("instance\nname: %(unclosed\n").find("test.lnc:2: '%(' without"), std::string::npos);
   EXPECT_NE(error_of("instance\nname: %(env LN_CONFIG_TEST_UNSET)\n").find("is not set"), std::string::npos);
-  EXPECT_NE(error_of("instance\nname: %(no_such_function x)\n").find("test.lnc:2: there is no function 'no_such_function'"),
-            std::string::npos);
+  EXPECT_NE(
+      error_of("instance\nname: %(no_such_function x)\n").find("test.lnc:2: there is no function 'no_such_function'"),
+      std::string::npos);
   EXPECT_NE(error_of("ifdef x\n").find("expected 'ifdef DEFINE: line'"), std::string::npos);
 }
 

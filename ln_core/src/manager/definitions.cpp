@@ -174,13 +174,15 @@ void DefinitionStore::remember_put(const std::string& name, const std::string& d
     pending.pop_back();
     const auto st = stat_of(current->path);
     if (!st) return;  // not from a file: nothing to check later, so nothing to remember
-    entry.files.push_back({current->path, static_cast<std::uint64_t>(st->st_ino), static_cast<std::uint64_t>(st->st_size),
+    entry.files.push_back({current->path, static_cast<std::uint64_t>(st->st_ino),
+                           static_cast<std::uint64_t>(st->st_size),
                            static_cast<std::int64_t>(st->st_mtim.tv_sec) * 1000000000 + st->st_mtim.tv_nsec});
     for (const md::Define& define : current->defines)
       if (define.definition && seen.insert(define.definition).second) pending.push_back(define.definition);
   }
   // Bounded like the directory it describes.
-  if (put_cache_.size() >= limits_.max_stored_definitions && !put_cache_.count(name)) put_cache_.erase(put_cache_.begin());
+  if (put_cache_.size() >= limits_.max_stored_definitions && !put_cache_.count(name))
+    put_cache_.erase(put_cache_.begin());
   put_cache_[name] = std::move(entry);
 }
 
@@ -288,8 +290,9 @@ DefinitionStore::Stored DefinitionStore::put(std::string_view name, std::string_
   reload();
   const md::Definition& stored = resolve(wanted);
   if (stored.hash != new_hash)
-    throw RequestError(LNE_REQUEST_FAILED, "message definition '" + wanted + "' was stored, but the name resolves to '" +
-                                               stored.path + "' with different content");
+    throw RequestError(LNE_REQUEST_FAILED, "message definition '" + wanted +
+                                               "' was stored, but the name resolves to '" + stored.path +
+                                               "' with different content");
   remember_put(wanted, digest, stored);
   return {stored.name, stored.hash};
 }

@@ -41,7 +41,10 @@ std::string join(const std::set<std::string>& items) {
 }  // namespace
 
 Dispatcher::Dispatcher(Registry& registry, DefinitionStore& definitions, std::string manager_version, LogFunction log)
-    : registry_(registry), definitions_(definitions), manager_version_(std::move(manager_version)), log_(std::move(log)) {
+    : registry_(registry),
+      definitions_(definitions),
+      manager_version_(std::move(manager_version)),
+      log_(std::move(log)) {
   handlers_ = {
       {std::string(method::hello), &Dispatcher::hello},
       {std::string(method::goodbye), &Dispatcher::goodbye},
@@ -176,9 +179,9 @@ Message Dispatcher::get_message_definition_for_topic(Session&, const Message& re
 }
 
 Message Dispatcher::put_message_definition(Session& session, const Message& request, Outbox&) {
-  const auto stored = definitions_.put(request.get_string("name"), request.get_string("text"),
-                                       [this](const std::string& name) { return registry_.definition_in_use(name); },
-                                       session.definitions_put);
+  const auto stored = definitions_.put(
+      request.get_string("name"), request.get_string("text"),
+      [this](const std::string& name) { return registry_.definition_in_use(name); }, session.definitions_put);
   return Message::response_to(request).set("name", stored.name).set("hash", stored.hash);
 }
 
@@ -201,9 +204,9 @@ Message Dispatcher::publisher_ready(Session& session, const Message& request, Ou
   registry_.publisher_ready(*session.client, topic_id, request.get_int("segment_generation", 0, max), packets, out);
   if (loggers_ != nullptr) loggers_->publisher_ready(registry_.topic(topic_id), out);
   if (request.has("recovered") && log_)
-    log_(LogLevel::Warning, "client '" + registry_.client(*session.client).name + "' found the shared-memory segment of topic '" +
-                                registry_.topic(topic_id).name + "' corrupted and replaced it (" +
-                                std::to_string(request.get_int("recovered", 0, max)) +
+    log_(LogLevel::Warning, "client '" + registry_.client(*session.client).name +
+                                "' found the shared-memory segment of topic '" + registry_.topic(topic_id).name +
+                                "' corrupted and replaced it (" + std::to_string(request.get_int("recovered", 0, max)) +
                                 " times so far); a subscriber process of that topic writes where it must not");
   return Message::response_to(request);
 }
@@ -253,8 +256,8 @@ Message Dispatcher::unregister_service(Session& session, const Message& request,
 }
 
 Message Dispatcher::lookup_service(Session& session, const Message& request, Outbox&) {
-  const Service& service = registry_.lookup_service(
-      request.get_string("name"), request.get_string_or("interface", ""), request.get_string_or("signature", ""));
+  const Service& service = registry_.lookup_service(request.get_string("name"), request.get_string_or("interface", ""),
+                                                    request.get_string_or("signature", ""));
   registry_.note_caller(*session.client, service.name);
   const Client& provider = registry_.client(service.provider);
   return Message::response_to(request)

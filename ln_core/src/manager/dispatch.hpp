@@ -35,8 +35,7 @@ class Dispatcher {
 
   /// The response to `request`; notifications for other clients go to
   /// `out`. Never throws: every failure becomes an error response.
-  protocol::Message handle(Session& session, const protocol::Message& request, Outbox& out,
-                           const LogFunction& log);
+  protocol::Message handle(Session& session, const protocol::Message& request, Outbox& out, const LogFunction& log);
   /// A notification from a client (methods.hpp: only topic_stats counts).
   /// Never throws; what cannot be used is dropped.
   void handle_notification(Session& session, const protocol::Message& notification, const LogFunction& log);

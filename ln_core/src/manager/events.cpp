@@ -25,8 +25,8 @@ ResourceFilter parse_resource_filter(std::string_view flat) {
   ResourceFilter filter;
   for (std::size_t i = 0; i < filter.size(); ++i) {
     if (flat.size() < 4)
-      throw RequestError(LNE_INVALID_PARAMETER, std::string("connect data of ln.resource_event ends before ") +
-                                                    names[i]);
+      throw RequestError(LNE_INVALID_PARAMETER,
+                         std::string("connect data of ln.resource_event ends before ") + names[i]);
     std::uint32_t size = 0;
     for (int byte = 3; byte >= 0; --byte) size = size << 8 | static_cast<std::uint8_t>(flat[byte]);
     flat.remove_prefix(4);
@@ -37,8 +37,8 @@ ResourceFilter parse_resource_filter(std::string_view flat) {
     flat.remove_prefix(size);
   }
   if (!flat.empty())
-    throw RequestError(LNE_INVALID_PARAMETER, "connect data of ln.resource_event has " +
-                                                  std::to_string(flat.size()) + " bytes too many");
+    throw RequestError(LNE_INVALID_PARAMETER,
+                       "connect data of ln.resource_event has " + std::to_string(flat.size()) + " bytes too many");
   return filter;
 }
 

@@ -80,14 +80,15 @@ TEST_F(ResourceEventTest, InitialSyncThenChangesAsTheyHappen) {
   provider->call("register_service", [](Message& m) {
     m.set("name", "svc.add").set("interface", "mt/add").set("signature", "x").set("group", "");
   });
-  provider->call("publish", [](Message& m) { m.set("topic", "t.point").set("message_definition", "mt/point").set("buffers", 1); });
+  provider->call("publish",
+                 [](Message& m) { m.set("topic", "t.point").set("message_definition", "mt/point").set("buffers", 1); });
   auto watcher = client("watcher");
   const Message connected = connect(*watcher, {"*", "*", "*", "*"});
   ASSERT_FALSE(connected.is_error()) << connected.error_text();
   EXPECT_GT(connected.get_int("event_connection_id"), 0);
-  EXPECT_EQ(events(*watcher), (std::vector<std::string>{"service_new_provider svc.add mt/add provider",
-                                                        "topic_new_publisher t.point mt/point provider",
-                                                        "initial_sync_done   "}));
+  EXPECT_EQ(events(*watcher),
+            (std::vector<std::string>{"service_new_provider svc.add mt/add provider",
+                                      "topic_new_publisher t.point mt/point provider", "initial_sync_done   "}));
 
   auto other = client("other");
   const Message subscribed = other->call("subscribe", [](Message& m) {
@@ -98,10 +99,9 @@ TEST_F(ResourceEventTest, InitialSyncThenChangesAsTheyHappen) {
   provider->call("unregister_service", [](Message& m) { m.set("service_id", std::int64_t{2}); });
   provider->close();  // leaving unpublishes
   EXPECT_EQ(events(*watcher, true),
-            (std::vector<std::string>{"topic_new_subscriber t.point mt/point other",
-                                      "topic_del_subscriber t.point mt/point other",
-                                      "service_del_provider svc.add mt/add provider",
-                                      "topic_del_publisher t.point mt/point provider"}));
+            (std::vector<std::string>{
+                "topic_new_subscriber t.point mt/point other", "topic_del_subscriber t.point mt/point other",
+                "service_del_provider svc.add mt/add provider", "topic_del_publisher t.point mt/point provider"}));
 }
 
 TEST_F(ResourceEventTest, FiltersAreFnmatchPatterns) {
@@ -110,9 +110,8 @@ TEST_F(ResourceEventTest, FiltersAreFnmatchPatterns) {
   EXPECT_EQ(events(*watcher), (std::vector<std::string>{"initial_sync_done   "})) << "not filtered";
   auto publisher = client("publisher");
   for (const char* topic : {"a.b1", "a.c22", "a.d1", "a.c2"})
-    publisher->call("publish", [&](Message& m) {
-      m.set("topic", topic).set("message_definition", "mt/point").set("buffers", 1);
-    });
+    publisher->call("publish",
+                    [&](Message& m) { m.set("topic", topic).set("message_definition", "mt/point").set("buffers", 1); });
   publisher->call("register_service", [](Message& m) {
     m.set("name", "a.b2").set("interface", "mt/add").set("signature", "x").set("group", "");
   });
@@ -129,7 +128,8 @@ TEST_F(ResourceEventTest, DisconnectedConnectionsHearNothing) {
   EXPECT_TRUE(stranger->call("disconnect_event", [&](Message& m) { m.set("event_connection_id", id); }).is_error())
       << "not the stranger's connection";
   EXPECT_FALSE(watcher->call("disconnect_event", [&](Message& m) { m.set("event_connection_id", id); }).is_error());
-  stranger->call("publish", [](Message& m) { m.set("topic", "t.x").set("message_definition", "mt/point").set("buffers", 1); });
+  stranger->call("publish",
+                 [](Message& m) { m.set("topic", "t.x").set("message_definition", "mt/point").set("buffers", 1); });
   EXPECT_TRUE(events(*watcher, true).empty());
 }
 

@@ -22,9 +22,8 @@ class IntrospectionTest : public ::testing::Test {
   }
 
   static std::int64_t publish(TestClient& c, const std::string& topic) {
-    const Message r = c.call("publish", [&](Message& m) {
-      m.set("topic", topic).set("message_definition", "mt/point").set("buffers", 1);
-    });
+    const Message r = c.call(
+        "publish", [&](Message& m) { m.set("topic", topic).set("message_definition", "mt/point").set("buffers", 1); });
     EXPECT_FALSE(r.is_error()) << r.error_text();
     return r.is_error() ? -1 : r.get_int("topic_id");
   }
@@ -112,10 +111,12 @@ TEST_F(IntrospectionTest, ANewPublisherStartsFromZero) {
   auto first = client("first");
   auto second = client("second");
   auto sub = client("subscriber");
-  ASSERT_FALSE(sub->call("subscribe", [](Message& m) {
-                    m.set("topic", "robot.point").set("message_definition", "mt/point").set("buffers", 1);
-                    m.set("rate", -1.0).set("reliable", false);
-                  }).is_error());
+  ASSERT_FALSE(sub->call("subscribe",
+                         [](Message& m) {
+                           m.set("topic", "robot.point").set("message_definition", "mt/point").set("buffers", 1);
+                           m.set("rate", -1.0).set("reliable", false);
+                         })
+                   .is_error());
   const std::int64_t topic = publish(*first, "robot.point");
   ASSERT_FALSE(publisher_ready(*first, topic, 1, 0).is_error());
   report(*first, topic, 50);

@@ -55,9 +55,12 @@ const Entry* find(std::string_view key) {
 
 const char* value_text(Unit unit) {
   switch (unit) {
-    case Unit::Bytes: return "BYTES";
-    case Unit::Seconds: return "SECONDS";
-    case Unit::Count: return "COUNT";
+    case Unit::Bytes:
+      return "BYTES";
+    case Unit::Seconds:
+      return "SECONDS";
+    case Unit::Count:
+      return "COUNT";
   }
   return "?";
 }
@@ -76,17 +79,27 @@ std::uint64_t parse_unsigned(std::string_view key, std::string_view text, bool w
   unsigned shift = 0;
   if (with_suffix && rest.size() == 1) {
     switch (rest.front()) {
-      case 'K': case 'k': shift = 10; break;
-      case 'M': case 'm': shift = 20; break;
-      case 'G': case 'g': shift = 30; break;
-      default: shift = 64;
+      case 'K':
+      case 'k':
+        shift = 10;
+        break;
+      case 'M':
+      case 'm':
+        shift = 20;
+        break;
+      case 'G':
+      case 'g':
+        shift = 30;
+        break;
+      default:
+        shift = 64;
     }
     if (shift != 64) rest.remove_prefix(1);
   }
   if (error != std::errc() || !rest.empty() || text.empty() || (shift != 0 && value > (~std::uint64_t{0} >> shift)))
-    throw std::invalid_argument(std::string(key) + ": '" + std::string(text) + "' is not " +
-                                (with_suffix ? "a byte count (a whole number, optionally with K, M or G)"
-                                             : "a whole number"));
+    throw std::invalid_argument(
+        std::string(key) + ": '" + std::string(text) + "' is not " +
+        (with_suffix ? "a byte count (a whole number, optionally with K, M or G)" : "a whole number"));
   return value << shift;
 }
 
@@ -106,7 +119,8 @@ std::string default_text(const Entry& entry) {
 const std::vector<LimitInfo>& limit_table() {
   static const std::vector<LimitInfo> table = [] {
     std::vector<LimitInfo> out;
-    for (const Entry& entry : entries) out.push_back({entry.key, value_text(entry.unit), entry.description, default_text(entry)});
+    for (const Entry& entry : entries)
+      out.push_back({entry.key, value_text(entry.unit), entry.description, default_text(entry)});
     return out;
   }();
   return table;

@@ -62,10 +62,10 @@ struct ManagerLimits {
 };
 
 struct LimitInfo {
-  std::string key;          ///< .lnc key; the option is "--" + key with '-' for '_'
-  std::string value_text;   ///< what the value is: "BYTES", "SECONDS", "COUNT"
-  std::string description;  ///< one line
-  std::string default_text; ///< the default, as written in a config
+  std::string key;           ///< .lnc key; the option is "--" + key with '-' for '_'
+  std::string value_text;    ///< what the value is: "BYTES", "SECONDS", "COUNT"
+  std::string description;   ///< one line
+  std::string default_text;  ///< the default, as written in a config
 };
 
 /// Every limit, in the order of the help text.

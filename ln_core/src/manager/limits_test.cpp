@@ -55,7 +55,8 @@ TEST_F(LimitsTest, SlowSendersMustRegisterWithinTheHandshakeTimeout) {
     l.pending_idle_timeout = 10;
   });
   TestClient slow(manager->port());
-  const std::string hello = protocol::encode(slow.make_request("hello", [](Message& m) { m.set("program_name", "x"); }));
+  const std::string hello =
+      protocol::encode(slow.make_request("hello", [](Message& m) { m.set("program_name", "x"); }));
   bool closed = false;
   // One byte every 50 ms: active, but never done.
   for (std::size_t i = 0; i + 1 < hello.size() && i < 60 && !closed; ++i) {
@@ -177,9 +178,8 @@ TEST_F(LimitsTest, APublishersTopicsShareOneLimit) {
   dir.write("md/mt/kib", "uint8_t data[1024]\n");
   auto publisher = registered("publisher");
   auto publish = [&](const std::string& topic) {
-    return publisher->call("publish", [&](Message& m) {
-      m.set("topic", topic).set("message_definition", "mt/kib").set("buffers", 200);
-    });
+    return publisher->call(
+        "publish", [&](Message& m) { m.set("topic", topic).set("message_definition", "mt/kib").set("buffers", 200); });
   };
   ASSERT_FALSE(publish("a").is_error());
   ASSERT_FALSE(publish("b").is_error());
@@ -296,8 +296,9 @@ TEST(LimitKeys, ComeFromTheInstanceSectionWithClearErrors) {
     read_lnc_text("instance\nname: x\n\nmax_topic_shm: lots\n", "x.lnc", {});
     ADD_FAILURE() << "accepted 'lots'";
   } catch (const ConfigError& e) {
-    EXPECT_STREQ(e.what(), "x.lnc:4: max_topic_shm: 'lots' is not a byte count (a whole number, optionally with K, M "
-                           "or G)");
+    EXPECT_STREQ(e.what(),
+                 "x.lnc:4: max_topic_shm: 'lots' is not a byte count (a whole number, optionally with K, M "
+                 "or G)");
   }
   ManagerLimits limits;
   EXPECT_THROW(set_limit(limits, "handshake_timeout", "0"), std::invalid_argument);

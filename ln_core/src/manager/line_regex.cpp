@@ -18,18 +18,32 @@ namespace {
 // content (where a backslash is an ordinary character).
 std::string bracket_escape(char c) {
   switch (c) {
-    case 'd': return "0-9";
-    case 'w': return "A-Za-z0-9_";
-    case 's': return " \t\r\n\f\v";
-    case 't': return "\t";
-    case 'n': return "\n";
-    case 'r': return "\r";
-    case 'f': return "\f";
-    case 'v': return "\v";
-    case '\\': return "\\";
-    case ']': throw std::invalid_argument("\\] inside [...] has no POSIX form; put ] first in the set instead");
-    case 'D': case 'W': case 'S': throw std::invalid_argument(std::string("\\") + c + " inside [...] is not supported");
-    default: return std::string(1, c);
+    case 'd':
+      return "0-9";
+    case 'w':
+      return "A-Za-z0-9_";
+    case 's':
+      return " \t\r\n\f\v";
+    case 't':
+      return "\t";
+    case 'n':
+      return "\n";
+    case 'r':
+      return "\r";
+    case 'f':
+      return "\f";
+    case 'v':
+      return "\v";
+    case '\\':
+      return "\\";
+    case ']':
+      throw std::invalid_argument("\\] inside [...] has no POSIX form; put ] first in the set instead");
+    case 'D':
+    case 'W':
+    case 'S':
+      throw std::invalid_argument(std::string("\\") + c + " inside [...] is not supported");
+    default:
+      return std::string(1, c);
   }
 }
 
@@ -42,15 +56,24 @@ std::string LineRegex::to_posix(const std::string& pattern) {
     if (c == '\\') {
       if (++i >= pattern.size()) throw std::invalid_argument("the pattern ends with a lone backslash");
       const char e = pattern[i];
-      if (e == 'd') out += "[0-9]";
-      else if (e == 'D') out += "[^0-9]";
-      else if (e == 't') out += '\t';
-      else if (e == 'n') out += '\n';
-      else if (e == 'r') out += '\r';
-      else if (e == 'A') out += '^';
-      else if (e == 'Z' || e == 'z') out += '$';
-      else if (e >= '1' && e <= '9') throw std::invalid_argument("back-references (\\1 ...) are not supported");
-      else out += std::string("\\") + e;  // \w \W \s \S \b \B \. \( ... as in Python
+      if (e == 'd')
+        out += "[0-9]";
+      else if (e == 'D')
+        out += "[^0-9]";
+      else if (e == 't')
+        out += '\t';
+      else if (e == 'n')
+        out += '\n';
+      else if (e == 'r')
+        out += '\r';
+      else if (e == 'A')
+        out += '^';
+      else if (e == 'Z' || e == 'z')
+        out += '$';
+      else if (e >= '1' && e <= '9')
+        throw std::invalid_argument("back-references (\\1 ...) are not supported");
+      else
+        out += std::string("\\") + e;  // \w \W \s \S \b \B \. \( ... as in Python
     } else if (c == '[') {
       // a bracket expression: copy up to its closing ']' (which may come first)
       out += '[';
@@ -58,7 +81,8 @@ std::string LineRegex::to_posix(const std::string& pattern) {
       if (j < pattern.size() && pattern[j] == '^') out += pattern[j++];
       if (j < pattern.size() && pattern[j] == ']') out += pattern[j++];
       for (; j < pattern.size() && pattern[j] != ']'; ++j) {
-        if (pattern[j] == '\\' && j + 1 < pattern.size()) out += bracket_escape(pattern[++j]);
+        if (pattern[j] == '\\' && j + 1 < pattern.size())
+          out += bracket_escape(pattern[++j]);
         else if (pattern[j] == '[' && j + 1 < pattern.size() && pattern[j + 1] == ':') {
           const auto end = pattern.find(":]", j + 2);  // a POSIX class like [:digit:]
           if (end == std::string::npos) throw std::invalid_argument("'[:' without ':]'");

@@ -34,8 +34,10 @@ std::string strip(const std::string& s) {
 // Past the closing quote of the "..." that starts at `open`, or npos.
 std::size_t after_quoted(const std::string& text, std::size_t open) {
   for (std::size_t i = open + 1; i < text.size(); ++i) {
-    if (text[i] == '\\') ++i;
-    else if (text[i] == '"') return i + 1;
+    if (text[i] == '\\')
+      ++i;
+    else if (text[i] == '"')
+      return i + 1;
   }
   return std::string::npos;
 }
@@ -133,12 +135,11 @@ std::vector<std::string> split_words(const std::string& text) {
       in_word = true;
       std::size_t j = i + 1;
       for (; j < text.size() && text[j] != c; ++j) {
-        if (c == '"' && text[j] == '\\' && j + 1 < text.size() &&
-            std::strchr("\"\\$`", text[j + 1]) != nullptr)
-          ++j;
+        if (c == '"' && text[j] == '\\' && j + 1 < text.size() && std::strchr("\"\\$`", text[j + 1]) != nullptr) ++j;
         word += text[j];
       }
-      if (j >= text.size()) throw EvaluationError(std::string("a ") + c + " has no closing " + c + " in '" + text + "'");
+      if (j >= text.size())
+        throw EvaluationError(std::string("a ") + c + " has no closing " + c + " in '" + text + "'");
       i = j;
     } else if (c == '\\' && i + 1 < text.size()) {
       in_word = true;
@@ -210,7 +211,8 @@ std::string Evaluator::replacement(const std::string& raw_inner, int depth,
   return call(function, args, depth);
 }
 
-std::string Evaluator::define_value(const std::string& name, const std::map<std::string, std::string>* arguments) const {
+std::string Evaluator::define_value(const std::string& name,
+                                    const std::map<std::string, std::string>* arguments) const {
   if (arguments != nullptr) {
     if (const auto it = arguments->find(name); it != arguments->end()) return it->second;
   }
@@ -313,7 +315,8 @@ std::string Evaluator::call(const std::string& function, const std::string& raw,
 std::string Evaluator::run_shell(const std::string& command) const {
   const ShellResult result = run_shell_command(command, shell_timeout_);
   if (result.timed_out)
-    throw EvaluationError("%(shell " + command + "): did not finish within " + std::to_string(int(shell_timeout_)) + " s");
+    throw EvaluationError("%(shell " + command + "): did not finish within " + std::to_string(int(shell_timeout_)) +
+                          " s");
   const std::string errors = strip(result.errors);
   if (result.status != 0 || !errors.empty())
     throw EvaluationError("%(shell " + command + ") failed" +
@@ -365,7 +368,8 @@ ShellResult run_shell_command(const std::string& command, double timeout_seconds
   const int originals[2] = {out_pipe[0], err_pipe[0]};
   int open_fds = 2;
   while (open_fds > 0) {
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
     if (left.count() <= 0) {
       result.timed_out = true;
       break;

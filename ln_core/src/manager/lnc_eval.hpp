@@ -55,8 +55,7 @@ class Evaluator {
     std::string body;
   };
 
-  std::string evaluate(const std::string& text, int depth,
-                       const std::map<std::string, std::string>* arguments) const;
+  std::string evaluate(const std::string& text, int depth, const std::map<std::string, std::string>* arguments) const;
   std::string replacement(const std::string& inner, int depth,
                           const std::map<std::string, std::string>* arguments) const;
   std::string call(const std::string& function, const std::string& arguments, int depth) const;

@@ -20,8 +20,8 @@ class EvaluatorTest : public ::testing::Test {
     return "(no error)";
   }
 
-  std::map<std::string, std::string> defines{{"robot", "rollin"}, {"rollin_name", "justin"}, {"empty", ""},
-                                             {"path", "/a/b/c.txt"}, {"spaced", "a b"}};
+  std::map<std::string, std::string> defines{
+      {"robot", "rollin"}, {"rollin_name", "justin"}, {"empty", ""}, {"path", "/a/b/c.txt"}, {"spaced", "a b"}};
   Evaluator evaluator{[this](const std::string& name) -> std::optional<std::string> {
                         const auto it = defines.find(name);
                         if (it == defines.end()) return std::nullopt;

@@ -111,10 +111,9 @@ void for_each_sample(const SavedTopic& topic, const std::function<void(const uns
 void write_raw(AtomicFile& file, const std::vector<SavedTopic>& topics) {
   if (topics.size() != 1)
     throw RequestError(LNE_REQUEST_FAILED, "the raw format holds exactly one topic; this logger has " +
-                                                  std::to_string(topics.size()) + " (use pcap or mat)");
-  for_each_sample(topics.front(), [&](const unsigned char* sample) {
-    file.write(sample, topics.front().samples->sample_size());
-  });
+                                               std::to_string(topics.size()) + " (use pcap or mat)");
+  for_each_sample(topics.front(),
+                  [&](const unsigned char* sample) { file.write(sample, topics.front().samples->sample_size()); });
   file.commit();
 }
 
@@ -174,8 +173,9 @@ void append_field(std::string& out, const std::string& text) {
 void write_pcap(AtomicFile& file, const std::vector<SavedTopic>& topics) {
   for (const SavedTopic& topic : topics)
     if (topic.only_ts && sample_count(topic) > 0)
-      throw RequestError(LNE_REQUEST_FAILED, "the pcap format carries packets, but this logger recorded only "
-                                                "timestamps (set_only_ts); use raw or mat");
+      throw RequestError(LNE_REQUEST_FAILED,
+                         "the pcap format carries packets, but this logger recorded only "
+                         "timestamps (set_only_ts); use raw or mat");
   PcapWriter pcap(file);
   struct Cursor {
     const SavedTopic* topic;
@@ -246,8 +246,10 @@ bool mat4_has(md::Primitive type) {
     case md::Primitive::Int32:
     case md::Primitive::Int16:
     case md::Primitive::UInt16:
-    case md::Primitive::UInt8: return true;
-    default: return false;
+    case md::Primitive::UInt8:
+      return true;
+    default:
+      return false;
   }
 }
 
@@ -260,17 +262,27 @@ double element_as_double(const unsigned char* at) {
 
 double as_double(md::Primitive type, const unsigned char* at) {
   switch (type) {
-    case md::Primitive::Double: return element_as_double<double>(at);
-    case md::Primitive::Float: return element_as_double<float>(at);
+    case md::Primitive::Double:
+      return element_as_double<double>(at);
+    case md::Primitive::Float:
+      return element_as_double<float>(at);
     case md::Primitive::Char:
-    case md::Primitive::Int8: return element_as_double<std::int8_t>(at);
-    case md::Primitive::UInt8: return element_as_double<std::uint8_t>(at);
-    case md::Primitive::Int16: return element_as_double<std::int16_t>(at);
-    case md::Primitive::UInt16: return element_as_double<std::uint16_t>(at);
-    case md::Primitive::Int32: return element_as_double<std::int32_t>(at);
-    case md::Primitive::UInt32: return element_as_double<std::uint32_t>(at);
-    case md::Primitive::Int64: return element_as_double<std::int64_t>(at);
-    case md::Primitive::UInt64: return element_as_double<std::uint64_t>(at);
+    case md::Primitive::Int8:
+      return element_as_double<std::int8_t>(at);
+    case md::Primitive::UInt8:
+      return element_as_double<std::uint8_t>(at);
+    case md::Primitive::Int16:
+      return element_as_double<std::int16_t>(at);
+    case md::Primitive::UInt16:
+      return element_as_double<std::uint16_t>(at);
+    case md::Primitive::Int32:
+      return element_as_double<std::int32_t>(at);
+    case md::Primitive::UInt32:
+      return element_as_double<std::uint32_t>(at);
+    case md::Primitive::Int64:
+      return element_as_double<std::int64_t>(at);
+    case md::Primitive::UInt64:
+      return element_as_double<std::uint64_t>(at);
   }
   return 0;
 }
@@ -308,9 +320,11 @@ std::vector<MatVariable> matlab_variables(const std::vector<SavedTopic>& topics,
     std::vector<MatVariable> made;
     for (const Column& column : columns) {
       const md::Primitive stored = version4 && !mat4_has(column.type) ? md::Primitive::Double : column.type;
-      MatVariable variable{matlab_name(topic.name, column.name, topics.size() > 1), stored,
+      MatVariable variable{matlab_name(topic.name, column.name, topics.size() > 1),
+                           stored,
                            column.count == 1 ? 1 : static_cast<std::size_t>(rows),
-                           column.count == 1 ? static_cast<std::size_t>(rows) : column.count, {}};
+                           column.count == 1 ? static_cast<std::size_t>(rows) : column.count,
+                           {}};
       variable.data.resize(static_cast<std::size_t>(rows) * column.count * md::size_of(stored));
       made.push_back(std::move(variable));
     }
@@ -352,17 +366,27 @@ struct MatType {
 
 MatType mat_type(md::Primitive type) {
   switch (type) {
-    case md::Primitive::Double: return {MAT_C_DOUBLE, MAT_T_DOUBLE};
-    case md::Primitive::Float: return {MAT_C_SINGLE, MAT_T_SINGLE};
+    case md::Primitive::Double:
+      return {MAT_C_DOUBLE, MAT_T_DOUBLE};
+    case md::Primitive::Float:
+      return {MAT_C_SINGLE, MAT_T_SINGLE};
     case md::Primitive::Char:
-    case md::Primitive::Int8: return {MAT_C_INT8, MAT_T_INT8};
-    case md::Primitive::UInt8: return {MAT_C_UINT8, MAT_T_UINT8};
-    case md::Primitive::Int16: return {MAT_C_INT16, MAT_T_INT16};
-    case md::Primitive::UInt16: return {MAT_C_UINT16, MAT_T_UINT16};
-    case md::Primitive::Int32: return {MAT_C_INT32, MAT_T_INT32};
-    case md::Primitive::UInt32: return {MAT_C_UINT32, MAT_T_UINT32};
-    case md::Primitive::Int64: return {MAT_C_INT64, MAT_T_INT64};
-    case md::Primitive::UInt64: return {MAT_C_UINT64, MAT_T_UINT64};
+    case md::Primitive::Int8:
+      return {MAT_C_INT8, MAT_T_INT8};
+    case md::Primitive::UInt8:
+      return {MAT_C_UINT8, MAT_T_UINT8};
+    case md::Primitive::Int16:
+      return {MAT_C_INT16, MAT_T_INT16};
+    case md::Primitive::UInt16:
+      return {MAT_C_UINT16, MAT_T_UINT16};
+    case md::Primitive::Int32:
+      return {MAT_C_INT32, MAT_T_INT32};
+    case md::Primitive::UInt32:
+      return {MAT_C_UINT32, MAT_T_UINT32};
+    case md::Primitive::Int64:
+      return {MAT_C_INT64, MAT_T_INT64};
+    case md::Primitive::UInt64:
+      return {MAT_C_UINT64, MAT_T_UINT64};
   }
   return {MAT_C_DOUBLE, MAT_T_DOUBLE};
 }
@@ -401,8 +425,9 @@ void write_matlab(AtomicFile& file, const std::vector<SavedTopic>& topics, bool 
 }
 #else
 void write_matlab(AtomicFile& file, const std::vector<SavedTopic>&, bool) {
-  cannot_write(file.filename(), "this ln_manager was built without libmatio (Debian: libmatio-dev), which writes "
-                                "MATLAB files");
+  cannot_write(file.filename(),
+               "this ln_manager was built without libmatio (Debian: libmatio-dev), which writes "
+               "MATLAB files");
 }
 #endif
 
@@ -419,11 +444,14 @@ const std::vector<Format>& formats() {
   static const std::vector<Format> table = {
       {"raw", {}, {"raw"}, write_raw},
       {"pcap", {}, {"pcap"}, write_pcap},
-      {"mat", {"matlab", "matlab5"}, {"mat", "matlab"},
+      {"mat",
+       {"matlab", "matlab5"},
+       {"mat", "matlab"},
        [](AtomicFile& file, const std::vector<SavedTopic>& topics) { write_matlab(file, topics, false); }},
-      {"mat4", {"matlab4"}, {}, [](AtomicFile& file, const std::vector<SavedTopic>& topics) {
-         write_matlab(file, topics, true);
-       }},
+      {"mat4",
+       {"matlab4"},
+       {},
+       [](AtomicFile& file, const std::vector<SavedTopic>& topics) { write_matlab(file, topics, true); }},
   };
   return table;
 }
@@ -440,8 +468,8 @@ const Format& format_named(const std::string& name) {
     for (const char* alias : format.aliases)
       if (name == alias) return format;
   }
-  throw RequestError(LNE_REQUEST_FAILED, "unknown format '" + name + "': ln_core's manager writes " +
-                                                format_list() + " (or 'auto': chosen by the file name)");
+  throw RequestError(LNE_REQUEST_FAILED, "unknown format '" + name + "': ln_core's manager writes " + format_list() +
+                                             " (or 'auto': chosen by the file name)");
 }
 
 }  // namespace
@@ -468,8 +496,10 @@ std::vector<Column> flatten_columns(const md::Definition& definition) {
 
 std::string choose_format(const std::string& format, const std::string& filename) {
   if (lower(format) == "pickle")
-    throw RequestError(LNE_REQUEST_FAILED, "ln_core's manager cannot write Python pickles (LN 2.9's manager is "
-                                              "a Python program; this one is native); use one of " + format_list());
+    throw RequestError(LNE_REQUEST_FAILED,
+                       "ln_core's manager cannot write Python pickles (LN 2.9's manager is "
+                       "a Python program; this one is native); use one of " +
+                           format_list());
   if (format != "auto") return format_named(lower(format)).name;
   const std::string base = filename.substr(filename.find_last_of('/') + 1);
   const std::size_t dot = base.find_last_of('.');
@@ -478,9 +508,11 @@ std::string choose_format(const std::string& format, const std::string& filename
     for (const char* known : candidate.extensions)
       if (extension == known) return candidate.name;
   throw RequestError(LNE_REQUEST_FAILED,
-                     "format 'auto' cannot tell the format of '" + filename + "' from its name (LN 2.9 would write "
-                     "a Python pickle, which ln_core's native manager cannot); name a file .raw, .pcap or .mat, or "
-                     "pass one of " + format_list());
+                     "format 'auto' cannot tell the format of '" + filename +
+                         "' from its name (LN 2.9 would write "
+                         "a Python pickle, which ln_core's native manager cannot); name a file .raw, .pcap or .mat, or "
+                         "pass one of " +
+                         format_list());
 }
 
 void save_log_file(const std::string& filename, const std::string& format, const std::vector<SavedTopic>& topics) {

@@ -46,7 +46,7 @@ std::vector<Column> flatten_columns(const md::Definition& definition);
 struct SavedTopic {
   std::string name;
   std::string md_name;
-  std::string md_text;    ///< md::python_dict_text
+  std::string md_text;  ///< md::python_dict_text
   std::string md_hash;
   std::string publisher;  ///< client name of its (last) publisher
   std::uint32_t message_size = 0;

@@ -258,17 +258,60 @@ std::map<std::string, MatVar> read_mat(const std::string& path) {
       const auto* at = static_cast<const unsigned char*>(var->data) + i * var->data_size;
       double value = 0;
       switch (var->data_type) {
-        case MAT_T_DOUBLE: std::memcpy(&value, at, 8); break;
-        case MAT_T_SINGLE: { float f; std::memcpy(&f, at, 4); value = f; break; }
-        case MAT_T_INT8: value = static_cast<std::int8_t>(*at); break;
-        case MAT_T_UINT8: value = *at; break;
-        case MAT_T_INT16: { std::int16_t v; std::memcpy(&v, at, 2); value = v; break; }
-        case MAT_T_UINT16: { std::uint16_t v; std::memcpy(&v, at, 2); value = v; break; }
-        case MAT_T_INT32: { std::int32_t v; std::memcpy(&v, at, 4); value = v; break; }
-        case MAT_T_UINT32: { std::uint32_t v; std::memcpy(&v, at, 4); value = v; break; }
-        case MAT_T_INT64: { std::int64_t v; std::memcpy(&v, at, 8); value = static_cast<double>(v); break; }
-        case MAT_T_UINT64: { std::uint64_t v; std::memcpy(&v, at, 8); value = static_cast<double>(v); break; }
-        default: ADD_FAILURE() << var->name << ": unexpected storage type " << var->data_type; break;
+        case MAT_T_DOUBLE:
+          std::memcpy(&value, at, 8);
+          break;
+        case MAT_T_SINGLE: {
+          float f;
+          std::memcpy(&f, at, 4);
+          value = f;
+          break;
+        }
+        case MAT_T_INT8:
+          value = static_cast<std::int8_t>(*at);
+          break;
+        case MAT_T_UINT8:
+          value = *at;
+          break;
+        case MAT_T_INT16: {
+          std::int16_t v;
+          std::memcpy(&v, at, 2);
+          value = v;
+          break;
+        }
+        case MAT_T_UINT16: {
+          std::uint16_t v;
+          std::memcpy(&v, at, 2);
+          value = v;
+          break;
+        }
+        case MAT_T_INT32: {
+          std::int32_t v;
+          std::memcpy(&v, at, 4);
+          value = v;
+          break;
+        }
+        case MAT_T_UINT32: {
+          std::uint32_t v;
+          std::memcpy(&v, at, 4);
+          value = v;
+          break;
+        }
+        case MAT_T_INT64: {
+          std::int64_t v;
+          std::memcpy(&v, at, 8);
+          value = static_cast<double>(v);
+          break;
+        }
+        case MAT_T_UINT64: {
+          std::uint64_t v;
+          std::memcpy(&v, at, 8);
+          value = static_cast<double>(v);
+          break;
+        }
+        default:
+          ADD_FAILURE() << var->name << ": unexpected storage type " << var->data_type;
+          break;
       }
       read.values.push_back(value);
     }
@@ -337,11 +380,11 @@ TEST_F(LogFilesTest, MatlabFilesHoldOneVariablePerFieldAsLnNamesThem) {
   EXPECT_EQ(vars["a_sample_v"].values, (std::vector<double>{0, 1, 2, -1, -1, -1, 7, 7, 7}));
   const auto storage = mat4_storage(both);
   EXPECT_EQ(storage.size(), vars.size());
-  EXPECT_EQ(storage.at("a_sample_counter"), 0);  // uint32 -> double
-  EXPECT_EQ(storage.at("a_sample_big"), 0);      // uint64 -> double
-  EXPECT_EQ(storage.at("a_sample_v"), 3);        // int16 kept
+  EXPECT_EQ(storage.at("a_sample_counter"), 0);   // uint32 -> double
+  EXPECT_EQ(storage.at("a_sample_big"), 0);       // uint64 -> double
+  EXPECT_EQ(storage.at("a_sample_v"), 3);         // int16 kept
   EXPECT_EQ(storage.at("a_sample_p_0_flag"), 5);  // uint8 kept
-  EXPECT_EQ(storage.at("b_small_f"), 1);         // single kept
+  EXPECT_EQ(storage.at("b_small_f"), 1);          // single kept
   EXPECT_EQ(vars["b_small_f"].values, (std::vector<double>{0, 0.5}));
   EXPECT_EQ(vars["b_small_packet_counter"].values, (std::vector<double>{1, 2}));
 }

@@ -32,8 +32,8 @@ Number parse_decimal(const std::string& text, const char* what, const std::strin
   Number value{};
   const auto result = std::from_chars(text.data(), text.data() + text.size(), value);
   if (result.ec != std::errc() || result.ptr != text.data() + text.size())
-    throw RequestError(LNE_INVALID_PARAMETER, std::string(what) + " of topic '" + topic + "' is not a number in " +
-                                                  "range: '" + text + "'");
+    throw RequestError(LNE_INVALID_PARAMETER,
+                       std::string(what) + " of topic '" + topic + "' is not a number in " + "range: '" + text + "'");
   return value;
 }
 
@@ -131,8 +131,9 @@ std::optional<Message> Loggers::handle(Id client, const Message& request, Outbox
 Loggers::Logger& Loggers::existing(const std::string& name) {
   const auto it = loggers_.find(name);
   if (it == loggers_.end())
-    throw RequestError(LNE_REQUEST_FAILED, "logger '" + name + "' does not exist: the manager knows a logger from "
-                                           "its first enable on");
+    throw RequestError(LNE_REQUEST_FAILED, "logger '" + name +
+                                               "' does not exist: the manager knows a logger from "
+                                               "its first enable on");
   return it->second;
 }
 
@@ -197,7 +198,8 @@ Message Loggers::enable(Id client, const Message& request, Outbox& out, bool& de
     for (LoggedTopic& topic : logger.topics) {
       const Topic* known = known_topic(registry_, topic.name);
       topic.tap = registry_.add_tap(
-          topic.name, known != nullptr ? tap_slots(static_cast<std::uint64_t>(known->message_size)) : kMinTapSlots, out);
+          topic.name, known != nullptr ? tap_slots(static_cast<std::uint64_t>(known->message_size)) : kMinTapSlots,
+          out);
       if (known == nullptr) continue;
       learn_definition(logger, topic, *known, out);
       if (attach(logger, topic, *known, answer)) ++pending.waiting_for;
@@ -234,8 +236,9 @@ void Loggers::learn_definition(Logger& logger, LoggedTopic& topic, const Topic& 
       topic.reading_generation = -1;
       topic.attached_generation = -1;
       if (topic.log->count() > 0 && log_)
-        log_(LogLevel::Warning, label(logger.name, topic.name) + ": the topic's message size changed; the samples "
-                                                                 "recorded so far are dropped");
+        log_(LogLevel::Warning, label(logger.name, topic.name) +
+                                    ": the topic's message size changed; the samples "
+                                    "recorded so far are dropped");
     }
     topic.log = SampleLog::create(topic.log_size, sample_size);
   }
@@ -403,8 +406,9 @@ Message Loggers::download_data(Id client, const Message& request) {
   const auto it = downloads_.find(client);
   const std::int64_t id = request.get_int("download");
   if (it == downloads_.end() || it->second.id != id)
-    throw RequestError(LNE_INVALID_PARAMETER, "download " + std::to_string(id) + " is gone (a later "
-                                              "logger_download replaced it)");
+    throw RequestError(LNE_INVALID_PARAMETER, "download " + std::to_string(id) +
+                                                  " is gone (a later "
+                                                  "logger_download replaced it)");
   const auto& views = it->second.views;
   const std::int64_t topic = request.get_int("topic", 0, static_cast<std::int64_t>(views.size()) - 1);
   const auto& samples = views[static_cast<std::size_t>(topic)];

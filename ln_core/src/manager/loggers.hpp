@@ -66,11 +66,11 @@ class Loggers {
     std::string name;
     std::uint64_t log_size = 1;
     std::uint32_t divisor = 1;
-    Id tap = 0;                       ///< registry tap while enabled
-    std::shared_ptr<SampleLog> log;   ///< null until the message size is known
-    SavedTopic seen;                  ///< what is known of the topic (definition, publisher)
-    std::string reading_socket;       ///< the publisher whose segment is read or asked for ...
-    std::int64_t reading_generation = -1;  ///< ... the generation asked for ...
+    Id tap = 0;                             ///< registry tap while enabled
+    std::shared_ptr<SampleLog> log;         ///< null until the message size is known
+    SavedTopic seen;                        ///< what is known of the topic (definition, publisher)
+    std::string reading_socket;             ///< the publisher whose segment is read or asked for ...
+    std::int64_t reading_generation = -1;   ///< ... the generation asked for ...
     std::int64_t attached_generation = -1;  ///< ... and the newest one attached (answers may
                                             ///< come late, or two asks get the same segment)
   };

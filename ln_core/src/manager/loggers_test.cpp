@@ -37,9 +37,11 @@ class LoggerProtocolTest : public ::testing::Test {
 
 TEST_F(LoggerProtocolTest, ATapIsListedToThePublisherButNotCountedAsSubscriber) {
   auto publisher = client("publisher");
-  ASSERT_FALSE(publisher->call("publish", [](Message& m) {
-    m.set("topic", "lg.tap").set("message_definition", "mt/point").set("buffers", 1);
-  }).is_error());
+  ASSERT_FALSE(
+      publisher
+          ->call("publish",
+                 [](Message& m) { m.set("topic", "lg.tap").set("message_definition", "mt/point").set("buffers", 1); })
+          .is_error());
   const Message first = publisher->wait_notification("subscribers_changed");
   EXPECT_EQ(first.get_list("local").size(), 0u);
 
@@ -64,13 +66,14 @@ TEST_F(LoggerProtocolTest, ATapIsListedToThePublisherButNotCountedAsSubscriber) 
 TEST_F(LoggerProtocolTest, APublisherTheManagerCannotReachIsAClearError) {
   // The test client's peer socket does not exist: like a publisher on another host.
   auto publisher = client("far_publisher");
-  const Message published = publisher->call("publish", [](Message& m) {
-    m.set("topic", "lg.far").set("message_definition", "mt/point").set("buffers", 1);
-  });
+  const Message published = publisher->call(
+      "publish", [](Message& m) { m.set("topic", "lg.far").set("message_definition", "mt/point").set("buffers", 1); });
   ASSERT_FALSE(published.is_error());
-  ASSERT_FALSE(publisher->call("publisher_ready", [&](Message& m) {
-    m.set("topic_id", published.get_int("topic_id")).set("segment_generation", 0);
-  }).is_error());
+  ASSERT_FALSE(
+      publisher
+          ->call("publisher_ready",
+                 [&](Message& m) { m.set("topic_id", published.get_int("topic_id")).set("segment_generation", 0); })
+          .is_error());
   auto user = client("user");
   const Message enabled = enable(*user, "far", {"lg.far", "lg.unpublished"}, {"10", "10"}, {"1", "1"});
   ASSERT_TRUE(enabled.is_error());
@@ -112,9 +115,8 @@ TEST_F(LoggerProtocolTest, BadRequestsAreRefusedWithTheReason) {
 
   const Message unknown = user->call("logger_download", [](Message& m) { m.set("name", "nobody"); });
   EXPECT_EQ(unknown.error_code(), LNE_REQUEST_FAILED);
-  const Message stale = user->call("logger_download_data", [](Message& m) {
-    m.set("download", 99).set("topic", 0).set("offset", 0);
-  });
+  const Message stale =
+      user->call("logger_download_data", [](Message& m) { m.set("download", 99).set("topic", 0).set("offset", 0); });
   EXPECT_EQ(stale.error_code(), LNE_INVALID_PARAMETER);
   ASSERT_FALSE(enable(*user, "ok", {"lg.ok"}, {"3"}, {"1"}).is_error());
   const Message view = user->call("logger_download", [](Message& m) { m.set("name", "ok"); });

@@ -53,8 +53,7 @@ in_addr resolve_ipv4(const std::string& host) {
   hints.ai_socktype = SOCK_STREAM;
   addrinfo* found = nullptr;
   const int status = ::getaddrinfo(host.c_str(), nullptr, &hints, &found);
-  if (status != 0 || !found)
-    throw std::runtime_error("cannot listen on '" + host + "': " + ::gai_strerror(status));
+  if (status != 0 || !found) throw std::runtime_error("cannot listen on '" + host + "': " + ::gai_strerror(status));
   address = reinterpret_cast<sockaddr_in*>(found->ai_addr)->sin_addr;
   ::freeaddrinfo(found);
   return address;
@@ -90,7 +89,7 @@ struct Connection {
   std::string peer;     ///< "IP:PORT"
   std::string peer_ip;  ///< for max_pending_per_peer
   protocol::FrameReader reader;
-  std::string outgoing;  ///< encoded frames not yet written ...
+  std::string outgoing;     ///< encoded frames not yet written ...
   std::size_t written = 0;  ///< ... of which this many bytes are out
   bool waiting_for_writable = false;
   Session session;
@@ -113,12 +112,14 @@ struct Connection {
 struct Manager::Impl {
   explicit Impl(ManagerOptions o)
       : options(std::move(o)),
-        definitions(options.message_definition_dirs,
-                    options.generated_definition_dir.empty() ? default_generated_dir() : options.generated_definition_dir,
-                    options.limits),
+        definitions(
+            options.message_definition_dirs,
+            options.generated_definition_dir.empty() ? default_generated_dir() : options.generated_definition_dir,
+            options.limits),
         registry(definitions, options.limits),
         dispatcher(registry, definitions, std::string("ln_core ") + LN_MANAGER_VERSION, options.log),
-        loggers(registry, definitions, [this](Loggers::Task task) { post(std::move(task)); }, options.log) {
+        loggers(
+            registry, definitions, [this](Loggers::Task task) { post(std::move(task)); }, options.log) {
     dispatcher.serve_loggers(loggers);
   }
 
@@ -168,7 +169,8 @@ struct Manager::Impl {
     log(LogLevel::Info, "instance '" + options.instance_name + "' listening on " + endpoint_text(address));
     std::string dirs;
     for (const auto& dir : definitions.search_dirs()) dirs += (dirs.empty() ? "" : ", ") + dir;
-    log(LogLevel::Info, "message-definition search path: " + (dirs.empty() ? std::string("(no existing directory)") : dirs));
+    log(LogLevel::Info,
+        "message-definition search path: " + (dirs.empty() ? std::string("(no existing directory)") : dirs));
     log(LogLevel::Info, "put_message_definition stores into " + definitions.generated_dir());
     start_processes(address);
   }
@@ -215,7 +217,8 @@ struct Manager::Impl {
       // have deadlines; while listening is paused (out of descriptors),
       // look again soon.
       int timeout_ms = -1;
-      if (!backlogged.empty()) timeout_ms = 0;
+      if (!backlogged.empty())
+        timeout_ms = 0;
       else if (listening_paused || !pending.empty())
         timeout_ms = static_cast<int>(pending_check_interval.count());
       const int count = ::epoll_wait(epoll_fd, events.data(), static_cast<int>(events.size()), timeout_ms);
@@ -308,12 +311,13 @@ struct Manager::Impl {
     for (;;) {
       sockaddr_in address{};
       socklen_t size = sizeof address;
-      const int fd =
-          ::accept4(listen_fd, reinterpret_cast<sockaddr*>(&address), &size, SOCK_NONBLOCK | SOCK_CLOEXEC);
+      const int fd = ::accept4(listen_fd, reinterpret_cast<sockaddr*>(&address), &size, SOCK_NONBLOCK | SOCK_CLOEXEC);
       if (fd < 0) {
         if (errno == EINTR || errno == ECONNABORTED) continue;
-        if (errno == EMFILE || errno == ENFILE) shed_connection_without_descriptor();
-        else if (errno != EAGAIN && errno != EWOULDBLOCK) log(LogLevel::Warning, errno_text("accept failed"));
+        if (errno == EMFILE || errno == ENFILE)
+          shed_connection_without_descriptor();
+        else if (errno != EAGAIN && errno != EWOULDBLOCK)
+          log(LogLevel::Warning, errno_text("accept failed"));
         return;
       }
       const std::string peer = endpoint_text(address);
@@ -375,8 +379,10 @@ struct Manager::Impl {
       closed_any |= close_oldest(nullptr, "the oldest of " + std::to_string(options.limits.max_pending) +
                                               " connections that did not register (max_pending)");
     if (connections.size() >= options.limits.max_clients)
-      closed_any |= close_oldest(nullptr, "the oldest connection that did not register, to make room for a new one "
-                                          "(max_clients " + std::to_string(options.limits.max_clients) + ")");
+      closed_any |= close_oldest(nullptr,
+                                 "the oldest connection that did not register, to make room for a new one "
+                                 "(max_clients " +
+                                     std::to_string(options.limits.max_clients) + ")");
     if (closed_any) close_doomed_connections();
   }
 
@@ -398,11 +404,13 @@ struct Manager::Impl {
       Connection& connection = *connections.at(*it++);  // doom() takes it out of `pending`
       if (connection.doomed) continue;
       if (now - connection.accepted_at > handshake)
-        doom(connection, LogLevel::Warning, "did not register within " + shortest_text(options.limits.handshake_timeout) +
-                                                " s (handshake_timeout); closed");
+        doom(connection, LogLevel::Warning,
+             "did not register within " + shortest_text(options.limits.handshake_timeout) +
+                 " s (handshake_timeout); closed");
       else if (now - connection.last_received > idle)
-        doom(connection, LogLevel::Warning, "sent nothing for " + shortest_text(options.limits.pending_idle_timeout) +
-                                                " s without registering (pending_idle_timeout); closed");
+        doom(connection, LogLevel::Warning,
+             "sent nothing for " + shortest_text(options.limits.pending_idle_timeout) +
+                 " s without registering (pending_idle_timeout); closed");
     }
   }
 
@@ -415,8 +423,8 @@ struct Manager::Impl {
       const int fd = ::accept4(listen_fd, nullptr, nullptr, SOCK_CLOEXEC);
       if (fd >= 0) ::close(fd);
       spare_fd = ::open("/dev/null", O_RDONLY | O_CLOEXEC);
-      log(LogLevel::Warning, "out of file descriptors (" + std::to_string(connections.size()) +
-                                 " connections): refused a new connection");
+      log(LogLevel::Warning,
+          "out of file descriptors (" + std::to_string(connections.size()) + " connections): refused a new connection");
       if (spare_fd >= 0) return;
     }
     log(LogLevel::Warning, "out of file descriptors: not accepting connections for a moment");
@@ -449,7 +457,8 @@ struct Manager::Impl {
     try {
       connection.reader.append(receive_buffer.data(), static_cast<std::size_t>(count));
     } catch (const protocol::ProtocolError& e) {
-      return doom(connection, LogLevel::Warning, "sent a malformed message (" + std::string(e.what()) + "); disconnected");
+      return doom(connection, LogLevel::Warning,
+                  "sent a malformed message (" + std::string(e.what()) + "); disconnected");
     }
     handle_turn(connection);
   }
@@ -479,10 +488,11 @@ struct Manager::Impl {
     // What is left is at most one incomplete request (plus a backlog).
     const std::size_t limit = connection.session.client ? options.limits.max_request_size : max_pending_input;
     if (!connection.backlogged && connection.reader.buffered() > limit)
-      return doom(connection, LogLevel::Warning,
-                  connection.session.client
-                      ? "sent a message larger than " + std::to_string(limit) + " bytes (max_request_size); disconnected"
-                      : "sent more than " + std::to_string(limit) + " bytes without registering; disconnected");
+      return doom(
+          connection, LogLevel::Warning,
+          connection.session.client
+              ? "sent a message larger than " + std::to_string(limit) + " bytes (max_request_size); disconnected"
+              : "sent more than " + std::to_string(limit) + " bytes without registering; disconnected");
     if (connection.reader.buffered() == 0) connection.reader.release_memory();
     count_input(connection);
   }
@@ -510,8 +520,10 @@ struct Manager::Impl {
     for (auto& [fd, other] : connections)
       if (!other->doomed && other->counted_input > largest->counted_input) largest = other.get();
     doom(*largest, LogLevel::Warning,
-         "holds " + byte_text(largest->counted_input) + " of partly received requests, the most while all connections "
-         "together hold more than " + byte_text(options.limits.max_total_input) + " (max_total_input); disconnected");
+         "holds " + byte_text(largest->counted_input) +
+             " of partly received requests, the most while all connections "
+             "together hold more than " +
+             byte_text(options.limits.max_total_input) + " (max_total_input); disconnected");
   }
 
   void handle(Connection& connection, const protocol::Message& message) {
@@ -531,8 +543,8 @@ struct Manager::Impl {
     const protocol::Message response = dispatcher.handle(connection.session, message, out, options.log);
     if (Dispatcher::is_deferred(response)) return deliver(out);  // answered through post() later
     if (response.is_error())
-      log(LogLevel::Debug, describe(connection) + ": '" + message.get_string_or("method", "") +
-                               "' refused: " + response.error_text());
+      log(LogLevel::Debug,
+          describe(connection) + ": '" + message.get_string_or("method", "") + "' refused: " + response.error_text());
     if (connection.session.client != before) {
       if (before) by_client.erase(*before);
       if (connection.session.client) {
@@ -596,15 +608,18 @@ struct Manager::Impl {
       if (!other->doomed && (!largest || other->unsent() > largest->unsent())) largest = other.get();
     if (largest == nullptr) return;
     doom(*largest, LogLevel::Warning,
-         "does not read what the manager sends (" + byte_text(largest->unsent()) + " pending, the most while all clients "
-         "together have more than " + byte_text(options.limits.max_total_output) + " pending, max_total_output); "
-         "disconnected");
+         "does not read what the manager sends (" + byte_text(largest->unsent()) +
+             " pending, the most while all clients "
+             "together have more than " +
+             byte_text(options.limits.max_total_output) +
+             " pending, max_total_output); "
+             "disconnected");
   }
 
   void flush(Connection& connection) {
     while (connection.unsent() > 0) {
-      const ssize_t count = ::send(connection.fd, connection.outgoing.data() + connection.written,
-                                   connection.unsent(), MSG_NOSIGNAL | MSG_DONTWAIT);
+      const ssize_t count = ::send(connection.fd, connection.outgoing.data() + connection.written, connection.unsent(),
+                                   MSG_NOSIGNAL | MSG_DONTWAIT);
       if (count < 0) {
         if (errno == EINTR) continue;
         if (errno == EAGAIN || errno == EWOULDBLOCK) break;
@@ -699,10 +714,10 @@ struct Manager::Impl {
   std::map<int, std::unique_ptr<Connection>> connections;
   std::map<Id, Connection*> by_client;
   std::vector<int> doomed;
-  std::list<int> pending;  ///< unregistered connections, oldest first
+  std::list<int> pending;                               ///< unregistered connections, oldest first
   std::map<std::string, std::size_t> pending_per_peer;  ///< by IP address
   Clock::time_point next_pending_check{};
-  std::vector<int> backlogged;  ///< connections with requests left for the next round
+  std::vector<int> backlogged;   ///< connections with requests left for the next round
   std::size_t total_input = 0;   ///< partly received requests, all connections
   std::size_t total_output = 0;  ///< unsent messages, all connections
   std::array<char, 64 * 1024> receive_buffer{};

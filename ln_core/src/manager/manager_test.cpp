@@ -16,7 +16,6 @@ using protocol::StringList;
 
 class ManagerTest : public ::testing::Test {
  protected:
-
   std::unique_ptr<TestClient> client(const std::string& name, const std::function<void(Message&)>& fill = {}) {
     auto c = std::make_unique<TestClient>(manager.port());
     const Message response = c->hello(name, fill);
@@ -30,9 +29,8 @@ class ManagerTest : public ::testing::Test {
   }
 
   static Message publish(TestClient& c, const std::string& topic, const std::string& md, std::int64_t buffers = 2) {
-    return c.call("publish", [&](Message& m) {
-      m.set("topic", topic).set("message_definition", md).set("buffers", buffers);
-    });
+    return c.call("publish",
+                  [&](Message& m) { m.set("topic", topic).set("message_definition", md).set("buffers", buffers); });
   }
 
   static Message subscribe(TestClient& c, const std::string& topic, const std::string& md,
@@ -56,11 +54,11 @@ class ManagerTest : public ::testing::Test {
   RunningManager manager{dir};
 };
 
-#define EXPECT_ERROR(response, code, text)                                                    \
-  do {                                                                                        \
-    const Message& r_ = (response);                                                           \
-    EXPECT_TRUE(r_.is_error());                                                               \
-    EXPECT_EQ(r_.error_code(), code) << r_.error_text();                                      \
+#define EXPECT_ERROR(response, code, text)                                                         \
+  do {                                                                                             \
+    const Message& r_ = (response);                                                                \
+    EXPECT_TRUE(r_.is_error());                                                                    \
+    EXPECT_EQ(r_.error_code(), code) << r_.error_text();                                           \
     EXPECT_NE(r_.error_text().find(text), std::string::npos) << "error text: " << r_.error_text(); \
   } while (0)
 
@@ -148,8 +146,8 @@ TEST_F(ManagerTest, GetMessageDefinitionChecksAPinnedHash) {
 
 TEST_F(ManagerTest, UnknownDefinitionErrorListsTheSearchDirectories) {
   auto c = client("reader");
-  EXPECT_ERROR(c->call("get_message_definition", [](Message& m) { m.set("name", "mt/missing"); }),
-               LNE_REQUEST_FAILED, dir.path() + "/md");
+  EXPECT_ERROR(c->call("get_message_definition", [](Message& m) { m.set("name", "mt/missing"); }), LNE_REQUEST_FAILED,
+               dir.path() + "/md");
 }
 
 TEST_F(ManagerTest, DefinitionNamesCannotReachFilesByPath) {
@@ -163,7 +161,8 @@ TEST_F(ManagerTest, DefinitionNamesCannotReachFilesByPath) {
 TEST_F(ManagerTest, PutMessageDefinitionStoresValidatedTextInTheGeneratedDir) {
   auto c = client("writer");
   const std::string text = "uint16_t width\nuint16_t height\n";
-  const Message r = c->call("put_message_definition", [&](Message& m) { m.set("name", "gen_test/size").set("text", text); });
+  const Message r =
+      c->call("put_message_definition", [&](Message& m) { m.set("name", "gen_test/size").set("text", text); });
   ASSERT_FALSE(r.is_error()) << r.error_text();
   EXPECT_EQ(r.get_string("name"), "gen_test/size");
   EXPECT_EQ(r.get_string("hash").size(), 64u);
@@ -180,17 +179,18 @@ TEST_F(ManagerTest, PutMessageDefinitionStoresValidatedTextInTheGeneratedDir) {
   EXPECT_EQ(c->call("put_message_definition", [&](Message& m) { m.set("name", "gen_test/size").set("text", text); })
                 .get_string("hash"),
             r.get_string("hash"));
-  const Message replaced = c->call("put_message_definition", [&](Message& m) {
-    m.set("name", "gen_test/size").set("text", "uint32_t width\n");
-  });
+  const Message replaced = c->call("put_message_definition",
+                                   [&](Message& m) { m.set("name", "gen_test/size").set("text", "uint32_t width\n"); });
   ASSERT_FALSE(replaced.is_error()) << replaced.error_text();
   EXPECT_NE(replaced.get_string("hash"), r.get_string("hash"));
-  EXPECT_EQ(c->call("get_message_definition", [](Message& m) { m.set("name", "gen_test/size"); }).get_int("message_size"), 4);
+  EXPECT_EQ(
+      c->call("get_message_definition", [](Message& m) { m.set("name", "gen_test/size"); }).get_int("message_size"), 4);
 }
 
 TEST_F(ManagerTest, PutMessageDefinitionRefusesBadTextAndNames) {
   auto c = client("writer");
-  EXPECT_ERROR(c->call("put_message_definition", [](Message& m) { m.set("name", "gen_test/bad").set("text", "no_such_type x\n"); }),
+  EXPECT_ERROR(c->call("put_message_definition",
+                       [](Message& m) { m.set("name", "gen_test/bad").set("text", "no_such_type x\n"); }),
                LNE_INVALID_PARAMETER, "invalid message definition 'gen_test/bad'");
   EXPECT_FALSE(dir.exists("gen/gen_test/bad"));
   for (const char* name : {"../escape", "/tmp/escape", "a/../../escape", ""})
@@ -201,8 +201,9 @@ TEST_F(ManagerTest, PutMessageDefinitionRefusesBadTextAndNames) {
 
 TEST_F(ManagerTest, PutMessageDefinitionNeverShadowsAnExistingDefinition) {
   auto c = client("writer");
-  EXPECT_ERROR(c->call("put_message_definition", [](Message& m) { m.set("name", "mt/point").set("text", "float x\n"); }),
-               LNE_REQUEST_FAILED, "already exists");
+  EXPECT_ERROR(
+      c->call("put_message_definition", [](Message& m) { m.set("name", "mt/point").set("text", "float x\n"); }),
+      LNE_REQUEST_FAILED, "already exists");
   const Message same = c->call("put_message_definition", [](Message& m) {
     m.set("name", "mt/point").set("text", "double x\ndouble y\ndouble z\n");
   });
@@ -212,11 +213,13 @@ TEST_F(ManagerTest, PutMessageDefinitionNeverShadowsAnExistingDefinition) {
 
 TEST_F(ManagerTest, PutMessageDefinitionKeepsDefinitionsThatTopicsUse) {
   auto c = client("writer");
-  ASSERT_FALSE(c->call("put_message_definition", [](Message& m) { m.set("name", "gen_test/live").set("text", "double a\n"); })
-                   .is_error());
+  ASSERT_FALSE(c->call("put_message_definition", [](Message& m) {
+                  m.set("name", "gen_test/live").set("text", "double a\n");
+                }).is_error());
   ASSERT_FALSE(publish(*c, "live.topic", "gen_test/live").is_error());
-  EXPECT_ERROR(c->call("put_message_definition", [](Message& m) { m.set("name", "gen_test/live").set("text", "float a\n"); }),
-               LNE_REQUEST_FAILED, "in use");
+  EXPECT_ERROR(
+      c->call("put_message_definition", [](Message& m) { m.set("name", "gen_test/live").set("text", "float a\n"); }),
+      LNE_REQUEST_FAILED, "in use");
 }
 
 TEST_F(ManagerTest, GetMessageDefinitionForTopic) {
@@ -283,7 +286,8 @@ TEST_F(ManagerTest, DefinitionMismatchIsRefusedWithLnsText) {
 
 TEST_F(ManagerTest, SubscribeBeforePublishThenPublisherAvailableOnReady) {
   auto sub = client("subscriber");
-  auto pub = client("publisher", [](Message& m) { m.set("peer_socket", "@pub-socket").set("peer_address", "127.0.0.1:999"); });
+  auto pub =
+      client("publisher", [](Message& m) { m.set("peer_socket", "@pub-socket").set("peer_address", "127.0.0.1:999"); });
   const Message s = subscribe(*sub, "robot.point", "mt/point");
   ASSERT_FALSE(s.is_error()) << s.error_text();
   EXPECT_EQ(s.get_int("message_size"), 24);
@@ -302,9 +306,9 @@ TEST_F(ManagerTest, SubscribeBeforePublishThenPublisherAvailableOnReady) {
   EXPECT_EQ(changed.get_list("local"), (StringList{std::to_string(s.get_int("subscription_id"))}));
   EXPECT_TRUE(sub->no_notification_within(50ms)) << "nobody is told before publisher_ready";
 
-  ASSERT_FALSE(pub->call("publisher_ready", [&](Message& m) {
-                      m.set("topic_id", p.get_int("topic_id")).set("segment_generation", 1);
-                    }).is_error());
+  ASSERT_FALSE(pub->call("publisher_ready",
+                         [&](Message& m) { m.set("topic_id", p.get_int("topic_id")).set("segment_generation", 1); })
+                   .is_error());
   const Message available = sub->wait_notification("publisher_available");
   EXPECT_EQ(available.get_int("subscription_id"), s.get_int("subscription_id"));
   EXPECT_EQ(available.get_int("topic_id"), s.get_int("topic_id"));
@@ -353,7 +357,8 @@ TEST_F(ManagerTest, SubscribeChecksItsParameters) {
   EXPECT_ERROR(subscribe(*c, "unknown.topic", ""), LNE_PORT_NOT_FOUND, "not known yet");
   EXPECT_ERROR(subscribe(*c, "t", "mt/point", [](Message& m) { m.set("rate", 0.0); }), LNE_INVALID_PARAMETER, "rate");
   EXPECT_ERROR(subscribe(*c, "t", "mt/point", [](Message& m) { m.set("rate", -4.0); }), LNE_INVALID_PARAMETER, "rate");
-  EXPECT_ERROR(subscribe(*c, "t", "mt/point", [](Message& m) { m.set("buffers", 0); }), LNE_INVALID_PARAMETER, "buffers");
+  EXPECT_ERROR(subscribe(*c, "t", "mt/point", [](Message& m) { m.set("buffers", 0); }), LNE_INVALID_PARAMETER,
+               "buffers");
   EXPECT_ERROR(subscribe(*c, "t", "mt/dyn"), LNE_INVALID_PARAMETER, "dynamic");
   EXPECT_ERROR(subscribe(*c, "t", "mt/point", [](Message& m) { m.set("reliable", "yes"); }), LNE_INVALID_PARAMETER,
                "'reliable' is a string");
@@ -366,9 +371,9 @@ TEST_F(ManagerTest, UnsubscribeAndUnpublishNotifyAndForgetTheTopic) {
   auto sub = client("subscriber");
   const Message p = publish(*pub, "robot.point", "mt/point");
   pub->wait_notification("subscribers_changed");
-  ASSERT_FALSE(pub->call("publisher_ready", [&](Message& m) {
-                      m.set("topic_id", p.get_int("topic_id")).set("segment_generation", 0);
-                    }).is_error());
+  ASSERT_FALSE(pub->call("publisher_ready",
+                         [&](Message& m) { m.set("topic_id", p.get_int("topic_id")).set("segment_generation", 0); })
+                   .is_error());
   const Message s = subscribe(*sub, "robot.point", "mt/point");
   EXPECT_EQ(pub->wait_notification("subscribers_changed").get_int("subscribers"), 1);
 
@@ -376,14 +381,14 @@ TEST_F(ManagerTest, UnsubscribeAndUnpublishNotifyAndForgetTheTopic) {
                "no subscription");
   EXPECT_ERROR(pub->call("unsubscribe", [&](Message& m) { m.set("subscription_id", s.get_int("subscription_id")); }),
                LNE_PORT_NOT_FOUND, "no subscription");
-  ASSERT_FALSE(sub->call("unsubscribe", [&](Message& m) { m.set("subscription_id", s.get_int("subscription_id")); })
-                   .is_error());
+  ASSERT_FALSE(
+      sub->call("unsubscribe", [&](Message& m) { m.set("subscription_id", s.get_int("subscription_id")); }).is_error());
   EXPECT_EQ(pub->wait_notification("subscribers_changed").get_int("subscribers"), 0);
 
   const Message s2 = subscribe(*sub, "robot.point", "mt/point");
   pub->wait_notification("subscribers_changed");
-  EXPECT_ERROR(sub->call("unpublish", [&](Message& m) { m.set("topic_id", p.get_int("topic_id")); }), LNE_PORT_NOT_FOUND,
-               "do not publish");
+  EXPECT_ERROR(sub->call("unpublish", [&](Message& m) { m.set("topic_id", p.get_int("topic_id")); }),
+               LNE_PORT_NOT_FOUND, "do not publish");
   ASSERT_FALSE(pub->call("unpublish", [&](Message& m) { m.set("topic_id", p.get_int("topic_id")); }).is_error());
   const Message gone = sub->wait_notification("publisher_gone");
   EXPECT_EQ(gone.get_int("subscription_id"), s2.get_int("subscription_id"));
@@ -400,13 +405,11 @@ TEST_F(ManagerTest, PublisherReadyOnlyForOwnTopics) {
   auto pub = client("publisher");
   auto other = client("other");
   const Message p = publish(*pub, "robot.point", "mt/point");
-  EXPECT_ERROR(other->call("publisher_ready", [&](Message& m) {
-                 m.set("topic_id", p.get_int("topic_id")).set("segment_generation", 1);
-               }),
+  EXPECT_ERROR(other->call("publisher_ready",
+                           [&](Message& m) { m.set("topic_id", p.get_int("topic_id")).set("segment_generation", 1); }),
                LNE_PORT_NOT_FOUND, "do not publish");
-  EXPECT_ERROR(pub->call("publisher_ready", [&](Message& m) {
-                 m.set("topic_id", p.get_int("topic_id")).set("segment_generation", -1);
-               }),
+  EXPECT_ERROR(pub->call("publisher_ready",
+                         [&](Message& m) { m.set("topic_id", p.get_int("topic_id")).set("segment_generation", -1); }),
                LNE_INVALID_PARAMETER, "segment_generation");
 }
 
@@ -415,9 +418,9 @@ TEST_F(ManagerTest, DisconnectReleasesEverythingAndNotifiesTheOthers) {
   auto sub = client("subscriber");
   auto watcher = client("watcher");
   const Message p = publish(*pub, "robot.point", "mt/point");
-  ASSERT_FALSE(pub->call("publisher_ready", [&](Message& m) {
-                      m.set("topic_id", p.get_int("topic_id")).set("segment_generation", 1);
-                    }).is_error());
+  ASSERT_FALSE(pub->call("publisher_ready",
+                         [&](Message& m) { m.set("topic_id", p.get_int("topic_id")).set("segment_generation", 1); })
+                   .is_error());
   ASSERT_FALSE(subscribe(*sub, "robot.point", "mt/point").is_error());
   ASSERT_FALSE(subscribe(*pub, "other.topic", "mt/other").is_error());
   ASSERT_FALSE(publish(*sub, "other.topic", "mt/other").is_error());
@@ -462,7 +465,8 @@ TEST_F(ManagerTest, RegisterServiceIsAnnouncedAndUnique) {
 }
 
 TEST_F(ManagerTest, LookupServiceChecksInterfaceAndSignature) {
-  auto provider = client("provider", [](Message& m) { m.set("peer_socket", "@svc").set("peer_address", "127.0.0.1:5"); });
+  auto provider =
+      client("provider", [](Message& m) { m.set("peer_socket", "@svc").set("peer_address", "127.0.0.1:5"); });
   auto caller = client("caller");
   const std::string signature = "int32_t 4 1,int32_t 4 1|int32_t 4 1";
   const Message r = register_service(*provider, "calc.add", "mt/add|" + hash_of("mt/add"), signature);
@@ -477,25 +481,29 @@ TEST_F(ManagerTest, LookupServiceChecksInterfaceAndSignature) {
   EXPECT_EQ(found.get_string("peer_socket"), "@svc");
   EXPECT_EQ(found.get_string("peer_address"), "127.0.0.1:5");
   EXPECT_EQ(found.get_int("service_id"), r.get_int("service_id"));
-  EXPECT_FALSE(caller->call("lookup_service", [](Message& m) {
-                 m.set("name", "calc.add").set("interface", "").set("signature", "");
-               }).is_error());
+  EXPECT_FALSE(caller
+                   ->call("lookup_service",
+                          [](Message& m) { m.set("name", "calc.add").set("interface", "").set("signature", ""); })
+                   .is_error());
 
-  EXPECT_ERROR(caller->call("lookup_service", [&](Message& m) {
-                 m.set("name", "calc.nothing").set("interface", "").set("signature", "");
-               }),
-               LNE_NO_PROVIDER_FOUND, "no client provides service 'calc.nothing'");
-  EXPECT_ERROR(caller->call("lookup_service", [&](Message& m) {
-                 m.set("name", "calc.add").set("interface", "mt/echo").set("signature", signature);
-               }),
+  EXPECT_ERROR(
+      caller->call("lookup_service",
+                   [&](Message& m) { m.set("name", "calc.nothing").set("interface", "").set("signature", ""); }),
+      LNE_NO_PROVIDER_FOUND, "no client provides service 'calc.nothing'");
+  EXPECT_ERROR(caller->call("lookup_service",
+                            [&](Message& m) {
+                              m.set("name", "calc.add").set("interface", "mt/echo").set("signature", signature);
+                            }),
                LNE_REQUEST_FAILED, "has interface 'mt/add', not the requested 'mt/echo'");
-  EXPECT_ERROR(caller->call("lookup_service", [&](Message& m) {
-                 m.set("name", "calc.add").set("interface", "mt/add|abc").set("signature", signature);
-               }),
+  EXPECT_ERROR(caller->call("lookup_service",
+                            [&](Message& m) {
+                              m.set("name", "calc.add").set("interface", "mt/add|abc").set("signature", signature);
+                            }),
                LNE_WRONG_MD_HASH, "abc");
-  EXPECT_ERROR(caller->call("lookup_service", [&](Message& m) {
-                 m.set("name", "calc.add").set("interface", "mt/add").set("signature", "int32_t 4 1|");
-               }),
+  EXPECT_ERROR(caller->call("lookup_service",
+                            [&](Message& m) {
+                              m.set("name", "calc.add").set("interface", "mt/add").set("signature", "int32_t 4 1|");
+                            }),
                LNE_REQUEST_FAILED, "different versions");
 }
 

@@ -6,8 +6,8 @@ namespace ln::manager {
 namespace {
 
 bool is_allowed_port_name_char(char c) {
-  return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
-         c == '.' || c == ':' || c == '-' || c == ' ';
+  return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '.' ||
+         c == ':' || c == '-' || c == ' ';
 }
 
 std::string quoted(std::string_view name) {
@@ -48,7 +48,8 @@ std::optional<std::string> client_name_problem(std::string_view name) {
     return "client name is " + std::to_string(name.size()) + " bytes long; the limit is " +
            std::to_string(max_client_name_size);
   for (char c : name)
-    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) return "client name " + quoted(name) + " contains control characters";
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f)
+      return "client name " + quoted(name) + " contains control characters";
   return std::nullopt;
 }
 
@@ -65,8 +66,7 @@ std::optional<std::string> definition_name_problem(std::string_view name) {
   return std::nullopt;
 }
 
-std::string unique_client_name(const std::string& requested,
-                               const std::function<bool(const std::string&)>& is_taken) {
+std::string unique_client_name(const std::string& requested, const std::function<bool(const std::string&)>& is_taken) {
   if (!is_taken(requested)) return requested;
   for (unsigned long counter = 1;; ++counter) {
     std::string candidate = requested + " " + std::to_string(counter);

@@ -28,8 +28,7 @@ std::optional<std::string> definition_name_problem(std::string_view name);
 
 /// `requested` if `is_taken` says it is free, else the first free
 /// "requested 1", "requested 2", ... (LN's renaming rule).
-std::string unique_client_name(const std::string& requested,
-                               const std::function<bool(const std::string&)>& is_taken);
+std::string unique_client_name(const std::string& requested, const std::function<bool(const std::string&)>& is_taken);
 
 /// Splits "name|hash" into name and hash ("" when there is none).
 std::pair<std::string, std::string> split_name_and_hash(std::string_view name_with_hash);

@@ -8,8 +8,8 @@ namespace ln::manager {
 namespace {
 
 TEST(Names, AcceptsTopicNamesOfTheProposedRuleSet) {
-  for (const char* name : {"a", "elevator03.sensors", "robot.joint_states", "ns:topic-1", "legacy name.x",
-                           "A.B.C.d_e-f:g"})
+  for (const char* name :
+       {"a", "elevator03.sensors", "robot.joint_states", "ns:topic-1", "legacy name.x", "A.B.C.d_e-f:g"})
     EXPECT_FALSE(topic_name_problem(name)) << name;
   EXPECT_FALSE(topic_name_problem(std::string(127, 'x')));
 }

@@ -97,9 +97,9 @@ struct ProcessControl::Impl {
     Clock::time_point requested_at{}, started_at{}, stopped_at{}, failed_at{};
     std::optional<Clock::time_point> ready_at, kill_at, restart_at;
     unsigned restarts = 0, quick_failures = 0;
-    bool restarting = false;  // the pending start is an automatic restart
-    bool passive = false;     // waits for its dependencies to come back, starts none
-    bool adopted = false;     // started by an earlier manager: no exit status
+    bool restarting = false;                      // the pending start is an automatic restart
+    bool passive = false;                         // waits for its dependencies to come back, starts none
+    bool adopted = false;                         // started by an earlier manager: no exit status
     std::vector<std::string> dependents;          // depends_on or depends_on_restart this
     std::vector<std::string> restart_dependents;  // depends_on_restart this
 
@@ -128,14 +128,16 @@ struct ProcessControl::Impl {
       : options(std::move(o)), launch{options.manager_address, options.definition_dirs, options.library_dir} {
     epoll_fd = ::epoll_create1(EPOLL_CLOEXEC);
     timer_fd = ::timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
-    if (epoll_fd < 0 || timer_fd < 0) throw std::runtime_error("cannot create the process control's descriptors: " + std::string(std::strerror(errno)));
+    if (epoll_fd < 0 || timer_fd < 0)
+      throw std::runtime_error("cannot create the process control's descriptors: " + std::string(std::strerror(errno)));
     watch(timer_fd);
     for (const auto& p : config.processes) {
       auto process = std::make_unique<Process>(p);
       if (!p.ready_regex.empty()) process->ready_regex.emplace(p.ready_regex);
       if (!p.warning_regex.empty()) process->warning_regex.emplace(p.warning_regex);
       if (!p.output_logfile.empty())
-        process->log = std::make_unique<OutputLog>(p.output_logfile, p.output_logfile_size_limit, p.output_logfile_keep_count);
+        process->log =
+            std::make_unique<OutputLog>(p.output_logfile, p.output_logfile_size_limit, p.output_logfile_keep_count);
       processes[p.name] = std::move(process);
       process_order.push_back(p.name);
     }
@@ -199,7 +201,8 @@ struct ProcessControl::Impl {
       p->phase = Process::Phase::Running;
       p->ready = k.ready || !p->config.has_ready_condition();
       p->adopted = true;
-      p->started_at = Clock::now() - std::chrono::duration_cast<Clock::duration>(Seconds(seconds_since_start(k.start_ticks)));
+      p->started_at =
+          Clock::now() - std::chrono::duration_cast<Clock::duration>(Seconds(seconds_since_start(k.start_ticks)));
       for (const auto& line : k.output) p->output.append(line + "\n", [&](const std::string& l) { write_log(*p, l); });
       note(*p, "adopted (pid " + std::to_string(k.pid) + ") from the previous manager of the instance");
       log(LogLevel::Info, "adopted '" + k.name + "' (pid " + std::to_string(k.pid) + ") from the previous manager");
@@ -311,7 +314,8 @@ struct ProcessControl::Impl {
     if (!alt_command.empty()) {
       const auto& alts = p.config.alt_commands;
       if (std::none_of(alts.begin(), alts.end(), [&](const auto& a) { return a.first == alt_command; }))
-        throw RequestError(LNE_INVALID_PARAMETER, "process '" + p.config.name + "' has no alt_command '" + alt_command + "'");
+        throw RequestError(LNE_INVALID_PARAMETER,
+                           "process '" + p.config.name + "' has no alt_command '" + alt_command + "'");
     }
     if (action == "start") {
       if (!alt_command.empty()) p.alt_command = alt_command;
@@ -324,8 +328,10 @@ struct ProcessControl::Impl {
       if (p.config.has_flag("disable_stop") && p.phase != Process::Phase::Stopped)
         throw RequestError(LNE_REQUEST_FAILED, "process '" + p.config.name + "' has the flag disable_stop");
       if (!alt_command.empty()) p.alt_command = alt_command;
-      if (p.phase == Process::Phase::Stopped) want_up(p);
-      else want_down(p, true);
+      if (p.phase == Process::Phase::Stopped)
+        want_up(p);
+      else
+        want_down(p, true);
     } else {
       throw RequestError(LNE_INVALID_PARAMETER, "a process can start, stop or restart, not '" + action + "'");
     }
@@ -356,10 +362,14 @@ struct ProcessControl::Impl {
           log(LogLevel::Info, "group '" + group.name + "': not stopping '" + member + "' (flag disable_stop)");
           continue;
         }
-        if (action == "start") want_up(*p);
-        else if (action == "restart" && p->phase != Process::Phase::Stopped) want_down(*p, true);
-        else if (action == "restart") want_up(*p);
-        else want_down(*p, false);
+        if (action == "start")
+          want_up(*p);
+        else if (action == "restart" && p->phase != Process::Phase::Stopped)
+          want_down(*p, true);
+        else if (action == "restart")
+          want_up(*p);
+        else
+          want_down(*p, false);
       } else if (State* s = find_state(member); s && action == "start") {
         want_state(*s, Goal::Up);  // a group stop leaves its states as they are
       }
@@ -471,8 +481,10 @@ struct ProcessControl::Impl {
   }
 
   void step(Process& p) {
-    if (p.goal == Goal::Up) step_up(p);
-    else if (p.goal == Goal::Down) step_down(p);
+    if (p.goal == Goal::Up)
+      step_up(p);
+    else if (p.goal == Goal::Down)
+      step_down(p);
   }
 
   void step_up(Process& p) {
@@ -490,8 +502,7 @@ struct ProcessControl::Impl {
       return;
     }
     if (p.restart_at && Clock::now() < *p.restart_at) return;
-    if (p.config.command.empty() && p.alt_command.empty())
-      return fail(p, "cannot start: it has no command");
+    if (p.config.command.empty() && p.alt_command.empty()) return fail(p, "cannot start: it has no command");
     if (!p.config.remote_host.empty())
       return fail(p, "cannot start: it runs on node '" + p.config.node + "' (host '" + p.config.remote_host +
                          "'); ln_core's manager runs processes on its own host only (no remote daemons)");
@@ -567,8 +578,8 @@ struct ProcessControl::Impl {
   static bool fresh(const State& s, Clock::time_point since) {
     if (s.value == State::Value::Unknown) return false;
     if (s.config.check.empty()) return true;
-    return s.checked_at && (*s.checked_at >= since ||
-                            Seconds(Clock::now() - *s.checked_at).count() < s.config.min_check_interval);
+    return s.checked_at &&
+           (*s.checked_at >= since || Seconds(Clock::now() - *s.checked_at).count() < s.config.min_check_interval);
   }
 
   void step_down(Process& p) {
@@ -614,8 +625,8 @@ struct ProcessControl::Impl {
     p.phase = Process::Phase::Stopping;
     const int signal = p.config.term_timeout > 0 ? p.config.term_signal : SIGKILL;
     ::kill(-p.child.pid, signal);
-    log(LogLevel::Info, "stopping '" + p.config.name + "' (pid " + std::to_string(p.child.pid) + ", " +
-                            signal_name(signal) + ")");
+    log(LogLevel::Info,
+        "stopping '" + p.config.name + "' (pid " + std::to_string(p.child.pid) + ", " + signal_name(signal) + ")");
     if (p.config.term_timeout > 0) p.kill_at = after(p.config.term_timeout);
     mark_changed();
   }
@@ -663,8 +674,10 @@ struct ProcessControl::Impl {
       log(LogLevel::Warning, "process '" + p.config.name + "': " + warning);
       note(p, "warning: " + warning);
     }
-    if (!p.config.has_ready_condition()) become_ready(p, "");
-    else if (p.config.ready_time) p.ready_at = after(*p.config.ready_time);
+    if (!p.config.has_ready_condition())
+      become_ready(p, "");
+    else if (p.config.ready_time)
+      p.ready_at = after(*p.config.ready_time);
     keep(p);
     mark_changed();
   }
@@ -674,7 +687,8 @@ struct ProcessControl::Impl {
     p.ready = true;
     p.ready_at.reset();
     if (p.config.has_ready_condition()) log(LogLevel::Info, "'" + p.config.name + "' is ready" + why);
-    for (const auto& dependency : p.config.start_on_ready) request_dependency(dependency, "start_on_ready of '" + p.config.name + "'");
+    for (const auto& dependency : p.config.start_on_ready)
+      request_dependency(dependency, "start_on_ready of '" + p.config.name + "'");
     mark_changed();
   }
 
@@ -699,7 +713,8 @@ struct ProcessControl::Impl {
   void write_log(Process& p, const std::string& line) {
     if (!p.log) return;
     const std::string problem = p.log->write_line(line);
-    if (problem != p.log_problem && !problem.empty()) log(LogLevel::Warning, "process '" + p.config.name + "': " + problem);
+    if (problem != p.log_problem && !problem.empty())
+      log(LogLevel::Warning, "process '" + p.config.name + "': " + problem);
     p.log_problem = problem;
   }
 
@@ -708,8 +723,8 @@ struct ProcessControl::Impl {
     if (p.phase == Process::Phase::Running && !p.ready && p.ready_regex && p.ready_regex->search(line))
       become_ready(p, " (its output matched ready_regex)");
     if (p.warning_regex && p.warning_regex->search(line))
-      log(LogLevel::Warning, "process '" + p.config.name + "': " +
-                                 (p.config.warning_msg.empty() ? line : p.config.warning_msg + ": " + line));
+      log(LogLevel::Warning, "process '" + p.config.name +
+                                 "': " + (p.config.warning_msg.empty() ? line : p.config.warning_msg + ": " + line));
   }
 
   // Reads what is there; false once the output has ended.
@@ -754,8 +769,9 @@ struct ProcessControl::Impl {
     sweep_until = after(orphan_term_timeout);
     const bool killed_by_us = p.kill_at.has_value() && code != CLD_EXITED && status == SIGKILL;
     collect_leftovers(pid, p.config.name, killed_by_us ? SIGKILL : p.config.term_signal, p.config.term_timeout);
-    const std::string how = reaped == Reaped::Ended ? describe_exit(code, status)
-                                                    : std::string("exit status unknown (adopted from an earlier manager)");
+    const std::string how = reaped == Reaped::Ended
+                                ? describe_exit(code, status)
+                                : std::string("exit status unknown (adopted from an earlier manager)");
     p.last_exit = how;
     p.adopted = false;
     p.stopped_at = Clock::now();
@@ -773,17 +789,19 @@ struct ProcessControl::Impl {
       log(LogLevel::Info, "stopped " + what + ": " + how);
       note(p, "stopped (" + how + ")");
       if (p.config.has_flag("user_stop_is_successful_stop"))
-        for (const auto& d : p.config.start_on_successful_stop) request_dependency(d, "start_on_successful_stop of '" + p.config.name + "'");
+        for (const auto& d : p.config.start_on_successful_stop)
+          request_dependency(d, "start_on_successful_stop of '" + p.config.name + "'");
       return;
     }
     const bool successful = reaped == Reaped::Ended && code == CLD_EXITED && status == 0;
-    const bool no_error = p.config.has_flag("no_error_on_stop") ||
-                          (successful && p.config.has_flag("no_error_on_successful_stop"));
+    const bool no_error =
+        p.config.has_flag("no_error_on_stop") || (successful && p.config.has_flag("no_error_on_successful_stop"));
     p.last_stop_successful = no_error;
     if (no_error) {
       log(LogLevel::Info, what + " ended: " + how);
       note(p, "ended (" + how + ")");
-      for (const auto& d : p.config.start_on_successful_stop) request_dependency(d, "start_on_successful_stop of '" + p.config.name + "'");
+      for (const auto& d : p.config.start_on_successful_stop)
+        request_dependency(d, "start_on_successful_stop of '" + p.config.name + "'");
     } else {
       log(LogLevel::Warning, what + " terminated unexpectedly: " + how);
       note(p, "terminated unexpectedly (" + how + ")");
@@ -819,7 +837,8 @@ struct ProcessControl::Impl {
     double delay = interval;
     if (p.quick_failures > 1) {
       const double base = std::max(interval, 0.1);
-      delay = std::min(base * std::pow(2.0, std::min(p.quick_failures - 1, 20u)), std::max(longest_restart_delay, interval));
+      delay = std::min(base * std::pow(2.0, std::min(p.quick_failures - 1, 20u)),
+                       std::max(longest_restart_delay, interval));
     }
     p.restart_at = after(delay);
     p.restarting = true;
@@ -835,8 +854,8 @@ struct ProcessControl::Impl {
     if (!process_group_alive(group)) return;
     ::kill(-group, signal);
     Leftover leftover{group, owner, after(signal == SIGKILL ? 0 : timeout), signal == SIGKILL};
-    log(LogLevel::Info, "'" + owner + "' ended, its process group " + std::to_string(group) + " did not: " +
-                            signal_name(signal) + " to it");
+    log(LogLevel::Info, "'" + owner + "' ended, its process group " + std::to_string(group) +
+                            " did not: " + signal_name(signal) + " to it");
     leftovers.push_back(leftover);
   }
 
@@ -886,7 +905,8 @@ struct ProcessControl::Impl {
     if (s.commanded_for_goal)
       return fail(s, std::string("is still ") + (up ? "DOWN after its up command" : "UP after its down command"));
     const std::string& command = up ? s.config.up : s.config.down;
-    if (command.empty()) return fail(s, std::string("is ") + (up ? "DOWN and has no up" : "UP and has no down") + " command");
+    if (command.empty())
+      return fail(s, std::string("is ") + (up ? "DOWN and has no up" : "UP and has no down") + " command");
     if (up) {
       bool waiting = false;
       for (const auto* list : {&s.config.depends_on, &s.config.depends_on_restart})
@@ -1032,7 +1052,8 @@ struct ProcessControl::Impl {
         continue;
       }
       if (!it->killed && now >= it->kill_at) {
-        log(LogLevel::Info, "process group " + std::to_string(it->group) + " of '" + it->owner + "' is still there: SIGKILL");
+        log(LogLevel::Info,
+            "process group " + std::to_string(it->group) + " of '" + it->owner + "' is still there: SIGKILL");
         ::kill(-it->group, SIGKILL);
         it->killed = true;
       }
@@ -1091,8 +1112,10 @@ struct ProcessControl::Impl {
         continue;
       }
       for (auto& [name, p] : processes) {
-        if (fd >= 0 && fd == p->child.output_fd) process_output(*p);
-        else if (fd >= 0 && fd == p->child.pidfd) process_exited(*p);
+        if (fd >= 0 && fd == p->child.output_fd)
+          process_output(*p);
+        else if (fd >= 0 && fd == p->child.pidfd)
+          process_exited(*p);
       }
       for (auto& [name, s] : states) {
         if (fd >= 0 && fd == s->child.output_fd) {
@@ -1200,11 +1223,11 @@ struct ProcessControl::Impl {
       ObjectStatus row;
       row.name = name;
       row.kind = "state";
-      row.state = s.command_kind == "check" ? "checking"
-                  : s.command_kind == "up"  ? "going up"
-                  : s.command_kind == "down" ? "going down"
-                  : s.failed                 ? "error"
-                  : s.value == State::Value::Up ? "UP"
+      row.state = s.command_kind == "check"       ? "checking"
+                  : s.command_kind == "up"        ? "going up"
+                  : s.command_kind == "down"      ? "going down"
+                  : s.failed                      ? "error"
+                  : s.value == State::Value::Up   ? "UP"
                   : s.value == State::Value::Down ? "DOWN"
                                                   : "unknown";
       row.requested = s.check_requested ? "check" : s.goal == Goal::Up ? "up" : s.goal == Goal::Down ? "down" : "";

@@ -80,8 +80,8 @@ class ProcessControlTest : public ::testing::Test {
       if (current.state == state && current.requested.empty()) return current;
       std::this_thread::sleep_for(5ms);  // polling our own manager, not waiting on a peer
     } while (Clock::now() < deadline);
-    ADD_FAILURE() << name << " did not reach '" << state << "' (now '" << current.state << "', error '"
-                  << current.error << "', last exit '" << current.last_exit << "')\n"
+    ADD_FAILURE() << name << " did not reach '" << state << "' (now '" << current.state << "', error '" << current.error
+                  << "', last exit '" << current.last_exit << "')\n"
                   << manager->log_text();
     return current;
   }
@@ -148,7 +148,9 @@ TEST_F(ProcessControlTest, StartsDependenciesFirstAndWaitsForReadiness) {
   const auto lines = output("camera");
   std::string all;
   for (const auto& line : lines) all += "[" + line + "]";
-  EXPECT_NE(std::find(lines.begin(), lines.end(), "camera ready"), lines.end()) << "pty output, without \\r: " << all << "\n" << manager->log_text();
+  EXPECT_NE(std::find(lines.begin(), lines.end(), "camera ready"), lines.end())
+      << "pty output, without \\r: " << all << "\n"
+      << manager->log_text();
 }
 
 TEST_F(ProcessControlTest, ReadyTimeAndStartOnReady) {
@@ -237,21 +239,25 @@ TEST_F(ProcessControlTest, AutoRestartBacksOff) {
   EXPECT_GE(row("flaky").restarts, 4u);
   // 0.1 s after the first exit, then twice as long each time it failed at once
   const double minimum[] = {0.1, 0.2, 0.4, 0.8};
-  for (std::size_t i = 0; i < 4; ++i)
-    EXPECT_GE(times[i + 1] - times[i], minimum[i]) << "restart " << i + 1;
+  for (std::size_t i = 0; i < 4; ++i) EXPECT_GE(times[i + 1] - times[i], minimum[i]) << "restart " << i + 1;
   control("flaky", "stop");
   const Row stopped = wait_state("flaky", "stopped");
   EXPECT_EQ(stopped.pid, 0);
 }
 
 TEST_F(ProcessControlTest, StopsDependentsFirstAndKillsWhatIgnoresItsSignal) {
-  const std::string trap = "trap 'echo stop %(_PROCESS) >> %(DIR)/stops; exit 0' TERM; echo up; while :; do sleep 0.05; done";
-  start(
-      "process base\ncommand: /bin/sh -c \"" + trap + "\"\nready_regex: up\n"
-      "process middle\ncommand: /bin/sh -c \"" + trap + "\"\nready_regex: up\ndepends_on: base\n"
-      "process top\ncommand: /bin/sh -c \"" + trap + "\"\nready_regex: up\ndepends_on_restart: middle\n"
-      "process stubborn\ncommand: /bin/sh -c \"trap '' TERM INT; echo up; while :; do sleep 0.05; done\"\n"
-      "ready_regex: up\nterm_signal: SIGINT\nterm_timeout: 0.3\n");
+  const std::string trap =
+      "trap 'echo stop %(_PROCESS) >> %(DIR)/stops; exit 0' TERM; echo up; while :; do sleep 0.05; done";
+  start("process base\ncommand: /bin/sh -c \"" + trap +
+        "\"\nready_regex: up\n"
+        "process middle\ncommand: /bin/sh -c \"" +
+        trap +
+        "\"\nready_regex: up\ndepends_on: base\n"
+        "process top\ncommand: /bin/sh -c \"" +
+        trap +
+        "\"\nready_regex: up\ndepends_on_restart: middle\n"
+        "process stubborn\ncommand: /bin/sh -c \"trap '' TERM INT; echo up; while :; do sleep 0.05; done\"\n"
+        "ready_regex: up\nterm_signal: SIGINT\nterm_timeout: 0.3\n");
   control("top", "start");
   control("stubborn", "start");
   wait_state("top", "ready");

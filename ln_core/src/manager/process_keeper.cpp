@@ -215,7 +215,8 @@ std::vector<KeptProcess> adopt_from_keeper(const std::string& instance, double t
   }
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_seconds);
   for (;;) {
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
     pollfd p{fd, POLLIN, 0};
     if (left.count() <= 0 || ::poll(&p, 1, static_cast<int>(left.count())) <= 0) {
       for (auto& process : adopted) close_fds(process);
@@ -236,7 +237,8 @@ std::vector<KeptProcess> adopt_from_keeper(const std::string& instance, double t
                                message->get_string_or("reason", "") + ")");
     }
     if (!message || message->method() == "done") break;
-    if (message->method() == "kept_process") adopted.push_back(from_message(*message, fds));
+    if (message->method() == "kept_process")
+      adopted.push_back(from_message(*message, fds));
     else
       for (int f : fds) ::close(f);
   }

@@ -20,10 +20,10 @@ namespace ln::manager {
 /// What a manager hands to the keeper and the keeper to the next manager.
 struct KeptProcess {
   std::string name;
-  pid_t pid = 0;                    ///< also its process group
-  std::uint64_t start_ticks = 0;    ///< /proc/PID/stat starttime: tells a reused pid apart
+  pid_t pid = 0;                  ///< also its process group
+  std::uint64_t start_ticks = 0;  ///< /proc/PID/stat starttime: tells a reused pid apart
   bool ready = false;
-  int output_fd = -1;               ///< -1 once the output ended
+  int output_fd = -1;  ///< -1 once the output ended
   int pidfd = -1;
   std::vector<std::string> output;  ///< lines printed while no manager read them
   bool ended = false;               ///< it ended while the keeper held it

@@ -26,7 +26,8 @@ std::vector<std::string> process_environment(const ProcessConfig& process, const
       const auto equals = text.find('=');
       if (equals == std::string::npos) continue;
       const std::string name = text.substr(0, equals);
-      if (::fnmatch(pattern.c_str(), name.c_str(), 0) == 0 && !has(name)) env.emplace_back(name, text.substr(equals + 1));
+      if (::fnmatch(pattern.c_str(), name.c_str(), 0) == 0 && !has(name))
+        env.emplace_back(name, text.substr(equals + 1));
     }
   if (!context.library_dir.empty() && !process.has_flag("no_ln_ld_library_path")) {
     std::string& path = value("LD_LIBRARY_PATH");
@@ -40,8 +41,8 @@ std::vector<std::string> process_environment(const ProcessConfig& process, const
     std::string& configured = value("LN_MESSAGE_DEFINITION_DIRS");
     configured = configured.empty() ? dirs : configured + ":" + dirs;
   }
-  for (const auto& [name, list] : {std::pair{"LN_MAP_TOPICS", &process.map_topics},
-                                   std::pair{"LN_MAP_SERVICES", &process.map_services}}) {
+  for (const auto& [name, list] :
+       {std::pair{"LN_MAP_TOPICS", &process.map_topics}, std::pair{"LN_MAP_SERVICES", &process.map_services}}) {
     if (list->empty() || has(name)) continue;
     std::string joined;
     for (const auto& [from, to] : *list) joined += (joined.empty() ? "" : "|") + from + "|" + to;
@@ -79,14 +80,16 @@ std::vector<std::string> process_argv(const ProcessConfig& process, const std::s
     if (!process.has_flag("use_execvpe"))
       problem = "command not found: '" + program +
                 "' has no directory, and processes start without a PATH search (as in LN 2.9): give its path "
-                "(for instance /usr/bin/" + program + "), or add the flag use_execvpe or start_in_shell";
+                "(for instance /usr/bin/" +
+                program + "), or add the flag use_execvpe or start_in_shell";
     return argv;
   }
-  const std::string path = program.front() == '/' || process.change_directory.empty()
-                               ? program
-                               : process.change_directory + "/" + program;
-  if (::access(path.c_str(), F_OK) != 0) problem = "command not found: '" + program + "' does not exist";
-  else if (::access(path.c_str(), X_OK) != 0) problem = "permission denied: '" + program + "' is not executable";
+  const std::string path =
+      program.front() == '/' || process.change_directory.empty() ? program : process.change_directory + "/" + program;
+  if (::access(path.c_str(), F_OK) != 0)
+    problem = "command not found: '" + program + "' does not exist";
+  else if (::access(path.c_str(), X_OK) != 0)
+    problem = "permission denied: '" + program + "' is not executable";
   return argv;
 }
 

@@ -74,7 +74,8 @@ Message Dispatcher::process_output(Session&, const Message& request, Outbox&) {
   const auto after = request.get_int("after", 0, std::numeric_limits<std::int64_t>::max());
   const auto max_lines = request.get_int_or("max_lines", 0);
   if (max_lines < 0) throw RequestError(LNE_INVALID_PARAMETER, "max_lines must not be negative");
-  if (process_control_ == nullptr) throw RequestError(LNE_INVALID_PARAMETER, "there is no process or state '" + name + "'");
+  if (process_control_ == nullptr)
+    throw RequestError(LNE_INVALID_PARAMETER, "there is no process or state '" + name + "'");
   OutputRing::Slice slice =
       process_control_->output(name, static_cast<std::uint64_t>(after), static_cast<std::size_t>(max_lines));
   return Message::response_to(request)
@@ -91,8 +92,8 @@ Message Dispatcher::needs_provider(Session&, const Message& request, Outbox&) {
   for (const auto& entry : registry_.topics())
     if (entry.second.name == name && entry.second.publisher) return Message::response_to(request).set("provider", "");
   if (process_control_ == nullptr)
-    throw RequestError(LNE_NO_PROVIDER_FOUND, "nothing provides '" + name +
-                                                  "': no client offers it and this manager runs no processes");
+    throw RequestError(LNE_NO_PROVIDER_FOUND,
+                       "nothing provides '" + name + "': no client offers it and this manager runs no processes");
   return Message::response_to(request).set("provider", process_control_->start_provider(name));
 }
 

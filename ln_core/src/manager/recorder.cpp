@@ -30,8 +30,8 @@ double wall_clock_now() {
 constexpr std::chrono::seconds kAliveCheckInterval{1};
 
 [[noreturn]] void unreachable(const std::string& peer_socket, const std::string& topic, const std::string& why) {
-  throw RequestError(LNE_REQUEST_FAILED, "cannot record topic '" + topic + "': its publisher's peer socket '" +
-                                             peer_socket + "' " + why);
+  throw RequestError(LNE_REQUEST_FAILED,
+                     "cannot record topic '" + topic + "': its publisher's peer socket '" + peer_socket + "' " + why);
 }
 
 // One blocking request/response on a connected Unix socket whose send and
@@ -105,8 +105,10 @@ OpenedSegment open_publisher_segment(const std::string& peer_socket, std::int64_
   std::vector<UniqueFd> fds;
   const protocol::Message answer = exchange(socket.get(), request, fds, Clock::now() + timeout, peer_socket, topic);
   if (answer.is_error())
-    throw RequestError(LNE_REQUEST_FAILED, "cannot record topic '" + topic + "': its publisher refused to hand over "
-                                           "its segment: " + answer.error_text());
+    throw RequestError(LNE_REQUEST_FAILED, "cannot record topic '" + topic +
+                                               "': its publisher refused to hand over "
+                                               "its segment: " +
+                                               answer.error_text());
   if (fds.empty()) unreachable(peer_socket, topic, "answered open_segment without a segment");
   OpenedSegment opened;
   opened.fd = std::move(fds.front());
@@ -118,7 +120,9 @@ OpenedSegment open_publisher_segment(const std::string& peer_socket, std::int64_
 
 // ------------------------------------------------------------------ Recorder
 
-Recorder::Recorder(LogFunction log) : log_(std::move(log)) { thread_ = std::thread([this] { run(); }); }
+Recorder::Recorder(LogFunction log) : log_(std::move(log)) {
+  thread_ = std::thread([this] { run(); });
+}
 
 Recorder::~Recorder() {
   {

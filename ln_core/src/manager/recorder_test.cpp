@@ -32,7 +32,9 @@ struct Stream {
     options.on_lag = transport::LagPolicy::keep_latest_window;
     return std::make_unique<ShmReader>(ShmReader::attach(writer->fd(), options));
   }
-  void write(std::uint64_t value, double ts) { ASSERT_EQ(writer->write(&value, sizeof value, ts), transport::WriteStatus::ok); }
+  void write(std::uint64_t value, double ts) {
+    ASSERT_EQ(writer->write(&value, sizeof value, ts), transport::WriteStatus::ok);
+  }
   std::unique_ptr<ShmWriter> writer;
 };
 
@@ -114,7 +116,8 @@ TEST_F(RecorderTest, PacketsOverwrittenBeforeItCameAreReportedAndThePeriodShrink
   EXPECT_LT(log->count(), 200u);
   EXPECT_EQ(values(*log).back(), 200u);  // the newest survive
   const auto deadline = std::chrono::steady_clock::now() + 2s;
-  while (recorder.period() == kMaxPeriod && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(1ms);
+  while (recorder.period() == kMaxPeriod && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(1ms);
   EXPECT_LT(recorder.period(), kMaxPeriod);
   std::lock_guard<std::mutex> lock(mutex);
   ASSERT_FALSE(lines.empty());

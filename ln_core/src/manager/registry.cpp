@@ -59,13 +59,12 @@ const Client& Registry::add_client(ClientHello hello) {
   if (hello.exact) {
     if (taken(hello.program_name)) {
       const Client& holder = clients_.at(client_names_.at(hello.program_name));
-      throw RequestError(LNE_CLNT_NAME_IN_USE, "client name '" + hello.program_name +
-                                                   "' is already in use (pid " + std::to_string(holder.hello.pid) +
-                                                   " on " + holder.hello.host_name + ")");
+      throw RequestError(LNE_CLNT_NAME_IN_USE, "client name '" + hello.program_name + "' is already in use (pid " +
+                                                   std::to_string(holder.hello.pid) + " on " + holder.hello.host_name +
+                                                   ")");
     }
     name = hello.program_name;
-  } else if (!hello.previous_name.empty() && !client_name_problem(hello.previous_name) &&
-             !taken(hello.previous_name)) {
+  } else if (!hello.previous_name.empty() && !client_name_problem(hello.previous_name) && !taken(hello.previous_name)) {
     name = hello.previous_name;  // a client coming back after a manager restart
   } else {
     name = unique_client_name(hello.program_name, taken);
@@ -107,9 +106,8 @@ const Client& Registry::client(Id id) const { return clients_.at(id); }
 Registry::ResolvedDefinition Registry::resolve_for_topic(const std::string& topic, const std::string& definition) {
   const md::Definition& resolved = definitions_.resolve(definition);
   require(resolved.kind == md::Kind::Plain, LNE_INVALID_PARAMETER,
-          "message definition '" + resolved.name + "' is a " +
-              (resolved.is_service() ? "service" : "event") + " definition; topic '" + topic +
-              "' needs a plain one");
+          "message definition '" + resolved.name + "' is a " + (resolved.is_service() ? "service" : "event") +
+              " definition; topic '" + topic + "' needs a plain one");
   if (auto dynamic = first_dynamic_field(resolved))
     throw RequestError(LNE_INVALID_PARAMETER,
                        "message definition '" + resolved.name + "' has the dynamic field '" + *dynamic +
@@ -133,8 +131,8 @@ std::int64_t Registry::segment_history(const Topic& topic) const {
 namespace {
 
 std::uint64_t segment_bytes(std::int64_t message_size, std::int64_t history) {
-  const std::uint64_t size = transport::topic_segment_size(static_cast<std::uint32_t>(message_size),
-                                                           static_cast<std::uint32_t>(history));
+  const std::uint64_t size =
+      transport::topic_segment_size(static_cast<std::uint32_t>(message_size), static_cast<std::uint32_t>(history));
   return size != 0 ? size : ~std::uint64_t{0};  // beyond what the transport can make: over every limit
 }
 
@@ -159,8 +157,8 @@ void Registry::check_shared_memory(const std::string& name, std::int64_t message
   if (needed > limits_.max_topic_shm) {
     const std::int64_t most = buffers_within(message_size, limits_.max_topic_shm);
     throw RequestError(LNE_SHM_IS_TOO_BIG, what + ", more than the manager allows per topic (max_topic_shm " +
-                                               byte_text(limits_.max_topic_shm) + "); at most " +
-                                               std::to_string(most) + " buffers fit");
+                                               byte_text(limits_.max_topic_shm) + "); at most " + std::to_string(most) +
+                                               " buffers fit");
   }
   if (!publisher) return;
   std::uint64_t others = 0;
@@ -171,7 +169,8 @@ void Registry::check_shared_memory(const std::string& name, std::int64_t message
     throw RequestError(LNE_SHM_IS_TOO_BIG, what + "; with the " + byte_text(others) + " of the other topics client '" +
                                                clients_.at(*publisher).name +
                                                "' publishes, that is more than the manager allows per client "
-                                               "(max_client_shm " + byte_text(limits_.max_client_shm) + ")");
+                                               "(max_client_shm " +
+                                               byte_text(limits_.max_client_shm) + ")");
 }
 
 void Registry::check_port_quota(Id client) const {
@@ -201,8 +200,8 @@ Topic& Registry::owned_topic(Id client, Id id) {
   return it->second;
 }
 
-const Topic& Registry::publish(Id client, const std::string& name, const std::string& definition,
-                               std::int64_t buffers, Outbox& out) {
+const Topic& Registry::publish(Id client, const std::string& name, const std::string& definition, std::int64_t buffers,
+                               Outbox& out) {
   check_name(topic_name_problem(name));
   check_buffers(buffers);
   const auto existing = topic_names_.find(name);
@@ -234,8 +233,8 @@ const Topic& Registry::publish(Id client, const std::string& name, const std::st
   return topic;
 }
 
-void Registry::publisher_ready(Id client, Id id, std::int64_t segment_generation,
-                               std::optional<std::int64_t> packets, Outbox& out) {
+void Registry::publisher_ready(Id client, Id id, std::int64_t segment_generation, std::optional<std::int64_t> packets,
+                               Outbox& out) {
   Topic& topic = owned_topic(client, id);
   if (!topic.publisher_ready) {
     auto message = protocol::Message::notification(method::topic_publisher_available);
@@ -313,8 +312,9 @@ const Subscription& Registry::subscribe(Id client, const SubscribeRequest& reque
   std::optional<ResolvedDefinition> wanted;
   if (request.definition.empty()) {
     require(topic != nullptr, LNE_PORT_NOT_FOUND,
-            "topic '" + request.topic + "' is not known yet; name its message definition to subscribe before it "
-            "is published");
+            "topic '" + request.topic +
+                "' is not known yet; name its message definition to subscribe before it "
+                "is published");
   } else {
     wanted = resolve_for_topic(request.topic, request.definition);
     if (topic) check_topic_definition(*topic, *wanted);
@@ -322,7 +322,8 @@ const Subscription& Registry::subscribe(Id client, const SubscribeRequest& reque
   check_port_quota(client);
   if (!topic || request.buffers > segment_history(*topic))
     check_shared_memory(request.topic, topic ? topic->message_size : wanted->message_size, request.buffers,
-                        topic ? topic->publisher : std::nullopt, topic ? topic->id : 0, " (asked for by this subscriber)");
+                        topic ? topic->publisher : std::nullopt, topic ? topic->id : 0,
+                        " (asked for by this subscriber)");
   if (!topic) topic = &create_topic(request.topic, *wanted);
   const Id id = ++last_id_;
   Subscription& subscription = subscriptions_[id];
@@ -465,9 +466,8 @@ const Service& Registry::register_service(Id client, const std::string& name, co
   require(group.size() <= max_address_size, LNE_INVALID_PARAMETER, "the service group name is too long");
   const auto existing = service_names_.find(name);
   if (existing != service_names_.end())
-    throw RequestError(LNE_SVC_ALREADY_REGISTERED,
-                       "service '" + name + "' is already provided by client '" +
-                           clients_.at(services_.at(existing->second).provider).name + "'");
+    throw RequestError(LNE_SVC_ALREADY_REGISTERED, "service '" + name + "' is already provided by client '" +
+                                                       clients_.at(services_.at(existing->second).provider).name + "'");
   check_port_quota(client);
   const Id id = ++last_id_;
   Service& service = services_[id];
@@ -491,8 +491,7 @@ void Registry::unregister_service(Id client, Id id, Outbox& out) {
   require(it != services_.end() && it->second.provider == client, LNE_SVC_NOT_REGISTERED,
           "you provide no service with id " + std::to_string(id));
   const std::string name = it->second.name;
-  emit({"service_del_provider", name, split_name_and_hash(it->second.interface).first, clients_.at(client).name},
-       out);
+  emit({"service_del_provider", name, split_name_and_hash(it->second.interface).first, clients_.at(client).name}, out);
   service_names_.erase(name);
   services_.erase(it);
   --clients_.at(client).ports;
@@ -563,13 +562,13 @@ const EventConnection& Registry::connect_event(Id client, const std::string& nam
   for (const auto& [client_id, provider] : clients_) {
     for (const auto& entry : services_)
       if (entry.second.provider == client_id)
-        send_event(connection, {"service_new_provider", entry.second.name,
-                                split_name_and_hash(entry.second.interface).first, provider.name},
+        send_event(connection,
+                   {"service_new_provider", entry.second.name, split_name_and_hash(entry.second.interface).first,
+                    provider.name},
                    out);
     for (const auto& entry : topics_)
       if (entry.second.publisher == client_id)
-        send_event(connection, {"topic_new_publisher", entry.second.name, entry.second.definition, provider.name},
-                   out);
+        send_event(connection, {"topic_new_publisher", entry.second.name, entry.second.definition, provider.name}, out);
   }
   send_event(connection, {kInitialSyncDone, "", "", ""}, out);
   return connection;

@@ -202,8 +202,7 @@ class Registry {
   /// `client` (LNE_SVC_NOT_REGISTERED) with interface ln/log_service.
   /// Patterns are comma-separated (LN 2.9). Tells the other clients about
   /// the services they provide or call that it logs (add_service_logger).
-  void register_service_logger(Id client, const std::string& logger_service, const std::string& patterns,
-                               Outbox& out);
+  void register_service_logger(Id client, const std::string& logger_service, const std::string& patterns, Outbox& out);
   /// The loggers that get copies of `service`'s calls from `client`: every
   /// logger of another client whose patterns match (never the logger itself).
   std::vector<std::string> loggers_of(const std::string& service, Id client) const;

@@ -22,9 +22,9 @@ class RobustnessTest : public ::testing::Test {
     auto c = std::make_unique<TestClient>(manager->port());
     EXPECT_FALSE(c->hello("bystander").is_error());
     EXPECT_FALSE(c->call("subscribe", [](Message& m) {
-                     m.set("topic", "keep.me").set("message_definition", "mt/point").set("buffers", 1);
-                     m.set("rate", -1.0).set("reliable", false);
-                   }).is_error());
+                    m.set("topic", "keep.me").set("message_definition", "mt/point").set("buffers", 1);
+                    m.set("rate", -1.0).set("reliable", false);
+                  }).is_error());
     return c;
   }
 
@@ -91,7 +91,7 @@ TEST_F(RobustnessTest, OversizedRequestsDisconnectBeforeTheyAreComplete) {
   auto good = bystander();
   TestClient attacker(manager->port());
   ASSERT_FALSE(attacker.hello("attacker").is_error());  // before hello, 64 KiB are the limit (limits_test.cpp)
-  const std::uint32_t announced = 32u * 1024 * 1024;  // within the wire's limit, beyond the manager's
+  const std::uint32_t announced = 32u * 1024 * 1024;    // within the wire's limit, beyond the manager's
   std::string header(4, '\0');
   for (int i = 0; i < 4; ++i) header[static_cast<std::size_t>(i)] = static_cast<char>(announced >> (8 * i));
   attacker.send_raw(header);

@@ -29,8 +29,8 @@ void check_log_fits(std::uint64_t samples, std::uint64_t sample_size, const std:
   const std::uint64_t limit = std::min<std::uint64_t>(available_memory(), std::numeric_limits<std::size_t>::max());
   if (sample_size != 0 && samples > limit / sample_size)
     throw RequestError(LNE_NO_MEM, what + ": " + std::to_string(samples) + " samples of " +
-                                       std::to_string(sample_size) + " bytes do not fit into the " +
-                                       mebibytes(limit) + " of memory available to the manager");
+                                       std::to_string(sample_size) + " bytes do not fit into the " + mebibytes(limit) +
+                                       " of memory available to the manager");
 }
 
 std::shared_ptr<SampleLog> SampleLog::create(std::uint64_t capacity, std::uint32_t sample_size) {

@@ -100,29 +100,40 @@ class Parser {
   Number shift() {
     Number left = sum();
     for (;;) {
-      if (accept("<<")) left = shift_left(left, sum());
-      else if (accept(">>")) left = shift_right(left, sum());
-      else return left;
+      if (accept("<<"))
+        left = shift_left(left, sum());
+      else if (accept(">>"))
+        left = shift_right(left, sum());
+      else
+        return left;
     }
   }
 
   Number sum() {
     Number left = term();
     for (;;) {
-      if (accept("+")) left = add(left, term(), +1);
-      else if (accept("-")) left = add(left, term(), -1);
-      else return left;
+      if (accept("+"))
+        left = add(left, term(), +1);
+      else if (accept("-"))
+        left = add(left, term(), -1);
+      else
+        return left;
     }
   }
 
   Number term() {
     Number left = unary();
     for (;;) {
-      if (accept("//")) left = floor_divide(left, unary());
-      else if (accept("*") ) left = multiply(left, unary());
-      else if (accept("/")) left = divide(left, unary());
-      else if (accept("%")) left = modulo(left, unary());
-      else return left;
+      if (accept("//"))
+        left = floor_divide(left, unary());
+      else if (accept("*"))
+        left = multiply(left, unary());
+      else if (accept("/"))
+        left = divide(left, unary());
+      else if (accept("%"))
+        left = modulo(left, unary());
+      else
+        return left;
     }
   }
 
@@ -174,8 +185,8 @@ class Parser {
     bool is_float = false;
     auto take_digits = [&] {
       std::size_t n = 0;
-      while (pos_ < text_.size() && (std::isdigit(static_cast<unsigned char>(text_[pos_])) ||
-                                     (text_[pos_] == '_' && n > 0))) {
+      while (pos_ < text_.size() &&
+             (std::isdigit(static_cast<unsigned char>(text_[pos_])) || (text_[pos_] == '_' && n > 0))) {
         if (text_[pos_] != '_') digits += text_[pos_], ++n;
         ++pos_;
       }
@@ -185,7 +196,8 @@ class Parser {
     if (pos_ < text_.size() && text_[pos_] == '.') {
       is_float = true;
       digits += text_[pos_++];
-      if (take_digits() == 0 && integer_digits == 0) fail("expected a number at '" + std::string(text_.substr(start)) + "'");
+      if (take_digits() == 0 && integer_digits == 0)
+        fail("expected a number at '" + std::string(text_.substr(start)) + "'");
     }
     if (integer_digits == 0 && !is_float) {
       if (start < text_.size()) fail("expected a number at '" + std::string(text_.substr(start)) + "'");
@@ -220,11 +232,18 @@ class Parser {
     while (pos_ < text_.size()) {
       const char c = text_[pos_];
       int digit;
-      if (c == '_' && digits > 0) { ++pos_; continue; }
-      if (c >= '0' && c <= '9') digit = c - '0';
-      else if (c >= 'a' && c <= 'f') digit = c - 'a' + 10;
-      else if (c >= 'A' && c <= 'F') digit = c - 'A' + 10;
-      else break;
+      if (c == '_' && digits > 0) {
+        ++pos_;
+        continue;
+      }
+      if (c >= '0' && c <= '9')
+        digit = c - '0';
+      else if (c >= 'a' && c <= 'f')
+        digit = c - 'a' + 10;
+      else if (c >= 'A' && c <= 'F')
+        digit = c - 'A' + 10;
+      else
+        break;
       if (digit >= base) fail("digit '" + std::string(1, c) + "' is invalid in base " + std::to_string(base));
       if (__builtin_mul_overflow(value, base, &value) || __builtin_add_overflow(value, digit, &value))
         fail("the value is too large");
@@ -240,9 +259,12 @@ class Parser {
   static Number bitwise(const Number& a, const Number& b, char op) {
     if (a.is_float || b.is_float) fail(std::string("'") + op + "' needs integers");
     switch (op) {
-      case '|': return Number::of(a.integer | b.integer);
-      case '^': return Number::of(a.integer ^ b.integer);
-      default: return Number::of(a.integer & b.integer);
+      case '|':
+        return Number::of(a.integer | b.integer);
+      case '^':
+        return Number::of(a.integer ^ b.integer);
+      default:
+        return Number::of(a.integer & b.integer);
     }
   }
 
@@ -266,8 +288,8 @@ class Parser {
   static Number add(const Number& a, const Number& b, int sign) {
     if (a.is_float || b.is_float) return Number::of(a.as_double() + sign * b.as_double());
     std::int64_t r = 0;
-    const bool overflow = sign > 0 ? __builtin_add_overflow(a.integer, b.integer, &r)
-                                   : __builtin_sub_overflow(a.integer, b.integer, &r);
+    const bool overflow =
+        sign > 0 ? __builtin_add_overflow(a.integer, b.integer, &r) : __builtin_sub_overflow(a.integer, b.integer, &r);
     if (overflow) fail("the value is too large");
     return Number::of(r);
   }

@@ -14,10 +14,10 @@ TEST(CountExpression, EvaluatesIntegersAndArithmeticLikePython) {
   EXPECT_EQ(evaluate_count_expression("2**3**2"), 512);  // right associative
   EXPECT_EQ(evaluate_count_expression("-2**2"), -4);     // ** binds tighter than unary -
   EXPECT_EQ(evaluate_count_expression("10//3"), 3);
-  EXPECT_EQ(evaluate_count_expression("-7//2"), -4);     // floor division
-  EXPECT_EQ(evaluate_count_expression("7/2"), 3);        // true division, then int() truncates
+  EXPECT_EQ(evaluate_count_expression("-7//2"), -4);  // floor division
+  EXPECT_EQ(evaluate_count_expression("7/2"), 3);     // true division, then int() truncates
   EXPECT_EQ(evaluate_count_expression("-7/2"), -3);
-  EXPECT_EQ(evaluate_count_expression("-7%3"), 2);       // sign follows the divisor
+  EXPECT_EQ(evaluate_count_expression("-7%3"), 2);  // sign follows the divisor
   EXPECT_EQ(evaluate_count_expression("0x10 + 0o10 + 0b10"), 26);
   EXPECT_EQ(evaluate_count_expression("1_000"), 1000);
   EXPECT_EQ(evaluate_count_expression("(-1)**3"), -1);
@@ -38,9 +38,10 @@ TEST(CountExpression, EvaluatesIntegersAndArithmeticLikePython) {
 }
 
 TEST(CountExpression, RejectsEverythingThatIsNotArithmetic) {
-  for (const char* bad : {"", "abc", "3]", "2][3", "__import__('os')", "(1", "1)", "08", "1e", ".",
-                          "1/0", "5//0", "5%0", "9223372036854775807+1", "2**64", "3 4", "1.5 << 2",
-                          "1 << -1", "1 << 70", "2 < 3", "0x", "0b2"}) {
+  for (const char* bad :
+       {"",        "abc",   "3]",   "2][3", "__import__('os')",      "(1",    "1)",  "08",       "1e",
+        ".",       "1/0",   "5//0", "5%0",  "9223372036854775807+1", "2**64", "3 4", "1.5 << 2", "1 << -1",
+        "1 << 70", "2 < 3", "0x",   "0b2"}) {
     EXPECT_THROW(evaluate_count_expression(bad), std::invalid_argument) << "expression: " << bad;
   }
 }

@@ -15,10 +15,7 @@ std::string located(const std::string& file, int line, const std::string& messag
 }  // namespace
 
 Error::Error(std::string file, int line, const std::string& message)
-    : std::runtime_error(located(file, line, message)),
-      file_(std::move(file)),
-      line_(line),
-      message_(message) {}
+    : std::runtime_error(located(file, line, message)), file_(std::move(file)), line_(line), message_(message) {}
 
 bool Definition::is_dynamic() const {
   auto dynamic = [](const Field& f) { return f.dynamic; };
@@ -71,31 +68,124 @@ bool is_identifier(std::string_view s) {
 }
 
 bool is_reserved_word(std::string_view s) {
-  static constexpr std::array<std::string_view, 97> words{
-      "alignas", "alignof", "and", "and_eq", "asm", "auto", "bitand", "bitor", "bool", "break",
-      "case", "catch", "char", "char8_t", "char16_t", "char32_t", "class", "compl", "concept",
-      "const", "consteval", "constexpr", "constinit", "const_cast", "continue", "co_await",
-      "co_return", "co_yield", "decltype", "default", "delete", "do", "double", "dynamic_cast",
-      "else", "enum", "explicit", "export", "extern", "false", "float", "for", "friend", "goto",
-      "if", "inline", "int", "long", "mutable", "namespace", "new", "noexcept", "not", "not_eq",
-      "nullptr", "operator", "or", "or_eq", "private", "protected", "public", "register",
-      "reinterpret_cast", "requires", "restrict", "return", "short", "signed", "sizeof", "static",
-      "static_assert", "static_cast", "struct", "switch", "template", "this", "thread_local",
-      "throw", "true", "try", "typedef", "typeid", "typename", "union", "unsigned", "using",
-      "virtual", "void", "volatile", "wchar_t", "while", "xor", "xor_eq", "_Bool", "_Complex",
-      "_Generic", "_Noreturn"};
+  static constexpr std::array<std::string_view, 97> words{"alignas",
+                                                          "alignof",
+                                                          "and",
+                                                          "and_eq",
+                                                          "asm",
+                                                          "auto",
+                                                          "bitand",
+                                                          "bitor",
+                                                          "bool",
+                                                          "break",
+                                                          "case",
+                                                          "catch",
+                                                          "char",
+                                                          "char8_t",
+                                                          "char16_t",
+                                                          "char32_t",
+                                                          "class",
+                                                          "compl",
+                                                          "concept",
+                                                          "const",
+                                                          "consteval",
+                                                          "constexpr",
+                                                          "constinit",
+                                                          "const_cast",
+                                                          "continue",
+                                                          "co_await",
+                                                          "co_return",
+                                                          "co_yield",
+                                                          "decltype",
+                                                          "default",
+                                                          "delete",
+                                                          "do",
+                                                          "double",
+                                                          "dynamic_cast",
+                                                          "else",
+                                                          "enum",
+                                                          "explicit",
+                                                          "export",
+                                                          "extern",
+                                                          "false",
+                                                          "float",
+                                                          "for",
+                                                          "friend",
+                                                          "goto",
+                                                          "if",
+                                                          "inline",
+                                                          "int",
+                                                          "long",
+                                                          "mutable",
+                                                          "namespace",
+                                                          "new",
+                                                          "noexcept",
+                                                          "not",
+                                                          "not_eq",
+                                                          "nullptr",
+                                                          "operator",
+                                                          "or",
+                                                          "or_eq",
+                                                          "private",
+                                                          "protected",
+                                                          "public",
+                                                          "register",
+                                                          "reinterpret_cast",
+                                                          "requires",
+                                                          "restrict",
+                                                          "return",
+                                                          "short",
+                                                          "signed",
+                                                          "sizeof",
+                                                          "static",
+                                                          "static_assert",
+                                                          "static_cast",
+                                                          "struct",
+                                                          "switch",
+                                                          "template",
+                                                          "this",
+                                                          "thread_local",
+                                                          "throw",
+                                                          "true",
+                                                          "try",
+                                                          "typedef",
+                                                          "typeid",
+                                                          "typename",
+                                                          "union",
+                                                          "unsigned",
+                                                          "using",
+                                                          "virtual",
+                                                          "void",
+                                                          "volatile",
+                                                          "wchar_t",
+                                                          "while",
+                                                          "xor",
+                                                          "xor_eq",
+                                                          "_Bool",
+                                                          "_Complex",
+                                                          "_Generic",
+                                                          "_Noreturn"};
   return std::find(words.begin(), words.end(), s) != words.end();
 }
 
 char32_t decode_utf8(std::string_view s, std::size_t i, std::size_t& length) {
   const auto c = static_cast<unsigned char>(s[i]);
   std::size_t extra = c < 0x80 ? 0 : (c & 0xE0) == 0xC0 ? 1 : (c & 0xF0) == 0xE0 ? 2 : (c & 0xF8) == 0xF0 ? 3 : 0;
-  if (c >= 0x80 && extra == 0) { length = 1; return c; }
-  if (extra > 0 && i + extra >= s.size()) { length = 1; return c; }  // truncated
+  if (c >= 0x80 && extra == 0) {
+    length = 1;
+    return c;
+  }
+  if (extra > 0 && i + extra >= s.size()) {
+    length = 1;
+    return c;
+  }  // truncated
   char32_t code = extra == 0 ? c : extra == 1 ? (c & 0x1F) : extra == 2 ? (c & 0x0F) : (c & 0x07);
   for (std::size_t k = 1; k <= extra; ++k) {
     const auto cc = static_cast<unsigned char>(s[i + k]);
-    if ((cc & 0xC0) != 0x80) { length = 1; return c; }
+    if ((cc & 0xC0) != 0x80) {
+      length = 1;
+      return c;
+    }
     code = (code << 6) | (cc & 0x3F);
   }
   length = extra + 1;
@@ -104,8 +194,7 @@ char32_t decode_utf8(std::string_view s, std::size_t i, std::size_t& length) {
 
 bool is_unicode_space(char32_t c) {
   return (c >= 0x09 && c <= 0x0D) || (c >= 0x1C && c <= 0x20) || c == 0x85 || c == 0xA0 || c == 0x1680 ||
-         (c >= 0x2000 && c <= 0x200A) || c == 0x2028 || c == 0x2029 || c == 0x202F || c == 0x205F ||
-         c == 0x3000;
+         (c >= 0x2000 && c <= 0x200A) || c == 0x2028 || c == 0x2029 || c == 0x202F || c == 0x205F || c == 0x3000;
 }
 
 std::string_view strip_unicode(std::string_view s) {
@@ -135,11 +224,21 @@ bool is_valid_utf8(std::string_view s) {
     const auto c = static_cast<unsigned char>(s[i]);
     std::size_t extra;
     std::uint32_t code;
-    if (c < 0x80) { ++i; continue; }
-    if ((c & 0xE0) == 0xC0) { extra = 1; code = c & 0x1F; }
-    else if ((c & 0xF0) == 0xE0) { extra = 2; code = c & 0x0F; }
-    else if ((c & 0xF8) == 0xF0) { extra = 3; code = c & 0x07; }
-    else return false;
+    if (c < 0x80) {
+      ++i;
+      continue;
+    }
+    if ((c & 0xE0) == 0xC0) {
+      extra = 1;
+      code = c & 0x1F;
+    } else if ((c & 0xF0) == 0xE0) {
+      extra = 2;
+      code = c & 0x0F;
+    } else if ((c & 0xF8) == 0xF0) {
+      extra = 3;
+      code = c & 0x07;
+    } else
+      return false;
     if (i + extra >= s.size()) return false;  // truncated sequence
     for (std::size_t k = 1; k <= extra; ++k) {
       const auto cc = static_cast<unsigned char>(s[i + k]);
@@ -147,8 +246,7 @@ bool is_valid_utf8(std::string_view s) {
       code = (code << 6) | (cc & 0x3F);
     }
     static constexpr std::uint32_t smallest[] = {0, 0x80, 0x800, 0x10000};
-    if (code < smallest[extra] || code > 0x10FFFF || (code >= 0xD800 && code <= 0xDFFF))
-      return false;
+    if (code < smallest[extra] || code > 0x10FFFF || (code >= 0xD800 && code <= 0xDFFF)) return false;
     i += extra + 1;
   }
   return true;

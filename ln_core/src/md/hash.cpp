@@ -28,9 +28,12 @@ std::string python_repr(const std::string& s) {
       // Unicode blanks (kept before '[') and C1 controls can occur.
       if (text::is_unicode_space(code) || code < 0xA0 || code == 0xAD) {
         char buffer[16];
-        if (code < 0x100) std::snprintf(buffer, sizeof buffer, "\\x%02x", static_cast<unsigned>(code));
-        else if (code < 0x10000) std::snprintf(buffer, sizeof buffer, "\\u%04x", static_cast<unsigned>(code));
-        else std::snprintf(buffer, sizeof buffer, "\\U%08x", static_cast<unsigned>(code));
+        if (code < 0x100)
+          std::snprintf(buffer, sizeof buffer, "\\x%02x", static_cast<unsigned>(code));
+        else if (code < 0x10000)
+          std::snprintf(buffer, sizeof buffer, "\\u%04x", static_cast<unsigned>(code));
+        else
+          std::snprintf(buffer, sizeof buffer, "\\U%08x", static_cast<unsigned>(code));
         out += buffer;
       } else {
         out.append(s, i, length);
@@ -65,8 +68,8 @@ std::string fields_repr(const std::vector<Field>& fields) {
   for (std::size_t i = 0; i < fields.size(); ++i) {
     const Field& f = fields[i];
     if (i) out += ", ";
-    out += "[" + python_repr(f.type_spelling + (f.dynamic ? "*" : "")) + ", " +
-           python_repr(f.hash_name) + ", " + std::to_string(f.count) + "]";
+    out += "[" + python_repr(f.type_spelling + (f.dynamic ? "*" : "")) + ", " + python_repr(f.hash_name) + ", " +
+           std::to_string(f.count) + "]";
   }
   return out + "]";
 }
@@ -106,8 +109,9 @@ void collect_defines(const Definition& definition, DefineFields& into, std::vect
     const Define& define = definition.defines[index];
     const Definition* sub = define.definition;
     if (budget-- == 0)
-      throw Error(root.path, 0, "the definition imports more than " + std::to_string(max_import_visits) +
-                                    " types when its imports are followed (imports shared too often)");
+      throw Error(root.path, 0,
+                  "the definition imports more than " + std::to_string(max_import_visits) +
+                      " types when its imports are followed (imports shared too often)");
     into.set(define.local_name, &sub->fields);
     if (std::find(stack.begin(), stack.end(), sub) != stack.end()) continue;
     stack.push_back(sub);
@@ -136,8 +140,8 @@ std::string compute_definition_hash(const Definition& definition) {
   }
   sorted_defines += "]";
 
-  const std::string text = "(" + fields_repr(definition.fields) + ", " +
-                           fields_repr(definition.response_fields) + ", " + sorted_defines + ")";
+  const std::string text = "(" + fields_repr(definition.fields) + ", " + fields_repr(definition.response_fields) +
+                           ", " + sorted_defines + ")";
   return sha256_hex(text);
 }
 
@@ -149,8 +153,8 @@ std::string python_dict_text(const Definition& definition) {
     defines += python_repr(local_name) + ": " + fields_repr(*fields);
   }
   defines += "}";
-  return "{'fields': " + fields_repr(definition.fields) + ", 'resp_fields': " +
-         fields_repr(definition.response_fields) + ", 'defines': " + defines + "}";
+  return "{'fields': " + fields_repr(definition.fields) +
+         ", 'resp_fields': " + fields_repr(definition.response_fields) + ", 'defines': " + defines + "}";
 }
 
 }  // namespace ln::md

@@ -21,9 +21,12 @@ StructLayout struct_layout(const std::vector<Field>& fields, std::size_t pointer
   for (const Field& f : fields) {
     layout.offsets.push_back(layout.size);
     std::size_t element;
-    if (f.dynamic) element = pointer_size;
-    else if (f.primitive) element = size_of(*f.primitive);
-    else element = struct_layout(f.sub->fields, pointer_size).size;
+    if (f.dynamic)
+      element = pointer_size;
+    else if (f.primitive)
+      element = size_of(*f.primitive);
+    else
+      element = struct_layout(f.sub->fields, pointer_size).size;
     layout.size += element * f.count;
   }
   return layout;
@@ -46,16 +49,16 @@ MemberLocation locate_member(const Definition& definition, std::string_view memb
       const auto digits = text::strip(part.substr(bracket + 1, part.size() - bracket - 2));
       const auto [end, error] = std::from_chars(digits.data(), digits.data() + digits.size(), index);
       if (error != std::errc() || end != digits.data() + digits.size())
-        throw Error(definition.name, 0, "member '" + std::string(member) + "': index '" +
-                                            std::string(digits) + "' is not an integer");
+        throw Error(definition.name, 0,
+                    "member '" + std::string(member) + "': index '" + std::string(digits) + "' is not an integer");
     }
     const Field* found = nullptr;
     std::size_t offset = 0;
     std::size_t element_size = 0;
     for (const Field& f : current->fields) {
       if (f.dynamic)
-        throw Error(definition.name, 0, "cannot locate members in '" + current->name +
-                                            "': it has dynamic fields (" + f.name + ")");
+        throw Error(definition.name, 0,
+                    "cannot locate members in '" + current->name + "': it has dynamic fields (" + f.name + ")");
       element_size = f.primitive ? size_of(*f.primitive) : packet_size(*f.sub);
       if (f.name == name) {
         found = &f;
@@ -64,20 +67,21 @@ MemberLocation locate_member(const Definition& definition, std::string_view memb
       offset += element_size * f.count;
     }
     if (!found)
-      throw Error(definition.name, 0, "'" + current->name + "' has no field '" + std::string(name) +
-                                          "' (looking for '" + std::string(member) + "')");
+      throw Error(definition.name, 0,
+                  "'" + current->name + "' has no field '" + std::string(name) + "' (looking for '" +
+                      std::string(member) + "')");
     if (index < 0) index += found->count;  // Python-style index from the end
     if (index < 0 || index >= static_cast<std::int64_t>(found->count))
-      throw Error(definition.name, 0, "field '" + found->name + "' has " +
-                                          std::to_string(found->count) + " element(s); '" +
-                                          std::string(part) + "' is out of range");
+      throw Error(definition.name, 0,
+                  "field '" + found->name + "' has " + std::to_string(found->count) + " element(s); '" +
+                      std::string(part) + "' is out of range");
     location.offset += offset + static_cast<std::size_t>(index) * element_size;
     location.size = element_size;
     if (dot == std::string_view::npos) return location;
     if (!found->sub)
-      throw Error(definition.name, 0, "field '" + found->name + "' is a " +
-                                          std::string(c_name(*found->primitive)) +
-                                          " and has no members (looking for '" + std::string(member) + "')");
+      throw Error(definition.name, 0,
+                  "field '" + found->name + "' is a " + std::string(c_name(*found->primitive)) +
+                      " and has no members (looking for '" + std::string(member) + "')");
     current = found->sub;
     rest = rest.substr(dot + 1);
   }

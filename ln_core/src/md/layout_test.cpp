@@ -11,8 +11,9 @@ using testing::DefinitionTree;
 TEST(Layout, PackedHostStructsCountPointersAndNestedStructs) {
   DefinitionTree tree;
   tree.write("l/blob", "uint8_t* data\nint32_t is_pickle\n");  // host: 4 + 8 + 4
-  tree.write("l/req", "service\nrequest\ndefine blob as \"blob\"\nuint64_t count\nint16_t s[4]\n"
-                      "blob single\nblob pair[2]\nblob* many\nresponse\ndouble t\n");
+  tree.write("l/req",
+             "service\nrequest\ndefine blob as \"blob\"\nuint64_t count\nint16_t s[4]\n"
+             "blob single\nblob pair[2]\nblob* many\nresponse\ndouble t\n");
   Library library(SearchPath::exactly({tree.root()}));
   const Definition& req = library.load("l/req");
   const StructLayout request = struct_layout(req.fields);

@@ -96,9 +96,9 @@ struct Library::Loader final : DefineResolver {
       found = lib.search_path_.find(quoted);
     }
     if (!found)
-      throw Error(importer.path, line, "define refers to '" + quoted +
-                                           "', which is neither next to this file nor in:" +
-                                           list_dirs(lib.search_path_));
+      throw Error(importer.path, line,
+                  "define refers to '" + quoted +
+                      "', which is neither next to this file nor in:" + list_dirs(lib.search_path_));
     absolute_name = quoted;
     return load_file(absolute_name, *found);
   }
@@ -143,11 +143,13 @@ struct Library::Loader final : DefineResolver {
         } else if (seen->second == Visit::in_progress) {
           if (by_value)
             throw Error(current.path, f.line,
-                        "field '" + f.name + "' makes '" + f.sub->name + "' contain itself; recursive types "
-                        "must use a pointer ('" + f.type_spelling + "* " + f.name + "')");
+                        "field '" + f.name + "' makes '" + f.sub->name +
+                            "' contain itself; recursive types "
+                            "must use a pointer ('" +
+                            f.type_spelling + "* " + f.name + "')");
           throw Error(current.path, f.line,
                       "field '" + f.name + "' closes a cycle of types through '" + f.sub->name +
-                      "'; only a type pointing to itself may be recursive");
+                          "'; only a type pointing to itself may be recursive");
         }
       }
     }
@@ -180,8 +182,9 @@ struct Library::Loader final : DefineResolver {
           throw Error(def.path, f.line, "the definition grows beyond 4 GiB at field '" + f.name + "'");
         expanded += 1 + (sub ? sub->expanded_fields : 0);
         if (expanded > max_expanded_fields)
-          throw Error(def.path, f.line, "the definition has more than " + std::to_string(max_expanded_fields) +
-                                            " fields with its sub-types written out, at field '" + f.name + "'");
+          throw Error(def.path, f.line,
+                      "the definition has more than " + std::to_string(max_expanded_fields) +
+                          " fields with its sub-types written out, at field '" + f.name + "'");
       }
       if (list == &def.fields) plain = {total, expanded};
     }
@@ -222,9 +225,10 @@ const Definition& Library::load(std::string_view name) {
     }
     if (!result) {
       if (!is_valid_definition_name(wanted))
-        throw Error("", 0, "'" + wanted + "' is not a valid message-definition name (relative, '/'-separated, no '..')");
-      throw Error("", 0, "message definition '" + wanted + "' not found in these directories:" +
-                             list_dirs(search_path_));
+        throw Error("", 0,
+                    "'" + wanted + "' is not a valid message-definition name (relative, '/'-separated, no '..')");
+      throw Error("", 0,
+                  "message definition '" + wanted + "' not found in these directories:" + list_dirs(search_path_));
     }
     loader.finish();
     return *result;

@@ -21,8 +21,7 @@ enum class Section { First, Second };  // request/connect, response/call
 
 class DefinitionParser {
  public:
-  DefinitionParser(Definition& definition, DefineResolver& resolver)
-      : def_(definition), resolver_(resolver) {}
+  DefinitionParser(Definition& definition, DefineResolver& resolver) : def_(definition), resolver_(resolver) {}
 
   void parse(std::string_view text) {
     int line_number = 0;
@@ -42,8 +41,14 @@ class DefinitionParser {
 
       if (first_significant) {
         first_significant = false;
-        if (line == "service") { def_.kind = Kind::Service; continue; }
-        if (line == "event") { def_.kind = Kind::Event; continue; }
+        if (line == "service") {
+          def_.kind = Kind::Service;
+          continue;
+        }
+        if (line == "event") {
+          def_.kind = Kind::Event;
+          continue;
+        }
       }
       if (section_marker(line)) continue;
       parse_declaration(line);
@@ -56,25 +61,27 @@ class DefinitionParser {
 
   bool section_marker(std::string_view line) {
     const bool service = def_.kind == Kind::Service, event = def_.kind == Kind::Event;
-    if ((service && line == "request") || (event && line == "connect")) section_ = Section::First;
-    else if ((service && line == "response") || (event && line == "call")) section_ = Section::Second;
-    else return false;
+    if ((service && line == "request") || (event && line == "connect"))
+      section_ = Section::First;
+    else if ((service && line == "response") || (event && line == "call"))
+      section_ = Section::Second;
+    else
+      return false;
     return true;
   }
 
-  std::vector<Field>& fields(Section s) {
-    return s == Section::First ? def_.fields : def_.response_fields;
-  }
+  std::vector<Field>& fields(Section s) { return s == Section::First ? def_.fields : def_.response_fields; }
 
   void parse_declaration(std::string_view line) {
     const auto blank = line.find_first_of(" \t");
     if (blank == std::string_view::npos)
-      fail("expected 'TYPE NAME', 'TYPE NAME[COUNT]' or 'define NAME as \"md/name\"', got '" +
-           std::string(line) + "'");
+      fail("expected 'TYPE NAME', 'TYPE NAME[COUNT]' or 'define NAME as \"md/name\"', got '" + std::string(line) + "'");
     const std::string_view first_word = line.substr(0, blank);
     const std::string_view rest = text::strip_unicode(line.substr(blank));
-    if (first_word == "define") parse_define(rest);
-    else parse_field(first_word, rest);
+    if (first_word == "define")
+      parse_define(rest);
+    else
+      parse_field(first_word, rest);
   }
 
   void parse_define(std::string_view rest) {
@@ -83,12 +90,10 @@ class DefinitionParser {
     const std::string local(text::strip_unicode(rest.substr(0, as)));
     const std::string_view quoted = text::strip(rest.substr(as + 4));
     if (quoted.size() < 2 || quoted.front() != '"' || quoted.back() != '"')
-      fail("the definition name in a define must be in double quotes: define " + local +
-           " as \"md/name\"");
+      fail("the definition name in a define must be in double quotes: define " + local + " as \"md/name\"");
     const std::string target(quoted.substr(1, quoted.size() - 2));
 
-    if (primitive_from_spelling(local))
-      fail("'" + local + "' is a built-in type and cannot be redefined");
+    if (primitive_from_spelling(local)) fail("'" + local + "' is a built-in type and cannot be redefined");
     if (!text::is_identifier(local) || text::is_reserved_word(local))
       fail("'" + local + "' is not a usable type name (a C identifier that is not a keyword)");
     if (!is_valid_definition_name(target))
@@ -135,8 +140,7 @@ class DefinitionParser {
     std::string_view name = rest;
     const auto bracket = rest.find('[');
     if (bracket != std::string_view::npos) {
-      if (field.dynamic)
-        fail("arrays of dynamic fields ('" + std::string(type_word) + "* name[N]') are not supported");
+      if (field.dynamic) fail("arrays of dynamic fields ('" + std::string(type_word) + "* name[N]') are not supported");
       name = rest.substr(0, bracket);
       field.count = array_count(rest.substr(bracket));
     }
@@ -165,8 +169,8 @@ class DefinitionParser {
       fail("invalid array count '" + std::string(expression) + "': " + e.what());
     }
     if (count < 1 || count > max_array_count)
-      fail("array count '" + std::string(expression) + "' is " + std::to_string(count) +
-           "; it must be between 1 and " + std::to_string(max_array_count));
+      fail("array count '" + std::string(expression) + "' is " + std::to_string(count) + "; it must be between 1 and " +
+           std::to_string(max_array_count));
     return static_cast<std::uint32_t>(count);
   }
 

@@ -15,8 +15,8 @@ class DefineResolver {
   virtual ~DefineResolver() = default;
   /// The definition `quoted` imported by `importer` at `line`; sets
   /// `absolute_name` to the name generated code will use for it.
-  virtual const Definition& resolve_define(const Definition& importer, const std::string& quoted,
-                                           int line, std::string& absolute_name) = 0;
+  virtual const Definition& resolve_define(const Definition& importer, const std::string& quoted, int line,
+                                           std::string& absolute_name) = 0;
 };
 
 /// Parses `text` into `definition`, whose `name` and `path` are set.

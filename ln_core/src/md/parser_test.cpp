@@ -101,9 +101,10 @@ TEST(Parser, PlacesLengthFieldsExactlyAsLn29) {
 
 TEST(Parser, IgnoresCommentsBlanksCarriageReturnsAndTabs) {
   DefinitionTree tree;
-  tree.write("c/messy", "# header\r\n\r\n  double\tx   # trailing\r\n\tfloat frame [4*4]\r\n#end\r\n"
-                        "\xc2\xa0int32_t nbsp_around\xe3\x80\x80\n"     // U+00A0 ... U+3000
-                        "uint8_t tail\xc2\xa0[2]\n");
+  tree.write("c/messy",
+             "# header\r\n\r\n  double\tx   # trailing\r\n\tfloat frame [4*4]\r\n#end\r\n"
+             "\xc2\xa0int32_t nbsp_around\xe3\x80\x80\n"  // U+00A0 ... U+3000
+             "uint8_t tail\xc2\xa0[2]\n");
   Library library(SearchPath::exactly({tree.root()}));
   const Definition& def = library.load("c/messy");
   ASSERT_EQ(names_of(def.fields), (std::vector<std::string>{"x", "frame", "nbsp_around", "tail"}));
@@ -118,8 +119,9 @@ TEST(Parser, ResolvesDefinesNextToTheFileFirstThenOnTheSearchPath) {
   tree.write("a/b/value", "double v\n");
   tree.write("value", "uint8_t shadowed\n");
   tree.write("other/point", "float x\nfloat y\n");
-  tree.write("a/b/holder", "define value_t as \"value\"\ndefine point as \"other/point\"\n"
-                           "value_t single\npoint corners[4]\npoint* path\n");
+  tree.write("a/b/holder",
+             "define value_t as \"value\"\ndefine point as \"other/point\"\n"
+             "value_t single\npoint corners[4]\npoint* path\n");
   Library library(SearchPath::exactly({tree.root()}));
   const Definition& holder = library.load("a/b/holder");
   ASSERT_EQ(holder.defines.size(), 2u);
@@ -133,8 +135,9 @@ TEST(Parser, ResolvesDefinesNextToTheFileFirstThenOnTheSearchPath) {
 TEST(Parser, AcceptsADefineRepeatedForTheSameDefinition) {
   DefinitionTree tree;
   tree.write("s/item", "double x\n");
-  tree.write("s/svc", "service\nrequest\ndefine item_t as \"item\"\nitem_t a\n"
-                      "response\ndefine item_t as \"s/item\"\nitem_t b\n");
+  tree.write("s/svc",
+             "service\nrequest\ndefine item_t as \"item\"\nitem_t a\n"
+             "response\ndefine item_t as \"s/item\"\nitem_t b\n");
   tree.write("s/other", "float y\n");
   tree.write("s/clash", "define t as \"item\"\nt a\ndefine t as \"other\"\nt b\n");
   Library library(SearchPath::exactly({tree.root()}));
@@ -188,30 +191,29 @@ TEST_P(ParserErrors, NameFileLineAndCause) {
 
 INSTANTIATE_TEST_SUITE_P(
     Parser, ParserErrors,
-    ::testing::Values(
-        BadDefinition{"double x\nvec3 y\n", "unknown type 'vec3'", 2},
-        BadDefinition{"double x\ndouble** y\n", "only one '*'", 2},
-        BadDefinition{"double x[0]\n", "must be between 1", 1},
-        BadDefinition{"double x[-1]\n", "must be between 1", 1},
-        BadDefinition{"double x[abc]\n", "invalid array count 'abc'", 1},
-        BadDefinition{"double x[2][3]\n", "multi-dimensional", 1},
-        BadDefinition{"double x[3\n", "closing ']'", 1},
-        BadDefinition{"double x\n\nint8_t x\n", "field 'x' is already defined in line 1", 3},
-        BadDefinition{"double my-field\n", "not a valid field name", 1},
-        BadDefinition{"int class\n", "not a valid field name", 1},
-        BadDefinition{"double* x[3]\n", "arrays of dynamic fields", 1},
-        BadDefinition{"doublex\n", "expected 'TYPE NAME'", 1},
-        BadDefinition{"define t as \"missing\"\n", "define refers to 'missing'", 1},
-        BadDefinition{"define t as missing\n", "double quotes", 1},
-        BadDefinition{"define t \"missing\"\n", "expected 'define LOCAL_TYPE as", 1},
-        BadDefinition{"define double as \"svc\"\n", "built-in type", 1},
-        BadDefinition{"define t as \"../up\"\n", "not a valid message-definition name", 1},
-        BadDefinition{"define t as \"svc\"\n", "only plain definitions", 1},
-        BadDefinition{"uint8_t* d\ndouble d_len\n", "must be an integer scalar", 2},
-        BadDefinition{"double ok\ndouble caf\xc3\n", "not valid UTF-8", 2},
-        BadDefinition{"double x[99999*99999*99999]\n", "must be between 1", 1},
-        BadDefinition{"uint8_t a[2147483647]\nuint8_t b[2147483647]\nuint8_t c[2147483647]\n",
-                      "grows beyond 4 GiB at field 'c'", 3}),
+    ::testing::Values(BadDefinition{"double x\nvec3 y\n", "unknown type 'vec3'", 2},
+                      BadDefinition{"double x\ndouble** y\n", "only one '*'", 2},
+                      BadDefinition{"double x[0]\n", "must be between 1", 1},
+                      BadDefinition{"double x[-1]\n", "must be between 1", 1},
+                      BadDefinition{"double x[abc]\n", "invalid array count 'abc'", 1},
+                      BadDefinition{"double x[2][3]\n", "multi-dimensional", 1},
+                      BadDefinition{"double x[3\n", "closing ']'", 1},
+                      BadDefinition{"double x\n\nint8_t x\n", "field 'x' is already defined in line 1", 3},
+                      BadDefinition{"double my-field\n", "not a valid field name", 1},
+                      BadDefinition{"int class\n", "not a valid field name", 1},
+                      BadDefinition{"double* x[3]\n", "arrays of dynamic fields", 1},
+                      BadDefinition{"doublex\n", "expected 'TYPE NAME'", 1},
+                      BadDefinition{"define t as \"missing\"\n", "define refers to 'missing'", 1},
+                      BadDefinition{"define t as missing\n", "double quotes", 1},
+                      BadDefinition{"define t \"missing\"\n", "expected 'define LOCAL_TYPE as", 1},
+                      BadDefinition{"define double as \"svc\"\n", "built-in type", 1},
+                      BadDefinition{"define t as \"../up\"\n", "not a valid message-definition name", 1},
+                      BadDefinition{"define t as \"svc\"\n", "only plain definitions", 1},
+                      BadDefinition{"uint8_t* d\ndouble d_len\n", "must be an integer scalar", 2},
+                      BadDefinition{"double ok\ndouble caf\xc3\n", "not valid UTF-8", 2},
+                      BadDefinition{"double x[99999*99999*99999]\n", "must be between 1", 1},
+                      BadDefinition{"uint8_t a[2147483647]\nuint8_t b[2147483647]\nuint8_t c[2147483647]\n",
+                                    "grows beyond 4 GiB at field 'c'", 3}),
     [](const ::testing::TestParamInfo<BadDefinition>& param) { return "case" + std::to_string(param.index); });
 
 TEST(Library, ReportsMissingDefinitionsWithTheSearchedDirectories) {
@@ -259,7 +261,8 @@ TEST(Library, RebuildsDefinitionsFromInMemorySources) {
 
   // What a manager sends: the definition and everything it imports.
   Library from_texts(SearchPath::exactly({}));
-  from_texts.add_source("a/b/holder", "define value_t as \"value\"\ndefine p as \"other/point\"\nvalue_t v\np pts[2]\n");
+  from_texts.add_source("a/b/holder",
+                        "define value_t as \"value\"\ndefine p as \"other/point\"\nvalue_t v\np pts[2]\n");
   from_texts.add_source("a/b/value", "double v\n");
   from_texts.add_source("other/point", "float x\nfloat y\n");
   const Definition& rebuilt = from_texts.load("a/b/holder");

@@ -39,9 +39,7 @@ constexpr std::array<Alias, 4> aliases{{
     {"int", Primitive::Int32},
 }};
 
-const PrimitiveTraits& traits(Primitive type) {
-  return traits_table[static_cast<std::size_t>(type)];
-}
+const PrimitiveTraits& traits(Primitive type) { return traits_table[static_cast<std::size_t>(type)]; }
 
 }  // namespace
 

@@ -25,8 +25,9 @@ TEST(PythonDictText, NestedDefinesComeDepthFirstInDefineOrder) {
   tree.write("lg/v", "uint8_t a\ndouble b[2]\nint16_t c\n");
   tree.write("lg/sub/outer",
              "define inner_t as \"lg/pt\"\ndefine third as \"lg/v\"\ninner_t in[2]\nthird v\nuint16_t k\n");
-  tree.write("lg/nest", "define outer_t as \"lg/sub/outer\"\ndefine pt_t as \"lg/pt\"\nouter_t o\npt_t q\n"
-                        "float32_t g[2]\n");
+  tree.write("lg/nest",
+             "define outer_t as \"lg/sub/outer\"\ndefine pt_t as \"lg/pt\"\nouter_t o\npt_t q\n"
+             "float32_t g[2]\n");
   Library library(SearchPath::exactly({tree.root()}));
   EXPECT_EQ(python_dict_text(library.load("lg/nest")),
             "{'fields': [['outer_t', 'o', 1], ['pt_t', 'q', 1], ['float32_t', 'g', 2]], 'resp_fields': [], "

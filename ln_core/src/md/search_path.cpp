@@ -62,8 +62,10 @@ void expand_md_conf(std::vector<std::string>& dirs) {
     std::vector<std::string> found;
     for (const auto& dir : dirs) {
       std::string conf;
-      if (is_directory(dir)) conf = dir + "/md.conf";
-      else if (is_regular_file(dir)) conf = dir;
+      if (is_directory(dir))
+        conf = dir + "/md.conf";
+      else if (is_regular_file(dir))
+        conf = dir;
       if (conf.empty() || !is_regular_file(conf)) continue;
       std::ifstream in(conf);
       std::string line;

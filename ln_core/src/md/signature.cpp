@@ -34,8 +34,7 @@ std::string join_entries(const std::vector<Field>& fields, std::vector<const Def
       type = "[" + sub_signature(*f.sub, stack) + "]";
       element_size = packet_size(*f.sub);
     }
-    out += type + (f.dynamic ? "*" : "") + " " + std::to_string(element_size) + " " +
-           std::to_string(f.count);
+    out += type + (f.dynamic ? "*" : "") + " " + std::to_string(element_size) + " " + std::to_string(f.count);
   }
   return out;
 }

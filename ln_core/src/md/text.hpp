@@ -27,9 +27,7 @@ char32_t decode_utf8(std::string_view s, std::size_t i, std::size_t& length);
 /// Python's str.isspace() for one code point.
 bool is_unicode_space(char32_t c);
 
-inline bool starts_with(std::string_view s, std::string_view prefix) {
-  return s.substr(0, prefix.size()) == prefix;
-}
+inline bool starts_with(std::string_view s, std::string_view prefix) { return s.substr(0, prefix.size()) == prefix; }
 
 inline bool ends_with(std::string_view s, std::string_view suffix) {
   return s.size() >= suffix.size() && s.substr(s.size() - suffix.size()) == suffix;

@@ -29,9 +29,7 @@ const Definition& load(Library& library, const std::string& name) {
   }
 }
 
-double seconds_since(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
+double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
 // The order of fields LN 2.9 produces, by its own method (a scan of the
 // list per dynamic field, remove and insert by index): the reference for

@@ -78,9 +78,9 @@ class Parser {
 
   bool number(Literal& out) {
     const std::size_t start = pos_;
-    while (pos_ < text_.size() && (std::isalnum(static_cast<unsigned char>(text_[pos_])) || text_[pos_] == '.' ||
-                                   ((text_[pos_] == '-' || text_[pos_] == '+') &&
-                                    (text_[pos_ - 1] == 'e' || text_[pos_ - 1] == 'E'))))
+    while (pos_ < text_.size() &&
+           (std::isalnum(static_cast<unsigned char>(text_[pos_])) || text_[pos_] == '.' ||
+            ((text_[pos_] == '-' || text_[pos_] == '+') && (text_[pos_ - 1] == 'e' || text_[pos_ - 1] == 'E'))))
       ++pos_;
     out = Literal{};
     out.kind = Literal::Kind::Number;
@@ -90,8 +90,8 @@ class Parser {
 
   bool name_or_call(Literal& out, int depth) {
     const std::size_t start = pos_;
-    while (pos_ < text_.size() && (is_identifier_char(text_[pos_]) ||
-                                   (text_[pos_] == '.' && pos_ + 1 < text_.size() && is_identifier_start(text_[pos_ + 1]))))
+    while (pos_ < text_.size() && (is_identifier_char(text_[pos_]) || (text_[pos_] == '.' && pos_ + 1 < text_.size() &&
+                                                                       is_identifier_start(text_[pos_ + 1]))))
       ++pos_;
     std::string name(text_.substr(start, pos_ - start));
     if (!at('(')) {
@@ -187,11 +187,23 @@ class Parser {
       if (pos_ >= text_.size()) return fail("unterminated string");
       const char e = text_[pos_++];
       switch (e) {
-        case 'n': decoded.push_back('\n'); break;
-        case 'r': decoded.push_back('\r'); break;
-        case 't': decoded.push_back('\t'); break;
-        case '0': decoded.push_back('\0'); break;
-        case '\\': case '\'': case '"': decoded.push_back(e); break;
+        case 'n':
+          decoded.push_back('\n');
+          break;
+        case 'r':
+          decoded.push_back('\r');
+          break;
+        case 't':
+          decoded.push_back('\t');
+          break;
+        case '0':
+          decoded.push_back('\0');
+          break;
+        case '\\':
+        case '\'':
+        case '"':
+          decoded.push_back(e);
+          break;
         case 'x': {
           if (pos_ + 2 > text_.size() || !std::isxdigit(static_cast<unsigned char>(text_[pos_])) ||
               !std::isxdigit(static_cast<unsigned char>(text_[pos_ + 1])))
@@ -227,11 +239,21 @@ std::string python_string_literal(std::string_view text) {
   std::string out = "'";
   for (const char c : text) {
     switch (c) {
-      case '\\': out += "\\\\"; break;
-      case '\'': out += "\\'"; break;
-      case '\n': out += "\\n"; break;
-      case '\r': out += "\\r"; break;
-      case '\t': out += "\\t"; break;
+      case '\\':
+        out += "\\\\";
+        break;
+      case '\'':
+        out += "\\'";
+        break;
+      case '\n':
+        out += "\\n";
+        break;
+      case '\r':
+        out += "\\r";
+        break;
+      case '\t':
+        out += "\\t";
+        break;
       default:
         if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) {
           char escaped[5];

@@ -79,8 +79,8 @@ TEST(Literal, ReportsWhatIsWrong) {
 }
 
 TEST(Literal, StringLiteralsRoundTrip) {
-  for (const std::string& text : std::vector<std::string>{"", "plain", "it's", "back\\slash", "line\nnext\ttab\r", std::string("\x01\x7f", 2),
-                                 "quote \" double", "ünïcode"}) {
+  for (const std::string& text : std::vector<std::string>{"", "plain", "it's", "back\\slash", "line\nnext\ttab\r",
+                                                          std::string("\x01\x7f", 2), "quote \" double", "ünïcode"}) {
     const std::string quoted = python_string_literal(text);
     EXPECT_EQ(quoted.front(), '\'');
     Literal back = parse_ok(quoted);

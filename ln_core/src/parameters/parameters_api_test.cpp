@@ -24,13 +24,14 @@ using ln::parameters::port_description;
 /// control loop would, until destroyed.
 class UpdateLoop {
  public:
-  explicit UpdateLoop(parameter_block& block) : thread_([this, &block] {
-      while (!stop_) {
-        block.update();
-        ++steps_;
-        std::this_thread::sleep_for(1ms);
-      }
-    }) {}
+  explicit UpdateLoop(parameter_block& block)
+      : thread_([this, &block] {
+          while (!stop_) {
+            block.update();
+            ++steps_;
+            std::this_thread::sleep_for(1ms);
+          }
+        }) {}
   ~UpdateLoop() {
     stop_ = true;
     thread_.join();
@@ -106,14 +107,14 @@ TEST_F(Parameters, ReadOverrideAndResetWithTheStepsOfTheProvider) {
   std::atomic<bool> applied_in_update_thread{false};
   int16_t mat[2][2] = {{1, -2}, {3, -4}}, mat_out[2][2] = {};
   parameter_block block(provider.get(), "ctrl");
-  ASSERT_TRUE(block.register_parameters(
-      port_description<double>("gain", "the gain", &gain, &gain_out, nullptr,
-                               [&](double& v) {
-                                 applied_value = v;
-                                 applied_in_update_thread = std::this_thread::get_id() == update_thread;
-                                 ++applied;
-                               }),
-      port_description<int16_t[2][2]>("mat", "", &mat, &mat_out)));
+  ASSERT_TRUE(block.register_parameters(port_description<double>("gain", "the gain", &gain, &gain_out, nullptr,
+                                                                 [&](double& v) {
+                                                                   applied_value = v;
+                                                                   applied_in_update_thread =
+                                                                       std::this_thread::get_id() == update_thread;
+                                                                   ++applied;
+                                                                 }),
+                                        port_description<int16_t[2][2]>("mat", "", &mat, &mat_out)));
   auto caller = client("caller");
   auto params = caller->get_parameters("ctrl");
   EXPECT_EQ(params.get_input<double>("gain"), 1.5);
@@ -205,8 +206,12 @@ TEST_F(Parameters, BadInputGetsClearErrors) {
             std::string::npos);
   EXPECT_NE(error_of([&] { params.get_input<double>("d"); }).find("has shape [4]"), std::string::npos);
   EXPECT_NE(error_of([&] { params.get_input<std::array<double, 3>>("d"); }).find("shape [3]"), std::string::npos);
-  EXPECT_NE(error_of([&] { params.set_override("d", std::vector<double>{1, 2, 3}); }).find("shape [3]"), std::string::npos);
-  EXPECT_NE(error_of([&] { params.set_override("s8", 300); }).find("300 does not fit int8 (-128..127)"), std::string::npos);
+  EXPECT_NE(error_of([&] {
+              params.set_override("d", std::vector<double>{1, 2, 3});
+            }).find("shape [3]"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] { params.set_override("s8", 300); }).find("300 does not fit int8 (-128..127)"),
+            std::string::npos);
   EXPECT_NE(error_of([&] { params.get_input<uint8_t>("s8"); }).find("-5 does not fit uint8"), std::string::npos);
   EXPECT_NE(error_of([&] { caller->get_parameters("all", true).get_input<double>("s8"); }).find("signed integer"),
             std::string::npos);
@@ -392,7 +397,8 @@ TEST_F(Parameters, ColumnMajorProgramsAndMatricesOfOneRow) {
   auto r = caller->get_parameters("r");
   EXPECT_EQ(r.get_internal_value("one_row").shape, (std::vector<std::size_t>{1, 3}));
   r.set_override("one_row", std::vector<std::vector<double>>{{1, 2, 3}}, false);
-  EXPECT_NE(query_dict(*caller, "prov", "r.one_row").find("output=array([1., 2., 3.], dtype=double)"), std::string::npos);
+  EXPECT_NE(query_dict(*caller, "prov", "r.one_row").find("output=array([1., 2., 3.], dtype=double)"),
+            std::string::npos);
 }
 
 TEST_F(Parameters, TheClientGoingFirstLeavesBlocksHarmless) {

@@ -377,7 +377,8 @@ void Server::ensure_topic(const std::shared_ptr<BlockState>& block) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (block->topic != nullptr) return;
-    if (closed_ || block->closed) throw Failure(LNE_CLIENT_NOT_INITIALIZED, "parameter block '" + block->name + "' is gone");
+    if (closed_ || block->closed)
+      throw Failure(LNE_CLIENT_NOT_INITIALIZED, "parameter block '" + block->name + "' is gone");
   }
   // The signals do not change once registered.
   std::vector<TopicField> fields;
@@ -438,7 +439,8 @@ void Server::update(BlockState& block, const void* const* inputs, void* const* o
     std::lock_guard<std::mutex> lock(mutex_);
     if (closed_) throw Failure(LNE_CLIENT_NOT_INITIALIZED, "parameter block '" + block.name + "': the client is gone");
     if (!block.registered)
-      throw Failure(LNE_INVALID_PARAMETER, "parameter block '" + block.name + "': update() before register_parameters()");
+      throw Failure(LNE_INVALID_PARAMETER,
+                    "parameter block '" + block.name + "': update() before register_parameters()");
     ++block.started;
     for (std::size_t i = 0; i < block.signals.size(); ++i) {
       SignalState& s = block.signals[i];
@@ -450,7 +452,8 @@ void Server::update(BlockState& block, const void* const* inputs, void* const* o
       if (s.override_enabled && s.apply_pending) {
         s.apply_pending = false;
         if (s.after_update != nullptr)
-          applied.push_back(Applied{&s, out, out != nullptr ? std::vector<std::uint8_t>{} : s.program_layout(s.output_value)});
+          applied.push_back(
+              Applied{&s, out, out != nullptr ? std::vector<std::uint8_t>{} : s.program_layout(s.output_value)});
       }
     }
   }
@@ -518,7 +521,8 @@ int Server::on_query(ln_client, ln_service_request req, void* self_) {
   {
     std::lock_guard<std::mutex> lock(self->mutex_);
     for (const auto& [block, s] : self->matching_locked(request_text(data.req.pattern, data.req.pattern_len))) {
-      Row row{s->full_name, binary_type_string(s->type, s->shape), s->output_value, s->input_value, s->override_enabled};
+      Row row{s->full_name, binary_type_string(s->type, s->shape), s->output_value, s->input_value,
+              s->override_enabled};
       // The binary form carries matrices column-major.
       from_row_major(s->output_value.data(), row.output.data(), s->type, s->shape, false);
       from_row_major(s->input_value.data(), row.input.data(), s->type, s->shape, false);
@@ -553,8 +557,8 @@ int Server::on_query_dict(ln_client, ln_service_request req, void* self_) {
   {
     std::lock_guard<std::mutex> lock(self->mutex_);
     for (const auto& [block, s] : self->matching_locked(request_text(data.req.pattern, data.req.pattern_len))) {
-      text += "  " + python_string_literal(s->full_name) + ": dict(input=" +
-              format_value_for_display(s->type, s->shape, s->input_value.data()) +
+      text += "  " + python_string_literal(s->full_name) +
+              ": dict(input=" + format_value_for_display(s->type, s->shape, s->input_value.data()) +
               ", output=" + format_value_for_display(s->type, s->shape, s->output_value.data()) +
               ", override_enabled=" + (s->override_enabled ? "True" : "False") +
               ", description=" + python_string_literal(s->description) + "),\n";
@@ -599,12 +603,13 @@ int Server::override(ln_service_request req, ln_parameters_override_dict_single_
   {
     std::lock_guard<std::mutex> lock(mutex_);
     const auto found = matching_locked(name);
-    if (found.empty()) return respond_override(req, data, "no parameter '" + name + "' here (client '" + client_name_ + "')");
+    if (found.empty())
+      return respond_override(req, data, "no parameter '" + name + "' here (client '" + client_name_ + "')");
     if (found.size() > 1) {
       std::string names;
       for (const auto& f : found) names += (names.empty() ? "" : ", ") + f.second->full_name;
-      return respond_override(req, data, "'" + name + "' matches " + std::to_string(found.size()) +
-                                             " parameters, name one: " + names);
+      return respond_override(
+          req, data, "'" + name + "' matches " + std::to_string(found.size()) + " parameters, name one: " + names);
     }
     block = found[0].first;
     signal = found[0].second;
@@ -627,8 +632,9 @@ int Server::override(ln_service_request req, ln_parameters_override_dict_single_
     if (signal->before_update(program_value.data(), signal->user_data) == 0) {
       debug_log(clnt_, "override of '%s' with %s refused by its before_update check", signal->full_name.c_str(),
                 text.c_str());
-      return respond_override(req, data, "parameter '" + signal->full_name +
-                                             "': the provider's check (before_update) refused the value " + text);
+      return respond_override(
+          req, data,
+          "parameter '" + signal->full_name + "': the provider's check (before_update) refused the value " + text);
     }
     // The callback may have changed the value in place, as LN 2.9 lets it.
     to_row_major(program_value.data(), value.data(), type, shape, signal->row_major);
@@ -670,7 +676,8 @@ int Server::finish_override(ln_service_request req, ln_parameters_override_dict_
       stepped_.wait_for(lock, kWaitStepTimeout, [&] { return block->steps >= target || block->closed || closed_; });
   const bool gone = block->closed || closed_;
   lock.unlock();
-  if (gone) return respond_override(req, data, "parameter block '" + block->name + "' was destroyed before its next update");
+  if (gone)
+    return respond_override(req, data, "parameter block '" + block->name + "' was destroyed before its next update");
   if (!stepped) return respond_override(req, data, no_step_error(block->name));
   return respond_override(req, data, "");
 }
@@ -738,7 +745,6 @@ int Server::request_topic(ln_service_request req, ln_parameters_request_paramete
   data.resp.error = error.data();
   return ln_service_request_respond(req);
 }
-
 
 // ----------------------------------------------------------------- block
 

@@ -86,13 +86,15 @@ std::string sibling_service(const std::string& query_dict_service, const char* k
 
 std::string provider_label(const std::string& query_dict_service) {
   const std::string prefix = "ln.parameters.query_dict.";
-  return query_dict_service.compare(0, prefix.size(), prefix) == 0 ? "client '" + query_dict_service.substr(prefix.size()) + "'"
-                                                                    : "'" + query_dict_service + "'";
+  return query_dict_service.compare(0, prefix.size(), prefix) == 0
+             ? "client '" + query_dict_service.substr(prefix.size()) + "'"
+             : "'" + query_dict_service + "'";
 }
 
 std::string call_error(ln_client clnt, int ret, const std::string& service) {
   const char* detail = ln_get_error_message(clnt);
-  return service + ": " + ln_format_error(ret) + (detail != nullptr && detail[0] != '\0' ? std::string(": ") + detail : "");
+  return service + ": " + ln_format_error(ret) +
+         (detail != nullptr && detail[0] != '\0' ? std::string(": ") + detail : "");
 }
 
 // A provider that does not answer in time is there but busy (or handles
@@ -133,7 +135,8 @@ std::optional<std::string> query_dict(ln_client clnt, RemoteState& state, const 
   data.req.pattern_len = static_cast<std::uint32_t>(pattern.size());
   const int ret = handle->call(&data, kQueryTimeout);
   if (ret != 0) {
-    problem = ret == -LNE_SVC_TIMEOUT ? provider_label(provider_key) + " did not answer" : call_error(clnt, ret, provider_key);
+    problem = ret == -LNE_SVC_TIMEOUT ? provider_label(provider_key) + " did not answer"
+                                      : call_error(clnt, ret, provider_key);
     debug_log(clnt, "asking %s failed: %s", provider_key.c_str(), problem.c_str());
     return std::nullopt;
   }
@@ -173,7 +176,8 @@ Known discover(ln_client clnt, RemoteState& state, const std::string& name) {
     for (std::size_t i = 0; i + 1 < dict.items.size(); i += 2) {
       if (dict.items[i].kind != Literal::Kind::String || dict.items[i].text != name) continue;
       const Literal* description = dict.items[i + 1].keyword("description");
-      found.emplace_back(service, description != nullptr && description->kind == Literal::Kind::String ? description->text : "");
+      found.emplace_back(service,
+                         description != nullptr && description->kind == Literal::Kind::String ? description->text : "");
     }
   }
   if (found.empty()) {
@@ -229,9 +233,9 @@ std::optional<RemoteValue> query(ln_client clnt, RemoteState& state, const std::
       throw Failure(LNE_GOT_INVALID_RESPONSE, "parameter '" + name + "': unknown data_type '" + value.data_type + "'");
     const std::size_t bytes = value.shape.elements() * element_size(value.type);
     if (v.input_data_len != bytes || v.output_data_len != bytes)
-      throw Failure(LNE_GOT_INVALID_RESPONSE, "parameter '" + name + "' (" + value.data_type + "): " +
-                                                  std::to_string(v.input_data_len) + " bytes of data, expected " +
-                                                  std::to_string(bytes));
+      throw Failure(LNE_GOT_INVALID_RESPONSE, "parameter '" + name + "' (" + value.data_type +
+                                                  "): " + std::to_string(v.input_data_len) +
+                                                  " bytes of data, expected " + std::to_string(bytes));
     value.input.resize(bytes);
     value.output.resize(bytes);
     // The binary form carries matrices column-major.
@@ -281,10 +285,14 @@ bool kinds_compatible(ElementKind a, ElementKind b) {
 
 const char* kind_name(ElementKind kind) {
   switch (kind) {
-    case ElementKind::Floating: return "floating";
-    case ElementKind::Signed: return "signed integer";
-    case ElementKind::Unsigned: return "unsigned integer";
-    case ElementKind::Boolean: break;
+    case ElementKind::Floating:
+      return "floating";
+    case ElementKind::Signed:
+      return "signed integer";
+    case ElementKind::Unsigned:
+      return "unsigned integer";
+    case ElementKind::Boolean:
+      break;
   }
   return "boolean";
 }
@@ -323,7 +331,8 @@ void override_with(ln_client clnt, const std::string& name, int flags, bool need
       continue;
     }
     if (error->empty()) {
-      debug_log(clnt, "parameter '%s' %s", name.c_str(), text.empty() ? "override ended" : ("overridden with " + text).c_str());
+      debug_log(clnt, "parameter '%s' %s", name.c_str(),
+                text.empty() ? "override ended" : ("overridden with " + text).c_str());
       return;
     }
     if (says_unknown(*error)) {
@@ -331,8 +340,8 @@ void override_with(ln_client clnt, const std::string& name, int flags, bool need
       drop_provider(*state, known.provider);
       continue;
     }
-    throw Failure(LNE_REQUEST_FAILED, provider_label(known.provider) + " refused to override parameter '" + name +
-                                          "': " + *error);
+    throw Failure(LNE_REQUEST_FAILED,
+                  provider_label(known.provider) + " refused to override parameter '" + name + "': " + *error);
   }
   throw Failure(LNE_UNKNOWN_PARAMETER, "parameter '" + name + "' is not available: " + problem);
 }

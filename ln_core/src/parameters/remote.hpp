@@ -29,7 +29,9 @@ struct RemoteValue {
   std::vector<std::uint8_t> output;  // row-major
 
   /// The C/C++ view: 0 for a scalar, else the number of dimensions.
-  unsigned rank() const { return shape.dims.size() == 1 && shape.dims[0] == 1 ? 0 : static_cast<unsigned>(shape.dims.size()); }
+  unsigned rank() const {
+    return shape.dims.size() == 1 && shape.dims[0] == 1 ? 0 : static_cast<unsigned>(shape.dims.size());
+  }
 };
 
 /// All three throw clientlib::Failure. `flags`: LN_PARAMETER_* of parameters_c.h.

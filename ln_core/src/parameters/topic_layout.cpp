@@ -11,16 +11,27 @@ namespace {
 
 const char* c_type(ElementType type) {
   switch (type) {
-    case ElementType::Double: return "double";
-    case ElementType::Single: return "float";
-    case ElementType::Int8: return "int8_t";
-    case ElementType::UInt8: case ElementType::Boolean: return "uint8_t";
-    case ElementType::Int16: return "int16_t";
-    case ElementType::UInt16: return "uint16_t";
-    case ElementType::Int32: return "int32_t";
-    case ElementType::UInt32: return "uint32_t";
-    case ElementType::Int64: return "int64_t";
-    case ElementType::UInt64: return "uint64_t";
+    case ElementType::Double:
+      return "double";
+    case ElementType::Single:
+      return "float";
+    case ElementType::Int8:
+      return "int8_t";
+    case ElementType::UInt8:
+    case ElementType::Boolean:
+      return "uint8_t";
+    case ElementType::Int16:
+      return "int16_t";
+    case ElementType::UInt16:
+      return "uint16_t";
+    case ElementType::Int32:
+      return "int32_t";
+    case ElementType::UInt32:
+      return "uint32_t";
+    case ElementType::Int64:
+      return "int64_t";
+    case ElementType::UInt64:
+      return "uint64_t";
   }
   return "uint8_t";
 }
@@ -36,7 +47,7 @@ std::string text_hash(const std::string& text) {
 
 struct Node {
   std::vector<std::pair<std::string, std::unique_ptr<Node>>> children;  // in order of first appearance
-  std::size_t field = SIZE_MAX;  // a leaf: index into the fields
+  std::size_t field = SIZE_MAX;                                         // a leaf: index into the fields
 
   Node* child(const std::string& name) {
     for (auto& [child_name, node] : children)

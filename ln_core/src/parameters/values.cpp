@@ -21,12 +21,10 @@ struct TypeInfo {
 
 // Indexed by the LN type id.
 constexpr TypeInfo kTypes[kElementTypeCount] = {
-    {"double", 8, ElementKind::Floating}, {"float", 4, ElementKind::Floating},
-    {"int8", 1, ElementKind::Signed},     {"uint8", 1, ElementKind::Unsigned},
-    {"int16", 2, ElementKind::Signed},    {"uint16", 2, ElementKind::Unsigned},
-    {"int32", 4, ElementKind::Signed},    {"uint32", 4, ElementKind::Unsigned},
-    {"bool", 1, ElementKind::Boolean},    {"int64", 8, ElementKind::Signed},
-    {"uint64", 8, ElementKind::Unsigned},
+    {"double", 8, ElementKind::Floating}, {"float", 4, ElementKind::Floating},  {"int8", 1, ElementKind::Signed},
+    {"uint8", 1, ElementKind::Unsigned},  {"int16", 2, ElementKind::Signed},    {"uint16", 2, ElementKind::Unsigned},
+    {"int32", 4, ElementKind::Signed},    {"uint32", 4, ElementKind::Unsigned}, {"bool", 1, ElementKind::Boolean},
+    {"int64", 8, ElementKind::Signed},    {"uint64", 8, ElementKind::Unsigned},
 };
 
 const TypeInfo& info(ElementType type) { return kTypes[static_cast<unsigned>(type)]; }
@@ -52,10 +50,17 @@ void write_as(void* p, T v) {
 // two's complement.
 void write_integer(void* p, std::size_t size, std::uint64_t bits) {
   switch (size) {
-    case 1: write_as<std::uint8_t>(p, static_cast<std::uint8_t>(bits)); break;
-    case 2: write_as<std::uint16_t>(p, static_cast<std::uint16_t>(bits)); break;
-    case 4: write_as<std::uint32_t>(p, static_cast<std::uint32_t>(bits)); break;
-    default: write_as<std::uint64_t>(p, bits);
+    case 1:
+      write_as<std::uint8_t>(p, static_cast<std::uint8_t>(bits));
+      break;
+    case 2:
+      write_as<std::uint16_t>(p, static_cast<std::uint16_t>(bits));
+      break;
+    case 4:
+      write_as<std::uint32_t>(p, static_cast<std::uint32_t>(bits));
+      break;
+    default:
+      write_as<std::uint64_t>(p, bits);
   }
 }
 
@@ -74,9 +79,12 @@ std::string range_text(ElementType type) {
 
 std::string scalar_text(const Scalar& v) {
   switch (v.kind) {
-    case Scalar::Kind::Signed: return std::to_string(v.s);
-    case Scalar::Kind::Unsigned: return std::to_string(v.u);
-    case Scalar::Kind::Float: break;
+    case Scalar::Kind::Signed:
+      return std::to_string(v.s);
+    case Scalar::Kind::Unsigned:
+      return std::to_string(v.u);
+    case Scalar::Kind::Float:
+      break;
   }
   char text[64];
   std::snprintf(text, sizeof text, "%.17g", v.f);
@@ -109,7 +117,8 @@ std::string shortest_float_text(double v, bool single) {
     } else if (static_cast<std::size_t>(exponent) + 1 >= digits.size()) {
       out += digits + std::string(static_cast<std::size_t>(exponent) + 1 - digits.size(), '0') + ".0";
     } else {
-      out += digits.substr(0, static_cast<std::size_t>(exponent) + 1) + "." + digits.substr(static_cast<std::size_t>(exponent) + 1);
+      out += digits.substr(0, static_cast<std::size_t>(exponent) + 1) + "." +
+             digits.substr(static_cast<std::size_t>(exponent) + 1);
     }
     return out;
   }
@@ -150,16 +159,18 @@ std::optional<Scalar> number_value(const std::string& text) {
     base = (digits[1] == 'x' || digits[1] == 'X') ? 16 : (digits[1] == 'o' || digits[1] == 'O') ? 8 : 2;
     body = digits.substr(2);
   }
-  const bool all_digits = body.find_first_not_of(base == 16 ? "0123456789abcdefABCDEF" : "0123456789") ==
-                              std::string::npos && !body.empty();
-  if (all_digits && (base != 10 || body.size() == 1 || body[0] != '0' ||
-                     body.find_first_not_of('0') == std::string::npos)) {
+  const bool all_digits =
+      body.find_first_not_of(base == 16 ? "0123456789abcdefABCDEF" : "0123456789") == std::string::npos &&
+      !body.empty();
+  if (all_digits &&
+      (base != 10 || body.size() == 1 || body[0] != '0' || body.find_first_not_of('0') == std::string::npos)) {
     errno = 0;
     char* end = nullptr;
     const unsigned long long magnitude = std::strtoull(body.c_str(), &end, base);
     if (errno == ERANGE || *end != '\0') return Scalar::of_float(std::strtod(text.c_str(), nullptr));
     if (!negative) return Scalar::of_unsigned(magnitude);
-    if (magnitude <= static_cast<unsigned long long>(INT64_MAX)) return Scalar::of_signed(-static_cast<std::int64_t>(magnitude));
+    if (magnitude <= static_cast<unsigned long long>(INT64_MAX))
+      return Scalar::of_signed(-static_cast<std::int64_t>(magnitude));
     if (magnitude == static_cast<unsigned long long>(INT64_MAX) + 1) return Scalar::of_signed(INT64_MIN);
     return Scalar::of_float(-static_cast<double>(magnitude));
   }
@@ -182,12 +193,18 @@ std::string literal_scalar(const Literal& literal, Scalar& out) {
       return "";
     }
     case Literal::Kind::Name:
-      if (literal.text == "True" || literal.text == "true") out = Scalar::of_unsigned(1);
-      else if (literal.text == "False" || literal.text == "false") out = Scalar::of_unsigned(0);
-      else if (literal.text == "nan" || literal.text == "-nan" || literal.text == "NaN") out = Scalar::of_float(NAN);
-      else if (literal.text == "inf" || literal.text == "Infinity") out = Scalar::of_float(INFINITY);
-      else if (literal.text == "-inf" || literal.text == "-Infinity") out = Scalar::of_float(-INFINITY);
-      else return "'" + literal.text + "' is not a number";
+      if (literal.text == "True" || literal.text == "true")
+        out = Scalar::of_unsigned(1);
+      else if (literal.text == "False" || literal.text == "false")
+        out = Scalar::of_unsigned(0);
+      else if (literal.text == "nan" || literal.text == "-nan" || literal.text == "NaN")
+        out = Scalar::of_float(NAN);
+      else if (literal.text == "inf" || literal.text == "Infinity")
+        out = Scalar::of_float(INFINITY);
+      else if (literal.text == "-inf" || literal.text == "-Infinity")
+        out = Scalar::of_float(-INFINITY);
+      else
+        return "'" + literal.text + "' is not a number";
       return "";
     case Literal::Kind::Call:
       // numpy scalars: np.float64(2.5), float32(1), np.True_ is a Name.
@@ -195,8 +212,10 @@ std::string literal_scalar(const Literal& literal, Scalar& out) {
           (literal.items[0].kind == Literal::Kind::Number || literal.items[0].kind == Literal::Kind::Name))
         return literal_scalar(literal.items[0], out);
       return "'" + literal.text + "(...)' is not a number";
-    case Literal::Kind::String: return "a string is not a number";
-    default: return "a list is not a number";
+    case Literal::Kind::String:
+      return "a string is not a number";
+    default:
+      return "a list is not a number";
   }
 }
 
@@ -204,8 +223,8 @@ std::string literal_scalar(const Literal& literal, Scalar& out) {
 // `literal` is not a list.
 const std::vector<Literal>* list_items(const Literal& literal) {
   if (literal.kind == Literal::Kind::List || literal.kind == Literal::Kind::Tuple) return &literal.items;
-  if (literal.kind == Literal::Kind::Call && (literal.text == "array" || literal.text == "np.array" ||
-                                               literal.text == "numpy.array") &&
+  if (literal.kind == Literal::Kind::Call &&
+      (literal.text == "array" || literal.text == "np.array" || literal.text == "numpy.array") &&
       literal.items.size() == 1)
     return list_items(literal.items[0]);
   return nullptr;
@@ -262,7 +281,8 @@ std::string check_dims(const std::uint32_t* dims, unsigned n_dims) {
 
 std::string binary_type_string(ElementType type, const Shape& shape) {
   std::string text = info(type).name;
-  if (shape.dims.size() == 2) return text + "[" + std::to_string(shape.dims[0]) + ", " + std::to_string(shape.dims[1]) + "]";
+  if (shape.dims.size() == 2)
+    return text + "[" + std::to_string(shape.dims[0]) + ", " + std::to_string(shape.dims[1]) + "]";
   if (shape.elements() != 1) text += std::to_string(shape.elements());
   return text;
 }
@@ -343,17 +363,28 @@ void from_row_major(const void* from, void* to, ElementType type, const Shape& s
 
 Scalar load_element(ElementType type, const void* p) {
   switch (type) {
-    case ElementType::Double: return Scalar::of_float(read_as<double>(p));
-    case ElementType::Single: return Scalar::of_float(read_as<float>(p));
-    case ElementType::Int8: return Scalar::of_signed(read_as<std::int8_t>(p));
-    case ElementType::UInt8: return Scalar::of_unsigned(read_as<std::uint8_t>(p));
-    case ElementType::Int16: return Scalar::of_signed(read_as<std::int16_t>(p));
-    case ElementType::UInt16: return Scalar::of_unsigned(read_as<std::uint16_t>(p));
-    case ElementType::Int32: return Scalar::of_signed(read_as<std::int32_t>(p));
-    case ElementType::UInt32: return Scalar::of_unsigned(read_as<std::uint32_t>(p));
-    case ElementType::Boolean: return Scalar::of_unsigned(read_as<std::uint8_t>(p) != 0 ? 1 : 0);
-    case ElementType::Int64: return Scalar::of_signed(read_as<std::int64_t>(p));
-    case ElementType::UInt64: return Scalar::of_unsigned(read_as<std::uint64_t>(p));
+    case ElementType::Double:
+      return Scalar::of_float(read_as<double>(p));
+    case ElementType::Single:
+      return Scalar::of_float(read_as<float>(p));
+    case ElementType::Int8:
+      return Scalar::of_signed(read_as<std::int8_t>(p));
+    case ElementType::UInt8:
+      return Scalar::of_unsigned(read_as<std::uint8_t>(p));
+    case ElementType::Int16:
+      return Scalar::of_signed(read_as<std::int16_t>(p));
+    case ElementType::UInt16:
+      return Scalar::of_unsigned(read_as<std::uint16_t>(p));
+    case ElementType::Int32:
+      return Scalar::of_signed(read_as<std::int32_t>(p));
+    case ElementType::UInt32:
+      return Scalar::of_unsigned(read_as<std::uint32_t>(p));
+    case ElementType::Boolean:
+      return Scalar::of_unsigned(read_as<std::uint8_t>(p) != 0 ? 1 : 0);
+    case ElementType::Int64:
+      return Scalar::of_signed(read_as<std::int64_t>(p));
+    case ElementType::UInt64:
+      return Scalar::of_unsigned(read_as<std::uint64_t>(p));
   }
   return Scalar{};
 }
@@ -379,8 +410,12 @@ std::string store_element(ElementType type, const Scalar& value, void* p) {
         if (std::isnan(value.f)) return "nan is not a bool";
         truth = std::trunc(value.f) != 0;
         break;
-      case Scalar::Kind::Signed: truth = value.s != 0; break;
-      case Scalar::Kind::Unsigned: truth = value.u != 0; break;
+      case Scalar::Kind::Signed:
+        truth = value.s != 0;
+        break;
+      case Scalar::Kind::Unsigned:
+        truth = value.u != 0;
+        break;
     }
     write_as<std::uint8_t>(p, truth ? 1 : 0);
     return "";
@@ -408,11 +443,12 @@ std::string store_element(ElementType type, const Scalar& value, void* p) {
     write_integer(p, size, magnitude);
     return "";
   }
-  const std::uint64_t limit = negative ? static_cast<std::uint64_t>(-(signed_min(size) + 1)) + 1
-                                       : static_cast<std::uint64_t>(signed_max(size));
+  const std::uint64_t limit =
+      negative ? static_cast<std::uint64_t>(-(signed_min(size) + 1)) + 1 : static_cast<std::uint64_t>(signed_max(size));
   if (magnitude > limit) return scalar_text(value) + " does not fit " + range_text(type);
-  const std::int64_t v = negative ? (magnitude == (std::uint64_t{1} << 63) ? INT64_MIN : -static_cast<std::int64_t>(magnitude))
-                                  : static_cast<std::int64_t>(magnitude);
+  const std::int64_t v =
+      negative ? (magnitude == (std::uint64_t{1} << 63) ? INT64_MIN : -static_cast<std::int64_t>(magnitude))
+               : static_cast<std::int64_t>(magnitude);
   write_integer(p, size, static_cast<std::uint64_t>(v));
   return "";
 }
@@ -423,9 +459,12 @@ std::string element_text(ElementType type, const void* p, bool display) {
   const Scalar v = load_element(type, p);
   if (type == ElementType::Boolean) return v.u != 0 ? "True" : "False";
   switch (v.kind) {
-    case Scalar::Kind::Signed: return std::to_string(v.s);
-    case Scalar::Kind::Unsigned: return std::to_string(v.u);
-    case Scalar::Kind::Float: break;
+    case Scalar::Kind::Signed:
+      return std::to_string(v.s);
+    case Scalar::Kind::Unsigned:
+      return std::to_string(v.u);
+    case Scalar::Kind::Float:
+      break;
   }
   return float_text(v.f, type == ElementType::Single, display);
 }
@@ -458,7 +497,9 @@ std::string value_text(ElementType type, const Shape& shape, const std::uint8_t*
 
 }  // namespace
 
-std::string format_element_for_display(ElementType type, const void* element) { return element_text(type, element, true); }
+std::string format_element_for_display(ElementType type, const void* element) {
+  return element_text(type, element, true);
+}
 std::string format_element_exact(ElementType type, const void* element) { return element_text(type, element, false); }
 
 std::string format_value_for_display(ElementType type, const Shape& shape, const std::uint8_t* row_major) {
@@ -483,7 +524,8 @@ std::string literal_to_value(const Literal& literal, ElementType type, const Sha
   };
   auto store_list = [&](const std::vector<Literal>& items, std::size_t first, const std::string& where) -> std::string {
     for (std::size_t i = 0; i < items.size(); ++i) {
-      if (list_items(items[i]) != nullptr) return who + ": " + where + "element " + std::to_string(i) + " is a list, a number was expected";
+      if (list_items(items[i]) != nullptr)
+        return who + ": " + where + "element " + std::to_string(i) + " is a list, a number was expected";
       if (std::string error = store(items[i], first + i); !error.empty()) return error;
     }
     return "";
@@ -494,8 +536,10 @@ std::string literal_to_value(const Literal& literal, ElementType type, const Sha
   if (shape.form() == Shape::Form::Scalar) {
     if (items != nullptr) {
       // A one-element list for a one-element parameter is still that element.
-      if (items->size() == 1 && list_items((*items)[0]) == nullptr) scalar_literal = &(*items)[0];
-      else return who + " is a scalar, the value is a list of " + std::to_string(items->size());
+      if (items->size() == 1 && list_items((*items)[0]) == nullptr)
+        scalar_literal = &(*items)[0];
+      else
+        return who + " is a scalar, the value is a list of " + std::to_string(items->size());
     }
     if (std::string error = store(*scalar_literal, 0); !error.empty()) return error;
     row_major = std::move(out);
@@ -508,15 +552,17 @@ std::string literal_to_value(const Literal& literal, ElementType type, const Sha
   const bool nested = !items->empty() && list_items((*items)[0]) != nullptr;
   if (shape.form() == Shape::Form::List && !nested) {
     if (items->size() != shape.elements())
-      return who + " takes " + std::to_string(shape.elements()) + " values, the list has " + std::to_string(items->size());
+      return who + " takes " + std::to_string(shape.elements()) + " values, the list has " +
+             std::to_string(items->size());
     if (std::string error = store_list(*items, 0, ""); !error.empty()) return error;
     row_major = std::move(out);
     return "";
   }
   // Rows: a matrix, or a list parameter registered with two dimensions
   // (1 x n) given as [[...]] (LN 2.9's C++ client sends that form).
-  if (!nested) return who + " takes " + std::to_string(shape.rows()) + " rows of " + std::to_string(shape.columns()) +
-                      " values, the value is a flat list";
+  if (!nested)
+    return who + " takes " + std::to_string(shape.rows()) + " rows of " + std::to_string(shape.columns()) +
+           " values, the value is a flat list";
   if (shape.dims.size() != 2)
     return who + " takes a list of " + std::to_string(shape.elements()) + " values, the value is a list of rows";
   if (items->size() != shape.rows())

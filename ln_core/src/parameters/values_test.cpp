@@ -37,7 +37,8 @@ std::string override_of(const std::string& text, ElementType type, std::vector<s
 }
 
 TEST(Values, TypeIdsAndNamesAreLns) {
-  const char* names[] = {"double", "float", "int8", "uint8", "int16", "uint16", "int32", "uint32", "bool", "int64", "uint64"};
+  const char* names[] = {"double", "float",  "int8", "uint8", "int16", "uint16",
+                         "int32",  "uint32", "bool", "int64", "uint64"};
   for (unsigned id = 0; id < kElementTypeCount; ++id) {
     const ElementType type = *element_type_from_id(id);
     EXPECT_STREQ(element_type_name(type), names[id]);
@@ -50,7 +51,7 @@ TEST(Values, TypeIdsAndNamesAreLns) {
 }
 
 TEST(Values, ShapesShowAsLn29ShowsThem) {
-  EXPECT_EQ((Shape{{1}}.form()), Shape::Form::Scalar);     // double, float[1]
+  EXPECT_EQ((Shape{{1}}.form()), Shape::Form::Scalar);  // double, float[1]
   EXPECT_EQ((Shape{{4}}.form()), Shape::Form::List);
   EXPECT_EQ((Shape{{1, 1}}.form()), Shape::Form::List);    // double[1][1]: array([5.])
   EXPECT_EQ((Shape{{1, 3}}.form()), Shape::Form::List);    // double[1][3]: array([1., 2., 3.])
@@ -97,7 +98,8 @@ TEST(Values, DisplayTextIsLn29s) {
   EXPECT_EQ(display<float>(ElementType::Single, {1}, {0.3f}), "0.300000011920929");
   EXPECT_EQ(display<double>(ElementType::Double, {4}, {M_PI, 1e20, 123456789.125, 0}),
             "array([3.1415926535897931, 100000000000000000000., 123456789.125, 0.], dtype=double)");
-  EXPECT_EQ(display<double>(ElementType::Double, {3}, {NAN, INFINITY, -INFINITY}), "array([nan, inf, -inf], dtype=double)");
+  EXPECT_EQ(display<double>(ElementType::Double, {3}, {NAN, INFINITY, -INFINITY}),
+            "array([nan, inf, -inf], dtype=double)");
   EXPECT_EQ(display<float>(ElementType::Single, {2}, {static_cast<float>(M_PI), 1e-7f}),
             "array([3.1415927410125732, 0.0000001000000012], dtype=float)");
   EXPECT_EQ(display<std::int8_t>(ElementType::Int8, {2}, {-128, 127}), "array([-128, 127], dtype=int8)");
@@ -105,7 +107,8 @@ TEST(Values, DisplayTextIsLn29s) {
             "array([0, 18446744073709551615], dtype=uint64)");
   EXPECT_EQ(display<std::int64_t>(ElementType::Int64, {1}, {INT64_MIN}), "-9223372036854775808");
   EXPECT_EQ(display<std::uint8_t>(ElementType::Boolean, {3}, {1, 0, 1}), "array([True, False, True], dtype=bool)");
-  EXPECT_EQ(display<std::int16_t>(ElementType::Int16, {2, 2}, {1, -2, 3, -4}), "array([[1, -2], [3, -4]], dtype=int16)");
+  EXPECT_EQ(display<std::int16_t>(ElementType::Int16, {2, 2}, {1, -2, 3, -4}),
+            "array([[1, -2], [3, -4]], dtype=int16)");
   EXPECT_EQ(display<std::uint8_t>(ElementType::Boolean, {2, 1}, {1, 0}), "array([[True], [False]], dtype=bool)");
   EXPECT_EQ(display<double>(ElementType::Double, {1, 3}, {1, 2, 3}), "array([1., 2., 3.], dtype=double)");
   EXPECT_EQ(display<double>(ElementType::Double, {1, 1}, {5}), "array([5.], dtype=double)");
@@ -116,7 +119,8 @@ TEST(Values, DisplayTextIsExactWhereLn29LosesPrecision) {
   // LN 2.9 shows -1e-20 as "-0."; the text must read back as the value.
   EXPECT_EQ(display<double>(ElementType::Double, {1}, {-1e-20}), "-1e-20");
   EXPECT_EQ(format_element_exact(ElementType::Double, bytes_of<double>({1e16}).data()), "1e+16");
-  EXPECT_EQ(format_element_exact(ElementType::Double, bytes_of<double>({123456789012345.0}).data()), "123456789012345.0");
+  EXPECT_EQ(format_element_exact(ElementType::Double, bytes_of<double>({123456789012345.0}).data()),
+            "123456789012345.0");
   EXPECT_EQ(format_element_exact(ElementType::Double, bytes_of<double>({0.0001}).data()), "0.0001");
   EXPECT_EQ(format_element_exact(ElementType::Double, bytes_of<double>({-0.00001}).data()), "-1e-05");
   EXPECT_EQ(format_element_exact(ElementType::Double, bytes_of<double>({12.5}).data()), "12.5");
@@ -146,7 +150,8 @@ TEST(Values, OverridesAcceptWhatLn29Accepts) {
   EXPECT_EQ(override_of("2", ElementType::Boolean, {1}), "True");
   EXPECT_EQ(override_of("0.5", ElementType::Boolean, {1}), "False");
   EXPECT_EQ(override_of("array([1, 2, 3, 4])", ElementType::Double, {4}), "array([1.0, 2.0, 3.0, 4.0])");
-  EXPECT_EQ(override_of("array([1., 2., 3., 4.], dtype=double)", ElementType::Double, {4}), "array([1.0, 2.0, 3.0, 4.0])");
+  EXPECT_EQ(override_of("array([1., 2., 3., 4.], dtype=double)", ElementType::Double, {4}),
+            "array([1.0, 2.0, 3.0, 4.0])");
   EXPECT_EQ(override_of("array([[1, 2], [3, 4]])", ElementType::Int16, {2, 2}), "array([[1, 2], [3, 4]])");
   EXPECT_EQ(override_of("array([False, True, False])", ElementType::Boolean, {3}), "array([False, True, False])");
   EXPECT_EQ(override_of("array([0, 1, 2])", ElementType::Boolean, {3}), "array([False, True, True])");
@@ -189,14 +194,18 @@ TEST(Values, OverridesRejectWhatLn29WouldCorrupt) {
 TEST(Values, OverridesRejectWrongShapesNamingTheParameter) {
   const std::string scalar_as_list = override_of("array([1., 2.])", ElementType::Double, {1});
   EXPECT_NE(scalar_as_list.find("parameter 'p.x' (double) is a scalar"), std::string::npos) << scalar_as_list;
-  EXPECT_NE(override_of("5", ElementType::Double, {4}).find("takes a list of 4 values, not a single value"), std::string::npos);
-  EXPECT_NE(override_of("array([1,2,3])", ElementType::Double, {4}).find("takes 4 values, the list has 3"), std::string::npos);
+  EXPECT_NE(override_of("5", ElementType::Double, {4}).find("takes a list of 4 values, not a single value"),
+            std::string::npos);
+  EXPECT_NE(override_of("array([1,2,3])", ElementType::Double, {4}).find("takes 4 values, the list has 3"),
+            std::string::npos);
   EXPECT_NE(override_of("array([1,2,3,4,5])", ElementType::Double, {4}).find("the list has 5"), std::string::npos);
   EXPECT_NE(override_of("array([[1,2],[3,4]])", ElementType::Double, {4}).find("list of rows"), std::string::npos);
   EXPECT_NE(override_of("array([1, 2, 3, 4])", ElementType::Int16, {2, 2}).find("flat list"), std::string::npos);
-  EXPECT_NE(override_of("array([[1, 2], [3, 4], [5, 6]])", ElementType::Int16, {2, 2}).find("takes 2 rows, the value has 3"),
+  EXPECT_NE(
+      override_of("array([[1, 2], [3, 4], [5, 6]])", ElementType::Int16, {2, 2}).find("takes 2 rows, the value has 3"),
+      std::string::npos);
+  EXPECT_NE(override_of("array([[1, 2, 3], [3, 4, 5]])", ElementType::Int16, {2, 2}).find("row 0 has 3"),
             std::string::npos);
-  EXPECT_NE(override_of("array([[1, 2, 3], [3, 4, 5]])", ElementType::Int16, {2, 2}).find("row 0 has 3"), std::string::npos);
   EXPECT_NE(override_of("array([[1, 2], [3]])", ElementType::Int16, {2, 2}).find("row 1 has 1"), std::string::npos);
   EXPECT_NE(override_of("array([[1, 2], [3, 'x']])", ElementType::Int16, {2, 2}).find("string"), std::string::npos);
   EXPECT_NE(override_of("array([1, [2]])", ElementType::Double, {2}).find("element 1 is a list"), std::string::npos);
@@ -209,10 +218,11 @@ TEST(Values, ExactOverrideTextReadsBackAsTheSameValue) {
     const ElementType type = *element_type_from_id(id);
     const std::size_t size = element_size(type);
     // Extremes and awkward values of every type, written and read back.
-    std::vector<Scalar> values = {Scalar::of_signed(0), Scalar::of_signed(-1), Scalar::of_unsigned(1),
-                                  Scalar::of_float(0.1), Scalar::of_float(-1e-20), Scalar::of_float(1.0 / 3),
+    std::vector<Scalar> values = {Scalar::of_signed(0),         Scalar::of_signed(-1),
+                                  Scalar::of_unsigned(1),       Scalar::of_float(0.1),
+                                  Scalar::of_float(-1e-20),     Scalar::of_float(1.0 / 3),
                                   Scalar::of_signed(INT64_MIN), Scalar::of_unsigned(UINT64_MAX),
-                                  Scalar::of_float(3.4e38), Scalar::of_float(-INFINITY)};
+                                  Scalar::of_float(3.4e38),     Scalar::of_float(-INFINITY)};
     for (const Scalar& v : values) {
       std::uint8_t stored[8] = {};
       if (!store_element(type, v, stored).empty()) continue;  // does not fit this type

@@ -65,11 +65,16 @@ class Cursor {
 
 const char* type_name(const Value& v) {
   switch (v.index()) {
-    case 0: return "an integer";
-    case 1: return "a number";
-    case 2: return "a boolean";
-    case 3: return "a string";
-    default: return "a list";
+    case 0:
+      return "an integer";
+    case 1:
+      return "a number";
+    case 2:
+      return "a boolean";
+    case 3:
+      return "a string";
+    default:
+      return "a list";
   }
 }
 
@@ -107,11 +112,26 @@ bool Message::is_error() const { return has("error_code"); }
 int Message::error_code() const { return static_cast<int>(get_int_or("error_code", 0)); }
 std::string Message::error_text() const { return get_string_or("error", ""); }
 
-Message& Message::set(std::string_view key, std::int64_t value) { fields_[std::string(key)] = value; return *this; }
-Message& Message::set(std::string_view key, double value) { fields_[std::string(key)] = value; return *this; }
-Message& Message::set(std::string_view key, bool value) { fields_[std::string(key)] = value; return *this; }
-Message& Message::set(std::string_view key, std::string value) { fields_[std::string(key)] = std::move(value); return *this; }
-Message& Message::set(std::string_view key, StringList value) { fields_[std::string(key)] = std::move(value); return *this; }
+Message& Message::set(std::string_view key, std::int64_t value) {
+  fields_[std::string(key)] = value;
+  return *this;
+}
+Message& Message::set(std::string_view key, double value) {
+  fields_[std::string(key)] = value;
+  return *this;
+}
+Message& Message::set(std::string_view key, bool value) {
+  fields_[std::string(key)] = value;
+  return *this;
+}
+Message& Message::set(std::string_view key, std::string value) {
+  fields_[std::string(key)] = std::move(value);
+  return *this;
+}
+Message& Message::set(std::string_view key, StringList value) {
+  fields_[std::string(key)] = std::move(value);
+  return *this;
+}
 
 bool Message::has(std::string_view key) const { return fields_.find(key) != fields_.end(); }
 
@@ -121,7 +141,9 @@ const Value& Message::require(std::string_view key) const {
   return it->second;
 }
 
-std::int64_t Message::get_int(std::string_view key) const { return typed<std::int64_t>(require(key), key, "an integer"); }
+std::int64_t Message::get_int(std::string_view key) const {
+  return typed<std::int64_t>(require(key), key, "an integer");
+}
 
 std::int64_t Message::get_int(std::string_view key, std::int64_t min, std::int64_t max) const {
   const std::int64_t v = get_int(key);
@@ -137,11 +159,19 @@ double Message::get_double(std::string_view key) const {
   return typed<double>(v, key, "a number");
 }
 bool Message::get_bool(std::string_view key) const { return typed<bool>(require(key), key, "a boolean"); }
-const std::string& Message::get_string(std::string_view key) const { return typed<std::string>(require(key), key, "a string"); }
-const StringList& Message::get_list(std::string_view key) const { return typed<StringList>(require(key), key, "a list"); }
+const std::string& Message::get_string(std::string_view key) const {
+  return typed<std::string>(require(key), key, "a string");
+}
+const StringList& Message::get_list(std::string_view key) const {
+  return typed<StringList>(require(key), key, "a list");
+}
 
-std::int64_t Message::get_int_or(std::string_view key, std::int64_t fallback) const { return has(key) ? get_int(key) : fallback; }
-double Message::get_double_or(std::string_view key, double fallback) const { return has(key) ? get_double(key) : fallback; }
+std::int64_t Message::get_int_or(std::string_view key, std::int64_t fallback) const {
+  return has(key) ? get_int(key) : fallback;
+}
+double Message::get_double_or(std::string_view key, double fallback) const {
+  return has(key) ? get_double(key) : fallback;
+}
 bool Message::get_bool_or(std::string_view key, bool fallback) const { return has(key) ? get_bool(key) : fallback; }
 std::string Message::get_string_or(std::string_view key, std::string fallback) const {
   return has(key) ? get_string(key) : fallback;

@@ -48,13 +48,14 @@ std::vector<Payload> assemble(FrameAssembler& assembler, const std::string& stre
 
 TEST(CallFrames, RequestLayoutOnTheWire) {
   const std::string frame = request_frame({0x01020304, 7}, "ab");
-  const std::string expected("\x12\x00\x00\x00"   // payload size 18
-                             "\x10\x01\x00\x00"   // kind, version
-                             "\x04\x03\x02\x01"   // service id
-                             "\x07\x00\x00\x00"   // request id
-                             "\x00\x00\x00\x00"
-                             "ab",
-                             22);
+  const std::string expected(
+      "\x12\x00\x00\x00"  // payload size 18
+      "\x10\x01\x00\x00"  // kind, version
+      "\x04\x03\x02\x01"  // service id
+      "\x07\x00\x00\x00"  // request id
+      "\x00\x00\x00\x00"
+      "ab",
+      22);
   EXPECT_EQ(frame, expected);
 }
 

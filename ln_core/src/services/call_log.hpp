@@ -13,17 +13,17 @@ namespace ln::services {
 class CallLog {
  public:
   struct Item {
-    std::string_view service;    ///< the service's name
-    std::string_view interface;  ///< callers: the interface they asked for ("" on the provider side)
-    bool response = false;       ///< false: a request a caller sent; true: a response a provider sent
+    std::string_view service;     ///< the service's name
+    std::string_view interface;   ///< callers: the interface they asked for ("" on the provider side)
+    bool response = false;        ///< false: a request a caller sent; true: a response a provider sent
     std::uint32_t caller_id = 0;  ///< the calling client's id (from the request frame)
     std::uint32_t request_id = 0;
-    int result = 0;               ///< responses: 0, or the error the caller gets
-    std::string_view flat;        ///< the flat request or (successful) response
-    double completion_time = 0;   ///< wall clock: call started / respond() called
-    double transfer_time = 0;     ///< seconds spent sending it
-    double request_time = 0;      ///< responses: wall clock when the request had arrived
-    int fd = -1;                  ///< the call's connection (for the provider's address)
+    int result = 0;              ///< responses: 0, or the error the caller gets
+    std::string_view flat;       ///< the flat request or (successful) response
+    double completion_time = 0;  ///< wall clock: call started / respond() called
+    double transfer_time = 0;    ///< seconds spent sending it
+    double request_time = 0;     ///< responses: wall clock when the request had arrived
+    int fd = -1;                 ///< the call's connection (for the provider's address)
   };
 
   virtual ~CallLog() = default;

@@ -58,9 +58,12 @@ std::uint32_t new_request_id() {
 
 std::string describe(const io::Result& r, const char* while_doing) {
   switch (r.outcome) {
-    case io::Outcome::Closed: return std::string("the provider closed the connection (it stopped or failed) ") + while_doing;
-    case io::Outcome::Failed: return std::string("connection to the provider failed ") + while_doing + ": " + std::strerror(r.sys_errno);
-    default: return std::string("unexpected data from the provider ") + while_doing;
+    case io::Outcome::Closed:
+      return std::string("the provider closed the connection (it stopped or failed) ") + while_doing;
+    case io::Outcome::Failed:
+      return std::string("connection to the provider failed ") + while_doing + ": " + std::strerror(r.sys_errno);
+    default:
+      return std::string("unexpected data from the provider ") + while_doing;
   }
 }
 
@@ -80,8 +83,8 @@ std::string seconds_text(double seconds) {
 const char* const kAborted = "the call was aborted";
 
 // The response body, validated for `data` (or as flat bytes if data is null).
-Status take_response(const ServiceSignature& signature, frames::Payload& response, std::size_t body_offset,
-                     void* data, const Limits& limits, Arena& arena) {
+Status take_response(const ServiceSignature& signature, frames::Payload& response, std::size_t body_offset, void* data,
+                     const Limits& limits, Arena& arena) {
   char* body = response.data() + body_offset;
   const std::size_t size = response.size() - body_offset;
   Status s = data ? unflatten(signature.response(), body, size, static_cast<char*>(data) + signature.response_offset(),
@@ -188,8 +191,9 @@ void AsyncCall::on_ready(std::uint64_t key, std::uint32_t events) {
   }
   if (r.outcome != io::Outcome::Done) {
     connection.give_up();
-    finish_locked(-LNE_SVC_RECV_RESP, r.outcome == io::Outcome::Malformed ? "invalid data from the provider: " + malformed.detail()
-                                                                         : describe(r, "before it responded"));
+    finish_locked(-LNE_SVC_RECV_RESP, r.outcome == io::Outcome::Malformed
+                                          ? "invalid data from the provider: " + malformed.detail()
+                                          : describe(r, "before it responded"));
   }
 }
 
@@ -312,7 +316,8 @@ Status AsyncReactor::watch(const std::shared_ptr<AsyncCall>& call) {
   ev.events = EPOLLIN | EPOLLRDHUP | (call->send_pending() ? EPOLLOUT : 0u);
   ev.data.u64 = key;
   if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, call->connection_->fd, &ev) != 0)
-    return Status::failure(LNE_CHECK_ERRNO, std::string("asynchronous calls: epoll_ctl: ") + std::strerror(errno), errno);
+    return Status::failure(LNE_CHECK_ERRNO, std::string("asynchronous calls: epoll_ctl: ") + std::strerror(errno),
+                           errno);
   calls_.emplace(key, call);
   call->reactor_ = this;
   call->reactor_key_ = key;
@@ -402,9 +407,7 @@ std::string_view ServiceCaller::last_response() const {
   return {response_.data() + body_offset_, response_.size() - body_offset_};
 }
 
-bool ServiceCaller::needs_data() const {
-  return !signature_->request().empty() || !signature_->response().empty();
-}
+bool ServiceCaller::needs_data() const { return !signature_->request().empty() || !signature_->response().empty(); }
 
 int ServiceCaller::call(void* data, double timeout) {
   if (data == nullptr && needs_data()) return fail(-LNE_INVALID_PARAMETER, "no service data given");
@@ -427,11 +430,12 @@ int ServiceCaller::abort() {
 int ServiceCaller::build_request(const void* data, std::string_view flat_request, frames::FrameBuffer& frame) {
   const MessageLayout& layout = signature_->request();
   std::size_t body = 0;
-  Status s = data ? flat_size(layout, data, limits_, body) : check_flat(layout, flat_request.data(), flat_request.size(), limits_);
+  Status s = data ? flat_size(layout, data, limits_, body)
+                  : check_flat(layout, flat_request.data(), flat_request.size(), limits_);
   if (!data) body = flat_request.size();
   if (s.ok() && body > limits_.max_data_size)
-    s = Status::failure(LNE_PACKET_TOO_LARGE, "request larger than the limit of " +
-                                                  std::to_string(limits_.max_data_size) + " bytes");
+    s = Status::failure(LNE_PACKET_TOO_LARGE,
+                        "request larger than the limit of " + std::to_string(limits_.max_data_size) + " bytes");
   if (!s.ok()) return fail(s.code(), "invalid request: " + s.detail());
   if (!frame.resize(frames::request_overhead + body))
     return fail(-LNE_NO_MEM, "no memory for a request of " + std::to_string(body) + " bytes");
@@ -460,14 +464,13 @@ int ServiceCaller::ensure_connection(std::shared_ptr<CallerConnection>& out, boo
   fresh = !connection;
   if (!connection) {
     ProviderLink link;
-    Status s = connector_ ? connector_(link)
-                          : Status::failure(LNE_NO_PROVIDER_FOUND, "no way to reach the provider");
+    Status s = connector_ ? connector_(link) : Status::failure(LNE_NO_PROVIDER_FOUND, "no way to reach the provider");
     if (s.ok() && link.fd < 0) s = Status::failure(LNE_NO_PROVIDER_FOUND, "no connection to the provider");
     if (!s.ok()) return fail(s.code(), s.detail());
     const int on = 1;  // fails harmlessly on Unix sockets
     ::setsockopt(link.fd, IPPROTO_TCP, TCP_NODELAY, &on, sizeof on);
-    connection = std::make_shared<CallerConnection>(link.fd, link.service_id,
-                                                    frames::max_payload_for(limits_.max_data_size));
+    connection =
+        std::make_shared<CallerConnection>(link.fd, link.service_id, frames::max_payload_for(limits_.max_data_size));
   }
   std::lock_guard<std::mutex> lock(state_mutex_);
   connection_ = connection;
@@ -537,7 +540,8 @@ int ServiceCaller::run_call(void* data, std::string_view flat_request, double ti
     }
     break;
   }
-  if (logging && r.outcome == io::Outcome::Done) log_sent(frame_, *connection, request_id, started, wall_clock_seconds());
+  if (logging && r.outcome == io::Outcome::Done)
+    log_sent(frame_, *connection, request_id, started, wall_clock_seconds());
   Status malformed;
   if (r.outcome == io::Outcome::Done)
     r = io::receive_frame(connection->fd, connection->assembler, deadline, response_, malformed, wait_.spin_us);

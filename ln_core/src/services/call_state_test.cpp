@@ -59,7 +59,8 @@ struct AddProvider {
   Harness h;
   HandlerBox add{add_numbers};
   AddProvider() {
-    EXPECT_TRUE(h.dispatcher.add_provider(1, "add", signature(svc_test_add_signature), &HandlerBox::call, &add, nullptr).ok());
+    EXPECT_TRUE(
+        h.dispatcher.add_provider(1, "add", signature(svc_test_add_signature), &HandlerBox::call, &add, nullptr).ok());
   }
   std::unique_ptr<ServiceCaller> caller() { return h.caller(1, signature(svc_test_add_signature)); }
 };
@@ -204,7 +205,8 @@ TEST(CallState, AbortAfterArrivalButBeforeLookingDropsTheResponse) {
 TEST(CallState, FutureStyleWaitCarriesTheProvidersText) {
   Harness h;
   HandlerBox refuse{[](Request& r) { return r.respond_error(3, "no such floor").code(); }};
-  ASSERT_OK(h.dispatcher.add_provider(1, "refuse", signature(svc_test_add_signature), &HandlerBox::call, &refuse, nullptr));
+  ASSERT_OK(
+      h.dispatcher.add_provider(1, "refuse", signature(svc_test_add_signature), &HandlerBox::call, &refuse, nullptr));
   GroupServer server(h.dispatcher, nullptr);
   auto caller = h.caller(1, signature(svc_test_add_signature));
   svc_test_add_t d{};
@@ -223,7 +225,8 @@ TEST(CallState, ProviderRestartIsTransparentToTheNextCall) {
   auto caller = p.caller();
   EXPECT_EQ(call_add(*caller, 1, 1), 0);
   ASSERT_OK(p.h.dispatcher.remove_provider(1));
-  ASSERT_OK(p.h.dispatcher.add_provider(1, "add", signature(svc_test_add_signature), &HandlerBox::call, &p.add, nullptr));
+  ASSERT_OK(
+      p.h.dispatcher.add_provider(1, "add", signature(svc_test_add_signature), &HandlerBox::call, &p.add, nullptr));
   int sum = 0;
   EXPECT_EQ(call_add(*caller, 2, 2, 10, &sum), 0) << caller->last_error();
   EXPECT_EQ(sum, 4);
@@ -288,7 +291,8 @@ TEST(CallState, ProviderKilledMidCall) {
 TEST(CallState, SixteenMegabytesEachWay) {
   Harness h;
   HandlerBox echo{echo_bytes};
-  ASSERT_OK(h.dispatcher.add_provider(1, "echo", signature(svc_test_echo_signature), &HandlerBox::call, &echo, nullptr));
+  ASSERT_OK(
+      h.dispatcher.add_provider(1, "echo", signature(svc_test_echo_signature), &HandlerBox::call, &echo, nullptr));
   GroupServer server(h.dispatcher, nullptr);
   auto caller = h.caller(1, signature(svc_test_echo_signature));
   std::vector<uint8_t> blob(16u << 20);
@@ -346,7 +350,8 @@ TEST(CallState, SizeLimitsOnBothSides) {
     d.resp.data = big.data();
     return r.respond().code();
   }};
-  ASSERT_OK(h.dispatcher.add_provider(1, "bigger", signature(svc_test_echo_signature), &HandlerBox::call, &bigger, nullptr));
+  ASSERT_OK(
+      h.dispatcher.add_provider(1, "bigger", signature(svc_test_echo_signature), &HandlerBox::call, &bigger, nullptr));
   GroupServer server(h.dispatcher, nullptr);
   Limits small;
   small.max_data_size = 1000;

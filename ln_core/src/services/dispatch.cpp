@@ -66,8 +66,7 @@ struct ProviderConnection {
   enum class Sent { out, queued, too_much, failed };
 
   // `owned`: the frame's memory, kept instead of copied if the rest is queued.
-  Sent send(const char* data, std::size_t size, std::unique_ptr<char[]> owned, const Limits& limits,
-            int& sys_errno) {
+  Sent send(const char* data, std::size_t size, std::unique_ptr<char[]> owned, const Limits& limits, int& sys_errno) {
     std::lock_guard<std::mutex> lock(write_mutex);
     std::size_t sent = 0;
     if (queue.empty()) {
@@ -135,7 +134,7 @@ struct ProviderConnection {
   std::uint64_t key = 0;
   int registered_in = -1;  // the epoll set it is registered with
   std::uint32_t armed_events = 0;
-  bool claimed = false;    // a thread is reading it
+  bool claimed = false;  // a thread is reading it
 };
 
 namespace {
@@ -165,8 +164,8 @@ Status errno_failure(const std::string& what, int err) {
 
 // epoll_wait() that first polls, yielding, for up to `spin_us` (WaitPolicy);
 // `yield_first` when nothing can have come yet.
-int wait_for_events(int epoll_fd, epoll_event* events, int max_events, const io::Deadline& deadline,
-                    unsigned spin_us, bool yield_first = false) {
+int wait_for_events(int epoll_fd, epoll_event* events, int max_events, const io::Deadline& deadline, unsigned spin_us,
+                    bool yield_first = false) {
   if (spin_us > 0) {
     if (yield_first) ::sched_yield();
     const io::Clock::time_point until = io::Clock::now() + std::chrono::microseconds(spin_us);
@@ -250,9 +249,9 @@ struct PendingEvent {
 
 struct ServiceGroup {
   std::string name;
-  EventSet events;              // its connections while it is handled directly
-  ThreadPool* pool = nullptr;   // set while a pool serves it
-  bool busy = false;            // a thread is in wait_and_handle(); others take turns
+  EventSet events;                  // its connections while it is handled directly
+  ThreadPool* pool = nullptr;       // set while a pool serves it
+  bool busy = false;                // a thread is in wait_and_handle(); others take turns
   bool answered_last_turn = false;  // the last wait_and_handle() served requests
   std::condition_variable turn;
   bool unblock_pending = false;
@@ -421,10 +420,10 @@ Status Request::send_frame(int result, std::string_view text, const void* host, 
   }
   if (!invalid_response.ok()) {
     // The caller must not wait for a response that will never come.
-    const std::string reason = "provider of '" + provider_->name + "' failed to send its response: " +
-                               invalid_response.detail();
-    Status s = dispatcher_.send_response(connection_, request_id_, invalid_response.code(), reason, {}, nullptr,
-                                         nullptr, 0);
+    const std::string reason =
+        "provider of '" + provider_->name + "' failed to send its response: " + invalid_response.detail();
+    Status s =
+        dispatcher_.send_response(connection_, request_id_, invalid_response.code(), reason, {}, nullptr, nullptr, 0);
     return s.ok() ? invalid_response : s;
   }
   if (!log_)
@@ -466,8 +465,8 @@ void Request::handler_returned(int ret) {
   if (ret == -LNE_SVC_RESP_LATER) return;  // lives on until answered
   lock.unlock();
   if (ret == 0)
-    answer(-LNE_SVC_HANDLER_NO_RESP, "handler of service '" + provider_->name + "' returned without responding", nullptr,
-           {});
+    answer(-LNE_SVC_HANDLER_NO_RESP, "handler of service '" + provider_->name + "' returned without responding",
+           nullptr, {});
   else
     answer(ret, {}, nullptr, {});
 }
@@ -498,7 +497,8 @@ Status Dispatcher::send_response(const std::shared_ptr<ProviderConnection>& conn
     std::memcpy(frame + overhead, body_flat.data(), body_size);
   int err = 0;
   switch (connection->send(frame, total, std::move(large), limits_, err)) {
-    case ProviderConnection::Sent::out: return {};
+    case ProviderConnection::Sent::out:
+      return {};
     case ProviderConnection::Sent::queued: {
       bool unwatched = false;
       {
@@ -676,8 +676,7 @@ Status Dispatcher::adopt_connection(int fd, std::uint32_t service_id) {
   }
   const int on = 1;  // fails harmlessly on Unix sockets
   ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &on, sizeof on);
-  auto connection =
-      std::make_shared<ProviderConnection>(fd, provider, frames::max_payload_for(limits_.max_data_size));
+  auto connection = std::make_shared<ProviderConnection>(fd, provider, frames::max_payload_for(limits_.max_data_size));
 
   std::lock_guard<std::mutex> lock(mutex_);
   if (provider->removed)
@@ -699,7 +698,8 @@ Status Dispatcher::arm_locked(ProviderConnection& connection) {
   const int home = set.epoll_fd;
   const bool queued = connection.has_queued;
   const std::uint32_t events = set_events(shared, queued);
-  if (queued) set.arm_timer(connection.last_progress_ns + static_cast<std::int64_t>(limits_.response_timeout_ms) * 1000000);
+  if (queued)
+    set.arm_timer(connection.last_progress_ns + static_cast<std::int64_t>(limits_.response_timeout_ms) * 1000000);
   if (connection.registered_in == home && !shared && connection.armed_events == events) return {};  // still armed
   epoll_event ev{};
   ev.events = events;
@@ -727,8 +727,10 @@ void Dispatcher::expire_queued_responses(EventSet& set) {
     for (auto& [key, connection] : connections_) {
       if (connection->registered_in != set.epoll_fd || !connection->has_queued) continue;
       const std::int64_t due = connection->last_progress_ns + timeout;
-      if (due <= now) stalled.push_back(connection);
-      else set.arm_timer(due);
+      if (due <= now)
+        stalled.push_back(connection);
+      else
+        set.arm_timer(due);
     }
   }
   // Its caller has not taken a byte of its answers for response_timeout_ms.
@@ -738,8 +740,7 @@ void Dispatcher::expire_queued_responses(EventSet& set) {
 void Dispatcher::move_group_connections_locked(const ServiceGroup& group, int to_epoll) {
   for (auto& [key, connection] : connections_) {
     // A claimed connection moves when its thread re-arms it.
-    if (connection->provider->group != &group || connection->claimed || connection->registered_in == to_epoll)
-      continue;
+    if (connection->provider->group != &group || connection->claimed || connection->registered_in == to_epoll) continue;
     arm_locked(*connection);
   }
 }
@@ -757,8 +758,7 @@ void Dispatcher::close_connection(const std::shared_ptr<ProviderConnection>& con
     if (connection->closed) return;
     connection->closed = true;
     connections_.erase(connection->key);
-    if (connection->registered_in >= 0)
-      ::epoll_ctl(connection->registered_in, EPOLL_CTL_DEL, connection->fd, nullptr);
+    if (connection->registered_in >= 0) ::epoll_ctl(connection->registered_in, EPOLL_CTL_DEL, connection->fd, nullptr);
     connection->registered_in = -1;
     queue_event_locked(connection->provider, LN_REMOVE_SVC_CLIENT, connection->fd);
   }
@@ -862,8 +862,7 @@ void Dispatcher::handle_payload(const std::shared_ptr<ProviderConnection>& conne
                                   payload.size() - frames::header_size, limits_);
   if (!valid.ok()) {
     send_response(connection, head.request_id, -LNE_SVC_RECV_REQ,
-                  "malformed request for service '" + provider.name + "': " + valid.detail(), {}, nullptr, nullptr,
-                  0);
+                  "malformed request for service '" + provider.name + "': " + valid.detail(), {}, nullptr, nullptr, 0);
     return;
   }
   run_handler(new Request(*this, connection->provider, connection, head, std::move(payload), limits_, log_));
@@ -934,9 +933,10 @@ void Dispatcher::deliver_events(const ServiceGroup* only_group, const ThreadPool
 Status Dispatcher::wait_and_handle(const char* group_name, double timeout, int* handled) {
   if (handled) *handled = 0;
   const io::Deadline deadline =
-      timeout < 0 ? io::Deadline()
-                  : io::Deadline::at(io::Clock::now() + std::chrono::duration_cast<io::Clock::duration>(
-                                                            std::chrono::duration<double>(timeout)));
+      timeout < 0
+          ? io::Deadline()
+          : io::Deadline::at(io::Clock::now() +
+                             std::chrono::duration_cast<io::Clock::duration>(std::chrono::duration<double>(timeout)));
   ServiceGroup* group = nullptr;
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -975,8 +975,9 @@ Status Dispatcher::wait_and_handle(const char* group_name, double timeout, int* 
     {
       std::lock_guard<std::mutex> lock(mutex_);
       if (group->pool && count == 0)
-        return Status::failure(LNE_SVC_GRP_HANDLED_IN_POOL,
-                               "service group '" + group->name + "' is handled by thread pool '" + group->pool->name + "'");
+        return Status::failure(
+            LNE_SVC_GRP_HANDLED_IN_POOL,
+            "service group '" + group->name + "' is handled by thread pool '" + group->pool->name + "'");
       if (group->unblock_pending) {
         group->unblock_pending = false;
         break;
@@ -990,9 +991,9 @@ Status Dispatcher::wait_and_handle(const char* group_name, double timeout, int* 
       std::lock_guard<std::mutex> lock(mutex_);
       backlogged = !group->events.backlog.empty();
     }
-    const int n = wait_for_events(group->events.epoll_fd, events, 8,
-                                  backlogged ? io::Deadline::at(io::Clock::now()) : deadline,
-                                  backlogged ? 0 : wait_.spin_us, yield_first);
+    const int n =
+        wait_for_events(group->events.epoll_fd, events, 8, backlogged ? io::Deadline::at(io::Clock::now()) : deadline,
+                        backlogged ? 0 : wait_.spin_us, yield_first);
     yield_first = false;
     if (n < 0 && errno == EINTR) continue;
     if (n < 0) return errno_failure("epoll_wait", errno);
@@ -1030,7 +1031,8 @@ Status Dispatcher::remove_from_pool(const char* group_name) {
   std::lock_guard<std::mutex> lock(mutex_);
   ServiceGroup* group = find_group_locked(group_name);
   if (group == nullptr)
-    return Status::failure(LNE_SVC_GRP_UNKNOWN, std::string("unknown service group '") + (group_name ? group_name : "") + "'");
+    return Status::failure(LNE_SVC_GRP_UNKNOWN,
+                           std::string("unknown service group '") + (group_name ? group_name : "") + "'");
   if (group->pool == nullptr) return {};
   group->pool = nullptr;
   move_group_connections_locked(*group, group->events.epoll_fd);

@@ -121,8 +121,7 @@ class Request : public RequestHandle {
  private:
   friend class Dispatcher;
   Request(Dispatcher& dispatcher, std::shared_ptr<Provider> provider, std::shared_ptr<ProviderConnection> connection,
-          const frames::RequestHead& head, frames::Payload payload, const Limits& limits,
-          std::shared_ptr<CallLog> log);
+          const frames::RequestHead& head, frames::Payload payload, const Limits& limits, std::shared_ptr<CallLog> log);
   ~Request() = default;
   // Sends the one answer: `result` 0 with the flat form of `host` (or of
   // `flat` if host is null), else an error with `text`.
@@ -223,8 +222,8 @@ class Dispatcher {
  private:
   friend class Request;
   Status send_response(const std::shared_ptr<ProviderConnection>& connection, std::uint32_t request_id, int result,
-                       std::string_view text, std::string_view body_flat, const MessageLayout* layout,
-                       const void* host, std::size_t body_size);
+                       std::string_view text, std::string_view body_flat, const MessageLayout* layout, const void* host,
+                       std::size_t body_size);
   /// Closes the connections of `set` whose queued responses made no progress for response_timeout_ms.
   void expire_queued_responses(EventSet& set);
   /// Gives the connections whose last turn left requests their next turn.

@@ -177,7 +177,8 @@ TEST(Dispatch, ResponseLaterFromAnotherThread) {
     deferred.set();
     return -LNE_SVC_RESP_LATER;
   }};
-  ASSERT_OK(h.dispatcher.add_provider(1, "later", signature(svc_test_add_signature), &HandlerBox::call, &later, nullptr));
+  ASSERT_OK(
+      h.dispatcher.add_provider(1, "later", signature(svc_test_add_signature), &HandlerBox::call, &later, nullptr));
   GroupServer server(h.dispatcher, nullptr);
   std::thread responder([&] {
     ASSERT_TRUE(deferred.wait_for_at_least(1));
@@ -200,8 +201,10 @@ TEST(Dispatch, HandlerReturnProtocol) {
   HandlerBox handler{[&](Request& r) -> int {
     svc_test_add_t d;
     switch (mode.load()) {
-      case 0: return 0;   // no response
-      case 1: return 42;  // the application's error code
+      case 0:
+        return 0;  // no response
+      case 1:
+        return 42;  // the application's error code
       case 2:
         EXPECT_OK(r.set_data(&d, svc_test_add_signature));
         d.resp.sum = 1;
@@ -210,11 +213,18 @@ TEST(Dispatch, HandlerReturnProtocol) {
         second_answer = r.respond();
         answered_twice.set();
         return 0;
-      case 3: throw std::runtime_error("boom");
-      case 4: EXPECT_OK(r.respond_error(7, "no such floor")); return 0;
-      case 5: return r.set_data(&d, "int32_t 4 1|int32_t 4 1").code();
-      case 6: EXPECT_EQ(r.respond_error(0, "").code(), -LNE_INVALID_PARAMETER); return -LNE_SVC_REQ_ABORTED;
-      default: return 0;
+      case 3:
+        throw std::runtime_error("boom");
+      case 4:
+        EXPECT_OK(r.respond_error(7, "no such floor"));
+        return 0;
+      case 5:
+        return r.set_data(&d, "int32_t 4 1|int32_t 4 1").code();
+      case 6:
+        EXPECT_EQ(r.respond_error(0, "").code(), -LNE_INVALID_PARAMETER);
+        return -LNE_SVC_REQ_ABORTED;
+      default:
+        return 0;
     }
   }};
   ASSERT_OK(h.dispatcher.add_provider(1, "h", signature(svc_test_add_signature), &HandlerBox::call, &handler, nullptr));
@@ -263,8 +273,10 @@ TEST(Dispatch, EmptyRequestAndResponseSides) {
   }};
   HandlerBox ping{[](Request& r) { return r.respond().code(); }};  // no set_data needed
   ASSERT_OK(h.dispatcher.add_provider(1, "now", signature(svc_test_now_signature), &HandlerBox::call, &now, nullptr));
-  ASSERT_OK(h.dispatcher.add_provider(2, "fire", signature(svc_test_fire_signature), &HandlerBox::call, &fire, nullptr));
-  ASSERT_OK(h.dispatcher.add_provider(3, "ping", signature(svc_test_ping_signature), &HandlerBox::call, &ping, nullptr));
+  ASSERT_OK(
+      h.dispatcher.add_provider(2, "fire", signature(svc_test_fire_signature), &HandlerBox::call, &fire, nullptr));
+  ASSERT_OK(
+      h.dispatcher.add_provider(3, "ping", signature(svc_test_ping_signature), &HandlerBox::call, &ping, nullptr));
   GroupServer server(h.dispatcher, nullptr);
   svc_test_now_t n{};
   EXPECT_EQ(h.caller(1, signature(svc_test_now_signature))->call(&n, 10), 0);
@@ -290,7 +302,8 @@ TEST(Dispatch, AbortedCallerIsVisibleToTheHandler) {
     finished.set();
     return 0;
   }};
-  ASSERT_OK(h.dispatcher.add_provider(1, "patient", signature(svc_test_add_signature), &HandlerBox::call, &patient, nullptr));
+  ASSERT_OK(
+      h.dispatcher.add_provider(1, "patient", signature(svc_test_add_signature), &HandlerBox::call, &patient, nullptr));
   GroupServer server(h.dispatcher, nullptr);
   auto caller = h.caller(1, signature(svc_test_add_signature));
   EXPECT_EQ(call_add(*caller, 1, 2, nullptr, 0.2), -LNE_SVC_TIMEOUT);
@@ -397,8 +410,10 @@ TEST(Dispatch, AFloodingCallerDelaysOthersByAFewRequestsOnly) {
     svc_test_add_t d;
     Status s = r.set_data(&d, svc_test_add_signature);
     if (!s.ok()) return s.code();
-    if (d.req.a == -1) flood_handled_when_normal_came = flood_handled.load();
-    else ++flood_handled;
+    if (d.req.a == -1)
+      flood_handled_when_normal_came = flood_handled.load();
+    else
+      ++flood_handled;
     d.resp.sum = d.req.a + d.req.b;
     return r.respond().code();
   }};
@@ -452,7 +467,8 @@ TEST(Dispatch, MalformedRequestDataIsAnsweredNotHandled) {
   GroupServer server(h.dispatcher, nullptr);
   const int fd = raw_connection(h, 1);
   frames::FrameAssembler assembler(1 << 20);
-  const auto round_trip = [&](const std::string& body, std::uint32_t id, frames::ResponseHead& head, std::string& text) {
+  const auto round_trip = [&](const std::string& body, std::uint32_t id, frames::ResponseHead& head,
+                              std::string& text) {
     std::string frame(frames::request_overhead + body.size(), '\0');
     frames::write_request_head(frame.data(), {1, id}, body.size());
     std::memcpy(frame.data() + frames::request_overhead, body.data(), body.size());
@@ -526,7 +542,8 @@ TEST(Dispatch, GroupMovesToAPoolAndBack) {
   auto call = std::async(std::launch::async, [&] { return call_add(*caller, 3, 4); });
   const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(10);
   int handled = 0;
-  while (handled == 0 && std::chrono::steady_clock::now() < until) EXPECT_OK(h.dispatcher.wait_and_handle("g", 0.1, &handled));
+  while (handled == 0 && std::chrono::steady_clock::now() < until)
+    EXPECT_OK(h.dispatcher.wait_and_handle("g", 0.1, &handled));
   EXPECT_EQ(handled, 1);
   EXPECT_EQ(call.get(), 0);
   EXPECT_EQ(handler_thread.load(), std::this_thread::get_id());
@@ -571,7 +588,8 @@ TEST(Dispatch, RemoveProviderWaitsForRunningHandlers) {
     handler_done = true;
     return add_numbers(r);
   }};
-  ASSERT_OK(h.dispatcher.add_provider(1, "b", signature(svc_test_add_signature), &HandlerBox::call, &blocking, nullptr));
+  ASSERT_OK(
+      h.dispatcher.add_provider(1, "b", signature(svc_test_add_signature), &HandlerBox::call, &blocking, nullptr));
   GroupServer server(h.dispatcher, nullptr);
   auto caller = h.caller(1, signature(svc_test_add_signature));
   auto call = std::async(std::launch::async, [&] { return call_add(*caller, 1, 2); });
@@ -618,7 +636,8 @@ TEST(Dispatch, ConnectionObserverAndProviderFd) {
   ASSERT_EQ(::poll(&p, 1, 10000), 1);  // the group has work
   int handled = 0;
   const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-  while (handled == 0 && std::chrono::steady_clock::now() < until) EXPECT_OK(h.dispatcher.wait_and_handle(nullptr, 0.1, &handled));
+  while (handled == 0 && std::chrono::steady_clock::now() < until)
+    EXPECT_OK(h.dispatcher.wait_and_handle(nullptr, 0.1, &handled));
   int retval = -1;
   ASSERT_EQ(call->wait(10, &retval), 1);
   EXPECT_EQ(retval, 0);
@@ -639,7 +658,8 @@ TEST(Dispatch, RegistrationErrors) {
   const auto sig = signature(svc_test_add_signature);
   EXPECT_EQ(h.dispatcher.add_provider(1, "x", sig, nullptr, nullptr, nullptr).code(), -LNE_SVC_NO_HANDLER);
   ASSERT_OK(h.dispatcher.add_provider(1, "x", sig, &HandlerBox::call, &add, nullptr));
-  EXPECT_EQ(h.dispatcher.add_provider(1, "x", sig, &HandlerBox::call, &add, nullptr).code(), -LNE_SVC_ALREADY_REGISTERED);
+  EXPECT_EQ(h.dispatcher.add_provider(1, "x", sig, &HandlerBox::call, &add, nullptr).code(),
+            -LNE_SVC_ALREADY_REGISTERED);
   EXPECT_EQ(h.dispatcher.remove_provider(2).code(), -LNE_SVC_NOT_REGISTERED);
   int fds[2];
   ASSERT_EQ(::socketpair(AF_UNIX, SOCK_STREAM, 0, fds), 0);

@@ -44,14 +44,22 @@ bool load_count_as(const char* p, std::uint64_t& n) {
 // The companion's value; false if it is negative.
 bool load_count(const char* p, md::Primitive type, std::uint64_t& n) {
   switch (type) {
-    case md::Primitive::Int8: return load_count_as<std::int8_t>(p, n);
-    case md::Primitive::UInt8: return load_count_as<std::uint8_t>(p, n);
-    case md::Primitive::Int16: return load_count_as<std::int16_t>(p, n);
-    case md::Primitive::UInt16: return load_count_as<std::uint16_t>(p, n);
-    case md::Primitive::Int32: return load_count_as<std::int32_t>(p, n);
-    case md::Primitive::UInt32: return load_count_as<std::uint32_t>(p, n);
-    case md::Primitive::Int64: return load_count_as<std::int64_t>(p, n);
-    default: return load_count_as<std::uint64_t>(p, n);  // the compiler admits integers only
+    case md::Primitive::Int8:
+      return load_count_as<std::int8_t>(p, n);
+    case md::Primitive::UInt8:
+      return load_count_as<std::uint8_t>(p, n);
+    case md::Primitive::Int16:
+      return load_count_as<std::int16_t>(p, n);
+    case md::Primitive::UInt16:
+      return load_count_as<std::uint16_t>(p, n);
+    case md::Primitive::Int32:
+      return load_count_as<std::int32_t>(p, n);
+    case md::Primitive::UInt32:
+      return load_count_as<std::uint32_t>(p, n);
+    case md::Primitive::Int64:
+      return load_count_as<std::int64_t>(p, n);
+    default:
+      return load_count_as<std::uint64_t>(p, n);  // the compiler admits integers only
   }
 }
 
@@ -63,14 +71,22 @@ void store_count_as(char* p, std::uint64_t n) {
 
 void store_count(char* p, md::Primitive type, std::uint64_t n) {
   switch (type) {
-    case md::Primitive::Int8: return store_count_as<std::int8_t>(p, n);
-    case md::Primitive::UInt8: return store_count_as<std::uint8_t>(p, n);
-    case md::Primitive::Int16: return store_count_as<std::int16_t>(p, n);
-    case md::Primitive::UInt16: return store_count_as<std::uint16_t>(p, n);
-    case md::Primitive::Int32: return store_count_as<std::int32_t>(p, n);
-    case md::Primitive::UInt32: return store_count_as<std::uint32_t>(p, n);
-    case md::Primitive::Int64: return store_count_as<std::int64_t>(p, n);
-    default: return store_count_as<std::uint64_t>(p, n);
+    case md::Primitive::Int8:
+      return store_count_as<std::int8_t>(p, n);
+    case md::Primitive::UInt8:
+      return store_count_as<std::uint8_t>(p, n);
+    case md::Primitive::Int16:
+      return store_count_as<std::int16_t>(p, n);
+    case md::Primitive::UInt16:
+      return store_count_as<std::uint16_t>(p, n);
+    case md::Primitive::Int32:
+      return store_count_as<std::int32_t>(p, n);
+    case md::Primitive::UInt32:
+      return store_count_as<std::uint32_t>(p, n);
+    case md::Primitive::Int64:
+      return store_count_as<std::int64_t>(p, n);
+    default:
+      return store_count_as<std::uint64_t>(p, n);
   }
 }
 
@@ -114,9 +130,15 @@ class Measurer {
     for (const Step& step : programs_[static_cast<std::size_t>(index)].steps) {
       Status s;
       switch (step.kind) {
-        case Step::Kind::Copy: s = add(step.size); break;
-        case Step::Kind::Structs: s = elements(step.program, host + step.host_offset, step.size, depth); break;
-        case Step::Kind::Dynamic: s = dynamic(step, host, depth); break;
+        case Step::Kind::Copy:
+          s = add(step.size);
+          break;
+        case Step::Kind::Structs:
+          s = elements(step.program, host + step.host_offset, step.size, depth);
+          break;
+        case Step::Kind::Dynamic:
+          s = dynamic(step, host, depth);
+          break;
       }
       if (!s.ok()) return s;
     }
@@ -151,8 +173,8 @@ class Measurer {
 
   Status add(std::uint64_t bytes) {
     if (bytes > limits_.max_data_size - total_)
-      return Status::failure(LNE_PACKET_TOO_LARGE,
-                             "service data larger than the limit of " + std::to_string(limits_.max_data_size) + " bytes");
+      return Status::failure(LNE_PACKET_TOO_LARGE, "service data larger than the limit of " +
+                                                       std::to_string(limits_.max_data_size) + " bytes");
     total_ += static_cast<std::size_t>(bytes);
     return {};
   }
@@ -169,8 +191,12 @@ class Writer {
   void write(int index, const char* host) {
     for (const Step& step : programs_[static_cast<std::size_t>(index)].steps) {
       switch (step.kind) {
-        case Step::Kind::Copy: bytes(host + step.host_offset, step.size, step.swap_unit); break;
-        case Step::Kind::Structs: elements(step.program, host + step.host_offset, step.size); break;
+        case Step::Kind::Copy:
+          bytes(host + step.host_offset, step.size, step.swap_unit);
+          break;
+        case Step::Kind::Structs:
+          elements(step.program, host + step.host_offset, step.size);
+          break;
         case Step::Kind::Dynamic: {
           std::uint64_t n = 0;
           load_count(host + step.count_offset, step.count_type, n);
@@ -213,8 +239,7 @@ class Checker {
 
   Status check_all() {
     Status s = check(0, 0);
-    if (s.ok() && cur_ != end_)
-      return invalid(std::to_string(end_ - cur_) + " unexpected bytes after the data");
+    if (s.ok() && cur_ != end_) return invalid(std::to_string(end_ - cur_) + " unexpected bytes after the data");
     return s;
   }
 
@@ -227,9 +252,15 @@ class Checker {
     for (const Step& step : programs_[static_cast<std::size_t>(index)].steps) {
       Status s;
       switch (step.kind) {
-        case Step::Kind::Copy: s = skip(step.size); break;
-        case Step::Kind::Structs: s = elements(step.program, step.size, depth); break;
-        case Step::Kind::Dynamic: s = dynamic(step, depth); break;
+        case Step::Kind::Copy:
+          s = skip(step.size);
+          break;
+        case Step::Kind::Structs:
+          s = elements(step.program, step.size, depth);
+          break;
+        case Step::Kind::Dynamic:
+          s = dynamic(step, depth);
+          break;
       }
       if (!s.ok()) return s;
     }
@@ -295,8 +326,12 @@ class Filler {
           copy_units(host + step.host_offset, cur_, step.size, step.swap_unit);
           cur_ += step.size;
           break;
-        case Step::Kind::Structs: elements(step.program, host + step.host_offset, step.size); break;
-        case Step::Kind::Dynamic: dynamic(step, host); break;
+        case Step::Kind::Structs:
+          elements(step.program, host + step.host_offset, step.size);
+          break;
+        case Step::Kind::Dynamic:
+          dynamic(step, host);
+          break;
       }
     }
   }
@@ -355,8 +390,8 @@ Status flat_size(const MessageLayout& layout, const void* host, const Limits& li
   if (layout.fixed_size()) {
     size = layout.host_size();
     if (size > limits.max_data_size)
-      return Status::failure(LNE_PACKET_TOO_LARGE,
-                             "service data larger than the limit of " + std::to_string(limits.max_data_size) + " bytes");
+      return Status::failure(LNE_PACKET_TOO_LARGE, "service data larger than the limit of " +
+                                                       std::to_string(limits.max_data_size) + " bytes");
     return {};
   }
   Measurer measurer(layout.programs(), limits);
@@ -396,7 +431,8 @@ Status unflatten(const MessageLayout& layout, char* data, std::size_t size, void
   if (checker.arena_size() > 0) {
     arena_block = arena.allocate(static_cast<std::size_t>(checker.arena_size()));
     if (arena_block == nullptr)
-      return Status::failure(LNE_NO_MEM, "no memory for " + std::to_string(checker.arena_size()) + " bytes of service data");
+      return Status::failure(LNE_NO_MEM,
+                             "no memory for " + std::to_string(checker.arena_size()) + " bytes of service data");
   }
   Filler(layout.programs(), data, arena_block).fill(0, static_cast<char*>(host));
   return {};

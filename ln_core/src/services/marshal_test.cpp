@@ -283,7 +283,8 @@ TEST(Marshal, RecursiveTree) {
 TEST(Marshal, NestingLimitBoundsRecursionBothWays) {
   std::vector<Node> chain(200);
   for (std::size_t i = 0; i < chain.size(); ++i)
-    chain[i] = {static_cast<int32_t>(i), i + 1 < chain.size() ? 1u : 0u, i + 1 < chain.size() ? &chain[i + 1] : nullptr};
+    chain[i] = {static_cast<int32_t>(i), i + 1 < chain.size() ? 1u : 0u,
+                i + 1 < chain.size() ? &chain[i + 1] : nullptr};
   const MessageLayout layout = layout_of(node_sig);
   std::string wire;
   EXPECT_EQ(flatten(layout, chain.data(), {}, wire).code(), -LNE_INVALID_PARAMETER);
@@ -317,7 +318,9 @@ TEST(Marshal, SixteenMegabytePayloadsAreUsedInPlaceWhenAligned) {
   EXPECT_EQ(std::memcmp(back.doubles, doubles.data(), 8 * doubles.size()), 0);
   const char* begin = wire.data();
   const char* end = begin + wire.size();
-  const auto inside = [&](const void* p) { return p >= static_cast<const void*>(begin) && p < static_cast<const void*>(end); };
+  const auto inside = [&](const void* p) {
+    return p >= static_cast<const void*>(begin) && p < static_cast<const void*>(end);
+  };
   EXPECT_TRUE(inside(back.bytes));
   EXPECT_TRUE(inside(back.doubles));  // wire.data() is 8-aligned, so are the doubles
 

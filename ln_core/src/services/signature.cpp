@@ -288,8 +288,6 @@ Status ServiceSignature::compile_shared(std::string_view signature, std::shared_
   return s;
 }
 
-bool same_signature(std::string_view registered, const char* given) {
-  return given != nullptr && registered == given;
-}
+bool same_signature(std::string_view registered, const char* given) { return given != nullptr && registered == given; }
 
 }  // namespace ln::services

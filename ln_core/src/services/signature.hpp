@@ -86,8 +86,7 @@ class MessageLayout {
   /// primitives must be byte-reversed between host and the little-endian
   /// wire; the default is right for this host (tests pass `true` on
   /// little-endian machines to exercise the big-endian code paths).
-  static Status compile(std::string_view side_signature, MessageLayout& out,
-                        bool swap_bytes = !host_is_little_endian);
+  static Status compile(std::string_view side_signature, MessageLayout& out, bool swap_bytes = !host_is_little_endian);
 
   /// Size of the generated host struct (0 for an empty side).
   std::size_t host_size() const { return programs_.empty() ? 0 : programs_[0].host_size; }
@@ -104,8 +103,7 @@ class MessageLayout {
 /// A complete service signature: "request|response".
 class ServiceSignature {
  public:
-  static Status compile(std::string_view signature, ServiceSignature& out,
-                        bool swap_bytes = !host_is_little_endian);
+  static Status compile(std::string_view signature, ServiceSignature& out, bool swap_bytes = !host_is_little_endian);
   /// Compiled once, shared by handles and requests.
   static Status compile_shared(std::string_view signature, std::shared_ptr<const ServiceSignature>& out);
 

@@ -122,24 +122,24 @@ TEST(Signature, ToleratesExtraBlanks) { EXPECT_EQ(compiled(" int32_t  4  1 , dou
 
 TEST(Signature, RejectsMalformedSignatures) {
   for (const char* bad : {
-           "int32_t 4",                     // count missing
-           "int32_t4 1",                    // blank missing
-           "int32 4 1",                     // unknown type
-           "int32_t 8 1",                   // wrong element size
-           "int32_t 4 0",                   // count 0
-           "int32_t* 4 2",                  // array of pointers
-           "char* 1 1",                     // no length field
-           "uint32_t 4 2,char* 1 1",        // an array is no length
-           "char 1 1,char* 1 1",            // neither is char
-           "float 4 1,char* 1 1",           // nor a float
-           "[]* 0 1",                       // recursion needs ... a length here
-           "uint32_t 4 1,[] 0 1",           // recursion by value: infinite
-           "[int32_t 4 1 8 1",              // unbalanced
-           "int32_t 4 1]",                  // stray bracket
-           "[ ] 0 1",                       // empty sub-type
-           "int32_t 4 1,",                  // empty entry
-           "int32_t 4 1 x",                 // trailing garbage
-           "int32_t 4 99999999999999999",   // absurd number
+           "int32_t 4",                                  // count missing
+           "int32_t4 1",                                 // blank missing
+           "int32 4 1",                                  // unknown type
+           "int32_t 8 1",                                // wrong element size
+           "int32_t 4 0",                                // count 0
+           "int32_t* 4 2",                               // array of pointers
+           "char* 1 1",                                  // no length field
+           "uint32_t 4 2,char* 1 1",                     // an array is no length
+           "char 1 1,char* 1 1",                         // neither is char
+           "float 4 1,char* 1 1",                        // nor a float
+           "[]* 0 1",                                    // recursion needs ... a length here
+           "uint32_t 4 1,[] 0 1",                        // recursion by value: infinite
+           "[int32_t 4 1 8 1",                           // unbalanced
+           "int32_t 4 1]",                               // stray bracket
+           "[ ] 0 1",                                    // empty sub-type
+           "int32_t 4 1,",                               // empty entry
+           "int32_t 4 1 x",                              // trailing garbage
+           "int32_t 4 99999999999999999",                // absurd number
            "uint8_t 1 2147483647,uint8_t 1 2147483647",  // struct beyond 2 GiB
        }) {
     EXPECT_EQ(compile_error(bad), -LNE_INVALID_SIGNATURE) << bad;

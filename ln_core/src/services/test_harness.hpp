@@ -22,14 +22,14 @@
 
 namespace ln::services::testing {
 
-#define EXPECT_OK(expr)                             \
-  do {                                              \
-    const ::ln::services::Status s_ = (expr);       \
+#define EXPECT_OK(expr)                                \
+  do {                                                 \
+    const ::ln::services::Status s_ = (expr);          \
     EXPECT_TRUE(s_.ok()) << #expr ": " << s_.detail(); \
   } while (0)
-#define ASSERT_OK(expr)                             \
-  do {                                              \
-    const ::ln::services::Status s_ = (expr);       \
+#define ASSERT_OK(expr)                                \
+  do {                                                 \
+    const ::ln::services::Status s_ = (expr);          \
     ASSERT_TRUE(s_.ok()) << #expr ": " << s_.detail(); \
   } while (0)
 

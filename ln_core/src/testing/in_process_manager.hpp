@@ -72,7 +72,8 @@ class InProcessManager {
   manager::Manager& manager() { return *manager_; }
 
   /// Waits (bounded) until a log line contains `text`.
-  bool wait_for_log(const std::string& text, std::chrono::milliseconds timeout = std::chrono::milliseconds(5000)) const {
+  bool wait_for_log(const std::string& text,
+                    std::chrono::milliseconds timeout = std::chrono::milliseconds(5000)) const {
     return wait_until([&] { return count_log(text) > 0; }, timeout);
   }
   /// Everything logged so far, for failure messages.

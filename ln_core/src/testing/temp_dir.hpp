@@ -38,7 +38,9 @@ class TempDir {
     return file.string();
   }
 
-  bool exists(const std::string& relative) const { return std::filesystem::exists(std::filesystem::path(path_) / relative); }
+  bool exists(const std::string& relative) const {
+    return std::filesystem::exists(std::filesystem::path(path_) / relative);
+  }
 
  private:
   std::string path_;

@@ -147,8 +147,8 @@ Segment Segment::open(const std::string& name) {
   const std::uint64_t stride = slot_stride(element_size, version);
   if (n_elements == 0 || element_size > kMaxElementSize || n_elements > (size - kHeaderSize) / stride)
     throw ShmError(ShmErrc::too_small, "shared memory '" + path + "' has " + std::to_string(size) +
-                                           " bytes, too few for its " + std::to_string(n_elements) +
-                                           " elements of " + std::to_string(element_size) + " bytes");
+                                           " bytes, too few for its " + std::to_string(n_elements) + " elements of " +
+                                           std::to_string(element_size) + " bytes");
   Segment segment(path, std::move(fd), std::move(mapping));
   segment.element_size_ = element_size;
   segment.n_elements_ = n_elements;
@@ -204,9 +204,7 @@ bool Segment::write(double timestamp, const void* data, std::size_t size) noexce
 
 // ---------------------------------------------------------------- reader
 
-std::uint32_t Segment::newest_counter() const noexcept {
-  return header().counter.load(std::memory_order_acquire);
-}
+std::uint32_t Segment::newest_counter() const noexcept { return header().counter.load(std::memory_order_acquire); }
 
 Segment::Copy Segment::copy_slot(std::uint32_t index, std::uint32_t expected, void* data, std::size_t capacity,
                                  double& timestamp) noexcept {
@@ -283,8 +281,8 @@ bool Segment::wait(std::uint32_t seen, std::chrono::steady_clock::time_point dea
 ReadResult Segment::read_next(void* data, std::size_t capacity, double& timestamp, std::uint32_t& counter,
                               std::chrono::nanoseconds timeout) noexcept {
   const bool forever = timeout < std::chrono::nanoseconds::zero();
-  const auto deadline = forever ? std::chrono::steady_clock::time_point::max()
-                                : std::chrono::steady_clock::now() + timeout;
+  const auto deadline =
+      forever ? std::chrono::steady_clock::time_point::max() : std::chrono::steady_clock::now() + timeout;
   for (;;) {
     const std::uint32_t newest = newest_counter();
     // A torn copy means the writer is busy with that very slot: wait for its commit.
@@ -315,8 +313,8 @@ ReadResult Segment::read_last(void* data, std::size_t capacity, double& timestam
 
 ReadResult Segment::wait_for_packet(std::uint32_t& counter, std::chrono::nanoseconds timeout) noexcept {
   const bool forever = timeout < std::chrono::nanoseconds::zero();
-  const auto deadline = forever ? std::chrono::steady_clock::time_point::max()
-                                : std::chrono::steady_clock::now() + timeout;
+  const auto deadline =
+      forever ? std::chrono::steady_clock::time_point::max() : std::chrono::steady_clock::now() + timeout;
   for (;;) {
     const std::uint32_t newest = newest_counter();
     if (newest != counter) {

@@ -128,8 +128,7 @@ class Segment {
   Copy copy_slot(std::uint32_t index, std::uint32_t expected, void* data, std::size_t capacity,
                  double& timestamp) noexcept;
   bool copy_next(void* data, std::size_t capacity, double& timestamp, std::uint32_t& counter) noexcept;
-  bool wait(std::uint32_t seen, std::chrono::steady_clock::time_point deadline, bool forever,
-            ReadResult& why) noexcept;
+  bool wait(std::uint32_t seen, std::chrono::steady_clock::time_point deadline, bool forever, ReadResult& why) noexcept;
 
   std::string name_;
   UniqueFd fd_;
@@ -139,7 +138,7 @@ class Segment {
   std::uint32_t n_elements_ = 0;
   std::uint32_t version_ = 0;
   std::uint64_t stride_ = 0;
-  std::uint32_t last_seen_ = 0;  // reader: number of the last packet delivered
+  std::uint32_t last_seen_ = 0;      // reader: number of the last packet delivered
   std::uint32_t copied_number_ = 0;  // the packet copy_slot() copied last
   std::atomic<bool> unblocked_{false};
 };

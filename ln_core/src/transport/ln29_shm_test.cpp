@@ -233,9 +233,7 @@ TEST_F(Ln29ShmTest, BadSegmentsAndNamesAreRefused) {
   write_file(truncated, std::string("LN_SHM\0\3", 8));
   EXPECT_EQ(open_error(truncated), ShmErrc::too_small);
   const std::string short_slots = fresh_name();
-  {
-    Segment segment = Segment::create(short_slots, 64, 4, 3);
-  }
+  { Segment segment = Segment::create(short_slots, 64, 4, 3); }
   ::truncate(("/dev/shm/" + short_slots).c_str(), 200);
   EXPECT_EQ(open_error(short_slots), ShmErrc::too_small);
   const std::string future = fresh_name();
@@ -286,7 +284,7 @@ TEST_F(Ln29ShmTest, SlotsBeingWrittenAreNotDelivered) {
     ASSERT_NE(bytes, MAP_FAILED);
     auto set_u32 = [&](std::size_t at, std::uint32_t value) { std::memcpy(bytes + at, &value, 4); };
     const std::size_t slot = 120, trailing = slot + (version >= 3 ? 28 : 0);
-    set_u32(112, 2);  // a second packet announced ...
+    set_u32(112, 2);                      // a second packet announced ...
     set_u32(slot, version >= 3 ? 2 : 0);  // ... whose slot is half written
     char data[8];
     double ts;

@@ -76,8 +76,8 @@ struct SegmentHeader {
   // Written by the publisher on every packet; polled by spinning readers.
   alignas(kCacheLine) std::atomic<std::uint64_t> head_sequence;  // newest committed packet, 0 = none
   std::atomic<std::int32_t> publisher_cpu;  // CPU of the last write: readers on the same CPU yield instead of spinning
-  std::atomic<std::uint32_t> state;  // SegmentState
-  std::int32_t publisher_pid;  // informational only
+  std::atomic<std::uint32_t> state;         // SegmentState
+  std::int32_t publisher_pid;               // informational only
   // Steady-clock nanoseconds of the last write that woke sleeping readers (0 = none yet):
   // a woken reader learns when its packet came, not when it got a CPU back.
   std::atomic<std::int64_t> last_wake_ns;
@@ -136,10 +136,8 @@ inline constexpr std::size_t kPayloadOffset = 32;
 inline constexpr std::size_t kPayloadAlignment = 32;
 
 static_assert(sizeof(SlotHeader) == kPayloadOffset, "payload follows the slot header directly");
-static_assert(std::atomic<std::uint64_t>::is_always_lock_free &&
-                  std::atomic<std::uint32_t>::is_always_lock_free &&
-                  std::atomic<std::int32_t>::is_always_lock_free &&
-                  std::atomic<double>::is_always_lock_free,
+static_assert(std::atomic<std::uint64_t>::is_always_lock_free && std::atomic<std::uint32_t>::is_always_lock_free &&
+                  std::atomic<std::int32_t>::is_always_lock_free && std::atomic<double>::is_always_lock_free,
               "atomics in shared memory must be lock-free to work across processes");
 static_assert(sizeof(std::atomic<std::uint32_t>) == 4 && sizeof(std::atomic<std::uint64_t>) == 8,
               "atomics must have the size of the plain integers");
@@ -158,8 +156,7 @@ struct Geometry {
 };
 
 /// Throws ShmError(invalid_config) when a parameter is out of range.
-Geometry compute_geometry(std::uint32_t message_size, std::uint32_t history,
-                          std::uint32_t borrow_slots);
+Geometry compute_geometry(std::uint32_t message_size, std::uint32_t history, std::uint32_t borrow_slots);
 
 std::uint32_t checksum(const SegmentInfo& info);
 

@@ -30,19 +30,15 @@ constexpr std::uint64_t round_up(std::uint64_t value, std::uint64_t alignment) {
 constexpr std::uint64_t kMaxTotalSize = std::uint64_t{1} << 40;
 }  // namespace
 
-Geometry compute_geometry(std::uint32_t message_size, std::uint32_t history,
-                          std::uint32_t borrow_slots) {
+Geometry compute_geometry(std::uint32_t message_size, std::uint32_t history, std::uint32_t borrow_slots) {
   if (message_size == 0 || message_size > kMaxMessageSize) {
-    throw ShmError(ShmErrc::invalid_config,
-                   "message_size must be between 1 and " + std::to_string(kMaxMessageSize));
+    throw ShmError(ShmErrc::invalid_config, "message_size must be between 1 and " + std::to_string(kMaxMessageSize));
   }
   if (history == 0 || history > kMaxHistory) {
-    throw ShmError(ShmErrc::invalid_config,
-                   "history must be between 1 and " + std::to_string(kMaxHistory));
+    throw ShmError(ShmErrc::invalid_config, "history must be between 1 and " + std::to_string(kMaxHistory));
   }
   if (borrow_slots > kMaxBorrowSlots) {
-    throw ShmError(ShmErrc::invalid_config,
-                   "borrow_slots must be at most " + std::to_string(kMaxBorrowSlots));
+    throw ShmError(ShmErrc::invalid_config, "borrow_slots must be at most " + std::to_string(kMaxBorrowSlots));
   }
   Geometry geometry;
   geometry.message_size = message_size;
@@ -52,10 +48,9 @@ Geometry compute_geometry(std::uint32_t message_size, std::uint32_t history,
   geometry.slot_stride = round_up(kPayloadOffset + std::uint64_t{message_size}, kCacheLine);
   geometry.ring_offset = round_up(sizeof(SegmentHeader), kCacheLine);
   geometry.slots_offset =
-      geometry.ring_offset +
-      round_up(std::uint64_t{history} * sizeof(std::atomic<std::uint32_t>), kCacheLine);
-  geometry.shared_offset = round_up(
-      geometry.slots_offset + std::uint64_t{geometry.slot_count} * geometry.slot_stride, kReaderAreaAlignment);
+      geometry.ring_offset + round_up(std::uint64_t{history} * sizeof(std::atomic<std::uint32_t>), kCacheLine);
+  geometry.shared_offset =
+      round_up(geometry.slots_offset + std::uint64_t{geometry.slot_count} * geometry.slot_stride, kReaderAreaAlignment);
   geometry.total_size = geometry.shared_offset + kBorrowStatesOffset +
                         std::uint64_t{geometry.slot_count} * sizeof(std::atomic<std::uint64_t>);
   if (geometry.total_size > kMaxTotalSize) {
@@ -134,7 +129,7 @@ struct SegmentView {
 
 ReadStatus status_for_state(std::uint32_t state) noexcept {
   return state == static_cast<std::uint32_t>(SegmentState::replaced) ? ReadStatus::segment_replaced
-                                                                    : ReadStatus::publisher_gone;
+                                                                     : ReadStatus::publisher_gone;
 }
 
 constexpr std::uint32_t kOpen = static_cast<std::uint32_t>(SegmentState::open);
@@ -167,28 +162,44 @@ std::uint64_t topic_segment_size(std::uint32_t message_size, std::uint32_t histo
 
 const char* to_string(WriteStatus status) {
   switch (status) {
-    case WriteStatus::ok: return "ok";
-    case WriteStatus::packet_too_large: return "packet too large";
-    case WriteStatus::loan_outstanding: return "a loan is outstanding";
-    case WriteStatus::no_loan: return "no loan to commit";
-    case WriteStatus::no_free_slot: return "no free slot (corrupted segment)";
-    case WriteStatus::closed: return "segment closed";
-    case WriteStatus::bad_sequence: return "sequence number not above the last one";
+    case WriteStatus::ok:
+      return "ok";
+    case WriteStatus::packet_too_large:
+      return "packet too large";
+    case WriteStatus::loan_outstanding:
+      return "a loan is outstanding";
+    case WriteStatus::no_loan:
+      return "no loan to commit";
+    case WriteStatus::no_free_slot:
+      return "no free slot (corrupted segment)";
+    case WriteStatus::closed:
+      return "segment closed";
+    case WriteStatus::bad_sequence:
+      return "sequence number not above the last one";
   }
   return "unknown";
 }
 
 const char* to_string(ReadStatus status) {
   switch (status) {
-    case ReadStatus::ok: return "ok";
-    case ReadStatus::no_data: return "no new packet";
-    case ReadStatus::timeout: return "timeout";
-    case ReadStatus::unblocked: return "unblocked";
-    case ReadStatus::publisher_gone: return "publisher gone";
-    case ReadStatus::segment_replaced: return "segment replaced";
-    case ReadStatus::buffer_too_small: return "buffer too small";
-    case ReadStatus::borrow_limit: return "borrow limit reached";
-    case ReadStatus::corrupt_segment: return "corrupt segment";
+    case ReadStatus::ok:
+      return "ok";
+    case ReadStatus::no_data:
+      return "no new packet";
+    case ReadStatus::timeout:
+      return "timeout";
+    case ReadStatus::unblocked:
+      return "unblocked";
+    case ReadStatus::publisher_gone:
+      return "publisher gone";
+    case ReadStatus::segment_replaced:
+      return "segment replaced";
+    case ReadStatus::buffer_too_small:
+      return "buffer too small";
+    case ReadStatus::borrow_limit:
+      return "borrow limit reached";
+    case ReadStatus::corrupt_segment:
+      return "corrupt segment";
   }
   return "unknown";
 }
@@ -224,9 +235,9 @@ struct WriterCore {
       SlotHeader& slot = view.slot(spares[candidate]);
       if (borrowing_possible()) {
         std::uint64_t expected = 0;
-        if (!view.borrow_state(spares[candidate]).compare_exchange_strong(expected, layout::kWritingBit,
-                                                       std::memory_order_acquire,
-                                                       std::memory_order_relaxed)) {
+        if (!view.borrow_state(spares[candidate])
+                 .compare_exchange_strong(expected, layout::kWritingBit, std::memory_order_acquire,
+                                          std::memory_order_relaxed)) {
           continue;  // pinned by a reader
         }
       }
@@ -335,8 +346,7 @@ ShmWriter ShmWriter::create(const RingConfig& config) {
   if (config.first_sequence == 0 || config.first_sequence > (std::uint64_t{1} << 62)) {
     throw ShmError(ShmErrc::invalid_config, "first_sequence must be between 1 and 2^62");
   }
-  const layout::Geometry geometry =
-      layout::compute_geometry(config.message_size, config.history, config.borrow_slots);
+  const layout::Geometry geometry = layout::compute_geometry(config.message_size, config.history, config.borrow_slots);
 
   auto core = std::make_unique<detail::WriterCore>();
   UniqueFd fd = create_sealed_memfd(config.debug_name, geometry.total_size);
@@ -420,8 +430,7 @@ WriteStatus ShmWriter::write(const void* data, std::size_t size) noexcept {
   return write(data, size, wall_clock_seconds());
 }
 
-WriteStatus ShmWriter::write_as(std::uint64_t sequence, const void* data, std::size_t size,
-                                double timestamp) noexcept {
+WriteStatus ShmWriter::write_as(std::uint64_t sequence, const void* data, std::size_t size, double timestamp) noexcept {
   detail::WriterCore& core = *core_;
   if (sequence <= core.last_sequence || sequence > (std::uint64_t{1} << 62)) return WriteStatus::bad_sequence;
   // commit() numbers the packet last_sequence + 1. The ring positions of the
@@ -448,9 +457,7 @@ WriteStatus ShmWriter::commit(std::size_t size, double timestamp) noexcept {
   return WriteStatus::ok;
 }
 
-WriteStatus ShmWriter::commit(std::size_t size) noexcept {
-  return commit(size, wall_clock_seconds());
-}
+WriteStatus ShmWriter::commit(std::size_t size) noexcept { return commit(size, wall_clock_seconds()); }
 
 void ShmWriter::discard_loan() noexcept { core_->discard_loan(); }
 
@@ -473,12 +480,13 @@ bool ShmWriter::shared_state_intact() const noexcept {
   const SegmentHeader& header = *core.view.header;
   const layout::Geometry& g = core.view.geometry;
   const layout::SegmentInfo& info = header.info;
-  if (layout::checksum(info) != info.checksum || info.total_size != g.total_size ||
-      info.ring_offset != g.ring_offset || info.slots_offset != g.slots_offset || info.slot_stride != g.slot_stride ||
+  if (layout::checksum(info) != info.checksum || info.total_size != g.total_size || info.ring_offset != g.ring_offset ||
+      info.slots_offset != g.slots_offset || info.slot_stride != g.slot_stride ||
       info.shared_offset != g.shared_offset || info.message_size != g.message_size || info.history != g.history ||
       info.slot_count != g.slot_count || info.borrow_slots != g.borrow_slots)
     return false;
-  const std::uint32_t expected_state = static_cast<std::uint32_t>(core.closed ? SegmentState::closed : SegmentState::open);
+  const std::uint32_t expected_state =
+      static_cast<std::uint32_t>(core.closed ? SegmentState::closed : SegmentState::open);
   if (!core.closed && header.state.load(std::memory_order_relaxed) != expected_state) return false;
   if (!core.loan_open && header.head_sequence.load(std::memory_order_relaxed) != core.last_sequence) return false;
   for (std::uint32_t i = 0; i < g.history; ++i)
@@ -516,8 +524,8 @@ struct ReaderCore {
 
   UniqueFd fd;
   bool own_description = false;  // false only without /proc: no liveness check, no borrowing
-  Mapping mapping;         // the publisher's part (read-only), or everything
-  Mapping shared_mapping;  // the reader area, when mapped on its own
+  Mapping mapping;               // the publisher's part (read-only), or everything
+  Mapping shared_mapping;        // the reader area, when mapped on its own
   SegmentView view;
   std::uint32_t flags = 0;
   ReaderOptions options;
@@ -575,7 +583,8 @@ struct ReaderCore {
       // overwritten and its slot is being rewritten (sequence 0). Either way
       // it is gone. (Above the published head, the ring position may just
       // not be updated yet.)
-      else if (target <= published) skip_below = target + 1;
+      else if (target <= published)
+        skip_below = target + 1;
       return Locate::moved;
     }
     where = {target, index};
@@ -650,8 +659,8 @@ struct ReaderCore {
     std::uint64_t current = state.load(std::memory_order_relaxed);
     do {
       if ((current & layout::kWritingBit) != 0) return false;
-    } while (!state.compare_exchange_weak(current, current | bit, std::memory_order_acq_rel,
-                                          std::memory_order_relaxed));
+    } while (
+        !state.compare_exchange_weak(current, current | bit, std::memory_order_acq_rel, std::memory_order_relaxed));
     if (view.slot(where.slot).sequence.load(std::memory_order_acquire) == where.sequence) return true;
     state.fetch_and(~bit, std::memory_order_release);
     return false;
@@ -756,9 +765,13 @@ struct ReaderCore {
           if (streamed.kind != Attempt::busy) return streamed;
           continue;
         }
-        case Locate::corrupt: return finished(ReadStatus::corrupt_segment);
-        case Locate::moved: cpu_relax(); continue;
-        case Locate::found: break;
+        case Locate::corrupt:
+          return finished(ReadStatus::corrupt_segment);
+        case Locate::moved:
+          cpu_relax();
+          continue;
+        case Locate::found:
+          break;
       }
       SlotHeader& slot = view.slot(where.slot);
       if (!asked_for_token && torn >= options.optimistic_copies) {
@@ -801,10 +814,17 @@ struct ReaderCore {
     for (int attempt = 0; attempt < kMaxAttempts; ++attempt) {
       Location where{};
       switch (locate(mode, known_head, where)) {
-        case Locate::none: release_token(*token); return kNothingNew;
-        case Locate::corrupt: release_token(*token); return finished(ReadStatus::corrupt_segment);
-        case Locate::moved: cpu_relax(); continue;
-        case Locate::found: break;
+        case Locate::none:
+          release_token(*token);
+          return kNothingNew;
+        case Locate::corrupt:
+          release_token(*token);
+          return finished(ReadStatus::corrupt_segment);
+        case Locate::moved:
+          cpu_relax();
+          continue;
+        case Locate::found:
+          break;
       }
       if (!pin(where, *token)) continue;
       const SlotHeader& slot = view.slot(where.slot);
@@ -995,11 +1015,7 @@ struct ReaderCore {
 // ---- BorrowedSample
 
 BorrowedSample::BorrowedSample(BorrowedSample&& other) noexcept
-    : core_(std::move(other.core_)),
-      data_(other.data_),
-      info_(other.info_),
-      token_(other.token_),
-      slot_(other.slot_) {
+    : core_(std::move(other.core_)), data_(other.data_), info_(other.info_), token_(other.token_), slot_(other.slot_) {
   other.data_ = nullptr;
   other.info_ = {};
 }
@@ -1037,8 +1053,8 @@ layout::Geometry validate_segment_info(const layout::SegmentInfo& info, std::siz
     throw ShmError(ShmErrc::bad_magic, "not an ln shared-memory ring segment (bad magic)");
   }
   if (info.version != layout::kVersion) {
-    throw ShmError(ShmErrc::bad_version, "segment layout version " + std::to_string(info.version) +
-                                             ", expected " + std::to_string(layout::kVersion));
+    throw ShmError(ShmErrc::bad_version, "segment layout version " + std::to_string(info.version) + ", expected " +
+                                             std::to_string(layout::kVersion));
   }
   if (info.info_size != sizeof(layout::SegmentInfo) || layout::checksum(info) != info.checksum) {
     throw ShmError(ShmErrc::bad_layout, "segment header checksum mismatch");
@@ -1055,8 +1071,7 @@ layout::Geometry validate_segment_info(const layout::SegmentInfo& info, std::siz
     throw ShmError(ShmErrc::bad_layout, "segment header sizes are inconsistent");
   }
   if (geometry.total_size > file_size) {
-    throw ShmError(ShmErrc::too_small, "segment file is " + std::to_string(file_size) +
-                                           " bytes, header says " +
+    throw ShmError(ShmErrc::too_small, "segment file is " + std::to_string(file_size) + " bytes, header says " +
                                            std::to_string(geometry.total_size));
   }
   return geometry;
@@ -1094,9 +1109,8 @@ ShmReader ShmReader::attach(int segment_fd, const ReaderOptions& options) {
   const layout::Geometry geometry = validate_segment_info(info, file_size);
 
   if (options.buffers == 0 || options.buffers > geometry.history) {
-    throw ShmError(ShmErrc::invalid_argument,
-                   "reader buffers must be between 1 and the segment history (" +
-                       std::to_string(geometry.history) + ")");
+    throw ShmError(ShmErrc::invalid_argument, "reader buffers must be between 1 and the segment history (" +
+                                                  std::to_string(geometry.history) + ")");
   }
   if (options.liveness_check_interval <= std::chrono::milliseconds::zero()) {
     throw ShmError(ShmErrc::invalid_argument, "liveness_check_interval must be positive");
@@ -1113,8 +1127,8 @@ ShmReader ShmReader::attach(int segment_fd, const ReaderOptions& options) {
   std::byte* shared = nullptr;
   if (options.write_protect && geometry.shared_offset % page_size() == 0) {
     core->mapping = Mapping::map_shared(core->fd.get(), 0, geometry.shared_offset, false);
-    core->shared_mapping = Mapping::map_shared(core->fd.get(), geometry.shared_offset,
-                                               geometry.total_size - geometry.shared_offset, true);
+    core->shared_mapping =
+        Mapping::map_shared(core->fd.get(), geometry.shared_offset, geometry.total_size - geometry.shared_offset, true);
     shared = core->shared_mapping.data();
   } else {
     core->mapping = Mapping::map_shared(core->fd.get(), geometry.total_size);
@@ -1126,19 +1140,15 @@ ShmReader ShmReader::attach(int segment_fd, const ReaderOptions& options) {
   core->max_borrows = std::min(options.max_borrows, geometry.borrow_slots);
   if (core->own_description && geometry.borrow_slots != 0) {
     // An identity whose liveness the kernel maintains: our lock on byte 1 + ticket.
-    const std::uint64_t ticket =
-        core->view.readers->next_reader_ticket.fetch_add(1, std::memory_order_relaxed) + 1;
-    if (ticket < layout::kMaxReaderTicket &&
-        try_lock_byte(core->fd.get(), layout::kFirstReaderLockByte + ticket)) {
+    const std::uint64_t ticket = core->view.readers->next_reader_ticket.fetch_add(1, std::memory_order_relaxed) + 1;
+    if (ticket < layout::kMaxReaderTicket && try_lock_byte(core->fd.get(), layout::kFirstReaderLockByte + ticket)) {
       core->ticket = ticket;
       core->token_scan_start = static_cast<std::uint32_t>(ticket % geometry.borrow_slots);
     }
   }
   core->spin_limit = options.spin.max_spin;
-  core->next_sequence =
-      options.resume_after
-          ? *options.resume_after + 1
-          : core->view.header->head_sequence.load(std::memory_order_acquire) + 1;
+  core->next_sequence = options.resume_after ? *options.resume_after + 1
+                                             : core->view.header->head_sequence.load(std::memory_order_acquire) + 1;
   return ShmReader(std::move(core));
 }
 
@@ -1147,8 +1157,7 @@ ShmReader::ShmReader(ShmReader&&) noexcept = default;
 ShmReader& ShmReader::operator=(ShmReader&&) noexcept = default;
 ShmReader::~ShmReader() = default;
 
-ReadStatus ShmReader::read(void* buffer, std::size_t capacity, SampleInfo& info,
-                           nanoseconds timeout, ReadMode mode) {
+ReadStatus ShmReader::read(void* buffer, std::size_t capacity, SampleInfo& info, nanoseconds timeout, ReadMode mode) {
   WaitDeadline deadline(timeout);
   return read(buffer, capacity, info, deadline, mode);
 }

@@ -183,10 +183,10 @@ class WaitDeadline {
 };
 
 struct RingConfig {
-  std::uint32_t message_size = 0;  ///< largest packet in bytes (packets may be shorter)
-  std::uint32_t history = 1;       ///< packets kept: the largest `buffers` a reader may use
-  std::uint32_t borrow_slots = 2;  ///< simultaneous borrows over all readers (0..63); costs one slot each
-  std::uint64_t first_sequence = 1;  ///< sequence number of the first packet (≥ 1)
+  std::uint32_t message_size = 0;          ///< largest packet in bytes (packets may be shorter)
+  std::uint32_t history = 1;               ///< packets kept: the largest `buffers` a reader may use
+  std::uint32_t borrow_slots = 2;          ///< simultaneous borrows over all readers (0..63); costs one slot each
+  std::uint64_t first_sequence = 1;        ///< sequence number of the first packet (≥ 1)
   std::string debug_name = "ln_shm_ring";  ///< shows up in /proc/<pid>/fd
 };
 
@@ -202,12 +202,12 @@ std::uint64_t topic_segment_size(std::uint32_t message_size, std::uint32_t histo
 
 enum class WriteStatus {
   ok,
-  packet_too_large,   ///< size > message_size; nothing written
-  loan_outstanding,   ///< write()/loan() while a loan is open
-  no_loan,            ///< commit()/discard without loan()
-  no_free_slot,       ///< only with a corrupted segment: every spare looked borrowed
-  closed,             ///< after close()
-  bad_sequence,       ///< write_as(): not above last_sequence() (or beyond 2^62); nothing written
+  packet_too_large,  ///< size > message_size; nothing written
+  loan_outstanding,  ///< write()/loan() while a loan is open
+  no_loan,           ///< commit()/discard without loan()
+  no_free_slot,      ///< only with a corrupted segment: every spare looked borrowed
+  closed,            ///< after close()
+  bad_sequence,      ///< write_as(): not above last_sequence() (or beyond 2^62); nothing written
 };
 
 enum class ReadStatus {
@@ -282,13 +282,13 @@ struct SampleInfo {
 };
 
 struct ReaderStats {
-  std::uint64_t torn_copies = 0;       ///< copies discarded because the writer reused the slot
-  std::uint64_t pinned_copies = 0;     ///< copies done under a borrow after repeated torn copies
-  std::uint64_t spin_wakeups = 0;      ///< waits satisfied while spinning
-  std::uint64_t futex_sleeps = 0;      ///< FUTEX_WAIT calls
-  std::uint64_t yield_backoffs = 0;    ///< times the publisher hogged this CPU during a yield
-  std::uint64_t streamed_copies = 0;   ///< packets copied out behind the writer (see "Streamed copies")
-  std::uint64_t abandoned_streams = 0; ///< streamed writes given up on because the writer stalled
+  std::uint64_t torn_copies = 0;        ///< copies discarded because the writer reused the slot
+  std::uint64_t pinned_copies = 0;      ///< copies done under a borrow after repeated torn copies
+  std::uint64_t spin_wakeups = 0;       ///< waits satisfied while spinning
+  std::uint64_t futex_sleeps = 0;       ///< FUTEX_WAIT calls
+  std::uint64_t yield_backoffs = 0;     ///< times the publisher hogged this CPU during a yield
+  std::uint64_t streamed_copies = 0;    ///< packets copied out behind the writer (see "Streamed copies")
+  std::uint64_t abandoned_streams = 0;  ///< streamed writes given up on because the writer stalled
 };
 
 namespace detail {
@@ -413,15 +413,14 @@ class ShmReader {
   /// returns no_data with the buffer possibly overwritten), or a read without
   /// deadline followed a streamed write whose publisher then died mid-packet
   /// (publisher_gone) or was unblocked meanwhile (unblocked).
-  ReadStatus read(void* buffer, std::size_t capacity, SampleInfo& info,
-                  std::chrono::nanoseconds timeout = kNoWait, ReadMode mode = ReadMode::next);
+  ReadStatus read(void* buffer, std::size_t capacity, SampleInfo& info, std::chrono::nanoseconds timeout = kNoWait,
+                  ReadMode mode = ReadMode::next);
   ReadStatus read(void* buffer, std::size_t capacity, SampleInfo& info, WaitDeadline& deadline,
                   ReadMode mode = ReadMode::next);
 
   /// Pins the next packet in place (same selection rules as read()).
   /// Releases whatever `sample` held before.
-  ReadStatus borrow(BorrowedSample& sample, std::chrono::nanoseconds timeout = kNoWait,
-                    ReadMode mode = ReadMode::next);
+  ReadStatus borrow(BorrowedSample& sample, std::chrono::nanoseconds timeout = kNoWait, ReadMode mode = ReadMode::next);
   ReadStatus borrow(BorrowedSample& sample, WaitDeadline& deadline, ReadMode mode = ReadMode::next);
 
   /// True if a read would deliver a packet now.

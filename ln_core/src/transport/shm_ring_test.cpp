@@ -18,8 +18,8 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
-#include <cstring>
 #include <condition_variable>
+#include <cstring>
 #include <functional>
 #include <future>
 #include <mutex>
@@ -29,8 +29,8 @@
 #include <thread>
 #include <vector>
 
-#include "transport/shm_ring.hpp"
 #include "testing/wait.hpp"
+#include "transport/shm_ring.hpp"
 
 namespace ln::transport {
 namespace {
@@ -120,8 +120,7 @@ class Child {
   // Exit code, or -1 if it did not exit in time (then it is killed), -2 if killed by a signal.
   int wait(std::chrono::milliseconds timeout = 20s) {
     int status = 0;
-    const bool exited = wait_until(
-        [&] { return ::waitpid(pid_, &status, WNOHANG) == pid_; }, timeout);
+    const bool exited = wait_until([&] { return ::waitpid(pid_, &status, WNOHANG) == pid_; }, timeout);
     if (!exited) return -1;
     pid_ = -1;
     return WIFEXITED(status) ? WEXITSTATUS(status) : -2;
@@ -553,11 +552,11 @@ TEST(ShmRingSemantics, WriteAsJumpsCountAsLost) {
   ASSERT_EQ(write_as(15), WriteStatus::ok);
   ASSERT_EQ(write_as(30), WriteStatus::ok);
   ASSERT_EQ(write_as(31), WriteStatus::ok);
-  expect_read(newest, 31, 16);   // skip to the newest
-  expect_read(window, 30, 15);   // the window 24..31 holds only 30 and 31
+  expect_read(newest, 31, 16);  // skip to the newest
+  expect_read(window, 30, 15);  // the window 24..31 holds only 30 and 31
   expect_read(window, 31, 0);
   expect_read(single, 31, 16);
-  expect_borrow(31, 16);         // borrowers with buffers 8 skip like readers
+  expect_borrow(31, 16);  // borrowers with buffers 8 skip like readers
 }
 
 // A reader that resumes after a point the ring never reached still starts
@@ -870,9 +869,7 @@ TEST(ShmRingBlocking, WriteWakesSleepingReaderWithoutSpinning) {
   expect_write_wakes_sleeping_reader(no_spin);
 }
 
-TEST(ShmRingBlocking, WriteWakesSleepingReaderAfterSpinning) {
-  expect_write_wakes_sleeping_reader(SpinPolicy{});
-}
+TEST(ShmRingBlocking, WriteWakesSleepingReaderAfterSpinning) { expect_write_wakes_sleeping_reader(SpinPolicy{}); }
 
 // Pins the calling thread to one CPU for its lifetime.
 class PinnedThread {
@@ -1282,10 +1279,12 @@ TEST(ShmRingStream, StalledWriterIsLeftToTheOrdinaryWait) {
   std::future<ReadStatus> reading = setup.read_while_writing(kWaitForever);
   ASSERT_EQ(receive_byte(setup.parent_socket(), 10s), 'S');
   // Until the reader sleeps again (it gave up following), the writer stays stalled.
-  EXPECT_TRUE(wait_until([&] {
-    send_byte(setup.parent_socket(), 'q');
-    return receive_byte(setup.parent_socket(), 10s) == '1';
-  }, 10s));
+  EXPECT_TRUE(wait_until(
+      [&] {
+        send_byte(setup.parent_socket(), 'q');
+        return receive_byte(setup.parent_socket(), 10s) == '1';
+      },
+      10s));
   EXPECT_NE(reading.wait_for(0ms), std::future_status::ready);
   send_byte(setup.parent_socket(), 'c');
   ASSERT_EQ(reading.get(), ReadStatus::ok);
@@ -1453,9 +1452,8 @@ struct HammerResult {
   ReaderStats stats;
 };
 
-HammerResult hammer(std::uint32_t message_size, std::uint32_t history, std::uint32_t borrow_slots,
-                    bool borrow, bool zero_copy_writes, std::uint32_t optimistic_copies = 3,
-                    std::uint64_t target = 2000) {
+HammerResult hammer(std::uint32_t message_size, std::uint32_t history, std::uint32_t borrow_slots, bool borrow,
+                    bool zero_copy_writes, std::uint32_t optimistic_copies = 3, std::uint64_t target = 2000) {
   SocketPair sockets;
   Child publisher([&] {
     ShmWriter writer = ShmWriter::create(config(message_size, history, borrow_slots));

@@ -35,14 +35,22 @@ struct flock byte_lock(short type, std::uint64_t offset) {
 
 const char* to_string(ShmErrc code) {
   switch (code) {
-    case ShmErrc::system_error: return "system error";
-    case ShmErrc::invalid_config: return "invalid segment configuration";
-    case ShmErrc::not_sealed: return "descriptor is not a size-sealed memfd";
-    case ShmErrc::too_small: return "segment file too small";
-    case ShmErrc::bad_magic: return "not an ln shared-memory ring segment";
-    case ShmErrc::bad_version: return "unsupported segment layout version";
-    case ShmErrc::bad_layout: return "inconsistent segment header";
-    case ShmErrc::invalid_argument: return "invalid argument";
+    case ShmErrc::system_error:
+      return "system error";
+    case ShmErrc::invalid_config:
+      return "invalid segment configuration";
+    case ShmErrc::not_sealed:
+      return "descriptor is not a size-sealed memfd";
+    case ShmErrc::too_small:
+      return "segment file too small";
+    case ShmErrc::bad_magic:
+      return "not an ln shared-memory ring segment";
+    case ShmErrc::bad_version:
+      return "unsupported segment layout version";
+    case ShmErrc::bad_layout:
+      return "inconsistent segment header";
+    case ShmErrc::invalid_argument:
+      return "invalid argument";
   }
   return "unknown error";
 }
@@ -176,8 +184,7 @@ UniqueFd receive_fd(int unix_socket) {
   // that nothing leaks on the error paths.
   UniqueFd result;
   std::size_t extra_descriptors = 0;
-  for (cmsghdr* header = CMSG_FIRSTHDR(&message); header != nullptr;
-       header = CMSG_NXTHDR(&message, header)) {
+  for (cmsghdr* header = CMSG_FIRSTHDR(&message); header != nullptr; header = CMSG_NXTHDR(&message, header)) {
     if (header->cmsg_level != SOL_SOCKET || header->cmsg_type != SCM_RIGHTS) continue;
     const std::size_t count = (header->cmsg_len - CMSG_LEN(0)) / sizeof(int);
     for (std::size_t i = 0; i < count; ++i) {
@@ -222,8 +229,8 @@ bool byte_locked_by_other(int fd, std::uint64_t offset) noexcept {
   return lock.l_type != F_UNLCK;
 }
 
-void futex_wait(const std::atomic<std::uint32_t>* word, std::uint32_t expected,
-                std::chrono::nanoseconds timeout, std::uint32_t wait_mask) noexcept {
+void futex_wait(const std::atomic<std::uint32_t>* word, std::uint32_t expected, std::chrono::nanoseconds timeout,
+                std::uint32_t wait_mask) noexcept {
   static_assert(sizeof(std::atomic<std::uint32_t>) == sizeof(std::uint32_t),
                 "the futex word must be a plain 32-bit integer in memory");
   // FUTEX_WAIT_BITSET takes an absolute CLOCK_MONOTONIC deadline.

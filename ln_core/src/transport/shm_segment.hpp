@@ -24,14 +24,14 @@ namespace ln::transport {
 
 /// What went wrong while creating or attaching a segment.
 enum class ShmErrc {
-  system_error,       ///< a system call failed; ShmError::sys_errno() says why
-  invalid_config,     ///< sizes or counts out of range
-  not_sealed,         ///< the descriptor is not a size-sealed memfd
-  too_small,          ///< the file is smaller than its header says
-  bad_magic,          ///< not one of our segments
-  bad_version,        ///< one of our segments, but a layout version we do not speak
-  bad_layout,         ///< header fields are inconsistent or fail the checksum
-  invalid_argument,   ///< a reader option does not fit the segment
+  system_error,      ///< a system call failed; ShmError::sys_errno() says why
+  invalid_config,    ///< sizes or counts out of range
+  not_sealed,        ///< the descriptor is not a size-sealed memfd
+  too_small,         ///< the file is smaller than its header says
+  bad_magic,         ///< not one of our segments
+  bad_version,       ///< one of our segments, but a layout version we do not speak
+  bad_layout,        ///< header fields are inconsistent or fail the checksum
+  invalid_argument,  ///< a reader option does not fit the segment
 };
 
 const char* to_string(ShmErrc code);
@@ -133,9 +133,8 @@ bool byte_locked_by_other(int fd, std::uint64_t offset) noexcept;
 /// `wait_mask` (FUTEX_WAIT_BITSET), so one word can serve waiters that care
 /// about different events.
 inline constexpr std::uint32_t kFutexAnyEvent = 0xffffffffu;
-void futex_wait(const std::atomic<std::uint32_t>* word, std::uint32_t expected,
-                std::chrono::nanoseconds timeout, std::uint32_t wait_mask = kFutexAnyEvent) noexcept;
-void futex_wake_all(const std::atomic<std::uint32_t>* word,
-                    std::uint32_t wake_mask = kFutexAnyEvent) noexcept;
+void futex_wait(const std::atomic<std::uint32_t>* word, std::uint32_t expected, std::chrono::nanoseconds timeout,
+                std::uint32_t wait_mask = kFutexAnyEvent) noexcept;
+void futex_wake_all(const std::atomic<std::uint32_t>* word, std::uint32_t wake_mask = kFutexAnyEvent) noexcept;
 
 }  // namespace ln::transport

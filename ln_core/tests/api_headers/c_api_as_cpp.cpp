@@ -4,5 +4,5 @@
 #include "c_api_compiles.c"
 
 #ifdef LN_CPPWRAPPER_H
-#  error "NO_CPP_WRAPPER must keep ln/cppwrapper.h out"
+#error "NO_CPP_WRAPPER must keep ln/cppwrapper.h out"
 #endif

@@ -11,14 +11,13 @@
 #include <string.h>
 
 #if defined(__cplusplus)
-#  define LN_STATIC_ASSERT(condition, what) static_assert(condition, what)
+#define LN_STATIC_ASSERT(condition, what) static_assert(condition, what)
 #elif defined(__STDC_VERSION__) && __STDC_VERSION__ >= 201112L
-#  define LN_STATIC_ASSERT(condition, what) _Static_assert(condition, what)
+#define LN_STATIC_ASSERT(condition, what) _Static_assert(condition, what)
 #else /* C99: a negative array size fails; the line number keeps names unique */
-#  define LN_JOIN_(a, b) a##b
-#  define LN_JOIN(a, b) LN_JOIN_(a, b)
-#  define LN_STATIC_ASSERT(condition, what) \
-    typedef char LN_JOIN(ln_static_assert_line_, __LINE__)[(condition) ? 1 : -1]
+#define LN_JOIN_(a, b) a##b
+#define LN_JOIN(a, b) LN_JOIN_(a, b)
+#define LN_STATIC_ASSERT(condition, what) typedef char LN_JOIN(ln_static_assert_line_, __LINE__)[(condition) ? 1 : -1]
 #endif
 
 /* ---- constants and error codes (LN 2.9 values) ---- */
@@ -100,7 +99,7 @@ LN_STATIC_ASSERT(sizeof(logger_sample) == 2 * sizeof(double) + sizeof(uint32_t) 
 LN_STATIC_ASSERT(sizeof(ln_sample_info) == 2 * sizeof(uint64_t) + sizeof(double), "ln_sample_info layout");
 
 /* ---- exact function types ---- */
-#define CHECK(ret, name, params) \
+#define CHECK(ret, name, params)    \
   ret(*check_##name) params = name; \
   (void)check_##name
 
@@ -142,7 +141,8 @@ void c_api_signatures(void) {
   CHECK(int, ln_get_message_definition_v17, (ln_client, const char*, char**, unsigned int*, char**));
   CHECK(int, ln_get_message_definition_v21, (ln_client, const char*, char**, unsigned int*, char**, char**));
   CHECK(int, ln_describe_message_definition, (ln_client, const char*, char**));
-  CHECK(int, ln_locate_member_in_message_definition, (ln_client, const char*, const char*, unsigned int*, unsigned int*));
+  CHECK(int, ln_locate_member_in_message_definition,
+        (ln_client, const char*, const char*, unsigned int*, unsigned int*));
   CHECK(int, ln_put_message_definition, (ln_client, const char*, const char*, char**));
   CHECK(int, ln_needs_provider, (ln_client, const char*, double));
   CHECK(int, ln_subscribe, (ln_client, const char*, const char*, ln_inport*, double, int));
@@ -174,7 +174,8 @@ void c_api_signatures(void) {
   CHECK(int, ln_service_call_with_timeout, (ln_service, void*, double));
   CHECK(int, ln_service_call_abort, (ln_service));
   CHECK(int, ln_service_callv, (ln_service, struct iovec*, unsigned int, uint8_t*, char**, uint32_t*, uint8_t*));
-  CHECK(int, ln_service_callv_with_timeout, (ln_service, struct iovec*, unsigned int, uint8_t*, char**, uint32_t*, uint8_t*, double));
+  CHECK(int, ln_service_callv_with_timeout,
+        (ln_service, struct iovec*, unsigned int, uint8_t*, char**, uint32_t*, uint8_t*, double));
   CHECK(int, ln_service_call_async, (ln_service, void*, ln_service_request*));
   CHECK(int, ln_service_callv_async, (ln_service, struct iovec*, unsigned int, uint8_t*, ln_service_request*));
   CHECK(int, ln_service_callv_async_get_response, (ln_service, char**, uint32_t*));
@@ -219,8 +220,10 @@ void c_api_signatures(void) {
   CHECK(int, ln_logger_data_get_info, (ln_logger_data, unsigned int*));
   CHECK(int, ln_logger_data_get_topic, (ln_logger_data, unsigned int, logger_topic**));
   CHECK(int, ln_client_find_services_with_interface, (ln_client, const char*, char**));
-  CHECK(int, ln_event_connect, (ln_client, ln_event_connection*, const char*, const char*, void*, ln_event_handler, void*));
-  CHECK(int, ln_event_connect_flat, (ln_client, ln_event_connection*, const char*, const char*, void*, uint32_t, ln_event_handler, void*));
+  CHECK(int, ln_event_connect,
+        (ln_client, ln_event_connection*, const char*, const char*, void*, ln_event_handler, void*));
+  CHECK(int, ln_event_connect_flat,
+        (ln_client, ln_event_connection*, const char*, const char*, void*, uint32_t, ln_event_handler, void*));
   CHECK(int, ln_event_connection_deinit, (ln_event_connection*));
   CHECK(unsigned int, ln_event_connection_get_id, (ln_event_connection));
   CHECK(int, ln_event_call_set_data, (ln_event_call, const char*, void*));
@@ -228,8 +231,10 @@ void c_api_signatures(void) {
   CHECK(int, ln_client_set_float_parameter, (ln_client, const char*, float));
   CHECK(void, ln_get_v16_features, (unsigned int*, unsigned int*));
   CHECK(int, ln_dsa_dss1_sign_message, (const char*, const uint8_t*, unsigned int, uint8_t**, unsigned int*));
-  CHECK(int, ln_dsa_dss1_verify_message_signature, (const char*, const uint8_t*, unsigned int, const uint8_t*, unsigned int));
-  CHECK(int, ln_dsa_dss1_verify_message_signature_memkey, (const char*, const uint8_t*, unsigned int, const uint8_t*, unsigned int));
+  CHECK(int, ln_dsa_dss1_verify_message_signature,
+        (const char*, const uint8_t*, unsigned int, const uint8_t*, unsigned int));
+  CHECK(int, ln_dsa_dss1_verify_message_signature_memkey,
+        (const char*, const uint8_t*, unsigned int, const uint8_t*, unsigned int));
   CHECK(int, ln_dsa_dss1_generate_key_pair, (const char*, const char*));
   /* ln_core extensions */
   CHECK(int, ln_read_with_info, (ln_inport, void*, unsigned int, ln_sample_info*, double));

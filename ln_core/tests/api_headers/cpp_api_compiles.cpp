@@ -12,7 +12,7 @@
 #include <vector>
 
 #ifndef LN_CPPWRAPPER_H
-#  error "<ln/ln.h> must include the C++ wrapper in C++"
+#error "<ln/ln.h> must include the C++ wrapper in C++"
 #endif
 
 namespace {
@@ -51,12 +51,10 @@ static_assert(same<ln_logger, decltype(ln::logger::_logger)>(), "logger::_logger
 static_assert(same<ln::logger_data*, decltype(ln::logger::data)>(), "logger::data");
 static_assert(same<ln_logger_data, decltype(ln::logger_data::data)>(), "logger_data::data");
 static_assert(same<std::list<ln::logger_data::topic_cursor*>, ln::logger_data::topics_t>(), "topics_t");
-static_assert(same<int (*)(ln::client&, ln::service_request&, void*), ln::service::handler_t>(),
-              "service::handler_t");
+static_assert(same<int (*)(ln::client&, ln::service_request&, void*), ln::service::handler_t>(), "service::handler_t");
 static_assert(same<void (*)(ln::client&, ln_svc_client_event_t, int, void*), ln::service::fd_handler_t>(),
               "service::fd_handler_t");
-static_assert(same<void (*)(ln::event_call&, void*), ln::event_connection::handler_t>(),
-              "event_connection::handler_t");
+static_assert(same<void (*)(ln::event_call&, void*), ln::event_connection::handler_t>(), "event_connection::handler_t");
 
 // ---- ownership: handles are not copyable; extension results move ----
 static_assert(!std::is_copy_constructible<ln::client>::value, "client is not copyable");
@@ -88,112 +86,111 @@ void cpp_api_signatures();
 void cpp_api_signatures() {
   using ln::client;
   using std::string;
-  CHECK_METHOD(std::vector<string> (client::*)(), client::get_remaining_args);
-  CHECK_METHOD(double (client::*)(double), client::ping);
-  CHECK_METHOD(string (client::*)(string), client::describe_message_definition);
-  CHECK_METHOD(string (client::*)(string, string), client::put_message_definition);
-  CHECK_METHOD(void (client::*)(string, string&, string&, string&), client::get_service_signature_for_service);
-  CHECK_METHOD(void (client::*)(string, string&, string&), client::get_service_signature);
-  CHECK_METHOD(void (client::*)(string, string, unsigned int&, unsigned int&),
+  CHECK_METHOD(std::vector<string>(client::*)(), client::get_remaining_args);
+  CHECK_METHOD(double(client::*)(double), client::ping);
+  CHECK_METHOD(string(client::*)(string), client::describe_message_definition);
+  CHECK_METHOD(string(client::*)(string, string), client::put_message_definition);
+  CHECK_METHOD(void(client::*)(string, string&, string&, string&), client::get_service_signature_for_service);
+  CHECK_METHOD(void(client::*)(string, string&, string&), client::get_service_signature);
+  CHECK_METHOD(void(client::*)(string, string, unsigned int&, unsigned int&),
                client::locate_member_in_message_definition);
-  CHECK_METHOD(ln::outport* (client::*)(string, string, unsigned int), client::publish);
-  CHECK_METHOD(void (client::*)(ln::outport*), client::unpublish);
-  CHECK_METHOD(ln::inport* (client::*)(string, string, double, unsigned int, bool), client::subscribe);
-  CHECK_METHOD(void (client::*)(ln::inport*), client::unsubscribe);
-  CHECK_METHOD(ln::multi_waiter* (client::*)(), client::get_multi_waiter);
-  CHECK_METHOD(void (client::*)(const char*, double), client::wait_and_handle_service_group_requests);
-  CHECK_METHOD(void (client::*)(const char*, string), client::handle_service_group_in_thread_pool);
-  CHECK_METHOD(void (client::*)(const char*), client::remove_service_group_from_thread_pool);
-  CHECK_METHOD(void (client::*)(const char*), client::unblock_service_group);
-  CHECK_METHOD(void (client::*)(string, unsigned int), client::set_max_threads);
-  CHECK_METHOD(void (client::*)(string, int, int, unsigned int), client::thread_pool_setschedparam);
-  CHECK_METHOD(ln::service* (client::*)(string, string, string), client::get_service);
-  CHECK_METHOD(ln::service* (client::*)(string, string, string), client::get_service_provider);
-  CHECK_METHOD(void (client::*)(ln::service*), client::release_service);
-  CHECK_METHOD(void (client::*)(string, double), client::needs_provider);
-  CHECK_METHOD(ln::logger* (client::*)(string), client::get_logger);
-  CHECK_METHOD(string (client::*)(string), client::find_services_with_interface);
-  CHECK_METHOD(ln::event_connection* (client::*)(string, string, void*, ln::event_connection::handler_t, void*),
+  CHECK_METHOD(ln::outport * (client::*)(string, string, unsigned int), client::publish);
+  CHECK_METHOD(void(client::*)(ln::outport*), client::unpublish);
+  CHECK_METHOD(ln::inport * (client::*)(string, string, double, unsigned int, bool), client::subscribe);
+  CHECK_METHOD(void(client::*)(ln::inport*), client::unsubscribe);
+  CHECK_METHOD(ln::multi_waiter * (client::*)(), client::get_multi_waiter);
+  CHECK_METHOD(void(client::*)(const char*, double), client::wait_and_handle_service_group_requests);
+  CHECK_METHOD(void(client::*)(const char*, string), client::handle_service_group_in_thread_pool);
+  CHECK_METHOD(void(client::*)(const char*), client::remove_service_group_from_thread_pool);
+  CHECK_METHOD(void(client::*)(const char*), client::unblock_service_group);
+  CHECK_METHOD(void(client::*)(string, unsigned int), client::set_max_threads);
+  CHECK_METHOD(void(client::*)(string, int, int, unsigned int), client::thread_pool_setschedparam);
+  CHECK_METHOD(ln::service * (client::*)(string, string, string), client::get_service);
+  CHECK_METHOD(ln::service * (client::*)(string, string, string), client::get_service_provider);
+  CHECK_METHOD(void(client::*)(ln::service*), client::release_service);
+  CHECK_METHOD(void(client::*)(string, double), client::needs_provider);
+  CHECK_METHOD(ln::logger * (client::*)(string), client::get_logger);
+  CHECK_METHOD(string(client::*)(string), client::find_services_with_interface);
+  CHECK_METHOD(ln::event_connection * (client::*)(string, string, void*, ln::event_connection::handler_t, void*),
                client::connect_to_event);
-  CHECK_METHOD(ln::event_connection* (client::*)(string, string, void*, uint32_t, ln::event_connection::handler_t,
-                                                 void*),
-               client::connect_to_event_flat);
-  CHECK_METHOD(void (client::*)(ln::event_connection*), client::disconnect_from_event);
-  CHECK_METHOD(void (client::*)(bool), client::set_thread_safe);
-  CHECK_METHOD(void (client::*)(string, string), client::register_as_service_logger);
-  CHECK_METHOD(void (client::*)(string, float), client::set_float_parameter);
-  CHECK_METHOD(ln::parameters::parameter_proxy (client::*)(string, bool), client::get_parameters);
+  CHECK_METHOD(
+      ln::event_connection * (client::*)(string, string, void*, uint32_t, ln::event_connection::handler_t, void*),
+      client::connect_to_event_flat);
+  CHECK_METHOD(void(client::*)(ln::event_connection*), client::disconnect_from_event);
+  CHECK_METHOD(void(client::*)(bool), client::set_thread_safe);
+  CHECK_METHOD(void(client::*)(string, string), client::register_as_service_logger);
+  CHECK_METHOD(void(client::*)(string, float), client::set_float_parameter);
+  CHECK_METHOD(ln::parameters::parameter_proxy(client::*)(string, bool), client::get_parameters);
 
   CHECK_METHOD(void* (ln::outport::*)(unsigned int*), ln::outport::get_next_buffer);
   CHECK_METHOD(unsigned int (ln::outport::*)(), ln::outport::has_subscriber);
-  CHECK_METHOD(bool (ln::inport::*)(), ln::inport::has_publisher);
-  CHECK_METHOD(void (ln::inport::*)(), ln::inport::unblock);
-  CHECK_METHOD(void (ln::multi_waiter::*)(ln::inport*), ln::multi_waiter::add_port);
-  CHECK_METHOD(void (ln::multi_waiter::*)(ln::inport*), ln::multi_waiter::remove_port);
-  CHECK_METHOD(bool (ln::multi_waiter::*)(double), ln::multi_waiter::wait);
-  CHECK_METHOD(bool (ln::multi_waiter::*)(ln::inport*), ln::multi_waiter::can_read);
-  CHECK_METHOD(int (ln::multi_waiter::*)(ln_pipe_fd_t*), ln::multi_waiter::start_pipe_notifier_thread);
-  CHECK_METHOD(int (ln::multi_waiter::*)(), ln::multi_waiter::ack_pipe_notification);
+  CHECK_METHOD(bool(ln::inport::*)(), ln::inport::has_publisher);
+  CHECK_METHOD(void(ln::inport::*)(), ln::inport::unblock);
+  CHECK_METHOD(void(ln::multi_waiter::*)(ln::inport*), ln::multi_waiter::add_port);
+  CHECK_METHOD(void(ln::multi_waiter::*)(ln::inport*), ln::multi_waiter::remove_port);
+  CHECK_METHOD(bool(ln::multi_waiter::*)(double), ln::multi_waiter::wait);
+  CHECK_METHOD(bool(ln::multi_waiter::*)(ln::inport*), ln::multi_waiter::can_read);
+  CHECK_METHOD(int(ln::multi_waiter::*)(ln_pipe_fd_t*), ln::multi_waiter::start_pipe_notifier_thread);
+  CHECK_METHOD(int(ln::multi_waiter::*)(), ln::multi_waiter::ack_pipe_notification);
 
-  CHECK_METHOD(void (ln::service::*)(ln::service::handler_t, void*), ln::service::set_handler);
-  CHECK_METHOD(void (ln::service::*)(const char*), ln::service::do_register);
-  CHECK_METHOD(int (ln::service::*)(), ln::service::get_fd);
-  CHECK_METHOD(void (ln::service::*)(ln::service::fd_handler_t, void*), ln::service::set_client_fd_handler);
-  CHECK_METHOD(void (ln::service::*)(void*, double), ln::service::call);
-  CHECK_METHOD(void (ln::service::*)(struct iovec*, unsigned int, uint8_t*, char**, uint32_t*, uint8_t*, double),
+  CHECK_METHOD(void(ln::service::*)(ln::service::handler_t, void*), ln::service::set_handler);
+  CHECK_METHOD(void(ln::service::*)(const char*), ln::service::do_register);
+  CHECK_METHOD(int(ln::service::*)(), ln::service::get_fd);
+  CHECK_METHOD(void(ln::service::*)(ln::service::fd_handler_t, void*), ln::service::set_client_fd_handler);
+  CHECK_METHOD(void(ln::service::*)(void*, double), ln::service::call);
+  CHECK_METHOD(void(ln::service::*)(struct iovec*, unsigned int, uint8_t*, char**, uint32_t*, uint8_t*, double),
                ln::service::callv);
-  CHECK_METHOD(void (ln::service::*)(), ln::service::abort);
-  CHECK_METHOD(ln::service_request* (ln::service::*)(void*), ln::service::call_async);
-  CHECK_METHOD(ln::service_request* (ln::service::*)(struct iovec*, unsigned int, uint8_t*),
-               ln::service::callv_async);
-  CHECK_METHOD(void (ln::service::*)(char**, uint32_t*), ln::service::callv_async_get_response);
-  CHECK_METHOD(void (ln::service::*)(void*), ln::service::callv_async_get_response_data);
+  CHECK_METHOD(void(ln::service::*)(), ln::service::abort);
+  CHECK_METHOD(ln::service_request * (ln::service::*)(void*), ln::service::call_async);
+  CHECK_METHOD(ln::service_request * (ln::service::*)(struct iovec*, unsigned int, uint8_t*), ln::service::callv_async);
+  CHECK_METHOD(void(ln::service::*)(char**, uint32_t*), ln::service::callv_async_get_response);
+  CHECK_METHOD(void(ln::service::*)(void*), ln::service::callv_async_get_response_data);
 
-  CHECK_METHOD(void (ln::service_request::*)(void*, const char*), ln::service_request::set_data);
-  CHECK_METHOD(void (ln::service_request::*)(char**, uint64_t*), ln::service_request::get_request_data);
-  CHECK_METHOD(int (ln::service_request::*)(), ln::service_request::respond);
-  CHECK_METHOD(int (ln::service_request::*)(struct iovec*, unsigned int), ln::service_request::respondv);
-  CHECK_METHOD(int (ln::service_request::*)(void*), ln::service_request::respond_data);
-  CHECK_METHOD(bool (ln::service_request::*)(), ln::service_request::is_aborted);
-  CHECK_METHOD(bool (ln::service_request::*)(), ln::service_request::finished);
-  CHECK_METHOD(void (ln::service_request::*)(), ln::service_request::abort);
-  CHECK_METHOD(int (ln::service_request::*)(), ln::service_request::get_finished_notification_fd);
+  CHECK_METHOD(void(ln::service_request::*)(void*, const char*), ln::service_request::set_data);
+  CHECK_METHOD(void(ln::service_request::*)(char**, uint64_t*), ln::service_request::get_request_data);
+  CHECK_METHOD(int(ln::service_request::*)(), ln::service_request::respond);
+  CHECK_METHOD(int(ln::service_request::*)(struct iovec*, unsigned int), ln::service_request::respondv);
+  CHECK_METHOD(int(ln::service_request::*)(void*), ln::service_request::respond_data);
+  CHECK_METHOD(bool(ln::service_request::*)(), ln::service_request::is_aborted);
+  CHECK_METHOD(bool(ln::service_request::*)(), ln::service_request::finished);
+  CHECK_METHOD(void(ln::service_request::*)(), ln::service_request::abort);
+  CHECK_METHOD(int(ln::service_request::*)(), ln::service_request::get_finished_notification_fd);
 
-  CHECK_METHOD(void (ln::event_call::*)(void*, const char*), ln::event_call::set_data);
+  CHECK_METHOD(void(ln::event_call::*)(void*, const char*), ln::event_call::set_data);
   CHECK_METHOD(void* (ln::event_call::*)(uint32_t*), ln::event_call::get_buffer);
 
-  CHECK_METHOD(void (ln::logger::*)(string, uint64_t, unsigned int), ln::logger::add_topic);
-  CHECK_METHOD(void (ln::logger::*)(), ln::logger::clear_topics);
-  CHECK_METHOD(void (ln::logger::*)(), ln::logger::enable);
-  CHECK_METHOD(void (ln::logger::*)(), ln::logger::disable);
-  CHECK_METHOD(ln::logger_data* (ln::logger::*)(), ln::logger::download);
-  CHECK_METHOD(ln::logger_data* (ln::logger::*)(), ln::logger::direct_download);
-  CHECK_METHOD(void (ln::logger::*)(string, string), ln::logger::manager_save);
-  CHECK_METHOD(void (ln::logger::*)(bool), ln::logger::set_only_ts);
-  CHECK_METHOD(void (ln::logger_data::*)(string), ln::logger_data::save);
-  CHECK_METHOD(ln::logger_data* (*)(string), ln::logger_data::load);
-  CHECK_METHOD(logger_sample* (ln::logger_data::topic_cursor::*)(unsigned int),
+  CHECK_METHOD(void(ln::logger::*)(string, uint64_t, unsigned int), ln::logger::add_topic);
+  CHECK_METHOD(void(ln::logger::*)(), ln::logger::clear_topics);
+  CHECK_METHOD(void(ln::logger::*)(), ln::logger::enable);
+  CHECK_METHOD(void(ln::logger::*)(), ln::logger::disable);
+  CHECK_METHOD(ln::logger_data * (ln::logger::*)(), ln::logger::download);
+  CHECK_METHOD(ln::logger_data * (ln::logger::*)(), ln::logger::direct_download);
+  CHECK_METHOD(void(ln::logger::*)(string, string), ln::logger::manager_save);
+  CHECK_METHOD(void(ln::logger::*)(bool), ln::logger::set_only_ts);
+  CHECK_METHOD(void(ln::logger_data::*)(string), ln::logger_data::save);
+  CHECK_METHOD(ln::logger_data * (*)(string), ln::logger_data::load);
+  CHECK_METHOD(logger_sample * (ln::logger_data::topic_cursor::*)(unsigned int),
                ln::logger_data::topic_cursor::get_sample);
 
-  CHECK_METHOD(string (*)(const string&, const string&), ln::dsa_dss1_sign_message);
+  CHECK_METHOD(string(*)(const string&, const string&), ln::dsa_dss1_sign_message);
   CHECK_METHOD(bool (*)(const string&, const string&, const string&), ln::dsa_dss1_verify_message_signature);
   CHECK_METHOD(bool (*)(const string&, const string&, const string&), ln::dsa_dss1_verify_message_signature_memkey);
   CHECK_METHOD(void (*)(const string&, const string&), ln::dsa_dss1_generate_key_pair);
 
   // ln_core extensions
-  CHECK_METHOD(bool (client::*)(const string&, double), client::wait_for_service);
-  CHECK_METHOD(void (client::*)(const string&, client::availability_handler_t),
+  CHECK_METHOD(bool(client::*)(const string&, double), client::wait_for_service);
+  CHECK_METHOD(void(client::*)(const string&, client::availability_handler_t),
                client::set_service_availability_handler);
-  CHECK_METHOD(void (client::*)(const string&, client::availability_handler_t),
+  CHECK_METHOD(void(client::*)(const string&, client::availability_handler_t),
                client::set_publisher_availability_handler);
-  CHECK_METHOD(ln::borrowed_sample (ln::inport::*)(double), ln::inport::borrow);
-  CHECK_METHOD(ln::service_future (ln::service::*)(void*), ln::service::call_future);
-  CHECK_METHOD(void (ln::service_request::*)(int, const string&), ln::service_request::respond_error);
-  CHECK_METHOD(bool (ln::service_request::*)(double), ln::service_request::wait);
-  CHECK_METHOD(std::vector<ln::topic_info> (client::*)(), client::list_topics);
-  CHECK_METHOD(std::vector<ln::client_info> (client::*)(), client::list_clients);
-  CHECK_METHOD(std::vector<ln::service_info> (client::*)(), client::list_services);
-  CHECK_METHOD(ln::manager_status (client::*)(), client::get_manager_status);
+  CHECK_METHOD(ln::borrowed_sample(ln::inport::*)(double), ln::inport::borrow);
+  CHECK_METHOD(ln::service_future(ln::service::*)(void*), ln::service::call_future);
+  CHECK_METHOD(void(ln::service_request::*)(int, const string&), ln::service_request::respond_error);
+  CHECK_METHOD(bool(ln::service_request::*)(double), ln::service_request::wait);
+  CHECK_METHOD(std::vector<ln::topic_info>(client::*)(), client::list_topics);
+  CHECK_METHOD(std::vector<ln::client_info>(client::*)(), client::list_clients);
+  CHECK_METHOD(std::vector<ln::service_info>(client::*)(), client::list_services);
+  CHECK_METHOD(ln::manager_status(client::*)(), client::get_manager_status);
 }
 
 // ---- calls with default arguments and the shapes generated code uses ----
@@ -305,9 +302,7 @@ void cpp_api_usage(int argc, char* argv[]) {
   (void)owned.c_str();
 
   ln::mutex_t mutex;
-  {
-    ln::mutex_holder hold(mutex);
-  }
+  { ln::mutex_holder hold(mutex); }
 
   try {
     by_name.throw_error(-LNE_INVALID_PARAMETER, "bad value %d", 3);

@@ -79,12 +79,12 @@ class adder : public example::add_service_base {
 // LN 2.9's string_buffer takes the field's address, and fields of generated
 // structs are packed: GCC warns about that with any LN headers.
 #if defined(__GNUC__) && !defined(__clang__) && __GNUC__ >= 9
-#  pragma GCC diagnostic push
-#  pragma GCC diagnostic ignored "-Waddress-of-packed-member"
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Waddress-of-packed-member"
 #endif
     ln::string_buffer comment(&svc.resp.comment, "computed by " + clnt.name);
 #if defined(__GNUC__) && !defined(__clang__) && __GNUC__ >= 9
-#  pragma GCC diagnostic pop
+#pragma GCC diagnostic pop
 #endif
     req.respond();
     return 0;
@@ -134,8 +134,7 @@ static int call_adder(ln::client& clnt) {
   data.req.b = 2.5;
   try {
     svc->call(&data);
-    std::cout << "sum " << data.resp.sum << ": " << std::string(data.resp.comment, data.resp.comment_len)
-              << std::endl;
+    std::cout << "sum " << data.resp.sum << ": " << std::string(data.resp.comment, data.resp.comment_len) << std::endl;
   } catch (const ln::exception& e) {
     std::cerr << "call failed: " << e.what() << " (" << ln_format_error(-e.error) << ")" << std::endl;
     return 1;

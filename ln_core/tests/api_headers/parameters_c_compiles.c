@@ -12,7 +12,8 @@ CHECK(int, ln_parameter_block_deinit, (ln_parameter_block*));
 CHECK(int, ln_parameter_get, (ln_client, const char*, int, ln_parameter_value*));
 CHECK(void, ln_parameter_value_free, (ln_parameter_value*));
 CHECK(int, ln_parameter_value_read, (ln_client, const ln_parameter_value*, int, unsigned int, void*, size_t, int));
-CHECK(int, ln_parameter_override, (ln_client, const char*, unsigned int, unsigned int, const uint32_t*, const void*, int));
+CHECK(int, ln_parameter_override,
+      (ln_client, const char*, unsigned int, unsigned int, const uint32_t*, const void*, int));
 CHECK(int, ln_parameter_override_text, (ln_client, const char*, const char*, int));
 
 _Static_assert(LN_PARAM_DOUBLE == 0 && LN_PARAM_SINGLE == 1 && LN_PARAM_BOOLEAN == 8 && LN_PARAM_UINT64 == 10,
@@ -29,8 +30,8 @@ void parameters_c_program(ln_client clnt);
 void parameters_c_program(ln_client clnt) {
   double gain = 1.5, gain_in_effect = 0;
   const uint32_t scalar[1] = {1};
-  ln_parameter_signal signal = {"gain", "P gain", LN_PARAM_DOUBLE, 1, scalar, 1, &gain, &gain_in_effect,
-                                accept_positive, NULL, NULL};
+  ln_parameter_signal signal = {"gain", "P gain",        LN_PARAM_DOUBLE, 1,    scalar, 1,
+                                &gain,  &gain_in_effect, accept_positive, NULL, NULL};
   ln_parameter_block block;
   ln_parameter_value value;
   double read_back = 0;

@@ -4,10 +4,7 @@
 
 #include "consumer_services.h"
 
-typedef char request_is_packed[sizeof(struct consumer_set_pose_request_t) ==
-                                       24 + 4 + sizeof(char*)
-                                   ? 1
-                                   : -1];
+typedef char request_is_packed[sizeof(struct consumer_set_pose_request_t) == 24 + 4 + sizeof(char*) ? 1 : -1];
 
 int main(void) {
   static char frame[] = "map";
@@ -17,8 +14,8 @@ int main(void) {
   call.req.frame = frame;
   call.req.frame_len = (uint32_t)strlen(frame);
   call.resp.ok = 1;
-  printf("consumer_c: %s signature=\"%s\" request=%u bytes\n", CONSUMER_SET_POSE_MD_NAME,
-         consumer_set_pose_signature, (unsigned)sizeof call.req);
+  printf("consumer_c: %s signature=\"%s\" request=%u bytes\n", CONSUMER_SET_POSE_MD_NAME, consumer_set_pose_signature,
+         (unsigned)sizeof call.req);
 #ifdef CONSUMER_HAVE_LIBLN
   if (ln_get_library_version() != LN_LIBRARY_VERSION) return 1;
 #endif

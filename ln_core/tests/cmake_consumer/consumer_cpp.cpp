@@ -24,8 +24,7 @@ int main() {
   std::memset(&msg, 0, sizeof msg);
   msg.stamp = 1.5;
   msg.pose.theta = 0.25;
-  std::printf("consumer_cpp: %s size=%zu theta=%g\n", CONSUMER_POSE_STAMPED_MD_NAME, sizeof msg,
-              msg.pose.theta);
+  std::printf("consumer_cpp: %s size=%zu theta=%g\n", CONSUMER_POSE_STAMPED_MD_NAME, sizeof msg, msg.pose.theta);
 #ifdef CONSUMER_HAVE_CPP_SERVICES
   std::printf("consumer_cpp: service request %d bytes\n", consumer_service_request_size());
 #endif

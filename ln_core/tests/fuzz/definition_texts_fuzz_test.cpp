@@ -106,8 +106,9 @@ TEST(FuzzDefinitionTexts, ParseOrClearError) {
     m.set("name", "fuzz/after").set("text", "define pt as \"fuzz/pt\"\npt p\nint32_t n\n");
   });
   ASSERT_FALSE(stored.is_error()) << stored.error_text();
-  EXPECT_EQ(normal.call("get_message_definition", [](Message& m) { m.set("name", "fuzz/after"); }).get_int("message_size"),
-            20);
+  EXPECT_EQ(
+      normal.call("get_message_definition", [](Message& m) { m.set("name", "fuzz/after"); }).get_int("message_size"),
+      20);
 }
 
 }  // namespace

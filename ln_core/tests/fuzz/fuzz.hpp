@@ -29,8 +29,7 @@ class Budget {
  public:
   explicit Budget(int default_rounds)
       : rounds_(from_environment("LN_FUZZ_ROUNDS", default_rounds)),
-        deadline_(std::chrono::steady_clock::now() +
-                  std::chrono::seconds(from_environment("LN_FUZZ_SECONDS", 60))) {}
+        deadline_(std::chrono::steady_clock::now() + std::chrono::seconds(from_environment("LN_FUZZ_SECONDS", 60))) {}
   /// True while rounds and time are left; counts the round.
   bool next() {
     if (done_ >= rounds_ || std::chrono::steady_clock::now() >= deadline_) return false;
@@ -84,12 +83,22 @@ class Mutator {
         if (!s.empty()) s[at] = static_cast<char>(random_());
         break;
       case 2: {  // an interesting little-endian integer (sizes, counts, lengths)
-        static const std::uint64_t values[] = {0, 1, 0x7f, 0x80, 0xff, 0x100, 0x7fff, 0xffff, 0x10000,
-                                               0x7fffffff, 0x80000000, 0xffffffff, ~std::uint64_t{0}};
+        static const std::uint64_t values[] = {0,
+                                               1,
+                                               0x7f,
+                                               0x80,
+                                               0xff,
+                                               0x100,
+                                               0x7fff,
+                                               0xffff,
+                                               0x10000,
+                                               0x7fffffff,
+                                               0x80000000,
+                                               0xffffffff,
+                                               ~std::uint64_t{0}};
         const std::uint64_t value = values[below(sizeof values / sizeof values[0])];
         const std::size_t width = std::size_t{1} << below(4);
-        for (std::size_t k = 0; k < width && at + k < s.size(); ++k)
-          s[at + k] = static_cast<char>(value >> (8 * k));
+        for (std::size_t k = 0; k < width && at + k < s.size(); ++k) s[at + k] = static_cast<char>(value >> (8 * k));
         break;
       }
       case 3:  // insert random bytes

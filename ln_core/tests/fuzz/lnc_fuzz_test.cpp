@@ -57,8 +57,9 @@ TEST(FuzzLncFiles, ReadOrConfigError) {
               static_cast<unsigned long long>(seed()));
 
   // A manager from a valid config still serves.
-  const std::string path = dir.write("good.lnc", "instance\nname: after_fuzz\nmax_clients: 8\n\nadd_message_definition_dir "
-                                                 "%(CURDIR)/md\n");
+  const std::string path = dir.write("good.lnc",
+                                     "instance\nname: after_fuzz\nmax_clients: 8\n\nadd_message_definition_dir "
+                                     "%(CURDIR)/md\n");
   const manager::LncSettings settings = manager::read_lnc_file(path, {});
   manager::ManagerOptions options;
   options.port = 0;

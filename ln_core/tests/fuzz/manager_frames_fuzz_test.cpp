@@ -42,10 +42,10 @@ std::vector<Message> valid_requests() {
   add(method::ping);
   add(method::get_message_definition, [](Message& m) { m.set("name", "mt/point"); });
   add(method::get_message_definition_for_topic, [](Message& m) { m.set("topic", "fuzz.topic"); });
-  add(method::put_message_definition, [](Message& m) { m.set("name", "fuzz/def").set("text", "double x\nint32_t y[3]\n"); });
-  add(method::publish, [](Message& m) {
-    m.set("topic", "fuzz.topic").set("message_definition", "mt/point").set("buffers", 2);
-  });
+  add(method::put_message_definition,
+      [](Message& m) { m.set("name", "fuzz/def").set("text", "double x\nint32_t y[3]\n"); });
+  add(method::publish,
+      [](Message& m) { m.set("topic", "fuzz.topic").set("message_definition", "mt/point").set("buffers", 2); });
   add(method::publisher_ready, [](Message& m) { m.set("topic_id", 2).set("segment_generation", 1).set("packets", 0); });
   add(method::unpublish, [](Message& m) { m.set("topic_id", 2); });
   add(method::subscribe, [](Message& m) {
@@ -80,12 +80,24 @@ Message mutate_field(Message m, Mutator& mutator) {
   std::advance(it, static_cast<long>(mutator.below(fields.size())));
   const std::string key = it->first;
   switch (mutator.below(6)) {
-    case 0: m.set(key, static_cast<std::int64_t>(mutator.below(5)) - 2); break;
-    case 1: m.set(key, std::int64_t{1} << mutator.below(64)); break;
-    case 2: m.set(key, mutator.chance(2) ? -0.0 / 1.0 : 1e308 * 10); break;  // -0, inf
-    case 3: m.set(key, mutator.chance(2)); break;
-    case 4: m.set(key, mutator.random_bytes(mutator.chance(8) ? 300 : 12)); break;
-    default: m.set(key, protocol::StringList{mutator.random_bytes(8), "", std::string(3, '\0')}); break;
+    case 0:
+      m.set(key, static_cast<std::int64_t>(mutator.below(5)) - 2);
+      break;
+    case 1:
+      m.set(key, std::int64_t{1} << mutator.below(64));
+      break;
+    case 2:
+      m.set(key, mutator.chance(2) ? -0.0 / 1.0 : 1e308 * 10);
+      break;  // -0, inf
+    case 3:
+      m.set(key, mutator.chance(2));
+      break;
+    case 4:
+      m.set(key, mutator.random_bytes(mutator.chance(8) ? 300 : 12));
+      break;
+    default:
+      m.set(key, protocol::StringList{mutator.random_bytes(8), "", std::string(3, '\0')});
+      break;
   }
   return m;
 }
@@ -113,8 +125,10 @@ TEST(FuzzManagerFrames, TheManagerSurvivesAndServes) {
     for (int i = 0; i < frames; ++i) {
       const Message& base = requests[mutator.below(requests.size())];
       std::string bytes;
-      if (kind == 3) bytes = mutator.random_bytes(256);
-      else if (mutator.chance(2)) bytes = protocol::encode(mutate_field(base, mutator));
+      if (kind == 3)
+        bytes = mutator.random_bytes(256);
+      else if (mutator.chance(2))
+        bytes = protocol::encode(mutate_field(base, mutator));
       else {
         const std::string payload = mutator.mutate(protocol::encode(base).substr(4), corpus);
         bytes = mutator.chance(8) ? mutator.mutate(framed(payload), corpus) : framed(payload);

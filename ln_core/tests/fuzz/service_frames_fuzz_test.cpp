@@ -80,13 +80,16 @@ TEST(FuzzServiceFrames, TheProviderSurvivesAndServes) {
     ASSERT_OK(h.dispatcher.adopt_connection(fds[1], service));
     std::string bytes;
     switch (mutator.below(4)) {
-      case 0: bytes = mutator.random_bytes(512); break;
+      case 0:
+        bytes = mutator.random_bytes(512);
+        break;
       case 1: {  // many valid requests, answers never read
         const std::string one = request_frame(service, 1, service == 1 ? add_body : echo_body);
         for (int i = 0; i < 2000; ++i) bytes += one;
         break;
       }
-      default: bytes = mutator.mutate(corpus[mutator.below(corpus.size())], corpus);
+      default:
+        bytes = mutator.mutate(corpus[mutator.below(corpus.size())], corpus);
     }
     const ssize_t sent = ::send(fds[0], bytes.data(), bytes.size(), MSG_DONTWAIT | MSG_NOSIGNAL);
     (void)sent;  // whatever the socket took

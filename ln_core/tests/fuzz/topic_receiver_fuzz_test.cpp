@@ -30,7 +30,8 @@ constexpr std::size_t kHeaderSize = 56;
 
 // One fragment in remote.hpp's wire format.
 std::string datagram(std::int64_t subscription, std::uint64_t stream, std::uint64_t joined_after,
-                     std::uint64_t sequence, std::uint32_t packet_size, std::uint32_t offset, const std::string& bytes) {
+                     std::uint64_t sequence, std::uint32_t packet_size, std::uint32_t offset,
+                     const std::string& bytes) {
   std::string out(kHeaderSize, '\0');
   auto put = [&](std::size_t at, std::uint64_t value, int size) {
     for (int i = 0; i < size; ++i) out[at + static_cast<std::size_t>(i)] = static_cast<char>(value >> (8 * i));
@@ -133,7 +134,8 @@ TEST(FuzzTopicReceiver, DatagramsAndStreamsOfAnyShape) {
   std::vector<UniqueFd> streams;
   Budget budget(20000);
   while (budget.next()) {
-    std::string bytes = mutator.chance(10) ? mutator.random_bytes(1500) : mutator.mutate(corpus[mutator.below(corpus.size())], corpus);
+    std::string bytes =
+        mutator.chance(10) ? mutator.random_bytes(1500) : mutator.mutate(corpus[mutator.below(corpus.size())], corpus);
     keep_byte_order(bytes);
     if (mutator.chance(5)) {  // over TCP: length-prefixed, perhaps never finished
       if (streams.size() >= 16 || streams.empty() || mutator.chance(4)) {

@@ -81,9 +81,8 @@ class IntrospectionProcessTest : public ::testing::Test {
 
   std::unique_ptr<ChildProcess> publisher(const std::string& topic, const std::string& count,
                                           const std::string& period_us) {
-    auto child =
-        std::make_unique<ChildProcess>(std::vector<std::string>{LN_TEST_PUBLISHER, topic, count, period_us},
-                                       manager_.address());
+    auto child = std::make_unique<ChildProcess>(std::vector<std::string>{LN_TEST_PUBLISHER, topic, count, period_us},
+                                                manager_.address());
     EXPECT_NE(child->wait_for_line("publishing"), "");
     return child;
   }
@@ -281,7 +280,8 @@ TEST_F(IntrospectionProcessTest, PublisherAvailabilityAcrossAManagerRestart) {
 
   manager_.restart();
   // Both processes register again; the publisher's topic comes back.
-  EXPECT_TRUE(wait_for_topic("i.restart", [](const ln_topic_info& t) { return std::strlen(t.publisher) > 0; }, 15s));
+  EXPECT_TRUE(wait_for_topic(
+      "i.restart", [](const ln_topic_info& t) { return std::strlen(t.publisher) > 0; }, 15s));
   ASSERT_TRUE(log.wait_for_state(1));
   first->kill(SIGKILL);
   EXPECT_TRUE(log.wait_for_state(0)) << "the new manager's notification arrived";

@@ -78,9 +78,12 @@ int main(int argc, char** argv) {
     double wait_subscriber = 0, settle = 0, linger = 0;
     for (size_t i = 6; i + 1 < args.size(); i += 2) {
       const double value = std::strtod(args[i + 1].c_str(), nullptr);
-      if (args[i] == "--wait-subscriber") wait_subscriber = value;
-      else if (args[i] == "--settle") settle = value;
-      else if (args[i] == "--linger") linger = value;
+      if (args[i] == "--wait-subscriber")
+        wait_subscriber = value;
+      else if (args[i] == "--settle")
+        settle = value;
+      else if (args[i] == "--linger")
+        linger = value;
       else {
         std::fprintf(stderr, "remote_publisher: unknown option %s\n", args[i].c_str());
         return 2;

@@ -50,7 +50,8 @@ int receive(ln::client& clnt, const std::string& topic, const char* md, uint32_t
     ln::sample_info info{};
     if (!port->read(packet.get(), 0.1, &info)) continue;
     bool ok = true;
-    for (size_t i = 0; i < sizeof packet->pad && ok; ++i) ok = packet->pad[i] == remote_pattern(packet->epoch, packet->seq, i);
+    for (size_t i = 0; i < sizeof packet->pad && ok; ++i)
+      ok = packet->pad[i] == remote_pattern(packet->epoch, packet->seq, i);
     EpochStats& stats = epochs[packet->epoch];
     if (packet->epoch < current_epoch) {
       ++stats.disorder;
@@ -81,8 +82,8 @@ int receive(ln::client& clnt, const std::string& topic, const char* md, uint32_t
     std::printf("epoch %u first %u last %u received %lu missing %lu disorder %lu bad %lu\n", epoch, stats.first,
                 stats.last, stats.received, stats.missing, stats.disorder, stats.bad);
   for (const auto& [epoch, stats] : epochs)
-    std::printf("info %u mismatch %llu lost %llu received %lu last_sequence %llu\n", epoch, stats.mismatch,
-                stats.lost, stats.received, stats.last_sequence);
+    std::printf("info %u mismatch %llu lost %llu received %lu last_sequence %llu\n", epoch, stats.mismatch, stats.lost,
+                stats.received, stats.last_sequence);
   std::printf(done ? "done\n" : "timeout\n");
   std::fflush(stdout);
   clnt.unsubscribe(port);
@@ -96,7 +97,8 @@ int main(int argc, char** argv) {
     ln::client clnt("remote_subscriber", argc, argv);
     const std::vector<std::string> args = clnt.get_remaining_args();
     if (args.size() < 6) {
-      std::fprintf(stderr, "usage: remote_subscriber [LN options] TOPIC packet|big LAST_EPOCH COUNT TIMEOUT_S [reliable]\n");
+      std::fprintf(stderr,
+                   "usage: remote_subscriber [LN options] TOPIC packet|big LAST_EPOCH COUNT TIMEOUT_S [reliable]\n");
       return 2;
     }
     const uint32_t last_epoch = static_cast<uint32_t>(std::strtoul(args[3].c_str(), nullptr, 10));

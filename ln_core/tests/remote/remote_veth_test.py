@@ -100,23 +100,40 @@ class Network:
             for ns in (self.ns_a, self.ns_b):
                 sh("ip", "netns", "add", ns)
                 self.created.append(ns)
-            sh("ip", "link", "add", self.veth_a, "netns", self.ns_a, "type", "veth", "peer", "name", self.veth_b,
-               "netns", self.ns_b)
+            sh(
+                "ip",
+                "link",
+                "add",
+                self.veth_a,
+                "netns",
+                self.ns_a,
+                "type",
+                "veth",
+                "peer",
+                "name",
+                self.veth_b,
+                "netns",
+                self.ns_b,
+            )
             for ns, dev, ip in ((self.ns_a, self.veth_a, self.ip_a), (self.ns_b, self.veth_b, self.ip_b)):
                 sh("ip", "-n", ns, "addr", "add", f"{ip}/24", "dev", dev)
                 sh("ip", "-n", ns, "link", "set", dev, "up")
                 sh("ip", "-n", ns, "link", "set", "lo", "up")
         except (subprocess.CalledProcessError, OSError) as e:
             detail = getattr(e, "stderr", "") or str(e)
-            raise Unavailable(f"creating namespaces/veth failed: {' '.join(map(str, getattr(e, 'cmd', [])))}: "
-                              f"{detail.strip()}") from e
+            raise Unavailable(
+                f"creating namespaces/veth failed: {' '.join(map(str, getattr(e, 'cmd', [])))}: {detail.strip()}"
+            ) from e
         # Wait until the link is up on both ends (carrier).
         if not shutil.which("ping"):
             time.sleep(0.5)
             return
         deadline = time.monotonic() + 5
         while time.monotonic() < deadline:
-            if sh("ip", "netns", "exec", self.ns_a, "ping", "-c", "1", "-W", "1", self.ip_b, check=False).returncode == 0:
+            if (
+                sh("ip", "netns", "exec", self.ns_a, "ping", "-c", "1", "-W", "1", self.ip_b, check=False).returncode
+                == 0
+            ):
                 return
             time.sleep(0.1)
         raise TestFailure(f"no connectivity {self.ip_a} -> {self.ip_b} over the veth pair")
@@ -155,13 +172,14 @@ def remove_stale_namespaces() -> None:
 class Program:
     """A program started in a namespace; stdout lines collected by a thread."""
 
-    all: list["Program"] = []
+    all: list[Program] = []
 
     def __init__(self, ns: str, argv: list[str], env: dict[str, str], label: str) -> None:
         self.label = label
         self.argv = ["ip", "netns", "exec", ns, *argv]  # ip execs the program: same PID
-        self.proc = subprocess.Popen(self.argv, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                                     stderr=subprocess.PIPE)
+        self.proc = subprocess.Popen(
+            self.argv, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE
+        )
         Program.all.append(self)
         self.lines: list[str] = []
         self.err: list[str] = []
@@ -196,7 +214,7 @@ class Program:
             return self.proc.wait(timeout=timeout)
         except subprocess.TimeoutExpired:
             self.kill()
-            raise TestFailure(f"{self.label} did not exit within {timeout} s\n{self.describe()}")
+            raise TestFailure(f"{self.label} did not exit within {timeout} s\n{self.describe()}") from None
 
     def kill(self, sig: int = signal.SIGKILL) -> None:
         if self.proc.poll() is None:
@@ -212,8 +230,12 @@ class Program:
 
     def describe(self) -> str:
         time.sleep(0.05)  # let the reader threads catch up
-        return (f"--- {self.label}: {' '.join(self.argv)} (exit {self.proc.poll()})\n"
-                + "\n".join(self.lines[-40:]) + "\n--- stderr\n" + "\n".join(self.err[-40:]))
+        return (
+            f"--- {self.label}: {' '.join(self.argv)} (exit {self.proc.poll()})\n"
+            + "\n".join(self.lines[-40:])
+            + "\n--- stderr\n"
+            + "\n".join(self.err[-40:])
+        )
 
 
 def stop_all() -> None:
@@ -242,19 +264,34 @@ def epoch_stats(subscriber: Program) -> dict[int, dict[str, int]]:
     return stats
 
 
-def run_case(net: Network, tools, env, manager_address: str, transport: str, kind: str, count: int, period: float,
-             restart: str) -> str:
+def run_case(
+    net: Network, tools, env, manager_address: str, transport: str, kind: str, count: int, period: float, restart: str
+) -> str:
     """One subscriber in B; publisher epoch 1 in A (exits normally or is
     SIGKILLed mid-stream per `restart`), then publisher epoch 2."""
     reliable = transport == "tcp"
     topic = f"remote.{kind}.{transport}.{restart}"
     env = dict(env, LN_MANAGER=manager_address)
     before = net.snmp(net.ns_b)
-    subscriber = Program(net.ns_b, [tools.subscriber, topic, kind, "2", str(count), "40"]
-                         + (["reliable"] if reliable else []), env, f"subscriber[{transport},{kind}]")
+    subscriber = Program(
+        net.ns_b,
+        [tools.subscriber, topic, kind, "2", str(count), "40"] + (["reliable"] if reliable else []),
+        env,
+        f"subscriber[{transport},{kind}]",
+    )
     subscriber.wait_for_line(r"subscribed$", 10)
-    publisher_args = [kind, "{epoch}", str(count), str(period), "--wait-subscriber", "5", "--settle", "0.5",
-                      "--linger", "0.5"]
+    publisher_args = [
+        kind,
+        "{epoch}",
+        str(count),
+        str(period),
+        "--wait-subscriber",
+        "5",
+        "--settle",
+        "0.5",
+        "--linger",
+        "0.5",
+    ]
 
     def publisher(epoch: int) -> Program:
         args = [tools.publisher, topic] + [a.format(epoch=epoch) for a in publisher_args]
@@ -306,15 +343,30 @@ def run_case(net: Network, tools, env, manager_address: str, transport: str, kin
             problems.append(f"expected TCP: {udp_in} UDP datagrams in, {accepted} TCP connections accepted in B")
     else:
         if udp_in < received or accepted != 0:
-            problems.append(f"expected UDP: {udp_in} UDP datagrams in for {received} packets, "
-                            f"{accepted} TCP connections accepted in B")
-    summary = (f"{transport} {kind} restart={restart}: "
-               + ", ".join(f"epoch {e} {s['first']}..{s['last']} received {s['received']} missing {s['missing']}"
-                           for e, s in sorted(stats.items()))
-               + f"; B saw {udp_in} UDP datagrams, {accepted} TCP accepts")
+            problems.append(
+                f"expected UDP: {udp_in} UDP datagrams in for {received} packets, "
+                f"{accepted} TCP connections accepted in B"
+            )
+    summary = (
+        f"{transport} {kind} restart={restart}: "
+        + ", ".join(
+            f"epoch {e} {s['first']}..{s['last']} received {s['received']} missing {s['missing']}"
+            for e, s in sorted(stats.items())
+        )
+        + f"; B saw {udp_in} UDP datagrams, {accepted} TCP accepts"
+    )
     if problems:
-        raise TestFailure(summary + "\n  " + "\n  ".join(problems) + "\n" + subscriber.describe() + "\n"
-                          + first.describe() + "\n" + second.describe())
+        raise TestFailure(
+            summary
+            + "\n  "
+            + "\n  ".join(problems)
+            + "\n"
+            + subscriber.describe()
+            + "\n"
+            + first.describe()
+            + "\n"
+            + second.describe()
+        )
     return summary
 
 
@@ -341,11 +393,19 @@ def run_late_join(net: Network, tools, env, manager_address: str, transport: str
     topic = f"remote.latejoin.{transport}"
     env = dict(env, LN_MANAGER=manager_address)
     count, period, joined_after_at_least = 4000, 0.0005, 200
-    publisher = Program(net.ns_a, [tools.publisher, topic, "packet", "1", str(count), str(period)], env,
-                        f"publisher[late join,{transport}]")
+    publisher = Program(
+        net.ns_a,
+        [tools.publisher, topic, "packet", "1", str(count), str(period)],
+        env,
+        f"publisher[late join,{transport}]",
+    )
     publisher.wait_for_line(rf"wrote {joined_after_at_least}$", 10)
-    subscriber = Program(net.ns_b, [tools.subscriber, topic, "packet", "1", str(count), "30"]
-                         + (["reliable"] if reliable else []), env, f"subscriber[late join,{transport}]")
+    subscriber = Program(
+        net.ns_b,
+        [tools.subscriber, topic, "packet", "1", str(count), "30"] + (["reliable"] if reliable else []),
+        env,
+        f"subscriber[late join,{transport}]",
+    )
     counted = int(publisher.wait_for_line(r"subscriber counted after \d+$", 10).split()[-1])
     publisher.wait_for_line(rf"published {count}$", 30)
     subscriber.wait(30)
@@ -354,33 +414,42 @@ def run_late_join(net: Network, tools, env, manager_address: str, transport: str
     stats = epoch_stats(subscriber)
     problems = []
     if 1 not in totals or 1 not in first or 1 not in stats:
-        raise TestFailure(f"late join {transport}: subscriber got nothing\n{subscriber.describe()}\n"
-                          f"{publisher.describe()}")
+        raise TestFailure(
+            f"late join {transport}: subscriber got nothing\n{subscriber.describe()}\n{publisher.describe()}"
+        )
     t, f, s = totals[1], first[1], stats[1]
     start = f["sequence"] - f["lost"] - 1  # the last packet that was not the subscription's
     if f["sequence"] != f["seq"] or t["mismatch"]:
-        problems.append(f"sequence numbers are not the publisher's: first packet {f['seq']} reported as "
-                        f"{f['sequence']}, {t['mismatch']} mismatches")
+        problems.append(
+            f"sequence numbers are not the publisher's: first packet {f['seq']} reported as "
+            f"{f['sequence']}, {t['mismatch']} mismatches"
+        )
     if f["seq"] > counted + 1 or start > counted:
-        problems.append(f"the publisher counted the subscriber after packet {counted}, but its first packet is "
-                        f"{f['seq']} (lost {f['lost']}: subscription started after {start})")
+        problems.append(
+            f"the publisher counted the subscriber after packet {counted}, but its first packet is "
+            f"{f['seq']} (lost {f['lost']}: subscription started after {start})"
+        )
     if start < joined_after_at_least:
         problems.append(f"subscription started after packet {start}, before the subscriber existed")
     if reliable and (f["lost"] or t["lost"] or s["missing"]):
         problems.append(f"TCP lost packets: first lost {f['lost']}, total lost {t['lost']}, holes {s['missing']}")
     if t["received"] + t["lost"] != t["last"] - start:
-        problems.append(f"received {t['received']} + lost {t['lost']} != {t['last'] - start} packets "
-                        f"{start + 1}..{t['last']}")
+        problems.append(
+            f"received {t['received']} + lost {t['lost']} != {t['last'] - start} packets {start + 1}..{t['last']}"
+        )
     if s["disorder"] or s["bad"]:
         problems.append(f"{s['disorder']} out of order, {s['bad']} wrong payloads")
     if t["last"] < count - 5:
         problems.append(f"ended at {t['last']} of {count}")
-    summary = (f"late join {transport}: publisher counted the subscriber after {counted}, first packet {f['seq']} "
-               f"(sequence {f['sequence']}, lost {f['lost']}), received {t['received']} + lost {t['lost']} of "
-               f"{start + 1}..{t['last']}")
+    summary = (
+        f"late join {transport}: publisher counted the subscriber after {counted}, first packet {f['seq']} "
+        f"(sequence {f['sequence']}, lost {f['lost']}), received {t['received']} + lost {t['lost']} of "
+        f"{start + 1}..{t['last']}"
+    )
     if problems:
-        raise TestFailure(summary + "\n  " + "\n  ".join(problems) + "\n" + subscriber.describe() + "\n"
-                          + publisher.describe())
+        raise TestFailure(
+            summary + "\n  " + "\n  ".join(problems) + "\n" + subscriber.describe() + "\n" + publisher.describe()
+        )
     return summary
 
 
@@ -388,12 +457,17 @@ def run_faults(net: Network, tools, env, manager_address: str, kind: str, count:
     """UDP datagrams lost, duplicated and reordered on the way."""
     topic = f"remote.faults.{kind}"
     env = dict(env, LN_MANAGER=manager_address)
-    subscriber = Program(net.ns_b, [tools.subscriber, topic, kind, "1", str(count), "30"], env,
-                         f"subscriber[faults,{kind}]")
+    subscriber = Program(
+        net.ns_b, [tools.subscriber, topic, kind, "1", str(count), "30"], env, f"subscriber[faults,{kind}]"
+    )
     subscriber.wait_for_line(r"subscribed$", 10)
     faulty = dict(env, LN_CORE_TEST_UDP_FAULTS="drop=5,duplicate=7,reorder=11")
-    publisher = Program(net.ns_a, [tools.publisher, topic, kind, "1", str(count), str(period), "--wait-subscriber",
-                                   "5"], faulty, f"publisher[faults,{kind}]")
+    publisher = Program(
+        net.ns_a,
+        [tools.publisher, topic, kind, "1", str(count), str(period), "--wait-subscriber", "5"],
+        faulty,
+        f"publisher[faults,{kind}]",
+    )
     publisher.wait_for_line(r"subscriber seen$", 10)
     publisher.wait_for_line(rf"published {count}$", 30)
     subscriber.wait(30)
@@ -416,13 +490,17 @@ def run_faults(net: Network, tools, env, manager_address: str, kind: str, count:
     if t["last"] < count - 5:
         problems.append(f"ended at {t['last']} of {count}")
     if t["lost"] < count // 10:
-        problems.append(f"only {t['lost']} of {count} packets lost: the fault injection "
-                        f"(LN_CORE_TEST_UDP_FAULTS, test builds) did not work")
-    summary = (f"faults udp {kind}: received {t['received']} + lost {t['lost']} = {t['last']} written, "
-               f"holes {s['missing']}")
+        problems.append(
+            f"only {t['lost']} of {count} packets lost: the fault injection "
+            f"(LN_CORE_TEST_UDP_FAULTS, test builds) did not work"
+        )
+    summary = (
+        f"faults udp {kind}: received {t['received']} + lost {t['lost']} = {t['last']} written, holes {s['missing']}"
+    )
     if problems:
-        raise TestFailure(summary + "\n  " + "\n  ".join(problems) + "\n" + subscriber.describe() + "\n"
-                          + publisher.describe())
+        raise TestFailure(
+            summary + "\n  " + "\n  ".join(problems) + "\n" + subscriber.describe() + "\n" + publisher.describe()
+        )
     return summary
 
 
@@ -436,8 +514,11 @@ def main() -> int:
     in_ci = bool(os.environ.get("CI"))
 
     def on_signal(signum, _frame):
-        raise Abort(f"interrupted by signal {signum}" if signum != signal.SIGALRM
-                          else f"overall time limit of {TOTAL_LIMIT_S} s reached")
+        raise Abort(
+            f"interrupted by signal {signum}"
+            if signum != signal.SIGALRM
+            else f"overall time limit of {TOTAL_LIMIT_S} s reached"
+        )
 
     for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGHUP, signal.SIGALRM):
         signal.signal(sig, on_signal)
@@ -463,22 +544,30 @@ def main() -> int:
         env["HOME"] = home
         config = os.path.join(home, "remote.lnc")
         with open(config, "w") as f:
-            f.write(f"instance\nname: ln_remote_test_{os.getpid()}\nmanager: :54414\n"
-                    f"add_message_definition_dir: {tools.md_dir}\n")
+            f.write(
+                f"instance\nname: ln_remote_test_{os.getpid()}\nmanager: :54414\n"
+                f"add_message_definition_dir: {tools.md_dir}\n"
+            )
         manager = Program(net.ns_a, [tools.manager, "-c", config, "--listen", f"{net.ip_a}:0"], env, "ln_manager")
         line = manager.wait_for_line(r"ln_manager: listening on \d+\.\d+\.\d+\.\d+:\d+$", 30)
         address = line.rsplit(" ", 1)[-1]
         log(f"ln_manager in {net.ns_a} listens on {address}")
 
-        cases = [("udp", "packet", 300, 0.002, "exit"),
-                 ("tcp", "packet", 300, 0.002, "kill"),
-                 ("udp", "big", 60, 0.01, "kill"),
-                 ("tcp", "big", 60, 0.01, "exit")]
+        cases = [
+            ("udp", "packet", 300, 0.002, "exit"),
+            ("tcp", "packet", 300, 0.002, "kill"),
+            ("udp", "big", 60, 0.01, "kill"),
+            ("tcp", "big", 60, 0.01, "exit"),
+        ]
         runs = [lambda case=case: run_case(net, tools, env, address, *case) for case in cases]
-        runs += [lambda transport=transport: run_late_join(net, tools, env, address, transport)
-                 for transport in ("udp", "tcp")]
-        runs += [lambda: run_faults(net, tools, env, address, "packet", 600, 0.001),
-                 lambda: run_faults(net, tools, env, address, "big", 80, 0.01)]
+        runs += [
+            lambda transport=transport: run_late_join(net, tools, env, address, transport)
+            for transport in ("udp", "tcp")
+        ]
+        runs += [
+            lambda: run_faults(net, tools, env, address, "packet", 600, 0.001),
+            lambda: run_faults(net, tools, env, address, "big", 80, 0.01),
+        ]
         failures = []
         for run in runs:
             try:

@@ -40,9 +40,11 @@ static int respond_flat(ln_service_request req, const svc_test_t* data, int trun
   for (uint32_t i = 0; i < text_len; ++i) reversed[i] = data->req.text[text_len - 1 - i];
   uint32_t no_elements = 0;
   uint32_t count = 77;
-  struct iovec iov[5] = {
-      {&text_len, sizeof text_len}, {reversed, text_len}, {&no_elements, sizeof no_elements},
-      {&no_elements, sizeof no_elements}, {&count, sizeof count}};
+  struct iovec iov[5] = {{&text_len, sizeof text_len},
+                         {reversed, text_len},
+                         {&no_elements, sizeof no_elements},
+                         {&no_elements, sizeof no_elements},
+                         {&count, sizeof count}};
   return ln_service_request_respondv(req, iov, truncated ? 4 : 5);
 }
 
@@ -124,7 +126,9 @@ int main(int argc, char** argv) {
   printf("ready\n");
   fflush(stdout);
   for (;;) {
-    if (pool) sleep(1);
-    else if (ln_wait_and_handle_service_group_requests(clnt, group ? "g" : NULL, 1.0) < 0) return 1;
+    if (pool)
+      sleep(1);
+    else if (ln_wait_and_handle_service_group_requests(clnt, group ? "g" : NULL, 1.0) < 0)
+      return 1;
   }
 }

@@ -106,8 +106,8 @@ std::string flat_echo_response(const std::string& text, const std::vector<std::u
 /// C handler. serve_in_thread() handles its group until destruction.
 class InProcessProvider {
  public:
-  InProcessProvider(const std::string& manager, const char* service_name, ln_service_handler handler,
-                    void* user_data, const char* group = nullptr)
+  InProcessProvider(const std::string& manager, const char* service_name, ln_service_handler handler, void* user_data,
+                    const char* group = nullptr)
       : group_(group != nullptr ? group : ""), has_group_(group != nullptr) {
     EXPECT_EQ(ln_init_to_manager(&client, "in_process_provider", manager.c_str()), 0);
     EXPECT_EQ(ln_service_init(client, &service, service_name, "svc/test", svc_test_signature), 0);
@@ -171,9 +171,9 @@ TEST_F(ServiceApiTest, CallvSendsFlatFieldsAndReturnsTheFlatResponse) {
   char* response = nullptr;
   std::uint32_t response_len = 0;
   std::uint8_t need_swap = 7;
-  ASSERT_EQ(ln_service_callv(svc, iov.data(), request.count(), request.element_sizes(), &response, &response_len,
-                             &need_swap),
-            0)
+  ASSERT_EQ(
+      ln_service_callv(svc, iov.data(), request.count(), request.element_sizes(), &response, &response_len, &need_swap),
+      0)
       << error_message();
   EXPECT_EQ(std::string(response, response_len), flat_echo_response("vector", blob));
   EXPECT_EQ(need_swap, 0);
@@ -181,8 +181,8 @@ TEST_F(ServiceApiTest, CallvSendsFlatFieldsAndReturnsTheFlatResponse) {
   // A timeout, then the handle works again.
   FlatFields slow = flat_request(SLOW, 3000, "", {});
   iov = slow.iov();
-  EXPECT_EQ(ln_service_callv_with_timeout(svc, iov.data(), slow.count(), slow.element_sizes(), &response,
-                                          &response_len, &need_swap, 0.2),
+  EXPECT_EQ(ln_service_callv_with_timeout(svc, iov.data(), slow.count(), slow.element_sizes(), &response, &response_len,
+                                          &need_swap, 0.2),
             -LNE_SVC_TIMEOUT);
   EXPECT_TRUE(contains(error_message(), "no response within 0.2 s")) << error_message();
 
@@ -190,9 +190,9 @@ TEST_F(ServiceApiTest, CallvSendsFlatFieldsAndReturnsTheFlatResponse) {
   FlatFields lying;
   lying.i32(ECHO).u32(0).i32(0).u32(100).chars("abc");  // text count 100, 3 characters follow
   iov = lying.iov();
-  EXPECT_EQ(ln_service_callv(svc, iov.data(), lying.count(), lying.element_sizes(), &response, &response_len,
-                             &need_swap),
-            -LNE_INVALID_PARAMETER);
+  EXPECT_EQ(
+      ln_service_callv(svc, iov.data(), lying.count(), lying.element_sizes(), &response, &response_len, &need_swap),
+      -LNE_INVALID_PARAMETER);
   EXPECT_TRUE(contains(error_message(), "invalid request")) << error_message();
 
   iov = request.iov();
@@ -254,9 +254,8 @@ TEST_F(ServiceApiTest, RespondvAnswersWithFlatFields) {
   std::vector<iovec> iov = request.iov();
   char* response = nullptr;
   std::uint32_t response_len = 0;
-  ASSERT_EQ(ln_service_callv(svc, iov.data(), request.count(), request.element_sizes(), &response, &response_len,
-                             nullptr),
-            0)
+  ASSERT_EQ(
+      ln_service_callv(svc, iov.data(), request.count(), request.element_sizes(), &response, &response_len, nullptr), 0)
       << error_message();
   FlatFields expected;
   expected.chars("yx").u32(0).u32(0).u32(77);
@@ -493,7 +492,8 @@ class ThreadPoolSchedTest : public ServiceProcessTest {
  protected:
   void SetUp() override {
     ServiceProcessTest::SetUp();
-    provider_ = std::make_unique<InProcessProvider>(manager_.address(), "sched", &WhereHandlersRun::handle, &where_, "g");
+    provider_ =
+        std::make_unique<InProcessProvider>(manager_.address(), "sched", &WhereHandlersRun::handle, &where_, "g");
     ASSERT_EQ(provider_->do_register(), 0);
     ASSERT_EQ(ln_set_max_threads(provider_->client, "pool", 2), 0);
     ASSERT_EQ(ln_handle_service_group_in_thread_pool(provider_->client, "g", "pool"), 0);
@@ -685,8 +685,18 @@ TEST_F(ServiceApiTest, ServiceNamesAreMappedFromArgumentsAndEnvironment) {
   // (LN 2.9's order), each applied to the result of the one before.
   ScopedEnv rules("LN_MAP_SERVICES", std::string(".old$|.svc|^over.svc$|env.svc"));
   std::string address = manager_.address();
-  std::vector<std::string> args = {"prog", "--ln-manager", address, "--ln-map-service", "^alias$", "mapped.old",
-                                   "-ln_map_service", "^pre.", "mapped.", "--ln-map-service", "_tmp", ""};
+  std::vector<std::string> args = {"prog",
+                                   "--ln-manager",
+                                   address,
+                                   "--ln-map-service",
+                                   "^alias$",
+                                   "mapped.old",
+                                   "-ln_map_service",
+                                   "^pre.",
+                                   "mapped.",
+                                   "--ln-map-service",
+                                   "_tmp",
+                                   ""};
   std::vector<char*> argv;
   for (std::string& arg : args) argv.push_back(arg.data());
   ln_client mapped = nullptr;

@@ -1,26 +1,26 @@
 // Services across processes: LN 2.9-style providers (C, and C++ on the
 // generated test_base) started with posix_spawn, called through the C and
 // C++ APIs against a manager in this process.
+#include <arpa/inet.h>
 #include <dirent.h>
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <ln/ln.h>
+#include <netinet/in.h>
 #include <poll.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <sys/wait.h>
-#include <netinet/in.h>
-#include <arpa/inet.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <cstdlib>
 #include <cstring>
-#include <thread>
 #include <set>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "ln_messages.h"
@@ -321,7 +321,8 @@ TEST_F(ServiceProcessTest, ProviderSurvivesGarbage) {
   ASSERT_EQ(::connect(manager, reinterpret_cast<sockaddr*>(&address), sizeof address), 0);
   exchange(manager, Message::request(1, method::hello).set("program_name", "garbage"));
   const Message found = exchange(
-      manager, Message::request(2, method::lookup_service).set("name", "svc").set("interface", "").set("signature", ""));
+      manager,
+      Message::request(2, method::lookup_service).set("name", "svc").set("interface", "").set("signature", ""));
   const std::string socket_name = found.get_string("peer_socket");
   // Junk straight into the peer server, then junk after a good handshake.
   for (int round = 0; round < 2; ++round) {
@@ -381,7 +382,8 @@ TEST_F(ServiceProcessTest, TcpPeerServerServesCallsButRefusesSharedMemory) {
   ASSERT_EQ(::connect(manager, reinterpret_cast<sockaddr*>(&address), sizeof address), 0);
   exchange(manager, Message::request(1, method::hello).set("program_name", "tcp_probe"));
   const Message found = exchange(
-      manager, Message::request(2, method::lookup_service).set("name", "svc").set("interface", "").set("signature", ""));
+      manager,
+      Message::request(2, method::lookup_service).set("name", "svc").set("interface", "").set("signature", ""));
   ::close(manager);
   // The provider reaches the manager over loopback, so that is where its TCP peer server listens.
   const std::string peer = found.get_string("peer_address");
@@ -396,13 +398,14 @@ TEST_F(ServiceProcessTest, TcpPeerServerServesCallsButRefusesSharedMemory) {
     return fd;
   };
   const int segment = connect_peer();
-  const Message refused =
-      exchange(segment, Message::request(1, method::open_segment).set("topic_id", 1).set("topic", "t").set("buffers", 1));
+  const Message refused = exchange(
+      segment, Message::request(1, method::open_segment).set("topic_id", 1).set("topic", "t").set("buffers", 1));
   EXPECT_TRUE(refused.is_error());
   EXPECT_NE(refused.error_text().find("TCP"), std::string::npos) << refused.error_text();
   ::close(segment);
   const int call_fd = connect_peer();
-  const Message ok = exchange(call_fd, Message::request(1, method::call).set("service_id", found.get_int("service_id")));
+  const Message ok =
+      exchange(call_fd, Message::request(1, method::call).set("service_id", found.get_int("service_id")));
   EXPECT_FALSE(ok.is_error()) << ok.error_text();
   ::close(call_fd);
 }

@@ -11,8 +11,8 @@ enum svc_provider_mode {
   LATER = 4,
   ERROR_TEXT = 5,
   CONCURRENCY = 6,
-  RESPONDV = 7,         /* echoes the text through ln_service_request_respondv */
-  RESPONDV_INVALID = 8  /* ln_service_request_respondv with a truncated response */
+  RESPONDV = 7,        /* echoes the text through ln_service_request_respondv */
+  RESPONDV_INVALID = 8 /* ln_service_request_respondv with a truncated response */
 };
 
 #endif

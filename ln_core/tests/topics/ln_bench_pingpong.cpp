@@ -86,10 +86,10 @@ int ping(ln::client& clnt, const std::string& md, long round_trips) {
   std::sort(rtt.begin(), rtt.end());
   double sum = 0;
   for (double value : rtt) sum += value;
-  std::printf("{\"test\": \"pingpong\", \"size\": %u, \"n\": %ld, \"median_us\": %.2f, \"p99_us\": %.2f, "
-              "\"mean_us\": %.2f, \"max_us\": %.1f}\n",
-              out->message_size, round_trips, rtt[rtt.size() / 2], rtt[rtt.size() * 99 / 100], sum / rtt.size(),
-              rtt.back());
+  std::printf(
+      "{\"test\": \"pingpong\", \"size\": %u, \"n\": %ld, \"median_us\": %.2f, \"p99_us\": %.2f, "
+      "\"mean_us\": %.2f, \"max_us\": %.1f}\n",
+      out->message_size, round_trips, rtt[rtt.size() / 2], rtt[rtt.size() * 99 / 100], sum / rtt.size(), rtt.back());
   return 0;
 }
 

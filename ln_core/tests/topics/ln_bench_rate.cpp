@@ -90,9 +90,10 @@ int subscribe(ln::client& clnt, unsigned buffers) {
   }
   const double elapsed = std::chrono::duration<double>(last_time - first_time).count();
   const double span = last >= first ? static_cast<double>(last - first + 1) : 1.0;
-  std::printf("{\"role\": \"sub\", \"buffers\": %u, \"received\": %lu, \"received_per_s\": %.0f, "
-              "\"distinct_fraction\": %.3f, \"repeats\": %lu, \"older\": %lu, \"torn\": %lu}\n",
-              buffers, received, elapsed > 0 ? received / elapsed : 0.0, distinct / span, repeats, older, torn);
+  std::printf(
+      "{\"role\": \"sub\", \"buffers\": %u, \"received\": %lu, \"received_per_s\": %.0f, "
+      "\"distinct_fraction\": %.3f, \"repeats\": %lu, \"older\": %lu, \"torn\": %lu}\n",
+      buffers, received, elapsed > 0 ? received / elapsed : 0.0, distinct / span, repeats, older, torn);
   return torn == 0 ? 0 : 1;
 }
 
@@ -104,8 +105,7 @@ int main(int argc, char** argv) {
     const std::vector<std::string> args = clnt.get_remaining_args();
     if (args.size() >= 4 && args[1] == "pub")
       return publish(clnt, std::strtod(args[2].c_str(), nullptr), static_cast<unsigned>(std::atoi(args[3].c_str())));
-    if (args.size() >= 3 && args[1] == "sub")
-      return subscribe(clnt, static_cast<unsigned>(std::atoi(args[2].c_str())));
+    if (args.size() >= 3 && args[1] == "sub") return subscribe(clnt, static_cast<unsigned>(std::atoi(args[2].c_str())));
     std::fprintf(stderr, "usage: ln_bench_rate [LN options] pub SECONDS BUFFERS | sub BUFFERS\n");
     return 2;
   } catch (const ln::exception& e) {

@@ -46,8 +46,10 @@ int main(int argc, char** argv) {
   fflush(stdout);
   int wait = 0, linger = 0;
   for (unsigned int i = 4; i < n_args && i < 6; ++i) {
-    if (strcmp(arg[i], "wait") == 0) wait = 1;
-    else if (strcmp(arg[i], "linger") == 0) linger = 1;
+    if (strcmp(arg[i], "wait") == 0)
+      wait = 1;
+    else if (strcmp(arg[i], "linger") == 0)
+      linger = 1;
   }
   if (wait) {
     const double deadline = ln_get_monotonic_time() + 10.0;

@@ -30,7 +30,6 @@ struct P64 {
   uint8_t pad[60];
 };
 
-
 std::set<std::string> dev_shm_entries() {
   std::set<std::string> names;
   if (DIR* dir = ::opendir("/dev/shm")) {
@@ -42,9 +41,7 @@ std::set<std::string> dev_shm_entries() {
 
 class ProcessTopicTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    ASSERT_EQ(ln_init_to_manager(&client_, "driver", manager_.address().c_str()), 0);
-  }
+  void SetUp() override { ASSERT_EQ(ln_init_to_manager(&client_, "driver", manager_.address().c_str()), 0); }
   void TearDown() override {
     if (client_ != nullptr) ln_deinit(&client_);
   }

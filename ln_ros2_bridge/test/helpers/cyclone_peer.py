@@ -44,8 +44,11 @@ def main():
     args = parser.parse_args()
     participant = DomainParticipant(0)
     # ROS 2 Jazzy speaks XCDR1 only; reliable to match rclpy's default QoS.
-    qos = Qos(Policy.Reliability.Reliable(max_blocking_time=1_000_000_000),
-              Policy.History.KeepLast(10), Policy.DataRepresentation(use_cdrv0_representation=True))
+    qos = Qos(
+        Policy.Reliability.Reliable(max_blocking_time=1_000_000_000),
+        Policy.History.KeepLast(10),
+        Policy.DataRepresentation(use_cdrv0_representation=True),
+    )
     topic = Topic(participant, "rt" + args.name, Sample_, qos=qos)
     deadline = time.monotonic() + args.duration
     if args.mode == "sub":
@@ -55,8 +58,14 @@ def main():
         while got < args.count and time.monotonic() < deadline:
             for sample in reader.take(N=100):
                 got += 1
-                emit(event="sample", seq=int(sample.seq), vec=[float(v) for v in sample.vec], small=int(sample.small),
-                     flags=int(sample.flags), label=bytes(sample.label).rstrip(b"\0").decode())
+                emit(
+                    event="sample",
+                    seq=int(sample.seq),
+                    vec=[float(v) for v in sample.vec],
+                    small=int(sample.small),
+                    flags=int(sample.flags),
+                    label=bytes(sample.label).rstrip(b"\0").decode(),
+                )
             time.sleep(0.01)
         emit(event="done", received=got)
     else:
@@ -65,8 +74,16 @@ def main():
         seq = 0
         while seq < args.count and time.monotonic() < deadline:
             label = list(b"cyc%d" % seq)
-            writer.write(Sample_(seq=seq, stamp=seq * 0.25, vec=[1.0, 2.0, float(seq)], small=-3, flags=7,
-                                 label=label + [0] * (16 - len(label))))
+            writer.write(
+                Sample_(
+                    seq=seq,
+                    stamp=seq * 0.25,
+                    vec=[1.0, 2.0, float(seq)],
+                    small=-3,
+                    flags=7,
+                    label=label + [0] * (16 - len(label)),
+                )
+            )
             seq += 1
             time.sleep(1.0 / args.rate)
         emit(event="done", written=seq)

@@ -16,12 +16,19 @@ import time
 
 import links_and_nodes as ln
 
-DEFS = {"sample": "bridgetest/sample", "compute": "bridgetest/compute", "plain": "bridgetest/plain",
-        "elevator": "elevator/request/elevator_call", "unmapped": "bridgetest_extra/unmapped",
-        "point": "bridgetest_extra/point",
-        # derived from standard ROS types (the bridge gives them to the manager)
-        "twist": "ros2/geometry_msgs/msg/Twist", "joint_state": "ros2/sensor_msgs/msg/JointState",
-        "string": "ros2/std_msgs/msg/String", "trigger": "ros2/std_srvs/srv/Trigger"}
+DEFS = {
+    "sample": "bridgetest/sample",
+    "compute": "bridgetest/compute",
+    "plain": "bridgetest/plain",
+    "elevator": "elevator/request/elevator_call",
+    "unmapped": "bridgetest_extra/unmapped",
+    "point": "bridgetest_extra/point",
+    # derived from standard ROS types (the bridge gives them to the manager)
+    "twist": "ros2/geometry_msgs/msg/Twist",
+    "joint_state": "ros2/sensor_msgs/msg/JointState",
+    "string": "ros2/std_msgs/msg/String",
+    "trigger": "ros2/std_srvs/srv/Trigger",
+}
 
 
 def emit(**event):
@@ -35,8 +42,14 @@ def text_of(value):
 
 
 def sample_dict(packet):
-    return {"seq": int(packet.seq), "stamp": float(packet.stamp), "vec": [float(v) for v in packet.vec],
-            "small": int(packet.small), "flags": int(packet.flags), "label": text_of(packet.label)}
+    return {
+        "seq": int(packet.seq),
+        "stamp": float(packet.stamp),
+        "vec": [float(v) for v in packet.vec],
+        "small": int(packet.small),
+        "flags": int(packet.flags),
+        "label": text_of(packet.label),
+    }
 
 
 def fill_joint_state(p, seq):
@@ -49,9 +62,12 @@ def fill_joint_state(p, seq):
 
 
 def joint_state_dict(p):
-    return {"seq": int(p.header.stamp.sec), "frame": text_of(p.header.frame_id)[:int(p.header.frame_id_len)],
-            "names": [text_of(p.name[i].data)[:int(p.name[i].data_len)] for i in range(int(p.name_len))],
-            "position": [float(p.position[i]) for i in range(int(p.position_len))]}
+    return {
+        "seq": int(p.header.stamp.sec),
+        "frame": text_of(p.header.frame_id)[: int(p.header.frame_id_len)],
+        "names": [text_of(p.name[i].data)[: int(p.name[i].data_len)] for i in range(int(p.name_len))],
+        "position": [float(p.position[i]) for i in range(int(p.position_len))],
+    }
 
 
 def publish(client, args):
@@ -100,15 +116,20 @@ def subscribe(client, args):
         if args.definition == "sample":
             fields = sample_dict(packet)
         elif args.definition == "point":
-            fields = {"time": float(packet.time), "pos_mm": [float(v) for v in packet.pos_mm],
-                      "frame": text_of(packet.frame)}
+            fields = {
+                "time": float(packet.time),
+                "pos_mm": [float(v) for v in packet.pos_mm],
+                "frame": text_of(packet.frame),
+            }
         elif args.definition == "twist":
-            fields = {"linear": [float(packet.linear.x), float(packet.linear.y), float(packet.linear.z)],
-                      "angular_z": float(packet.angular.z)}
+            fields = {
+                "linear": [float(packet.linear.x), float(packet.linear.y), float(packet.linear.z)],
+                "angular_z": float(packet.angular.z),
+            }
         elif args.definition == "joint_state":
             fields = joint_state_dict(packet)
         elif args.definition == "string":
-            fields = {"data": text_of(packet.data)[:int(packet.data_len)]}
+            fields = {"data": text_of(packet.data)[: int(packet.data_len)]}
         else:
             fields = {"seq": int(packet.seq)}
         emit(event="packet", **fields)
@@ -161,10 +182,16 @@ def call(client, args):
         for key, value in request.items():
             setattr(svc.req, key, value)
         svc.call_with_timeout(timeout=args.timeout)
-        response = {f: getattr(svc.resp, f) for f in ("result", "error_code", "error_message", "y", "success",
-                                                      "message") if hasattr(svc.resp, f)}
-        emit(event="response", elapsed=time.monotonic() - start,
-             **{k: (text_of(v) if isinstance(v, (str, bytes)) else float(v)) for k, v in response.items()})
+        response = {
+            f: getattr(svc.resp, f)
+            for f in ("result", "error_code", "error_message", "y", "success", "message")
+            if hasattr(svc.resp, f)
+        }
+        emit(
+            event="response",
+            elapsed=time.monotonic() - start,
+            **{k: (text_of(v) if isinstance(v, (str, bytes)) else float(v)) for k, v in response.items()},
+        )
     except Exception as error:
         emit(event="error", elapsed=time.monotonic() - start, error=str(error))
 

@@ -83,9 +83,9 @@ struct PairedInterface {
   InterfaceKind kind = InterfaceKind::Message;
   std::string ln_name;
   std::string ln_hash;
-  std::string ros_name;                 ///< "pkg/msg/T" or "pkg/srv/T"; events: the connect message
-  const PairedType* first = nullptr;    ///< message, request or connect
-  const PairedType* second = nullptr;   ///< response or call (services and events only)
+  std::string ros_name;                ///< "pkg/msg/T" or "pkg/srv/T"; events: the connect message
+  const PairedType* first = nullptr;   ///< message, request or connect
+  const PairedType* second = nullptr;  ///< response or call (services and events only)
 };
 
 /// Which ROS primitive an LN primitive maps to (LN char -> uint8, see README).

@@ -26,8 +26,21 @@ class Error : public std::runtime_error {
 };
 
 enum class RosPrimitive : std::uint8_t {
-  Bool, Byte, Char, Float32, Float64, Int8, UInt8, Int16, UInt16, Int32, UInt32, Int64, UInt64,
-  String, WString
+  Bool,
+  Byte,
+  Char,
+  Float32,
+  Float64,
+  Int8,
+  UInt8,
+  Int16,
+  UInt16,
+  Int32,
+  UInt32,
+  Int64,
+  UInt64,
+  String,
+  WString
 };
 
 std::string_view spelling(RosPrimitive type);
@@ -43,7 +56,7 @@ struct RosFieldType {
   std::string nested;                     ///< "pkg/Type" of a nested message
   std::uint32_t string_bound = 0;         ///< string<=N (0: unbounded)
   Array array = Array::None;
-  std::uint32_t array_size = 0;           ///< T[N] or T[<=N]
+  std::uint32_t array_size = 0;  ///< T[N] or T[<=N]
 
   bool is_nested() const { return !primitive.has_value(); }
   bool is_sequence() const { return array == Array::Bounded || array == Array::Unbounded; }
@@ -102,8 +115,7 @@ std::string emit_srv(const RosService& service);
 
 /// Splits "pkg/msg/Type", "pkg/srv/Type" or "pkg/Type" into package and type.
 /// `kind` receives "msg", "srv" or "" (not given). Throws Error when malformed.
-void split_ros_type_name(std::string_view full, std::string& package, std::string& kind,
-                         std::string& type);
+void split_ros_type_name(std::string_view full, std::string& package, std::string& kind, std::string& type);
 
 /// Finds installed interface files: <share dir>/<pkg>/msg/<Type>.msg and
 /// <share dir>/<pkg>/srv/<Type>.srv, first share dir wins. Parsed files are kept.

@@ -78,11 +78,11 @@ class RosToLn {
   RosTypeStore store_;
   RosToLnOptions options_;
   std::unique_ptr<ln::md::Library> library_;
-  std::map<std::string, std::unique_ptr<PairedType>> types_;   // by LN name
-  std::map<std::string, PairedInterface> interfaces_;          // by "ros_type" or "ros_type#dynamic"
-  std::map<std::string, std::string> texts_;                   // LN name -> text
-  std::map<std::string, PairedType*> string_helpers_;          // LN name -> helper pairing
-  std::vector<std::string> pending_;                           // LN names created by the current add()
+  std::map<std::string, std::unique_ptr<PairedType>> types_;  // by LN name
+  std::map<std::string, PairedInterface> interfaces_;         // by "ros_type" or "ros_type#dynamic"
+  std::map<std::string, std::string> texts_;                  // LN name -> text
+  std::map<std::string, PairedType*> string_helpers_;         // LN name -> helper pairing
+  std::vector<std::string> pending_;                          // LN names created by the current add()
 };
 
 }  // namespace msg_mapping

@@ -39,8 +39,8 @@
 namespace msg_mapping {
 
 struct FieldRule {
-  std::string ros_path;       ///< "pose.position.x", "covariance", "covariance[3]", "header.stamp"
-  std::string ln_path;        ///< "pos_mm[0]", "cov", "sub.x"; empty with a constant
+  std::string ros_path;  ///< "pose.position.x", "covariance", "covariance[3]", "header.stamp"
+  std::string ln_path;   ///< "pos_mm[0]", "cov", "sub.x"; empty with a constant
   bool has_constant = false;
   std::string constant;       ///< number or text
   std::string scale, offset;  ///< decimal numbers, empty: none

@@ -15,9 +15,10 @@ files and the ln_ros2_gen command line.
 Codec input is any buffer (bytes, bytearray, memoryview, numpy); the `*_into`
 variants write into a preallocated writable buffer and return the size.
 """
+
 import os
 
-from ._native import (  # noqa: F401  (re-exported API)
+from ._native import (
     Codec,
     CodecError,
     DefinitionError,
@@ -33,9 +34,19 @@ from ._native import (  # noqa: F401  (re-exported API)
 )
 
 __all__ = [
-    "Codec", "CodecError", "DefinitionError", "Library", "LnToRos", "MappingError", "RosToLn",
-    "RuleCodec", "camel_to_snake", "definition_names_under", "ros_field_name_for", "ros_type_name_for",
+    "Codec",
+    "CodecError",
+    "DefinitionError",
+    "Library",
+    "LnToRos",
+    "MappingError",
+    "RosToLn",
+    "RuleCodec",
+    "camel_to_snake",
+    "definition_names_under",
+    "ros_field_name_for",
     "ros_share_dirs",
+    "ros_type_name_for",
 ]
 
 

@@ -1,4 +1,5 @@
 """ln_ros2_gen: LN message definitions -> ROS 2 interface packages, and ROS 2 types -> LN definitions."""
+
 import argparse
 import json
 import os
@@ -27,46 +28,95 @@ ln_mapping.json recording the pairing. Exit status: 0 ok, 1 bad input (message o
 
 def parse_args(argv):
     p = argparse.ArgumentParser(
-        prog="ln_ros2_gen", description=__doc__, epilog=EPILOG,
-        formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("definitions", nargs="*", metavar="DEFINITION",
-                   help="LN definition names (a/b/c) to map, with everything they use")
-    p.add_argument("--md-dir", action="append", default=[], metavar="DIR",
-                   help="LN message-definition directory to search (repeatable, LN's search order)")
-    p.add_argument("--recursive", action="append", default=[], metavar="DIR",
-                   help="map every definition found under DIR (repeatable; DIR is searched too)")
-    p.add_argument("--from-manager", metavar="HOST:PORT",
-                   help="map the definition of every topic and the interface of every service this running "
-                        "LN manager (ln_core) knows, with the texts the manager has")
-    p.add_argument("--standard-search-path", action="store_true",
-                   help="after --md-dir, search LN's standard directories ($LN_MESSAGE_DEFINITION_DIRS, md.conf, ...)")
+        prog="ln_ros2_gen", description=__doc__, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    p.add_argument(
+        "definitions",
+        nargs="*",
+        metavar="DEFINITION",
+        help="LN definition names (a/b/c) to map, with everything they use",
+    )
+    p.add_argument(
+        "--md-dir",
+        action="append",
+        default=[],
+        metavar="DIR",
+        help="LN message-definition directory to search (repeatable, LN's search order)",
+    )
+    p.add_argument(
+        "--recursive",
+        action="append",
+        default=[],
+        metavar="DIR",
+        help="map every definition found under DIR (repeatable; DIR is searched too)",
+    )
+    p.add_argument(
+        "--from-manager",
+        metavar="HOST:PORT",
+        help="map the definition of every topic and the interface of every service this running "
+        "LN manager (ln_core) knows, with the texts the manager has",
+    )
+    p.add_argument(
+        "--standard-search-path",
+        action="store_true",
+        help="after --md-dir, search LN's standard directories ($LN_MESSAGE_DEFINITION_DIRS, md.conf, ...)",
+    )
     p.add_argument("--out", metavar="DIR", help="output directory (packages go to DIR/<package>/)")
     p.add_argument("--dry-run", action="store_true", help="list what would be generated; write nothing")
-    p.add_argument("--package", metavar="NAME", default="",
-                   help="put every type into this one package (type names from the whole LN name)")
-    p.add_argument("--package-suffix", default="_ln_msgs", help="suffix of generated package names (default %(default)s)")
-    p.add_argument("--rules", metavar="FILE", action="append", default=[],
-                   help="YAML rules mapping LN definitions onto existing ROS types (validated; repeatable)")
-    p.add_argument("--depfile", metavar="FILE",
-                   help="write the LN definition files read (one per line), for build systems")
-    p.add_argument("--check", action="store_true",
-                   help="write nothing; exit 3 when the output directory is not up to date")
+    p.add_argument(
+        "--package",
+        metavar="NAME",
+        default="",
+        help="put every type into this one package (type names from the whole LN name)",
+    )
+    p.add_argument(
+        "--package-suffix", default="_ln_msgs", help="suffix of generated package names (default %(default)s)"
+    )
+    p.add_argument(
+        "--rules",
+        metavar="FILE",
+        action="append",
+        default=[],
+        help="YAML rules mapping LN definitions onto existing ROS types (validated; repeatable)",
+    )
+    p.add_argument(
+        "--depfile", metavar="FILE", help="write the LN definition files read (one per line), for build systems"
+    )
+    p.add_argument(
+        "--check", action="store_true", help="write nothing; exit 3 when the output directory is not up to date"
+    )
     ros = p.add_argument_group("ROS 2 -> LN")
-    ros.add_argument("--from-ros", nargs="+", metavar="TYPE", default=[],
-                     help="ROS types (pkg/msg/T, pkg/srv/T) or packages (all their types) to map to LN definitions")
-    ros.add_argument("--ros-share", action="append", default=[], metavar="DIR",
-                     help="share directory with <pkg>/msg/*.msg (default: $AMENT_PREFIX_PATH/share)")
+    ros.add_argument(
+        "--from-ros",
+        nargs="+",
+        metavar="TYPE",
+        default=[],
+        help="ROS types (pkg/msg/T, pkg/srv/T) or packages (all their types) to map to LN definitions",
+    )
+    ros.add_argument(
+        "--ros-share",
+        action="append",
+        default=[],
+        metavar="DIR",
+        help="share directory with <pkg>/msg/*.msg (default: $AMENT_PREFIX_PATH/share)",
+    )
     ros.add_argument("--ln-prefix", default="ros2", help="first component of generated LN names (default %(default)s)")
-    ros.add_argument("--dynamic", action="store_true",
-                     help="also write the dynamic (service) variant of messages")
+    ros.add_argument("--dynamic", action="store_true", help="also write the dynamic (service) variant of messages")
     ros.add_argument("--string-capacity", type=int, default=255, help="default LN capacity of ROS strings (bytes)")
     ros.add_argument("--sequence-capacity", type=int, default=64, help="default LN capacity of ROS sequences")
-    ros.add_argument("--capacity", action="append", default=[], metavar="TYPE.FIELD=N",
-                     help="capacity of one field, e.g. sensor_msgs/msg/Image.data=6220800 (repeatable)")
+    ros.add_argument(
+        "--capacity",
+        action="append",
+        default=[],
+        metavar="TYPE.FIELD=N",
+        help="capacity of one field, e.g. sensor_msgs/msg/Image.data=6220800 (repeatable)",
+    )
     args = p.parse_args(argv)
     if not (args.definitions or args.recursive or args.from_manager or args.from_ros or args.rules):
-        p.error("nothing to do: name definitions, --recursive DIR, --from-manager HOST:PORT, --from-ros TYPE "
-                "or --rules FILE")
+        p.error(
+            "nothing to do: name definitions, --recursive DIR, --from-manager HOST:PORT, --from-ros TYPE "
+            "or --rules FILE"
+        )
     if not args.out and not args.dry_run:
         p.error("--out DIR is required (or --dry-run)")
     return args
@@ -74,6 +124,7 @@ def parse_args(argv):
 
 def share_dirs(args):
     from . import ros_share_dirs
+
     return args.ros_share or ros_share_dirs()
 
 
@@ -152,12 +203,15 @@ def generate_ln_to_ros(args, out, report):
         if name not in rule_mapped:
             gen.add(library, name)
     # (the manager's definitions stay loaded while gen uses them)
-    manager_library = add_from_manager(args.from_manager, gen, rule_mapped, set(names), report) \
-        if args.from_manager else None  # noqa: F841
+    manager_library = (  # noqa: F841 (kept alive while gen uses it)
+        add_from_manager(args.from_manager, gen, rule_mapped, set(names), report) if args.from_manager else None
+    )
     packages = gen.packages()
     for package in packages:
-        report.append(f"package {package['name']}" +
-                      (f" (depends on {', '.join(sorted(package['dependencies']))})" if package["dependencies"] else ""))
+        report.append(
+            f"package {package['name']}"
+            + (f" (depends on {', '.join(sorted(package['dependencies']))})" if package["dependencies"] else "")
+        )
         for ln_name in package["ln_definitions"]:
             report.append(f"  {ln_name}")
         keep = set()
@@ -167,9 +221,10 @@ def generate_ln_to_ros(args, out, report):
             out.write(relative, content)
         out.remove_stale_interfaces(package["name"], keep)
     if rule_codecs:
-        mapping = {"format": "msg_mapping/rules/1",
-                   "rules": [{"ln_name": c.ln_name, "ros_type": c.ros_name, "mapping": c.describe()}
-                             for c in rule_codecs]}
+        mapping = {
+            "format": "msg_mapping/rules/1",
+            "rules": [{"ln_name": c.ln_name, "ros_type": c.ros_name, "mapping": c.describe()} for c in rule_codecs],
+        }
         out.write("ln_rules_mapping.json", json.dumps(mapping, indent=2) + "\n")
         for c in rule_codecs:
             report.append(f"rule {c.ln_name} -> {c.ros_name} (validated)")
@@ -186,6 +241,7 @@ def add_from_manager(address, gen, rule_mapped, added, report):
     (names also given locally come from the local files). Returns the library that
     holds them (it must outlive the generator's use of them)."""
     from .manager import ManagerDefinitions
+
     with ManagerDefinitions(address) as manager:
         names = [n for n in manager.names() if n not in rule_mapped and n not in added]
         count = len(manager.names())
@@ -198,8 +254,13 @@ def add_from_manager(address, gen, rule_mapped, added, report):
 
 
 def generate_ros_to_ln(args, out, report):
-    ros = _native.RosToLn(share_dirs(args), prefix=args.ln_prefix, string_capacity=args.string_capacity,
-                          sequence_capacity=args.sequence_capacity, capacities=capacities(args))
+    ros = _native.RosToLn(
+        share_dirs(args),
+        prefix=args.ln_prefix,
+        string_capacity=args.string_capacity,
+        sequence_capacity=args.sequence_capacity,
+        capacities=capacities(args),
+    )
     types = []
     for item in args.from_ros:
         if "/" in item:

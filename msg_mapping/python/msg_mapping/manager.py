@@ -5,6 +5,7 @@ the manager has (what the running system uses, whatever files are on this machin
 Asks the manager through ln_core's links_and_nodes package (client.list_topics(),
 client.list_services(), client.get_message_definition_text()).
 """
+
 import re
 
 from ._native import Library, MappingError
@@ -27,7 +28,7 @@ def missing_definitions(error):
     if not match:
         return []
     importer, quoted = match.groups()
-    if importer and "/" in importer:   # an in-memory definition: "<its name>"
+    if importer and "/" in importer:  # an in-memory definition: "<its name>"
         return [importer.rsplit("/", 1)[0] + "/" + quoted, quoted]
     return [quoted]
 
@@ -71,16 +72,19 @@ class ManagerDefinitions:
         try:
             import links_and_nodes as ln
         except ImportError as error:
-            raise MappingError("--from-manager needs ln_core's links_and_nodes Python package "
-                               f"(source the workspace's install/setup.bash): {error}") from None
+            raise MappingError(
+                "--from-manager needs ln_core's links_and_nodes Python package "
+                f"(source the workspace's install/setup.bash): {error}"
+            ) from None
         if not hasattr(ln.client, "list_topics") or not hasattr(ln.client, "get_message_definition_text"):
-            raise MappingError("--from-manager needs ln_core's links_and_nodes with the manager introspection "
-                               f"API (client.list_topics()); the one found at {ln.__file__} has none")
+            raise MappingError(
+                "--from-manager needs ln_core's links_and_nodes with the manager introspection "
+                f"API (client.list_topics()); the one found at {ln.__file__} has none"
+            )
         try:
             self._client = ln.client(client_name, address)
         except Exception as error:
-            raise MappingError(f"--from-manager {address}: cannot reach the LN manager: "
-                               f"{_first_line(error)}") from None
+            raise MappingError(f"--from-manager {address}: cannot reach the LN manager: {_first_line(error)}") from None
         try:
             self.used_by = {}
             for topic in self._client.list_topics():
@@ -89,13 +93,14 @@ class ManagerDefinitions:
                 self._use(service.interface, f"service {service.name}")
         except Exception as error:
             self.close()
-            raise MappingError(f"--from-manager {address}: the manager's topics and services: "
-                               f"{_first_line(error)}") from None
+            raise MappingError(
+                f"--from-manager {address}: the manager's topics and services: {_first_line(error)}"
+            ) from None
         self.library = Library()
         self._fetched = set()
 
     def _use(self, definition, user):
-        name = definition.split("|")[0]   # a name may carry its hash
+        name = definition.split("|")[0]  # a name may carry its hash
         if name:
             self.used_by.setdefault(name, []).append(user)
 
@@ -104,13 +109,17 @@ class ManagerDefinitions:
 
     def load(self, name):
         """Loads `name` and what it uses into self.library, from the manager."""
+
         def fetch(missing):
             self.library.add_source(missing, self._client.get_message_definition_text(missing))
+
         try:
             return load_fetching(self.library.load, name, fetch, self._fetched)
         except Exception as error:
-            raise MappingError(f"LN definition '{name}' ({', '.join(self.used_by.get(name, []))}) from the "
-                               f"manager at {self.address}: {_first_line(error)}") from None
+            raise MappingError(
+                f"LN definition '{name}' ({', '.join(self.used_by.get(name, []))}) from the "
+                f"manager at {self.address}: {_first_line(error)}"
+            ) from None
 
     def close(self):
         client, self._client = getattr(self, "_client", None), None

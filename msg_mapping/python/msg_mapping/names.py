@@ -5,6 +5,7 @@ topics and services by. Characters ROS does not allow in a name token become
 '_' and a token that would start with a digit gets 'ln_', so the mapping is
 only reversible for names that need neither (recordings keep the LN name).
 """
+
 import re
 
 

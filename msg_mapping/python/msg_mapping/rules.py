@@ -12,6 +12,7 @@
 The checks that matter (fields exist, types fit) happen in C++ when the rule
 is compiled (compile_rules); this module only reads and shapes the YAML.
 """
+
 import yaml
 
 from ._native import MappingError, compile_rule

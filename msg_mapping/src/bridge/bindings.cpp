@@ -66,8 +66,7 @@ void bind_bridge(nb::module_& parent) {
             nb::gil_scoped_release release;
             new (self) LnClient(api, name, manager);
           },
-          "module"_a, "name"_a, "manager"_a,
-          "connects a client of its own (LN 2.9, whose Python API hides its handle)")
+          "module"_a, "name"_a, "manager"_a, "connects a client of its own (LN 2.9, whose Python API hides its handle)")
       .def_prop_ro("name", &LnClient::name)
       .def_prop_ro("library", [](const LnClient& c) { return c.api().path; })
       .def("close", &LnClient::close, nb::call_guard<nb::gil_scoped_release>());
@@ -75,20 +74,21 @@ void bind_bridge(nb::module_& parent) {
   nb::class_<LnToRosPath>(m, "LnToRosPath", "LN subscription -> codec -> rcl publisher, in a thread of its own")
       .def(
           "__init__",
-          [](LnToRosPath* self, LnClient& client, const std::string& topic, const std::string& md_name,
-             double rate, unsigned int buffers, bool reliable, nb::handle codec, std::uintptr_t publisher) {
+          [](LnToRosPath* self, LnClient& client, const std::string& topic, const std::string& md_name, double rate,
+             unsigned int buffers, bool reliable, nb::handle codec, std::uintptr_t publisher) {
             const TopicCodec converter = topic_codec(codec);
             auto* rcl_publisher = address<rcl_publisher_t>(publisher, "rcl publisher");
             nb::gil_scoped_release release;
-            new (self) LnToRosPath(client, topic, md_name, LnPortOptions{rate, buffers, reliable}, converter,
-                                   rcl_publisher);
+            new (self)
+                LnToRosPath(client, topic, md_name, LnPortOptions{rate, buffers, reliable}, converter, rcl_publisher);
           },
           "client"_a, "topic"_a, "md_name"_a, "rate"_a, "buffers"_a, "reliable"_a, "codec"_a, "publisher"_a,
           nb::keep_alive<1, 2>(), nb::keep_alive<1, 8>())
       .def("close", &LnToRosPath::close, nb::call_guard<nb::gil_scoped_release>())
       .def("report", [](LnToRosPath& p) { return report_dict(p.report()); });
 
-  nb::class_<RosToLnPath>(m, "RosToLnPath", "rcl subscription -> loop prevention -> codec -> LN, in a thread of its own")
+  nb::class_<RosToLnPath>(m, "RosToLnPath",
+                          "rcl subscription -> loop prevention -> codec -> LN, in a thread of its own")
       .def(
           "__init__",
           [](RosToLnPath* self, LnClient& client, const std::string& topic, const std::string& md_name,

@@ -15,8 +15,7 @@ namespace {
 template <class F>
 void resolve(void* module, const char* symbol, F& target, bool required, const std::string& module_file) {
   target = reinterpret_cast<F>(dlsym(module, symbol));
-  if (!target && required)
-    throw std::runtime_error(module_file + " does not link an LN library (no " + symbol + ")");
+  if (!target && required) throw std::runtime_error(module_file + " does not link an LN library (no " + symbol + ")");
 }
 
 LnApi load(const std::string& module_file) {
@@ -47,8 +46,8 @@ LnApi load(const std::string& module_file) {
   resolve(module, "ln_read_release", api.read_release, false, module_file);
   if (!api.read_release) api.read_borrow = nullptr;
   Dl_info where{};
-  api.path = dladdr(reinterpret_cast<void*>(api.init_to_manager), &where) && where.dli_fname ? where.dli_fname
-                                                                                             : module_file;
+  api.path =
+      dladdr(reinterpret_cast<void*>(api.init_to_manager), &where) && where.dli_fname ? where.dli_fname : module_file;
   return api;
 }
 

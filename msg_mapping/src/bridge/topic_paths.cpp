@@ -215,8 +215,10 @@ bool LnToRosPath::pump(double timeout) {
     message.buffer_length = cdr_size;
     message.buffer_capacity = cdr_.size();
     const rcl_ret_t published = rcl_.publish_serialized(publisher_, &message, nullptr);
-    if (published == RCL_RET_OK) ++state_.forwarded;
-    else state_.error(rcl_.error("publish", published));
+    if (published == RCL_RET_OK)
+      ++state_.forwarded;
+    else
+      state_.error(rcl_.error("publish", published));
   }
   return true;
 }
@@ -302,27 +304,37 @@ namespace {
 
 rmw_qos_profile_t qos_profile(const RclApi& rcl, const RosQos& qos) {
   rmw_qos_profile_t profile = rcl.subscription_default_options().qos;
-  if (qos.reliability == "reliable") profile.reliability = RMW_QOS_POLICY_RELIABILITY_RELIABLE;
-  else if (qos.reliability == "best_effort") profile.reliability = RMW_QOS_POLICY_RELIABILITY_BEST_EFFORT;
-  else if (qos.reliability == "best_available") profile.reliability = RMW_QOS_POLICY_RELIABILITY_BEST_AVAILABLE;
-  else throw std::invalid_argument("unknown reliability '" + qos.reliability + "'");
-  if (qos.durability == "volatile") profile.durability = RMW_QOS_POLICY_DURABILITY_VOLATILE;
-  else if (qos.durability == "transient_local") profile.durability = RMW_QOS_POLICY_DURABILITY_TRANSIENT_LOCAL;
-  else if (qos.durability == "best_available") profile.durability = RMW_QOS_POLICY_DURABILITY_BEST_AVAILABLE;
-  else throw std::invalid_argument("unknown durability '" + qos.durability + "'");
-  if (qos.history == "keep_last") profile.history = RMW_QOS_POLICY_HISTORY_KEEP_LAST;
-  else if (qos.history == "keep_all") profile.history = RMW_QOS_POLICY_HISTORY_KEEP_ALL;
-  else throw std::invalid_argument("unknown history '" + qos.history + "'");
+  if (qos.reliability == "reliable")
+    profile.reliability = RMW_QOS_POLICY_RELIABILITY_RELIABLE;
+  else if (qos.reliability == "best_effort")
+    profile.reliability = RMW_QOS_POLICY_RELIABILITY_BEST_EFFORT;
+  else if (qos.reliability == "best_available")
+    profile.reliability = RMW_QOS_POLICY_RELIABILITY_BEST_AVAILABLE;
+  else
+    throw std::invalid_argument("unknown reliability '" + qos.reliability + "'");
+  if (qos.durability == "volatile")
+    profile.durability = RMW_QOS_POLICY_DURABILITY_VOLATILE;
+  else if (qos.durability == "transient_local")
+    profile.durability = RMW_QOS_POLICY_DURABILITY_TRANSIENT_LOCAL;
+  else if (qos.durability == "best_available")
+    profile.durability = RMW_QOS_POLICY_DURABILITY_BEST_AVAILABLE;
+  else
+    throw std::invalid_argument("unknown durability '" + qos.durability + "'");
+  if (qos.history == "keep_last")
+    profile.history = RMW_QOS_POLICY_HISTORY_KEEP_LAST;
+  else if (qos.history == "keep_all")
+    profile.history = RMW_QOS_POLICY_HISTORY_KEEP_ALL;
+  else
+    throw std::invalid_argument("unknown history '" + qos.history + "'");
   profile.depth = qos.depth;
   return profile;
 }
 
 }  // namespace
 
-RosToLnPath::RosToLnPath(LnClient& client, const std::string& topic, const std::string& md_name,
-                         unsigned int buffers, TopicCodec codec, rcl_node_t* node,
-                         const rosidl_message_type_support_t* type_support, const std::string& ros_topic,
-                         const RosQos& qos, std::vector<std::string> bridge_names)
+RosToLnPath::RosToLnPath(LnClient& client, const std::string& topic, const std::string& md_name, unsigned int buffers,
+                         TopicCodec codec, rcl_node_t* node, const rosidl_message_type_support_t* type_support,
+                         const std::string& ros_topic, const RosQos& qos, std::vector<std::string> bridge_names)
     : ln_(client.api()),
       rcl_(RclApi::loaded()),
       codec_(codec),
@@ -483,8 +495,12 @@ void RosToLnPath::process(const std::uint8_t* cdr, std::size_t size, const rmw_m
     }
   }
   switch (senders_.decide(gid)) {
-    case SenderFilter::Decision::Forward: write(cdr, size, info.source_timestamp); break;
-    case SenderFilter::Decision::Drop: state_.ignored = senders_.dropped(); break;
+    case SenderFilter::Decision::Forward:
+      write(cdr, size, info.source_timestamp);
+      break;
+    case SenderFilter::Decision::Drop:
+      state_.ignored = senders_.dropped();
+      break;
     case SenderFilter::Decision::Hold:
       senders_.hold(gid, HeldMessage{std::vector<std::uint8_t>(cdr, cdr + size), info.source_timestamp},
                     monotonic_seconds());
@@ -502,10 +518,12 @@ void RosToLnPath::write(const std::uint8_t* cdr, std::size_t size, std::int64_t 
     return;
   }
   double stamp = static_cast<double>(source_timestamp) / 1e9;
-  const int ret = ln_.write(port_, packet_.data(), static_cast<unsigned int>(packet_.size()),
-                            source_timestamp ? &stamp : nullptr);
-  if (ret < 0) state_.error(ln_.error("LN write", ret));
-  else ++state_.forwarded;
+  const int ret =
+      ln_.write(port_, packet_.data(), static_cast<unsigned int>(packet_.size()), source_timestamp ? &stamp : nullptr);
+  if (ret < 0)
+    state_.error(ln_.error("LN write", ret));
+  else
+    ++state_.forwarded;
 }
 
 }  // namespace msg_mapping::bridge

@@ -51,16 +51,16 @@ class TopicCodec {
 /// What a path did since it started; `errors_text` and `nodeless` since the
 /// previous report.
 struct PathReport {
-  std::uint64_t received = 0;   ///< packets read from LN / messages taken from ROS
-  std::uint64_t forwarded = 0;  ///< published on ROS / written to LN
-  std::uint64_t errors = 0;     ///< not forwarded: conversion or publish failed
-  std::uint64_t lost = 0;       ///< LN: skipped by the port (ln_core); ROS: gaps in a publisher's sequence
-  std::uint64_t ignored = 0;    ///< ROS -> LN: sent by bridge publishers (loop prevention)
-  std::uint64_t held = 0;       ///< ROS -> LN: waiting for the graph to name their publisher
+  std::uint64_t received = 0;             ///< packets read from LN / messages taken from ROS
+  std::uint64_t forwarded = 0;            ///< published on ROS / written to LN
+  std::uint64_t errors = 0;               ///< not forwarded: conversion or publish failed
+  std::uint64_t lost = 0;                 ///< LN: skipped by the port (ln_core); ROS: gaps in a publisher's sequence
+  std::uint64_t ignored = 0;              ///< ROS -> LN: sent by bridge publishers (loop prevention)
+  std::uint64_t held = 0;                 ///< ROS -> LN: waiting for the graph to name their publisher
   std::uint64_t error_count_in_text = 0;  ///< errors since the previous report
-  std::string errors_text;      ///< the newest error since the previous report
-  std::vector<std::string> nodeless;  ///< gids (hex) of publishers forwarded without a node
-  bool failed = false;          ///< the thread stopped (LN connection lost, ...)
+  std::string errors_text;                ///< the newest error since the previous report
+  std::vector<std::string> nodeless;      ///< gids (hex) of publishers forwarded without a node
+  bool failed = false;                    ///< the thread stopped (LN connection lost, ...)
   std::string failure;
 };
 
@@ -133,8 +133,8 @@ class LnToRosPath {
  public:
   static constexpr std::size_t own_thread_above = 64 * 1024;
 
-  LnToRosPath(LnClient& client, const std::string& topic, const std::string& md_name,
-              const LnPortOptions& options, TopicCodec codec, rcl_publisher_t* publisher);
+  LnToRosPath(LnClient& client, const std::string& topic, const std::string& md_name, const LnPortOptions& options,
+              TopicCodec codec, rcl_publisher_t* publisher);
   ~LnToRosPath();
   LnToRosPath(const LnToRosPath&) = delete;
   LnToRosPath& operator=(const LnToRosPath&) = delete;
@@ -185,7 +185,7 @@ class LnReaderGroup {
   std::mutex mutex_;
   std::condition_variable changed_;
   std::vector<std::pair<LnToRosPath*, bool>> requests_;  ///< (path, add?), guarded by mutex_
-  std::uint64_t requested_ = 0, applied_ = 0;           ///< guarded by mutex_
+  std::uint64_t requested_ = 0, applied_ = 0;            ///< guarded by mutex_
   std::string failure_;                                  ///< the multi-waiter could not be made
   bool stop_ = false;                                    ///< guarded by mutex_
   std::thread thread_;
@@ -252,7 +252,7 @@ class RosToLnPath {
   rcl_serialized_message_t message_{};
   std::mutex wake_mutex_;
   std::condition_variable wake_;
-  bool wake_flag_ = false;  ///< guarded by wake_mutex_
+  bool wake_flag_ = false;                 ///< guarded by wake_mutex_
   std::atomic<bool> senders_held_{false};  ///< messages wait for the graph: the thread looks more often
   std::atomic<bool> stop_{false};
   PathState state_;

@@ -88,11 +88,13 @@ TEST(Codec, RecursiveTypesTravelAsLnFlatBytes) {
   // leaf: empty kids -> empty uint8[]
   EXPECT_EQ(codec.ln_to_cdr(bytes_of(hex("0900 00000000"))), hex("00010000 0900 0000 00000000"));
   // opaque bytes that are not one LN sequence are rejected
-  EXPECT_NE(error_of([&] { codec.cdr_to_ln(bytes_of(hex("00010000 0100 0000 05000000 01000000 02"))); })
-                .find("LN flat bytes"),
+  EXPECT_NE(error_of([&] {
+              codec.cdr_to_ln(bytes_of(hex("00010000 0100 0000 05000000 01000000 02")));
+            }).find("LN flat bytes"),
             std::string::npos);
-  EXPECT_NE(error_of([&] { codec.cdr_to_ln(bytes_of(hex("00010000 0100 0000 0b000000 01000000 0200 00000000 ff"))); })
-                .find("after the sequence"),
+  EXPECT_NE(error_of([&] {
+              codec.cdr_to_ln(bytes_of(hex("00010000 0100 0000 0b000000 01000000 0200 00000000 ff")));
+            }).find("after the sequence"),
             std::string::npos);
 }
 
@@ -102,29 +104,36 @@ TEST(Codec, BadInputGivesClearErrors) {
                       {"t/pair", "uint8_t a\nchar* s\n"},
                       {"t/fixed", "double x\n"}});
   const Codec worked = ln.codec("t/worked");
-  EXPECT_NE(error_of([&] { worked.ln_to_cdr(bytes_of(hex("05 000000000000f03f 05000000 6869"))); })
-                .find("t_ln_msgs/msg/Worked: s: input truncated"),
+  EXPECT_NE(error_of([&] {
+              worked.ln_to_cdr(bytes_of(hex("05 000000000000f03f 05000000 6869")));
+            }).find("t_ln_msgs/msg/Worked: s: input truncated"),
             std::string::npos);
-  EXPECT_NE(error_of([&] { worked.ln_to_cdr(bytes_of(hex("05 000000000000f03f 00000000 ff"))); })
-                .find("1 byte(s) left over"),
-            std::string::npos);
-  EXPECT_NE(error_of([&] { worked.cdr_to_ln(bytes_of(hex("00010000 05 00000000000000 000000000000f03f 03000000 686969"))); })
-                .find("not NUL-terminated"),
+  EXPECT_NE(
+      error_of([&] { worked.ln_to_cdr(bytes_of(hex("05 000000000000f03f 00000000 ff"))); }).find("1 byte(s) left over"),
+      std::string::npos);
+  EXPECT_NE(error_of([&] {
+              worked.cdr_to_ln(bytes_of(hex("00010000 05 00000000000000 000000000000f03f 03000000 686969")));
+            }).find("not NUL-terminated"),
             std::string::npos);
   EXPECT_NE(error_of([&] { worked.cdr_to_ln(bytes_of(hex("0000 0000 05"))); }).find("big-endian"), std::string::npos);
   EXPECT_NE(error_of([&] { worked.cdr_to_ln(bytes_of(hex("0001"))); }).find("header"), std::string::npos);
   const Codec seq = ln.codec("t/seq");
-  EXPECT_NE(error_of([&] { seq.cdr_to_ln(bytes_of(hex("00010000 ffffffff 00"))); }).find("items: sequence count 4294967295 is impossible"),
+  EXPECT_NE(error_of([&] {
+              seq.cdr_to_ln(bytes_of(hex("00010000 ffffffff 00")));
+            }).find("items: sequence count 4294967295 is impossible"),
             std::string::npos);
   EXPECT_NE(error_of([&] { seq.ln_to_cdr(bytes_of(hex("ffffff7f 00"))); }).find("impossible"), std::string::npos);
-  EXPECT_NE(error_of([&] { seq.cdr_to_ln(bytes_of(hex("00010000 02000000 01 000000 02000000 6100 02 000000 ff000000"))); })
-                .find("items: [1]: s: input truncated"),
+  EXPECT_NE(error_of([&] {
+              seq.cdr_to_ln(bytes_of(hex("00010000 02000000 01 000000 02000000 6100 02 000000 ff000000")));
+            }).find("items: [1]: s: input truncated"),
             std::string::npos);
   const Codec fixed = ln.codec("t/fixed");
   EXPECT_NE(error_of([&] { fixed.ln_to_cdr(bytes_of(hex("0102"))); }).find("expected 8"), std::string::npos);
   std::vector<std::uint8_t> small(10);
   const auto flat = hex("0000000000000000");
-  EXPECT_NE(error_of([&] { fixed.ln_to_cdr(bytes_of(flat), {small.data(), small.size()}); }).find("output buffer too small"),
+  EXPECT_NE(error_of([&] {
+              fixed.ln_to_cdr(bytes_of(flat), {small.data(), small.size()});
+            }).find("output buffer too small"),
             std::string::npos);
 }
 

@@ -47,14 +47,18 @@ void random_element(const PairedField& f, Rng& rng, std::vector<std::uint8_t>& o
       if (f.string_capacity) out.insert(out.end(), f.string_capacity - n, 0);
       return;
     }
-    case ElementKind::Struct: random_ln(*f.struct_type, rng, out, depth + 1); return;
+    case ElementKind::Struct:
+      random_ln(*f.struct_type, rng, out, depth + 1);
+      return;
   }
 }
 
 void random_ln(const PairedType& type, Rng& rng, std::vector<std::uint8_t>& out, int depth) {
   for (const PairedField& f : type.fields) {
     switch (f.shape) {
-      case Shape::Single: random_element(f, rng, out, depth); break;
+      case Shape::Single:
+        random_element(f, rng, out, depth);
+        break;
       case Shape::FixedArray:
         for (std::uint32_t i = 0; i < f.count; ++i) random_element(f, rng, out, depth);
         break;
@@ -85,7 +89,8 @@ void random_ln(const PairedType& type, Rng& rng, std::vector<std::uint8_t>& out,
 std::vector<std::uint8_t> mutate(std::vector<std::uint8_t> data, Rng& rng) {
   switch (rng() % 6) {
     case 0:  // flip bytes
-      for (int k = 0; k < 3 && !data.empty(); ++k) data[rng() % data.size()] ^= static_cast<std::uint8_t>(1 + rng() % 255);
+      for (int k = 0; k < 3 && !data.empty(); ++k)
+        data[rng() % data.size()] ^= static_cast<std::uint8_t>(1 + rng() % 255);
       break;
     case 1:  // truncate
       data.resize(data.empty() ? 0 : rng() % data.size());

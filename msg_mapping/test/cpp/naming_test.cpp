@@ -30,7 +30,9 @@ TEST(Naming, PackageAndTypeFromLnName) {
   EXPECT_EQ(n.package, "ln_3d_ln_msgs");
   EXPECT_EQ(n.type, "Ln9lives");
   n = ros_type_name_for("x/none", options);
-  EXPECT_EQ(n.type, "None" "Msg");  // Python keyword
+  EXPECT_EQ(n.type,
+            "None"
+            "Msg");  // Python keyword
   NamingOptions single;
   single.single_package = "robot_interfaces";
   n = ros_type_name_for("ln/string", single);

@@ -36,7 +36,8 @@ TEST(RosModel, ParsesFieldsConstantsDefaultsAndComments) {
   // emit -> parse gives the same model
   const RosMessage again = parse_msg("pkg", "Thing", emit_msg(m));
   ASSERT_EQ(again.fields.size(), m.fields.size());
-  for (std::size_t i = 0; i < m.fields.size(); ++i) EXPECT_EQ(again.fields[i].type.spelling(), m.fields[i].type.spelling());
+  for (std::size_t i = 0; i < m.fields.size(); ++i)
+    EXPECT_EQ(again.fields[i].type.spelling(), m.fields[i].type.spelling());
 }
 
 TEST(RosModel, ParsesServices) {

@@ -37,7 +37,8 @@ std::string to_hex(const uint8_t* data, unsigned int length) {
 
 std::string from_hex(const std::string& hex) {
   std::string bytes;
-  for (std::size_t i = 0; i + 1 < hex.size(); i += 2) bytes += static_cast<char>(std::stoi(hex.substr(i, 2), nullptr, 16));
+  for (std::size_t i = 0; i + 1 < hex.size(); i += 2)
+    bytes += static_cast<char>(std::stoi(hex.substr(i, 2), nullptr, 16));
   return bytes;
 }
 
@@ -102,10 +103,9 @@ int main(int argc, char** argv) {
                 error_name(ln_dsa_dss1_sign_message((dir + "/none.pem").c_str(), bytes(message), message.size(),
                                                     &signature, &length))
                     .c_str());
-    std::printf("sign_with_public_key %s\n",
-                error_name(ln_dsa_dss1_sign_message(pub.c_str(), bytes(message), message.size(), &signature,
-                                                    &length))
-                    .c_str());
+    std::printf(
+        "sign_with_public_key %s\n",
+        error_name(ln_dsa_dss1_sign_message(pub.c_str(), bytes(message), message.size(), &signature, &length)).c_str());
     ln_dsa_dss1_sign_message(pem.c_str(), bytes(message), message.size(), &signature, &length);
     const std::string good(reinterpret_cast<const char*>(signature), length);
     std::free(signature);
@@ -114,8 +114,10 @@ int main(int argc, char** argv) {
     std::string flipped = good;
     flipped[8] = static_cast<char>(flipped[8] ^ 0x40);
     std::printf("verify_flipped_bit %s\n", error_name(verify_file(pub, message, flipped)).c_str());
-    std::printf("memkey_rsa %s\n", error_name(verify_text("ssh-rsa AAAAB3NzaC1yc2EAAAADAQABAAAAgQC", message, good)).c_str());
-    std::printf("memkey_with_comment %s\n", error_name(verify_text(read_text(pub) + " me@host", message, good)).c_str());
+    std::printf("memkey_rsa %s\n",
+                error_name(verify_text("ssh-rsa AAAAB3NzaC1yc2EAAAADAQABAAAAgQC", message, good)).c_str());
+    std::printf("memkey_with_comment %s\n",
+                error_name(verify_text(read_text(pub) + " me@host", message, good)).c_str());
     try {
       ln::dsa_dss1_sign_message(dir + "/none.pem", message);
       std::printf("cxx_sign_missing_file returns\n");

@@ -88,8 +88,7 @@ void on_custom(ln_client, ln_event_call call, void*) {
 // Another client emits PREFIX_custom to the watcher: it calls the handler
 // service with {data, signature}.
 void emit_custom(ln::client& clnt, ln::client& emitter, const std::string& prefix, const std::string& data) {
-  ln::service* handler = emitter.get_service(prefix + "_custom." + clnt.name, "ln/event/call",
-                                             ln_event_call_signature);
+  ln::service* handler = emitter.get_service(prefix + "_custom." + clnt.name, "ln/event/call", ln_event_call_signature);
   ln_event_call_t call;
   std::memset(&call, 0, sizeof call);
   call.req.data = reinterpret_cast<uint8_t*>(const_cast<char*>(data.data()));
@@ -170,8 +169,8 @@ int main(int argc, char** argv) {
                                             &nothing, on_custom, nullptr))
                     .c_str());
     std::printf("connected_twice %s\n",
-                error_name(ln_event_connect(clnt.clnt, &bad, "ln.resource_event",
-                                            ln_resource_event_connect_signature, &nothing, on_custom, nullptr))
+                error_name(ln_event_connect(clnt.clnt, &bad, "ln.resource_event", ln_resource_event_connect_signature,
+                                            &nothing, on_custom, nullptr))
                     .c_str());
   } catch (const ln::exception& e) {
     std::printf("error %s\n", error_name(e.error).c_str());

@@ -30,8 +30,8 @@
 #include <string>
 #include <vector>
 
-#include "lnbt_errors.h"
 #include "ln_messages.h"
+#include "lnbt_errors.h"
 
 namespace {
 
@@ -73,12 +73,12 @@ std::vector<uint32_t> print_data(ln_logger_data data, double first_ts = 0, doubl
     logger_topic* topic = nullptr;
     if (ln_logger_data_get_topic(data, t, &topic) != 0) continue;
     std::printf("topic %s log_size %llu divisor %u n_samples %u sample_size %u md_name %s\n", topic->name,
-                static_cast<unsigned long long>(topic->log_size), topic->divisor, topic->n_samples,
-                topic->sample_size, topic->md_name);
+                static_cast<unsigned long long>(topic->log_size), topic->divisor, topic->n_samples, topic->sample_size,
+                topic->md_name);
     std::printf("md %s\n", topic->md);
     for (uint32_t i = 0; i < topic->n_samples; ++i) {
-      const auto* sample =
-          reinterpret_cast<const logger_sample*>(reinterpret_cast<const uint8_t*>(topic->samples) + i * topic->sample_size);
+      const auto* sample = reinterpret_cast<const logger_sample*>(reinterpret_cast<const uint8_t*>(topic->samples) +
+                                                                  i * topic->sample_size);
       uint32_t counter = 0;
       if (topic->sample_size >= 24) std::memcpy(&counter, &sample->data, 4);
       std::printf("sample counter %u packet_counter %u\n", counter, sample->packet_counter);
@@ -305,12 +305,18 @@ int main(int argc, char** argv) {
   }
   auto arg = [&](std::size_t i) { return i < args.size() ? args[i] : std::string(); };
   const std::string scenario = arg(1);
-  if (scenario == "record") record(clnt, arg(2), arg(3));
-  else if (scenario == "later") later(clnt, arg(2));
-  else if (scenario == "until_eof") until_eof(clnt, arg(2));
-  else if (scenario == "save") save(clnt, arg(2), arg(3));
-  else if (scenario == "differ") differ(clnt, arg(2));
-  else if (scenario == "errors") errors(clnt, arg(2), arg(3));
+  if (scenario == "record")
+    record(clnt, arg(2), arg(3));
+  else if (scenario == "later")
+    later(clnt, arg(2));
+  else if (scenario == "until_eof")
+    until_eof(clnt, arg(2));
+  else if (scenario == "save")
+    save(clnt, arg(2), arg(3));
+  else if (scenario == "differ")
+    differ(clnt, arg(2));
+  else if (scenario == "errors")
+    errors(clnt, arg(2), arg(3));
   else if (scenario == "load") {
     ln_logger_data data = nullptr;
     if (report("load", ln_logger_data_load(&data, arg(2).c_str())) == 0) {

@@ -65,10 +65,8 @@ int provide(const std::string& group) {
       port_description<float[3]>("vec", "", &vec, &vec_o),
       port_description<double[2][3]>("mat", "a matrix", &mat, &mat_o),
       port_description<bool>("flag", "it's \"quoted\"", &flag, &flag_o),
-      port_description<uint8_t>("u8", "", &u8, &u8_o),
-      port_description<uint64_t>("big", "", &big, &big_o),
-      port_description<int64_t>("neg", "", &neg, &neg_o),
-      port_description<double[1][3]>("row", "", &row, &row_o),
+      port_description<uint8_t>("u8", "", &u8, &u8_o), port_description<uint64_t>("big", "", &big, &big_o),
+      port_description<int64_t>("neg", "", &neg, &neg_o), port_description<double[1][3]>("row", "", &row, &row_o),
       port_description<int16_t[3][1]>("col", "", &col, &col_o),
       port_description<int32_t>(
           "limit", "below 10", &limit, &limit_o, [](int32_t& v) { return v < 10; },
@@ -86,11 +84,11 @@ int provide(const std::string& group) {
     pollfd in{0, POLLIN, 0};
     if (poll(&in, 1, 1) > 0) break;  // stdin closed: done
   }
-  std::printf("out gain=%.17g count=%d vec=%g,%g,%g mat=%g,%g,%g,%g,%g,%g flag=%d u8=%d big=%" PRIu64
-              " neg=%" PRId64 " row=%g,%g,%g col=%d,%d,%d limit=%d deep=%g\n",
+  std::printf("out gain=%.17g count=%d vec=%g,%g,%g mat=%g,%g,%g,%g,%g,%g flag=%d u8=%d big=%" PRIu64 " neg=%" PRId64
+              " row=%g,%g,%g col=%d,%d,%d limit=%d deep=%g\n",
               gain_o, count_o, vec_o[0], vec_o[1], vec_o[2], mat_o[0][0], mat_o[0][1], mat_o[0][2], mat_o[1][0],
-              mat_o[1][1], mat_o[1][2], flag_o, u8_o, big_o, neg_o, row_o[0][0], row_o[0][1], row_o[0][2],
-              col_o[0][0], col_o[1][0], col_o[2][0], limit_o, deep_o);
+              mat_o[1][1], mat_o[1][2], flag_o, u8_o, big_o, neg_o, row_o[0][0], row_o[0][1], row_o[0][2], col_o[0][0],
+              col_o[1][0], col_o[2][0], limit_o, deep_o);
   return 0;
 }
 
@@ -124,8 +122,8 @@ int client(const std::string& group) {
   d.req.pattern_len = static_cast<uint32_t>(pattern.size());
   dict->call(&d);
   std::printf("query_dict %s", std::string(d.resp.data, d.resp.data_len).c_str());
-  ln::service* query = clnt.get_service("ln.parameters.query.lnbt_param_provider", "ln/parameters/query",
-                                        LN_PARAMETERS_QUERY_SIGNATURE);
+  ln::service* query =
+      clnt.get_service("ln.parameters.query.lnbt_param_provider", "ln/parameters/query", LN_PARAMETERS_QUERY_SIGNATURE);
   ln_parameters_query_t q{};
   q.req.pattern = &pattern[0];
   q.req.pattern_len = static_cast<uint32_t>(pattern.size());
@@ -178,9 +176,8 @@ int client(const std::string& group) {
     return std::to_string(v.input_integer[0]) + " " + std::to_string(static_cast<int>(v.scalar_kind));
   });
   step("strict gain as int", [&] { return std::to_string(clnt.get_parameters(group, true).get_input<int>("gain")); });
-  step("strict count as int64", [&] {
-    return std::to_string(clnt.get_parameters(group, true).get_input<int64_t>("count"));
-  });
+  step("strict count as int64",
+       [&] { return std::to_string(clnt.get_parameters(group, true).get_input<int64_t>("count")); });
   step("unknown", [&] { return join({p.get_input<double>("nothere")}); });
   step("unknown group", [&] { return join({clnt.get_parameters("nogroup").get_input<double>("x")}); });
 
@@ -189,16 +186,34 @@ int client(const std::string& group) {
     return join({p.get_input<double>("gain"), p.get_output<double>("gain")}) + " " +
            std::to_string(p.get_internal_value("gain").override_enabled);
   });
-  step("set count from double", [&] { p.set_override("count", 3.9); return std::to_string(p.get_output<int>("count")); });
-  step("set u8 too big", [&] { p.set_override("u8", 300); return std::string("set"); });
-  step("set u8 negative", [&] { p.set_override("u8", -1); return std::string("set"); });
-  step("set neg", [&] { p.set_override("neg", int64_t(-5)); return std::to_string(p.get_output<int64_t>("neg")); });
-  step("set flag", [&] { p.set_override("flag", false); return std::to_string(p.get_output<bool>("flag")); });
+  step("set count from double", [&] {
+    p.set_override("count", 3.9);
+    return std::to_string(p.get_output<int>("count"));
+  });
+  step("set u8 too big", [&] {
+    p.set_override("u8", 300);
+    return std::string("set");
+  });
+  step("set u8 negative", [&] {
+    p.set_override("u8", -1);
+    return std::string("set");
+  });
+  step("set neg", [&] {
+    p.set_override("neg", int64_t(-5));
+    return std::to_string(p.get_output<int64_t>("neg"));
+  });
+  step("set flag", [&] {
+    p.set_override("flag", false);
+    return std::to_string(p.get_output<bool>("flag"));
+  });
   step("set vec", [&] {
     p.set_override("vec", std::vector<double>{0.5, 1.5, 2.5});
     return join(p.get_output<std::vector<double>>("vec"));
   });
-  step("set vec wrong size", [&] { p.set_override("vec", std::vector<double>{1, 2}); return std::string("set"); });
+  step("set vec wrong size", [&] {
+    p.set_override("vec", std::vector<double>{1, 2});
+    return std::string("set");
+  });
   step("set mat", [&] {
     double m[2][3] = {{9, 8, 7}, {6, 5, 4}};
     p.set_override("mat", m);
@@ -212,11 +227,23 @@ int client(const std::string& group) {
     p.set_override("col", std::vector<std::vector<int>>{{-1}, {-2}, {-3}});
     return std::to_string(p.get_output<std::vector<std::vector<int>>>("col")[2][0]);
   });
-  step("set limit", [&] { p.set_override("limit", 7); return std::to_string(p.get_output<int>("limit")); });
-  step("set limit refused", [&] { p.set_override("limit", 12); return std::string("set"); });
+  step("set limit", [&] {
+    p.set_override("limit", 7);
+    return std::to_string(p.get_output<int>("limit"));
+  });
+  step("set limit refused", [&] {
+    p.set_override("limit", 12);
+    return std::string("set");
+  });
   step("limit after refusal", [&] { return std::to_string(p.get_output<int>("limit")); });
-  step("strict set gain int", [&] { clnt.get_parameters(group, true).set_override("gain", 3); return std::string("set"); });
-  step("set unknown", [&] { p.set_override("nothere", 1.0); return std::string("set"); });
+  step("strict set gain int", [&] {
+    clnt.get_parameters(group, true).set_override("gain", 3);
+    return std::string("set");
+  });
+  step("set unknown", [&] {
+    p.set_override("nothere", 1.0);
+    return std::string("set");
+  });
   step("sub proxy", [&] {
     auto sub = p.get_parameters("sub");
     sub.set_override("deep", 0.75);
@@ -245,8 +272,8 @@ int client(const std::string& group) {
   });
   step("from data matrix stride", [&] {
     int16_t v[8] = {1, 2, 3, 99, 4, 5, 6, 99};
-    p.set_override_from_data_matrix("mat", ln::parameters::LN_INT16, 2, 3, v,
-                                    ln::parameters::MatrixLayout::row_major, 8);
+    p.set_override_from_data_matrix("mat", ln::parameters::LN_INT16, 2, 3, v, ln::parameters::MatrixLayout::row_major,
+                                    8);
     return rows(p.get_output<std::vector<std::vector<double>>>("mat"));
   });
   step("into data matrix column-major", [&] {

@@ -10,9 +10,8 @@ import sys
 import threading
 import time
 
-import numpy as np
-
 import links_and_nodes as ln
+import numpy as np
 
 
 def show(value):
@@ -59,8 +58,13 @@ def main():
     block.add("flag", True)
     block.add("f32", 0.1, dtype="float32")
     block.add("u8", [0, 255], dtype="uint8")
-    block.add("limit", 5, dtype="int32", before_update=lambda v: v < 10,
-              after_update=lambda v: (seen.append(v), after_threads.append(threading.current_thread())))
+    block.add(
+        "limit",
+        5,
+        dtype="int32",
+        before_update=lambda v: v < 10,
+        after_update=lambda v: (seen.append(v), after_threads.append(threading.current_thread())),
+    )
     block.add("noout", 2.0, output=False)
     block.add("sub.deep", 0.25)
     print("signals: %s" % ", ".join("%s %s %s" % (block[k].name, block[k].dtype, block[k].shape) for k in block))
@@ -106,19 +110,30 @@ def main():
         step("set unknown", lambda: params.set_override("nothere", 1), proxy_error=True)
         step("set u8 300", lambda: params.set_override("u8", [1, 300], wait_step=True), proxy_error=True)
         step("u8 after", lambda: show(params.get_output("u8")), proxy_error=True)
-        step("reset gain", lambda: (params.set_override("gain", None), params.set_override("n", 1, wait_step=True),
-                                    show(params.get_output("gain")))[2], proxy_error=True)
+        step(
+            "reset gain",
+            lambda: (
+                params.set_override("gain", None),
+                params.set_override("n", 1, wait_step=True),
+                show(params.get_output("gain")),
+            )[2],
+            proxy_error=True,
+        )
     finally:
         loop.end()
     for name in ("gain", "vec", "mat", "flag", "n", "f32", "limit", "noout", "sub.deep"):
         step("output " + name, lambda name=name: show(block[name].output))
     step("after_update", lambda: (seen, [t is loop.thread for t in after_threads]))
-    step("dict after", lambda: sorted((k, show(v)) for k, v in params.get_dict().items() if k not in ("sub", "u8")),
-         proxy_error=True)
+    step(
+        "dict after",
+        lambda: sorted((k, show(v)) for k, v in params.get_dict().items() if k not in ("sub", "u8")),
+        proxy_error=True,
+    )
 
     step("missing group", lambda: caller.get_parameters("nothing_" + group), proxy_error=True)
-    step("allow empty", lambda: caller.get_parameters("nothing_" + group, allow_empty=True).get_dict(),
-         proxy_error=True)
+    step(
+        "allow empty", lambda: caller.get_parameters("nothing_" + group, allow_empty=True).get_dict(), proxy_error=True
+    )
     step("exact name", lambda: caller.get_parameters(group + ".gain").get_dict(), proxy_error=True)
     step("root has group", lambda: group in caller.get_parameters("").get_dict(), proxy_error=True)
 

@@ -33,10 +33,14 @@ int main(int argc, char** argv) {
     unsigned buffers = 1;
     for (std::size_t i = 4; i + 1 < args.size(); i += 2) {
       const double value = std::strtod(args[i + 1].c_str(), nullptr);
-      if (args[i] == "--wait-subscriber") wait_subscriber = value;
-      else if (args[i] == "--settle") settle = value;
-      else if (args[i] == "--buffers") buffers = static_cast<unsigned>(value);
-      else if (args[i] == "--linger") linger = value;
+      if (args[i] == "--wait-subscriber")
+        wait_subscriber = value;
+      else if (args[i] == "--settle")
+        settle = value;
+      else if (args[i] == "--buffers")
+        buffers = static_cast<unsigned>(value);
+      else if (args[i] == "--linger")
+        linger = value;
       else {
         std::fprintf(stderr, "lnbt_publisher: unknown option %s\n", args[i].c_str());
         return 2;

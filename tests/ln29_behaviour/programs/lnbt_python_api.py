@@ -24,8 +24,12 @@ def kind(value):
 
 def failure(error):
     import builtins
-    classes = [c.__name__ for c in type(error).__mro__
-               if getattr(builtins, c.__name__, None) is c and c not in (BaseException, object)]
+
+    classes = [
+        c.__name__
+        for c in type(error).__mro__
+        if getattr(builtins, c.__name__, None) is c and c not in (BaseException, object)
+    ]
     code = re.search(r"LNE_[A-Z_]+", str(error))
     return "raises %s %s" % (classes[0] if classes else type(error).__name__, code.group(0) if code else "-")
 
@@ -53,15 +57,21 @@ def main():
     probe("remaining args", lambda: list(clnt.get_remaining_args()))
     address = os.environ["LN_MANAGER"]
     for option in ("--ln-manager", "-ln_manager"):
-        probe("arguments with " + option, lambda: (lambda c: (c.name, list(c.get_remaining_args())))(ln.client(
-            "lnbt_api_args", ["prog", option, address, "--keep", "-x"])))
-    probe("arguments with the program name", lambda: ln.client(
-        "lnbt_api_args", ["prog", "--ln-program-name", "renamed_by_argument", "rest"]).name)
+        probe(
+            "arguments with " + option,
+            lambda: (lambda c: (c.name, list(c.get_remaining_args())))(
+                ln.client("lnbt_api_args", ["prog", option, address, "--keep", "-x"])
+            ),
+        )
+    probe(
+        "arguments with the program name",
+        lambda: ln.client("lnbt_api_args", ["prog", "--ln-program-name", "renamed_by_argument", "rest"]).name,
+    )
     probe("library version", lambda: ln.LN_LIBRARY_VERSION)
     probe("rates", lambda: (ln.RATE_AS_PUBLISHED, ln.RATE_ON_REQUEST_LAST))
 
     definition, size, md_hash, _flat = clnt.get_message_definition("lnbt/counter")
-    probe("definition", lambda: (eval(definition)["fields"], size, len(md_hash)))  # noqa: S307
+    probe("definition", lambda: (eval(definition)["fields"], size, len(md_hash)))
     probe("unknown definition", lambda: clnt.get_message_definition("lnbt/no_such_definition"))
 
     pub = clnt.publish("lnbt.api.topic", "lnbt/counter")
@@ -101,8 +111,13 @@ def main():
     provider.set_handler(handler)
     provider.do_register("lnbt_api")
     stop = []
-    thread = threading.Thread(target=lambda: [provider_client.wait_and_handle_service_group_requests(
-        "lnbt_api", 0.05) for _ in iter(lambda: bool(stop), True)], daemon=True)
+    thread = threading.Thread(
+        target=lambda: [
+            provider_client.wait_and_handle_service_group_requests("lnbt_api", 0.05)
+            for _ in iter(lambda: bool(stop), True)
+        ],
+        daemon=True,
+    )
     thread.start()
     try:
         svc = clnt.get_service("lnbt.api.echo", "lnbt/echo")
@@ -117,8 +132,9 @@ def main():
         probe("services with interface", lambda: sorted(clnt.find_services_with_interface("lnbt/echo")))
         probe("unknown service", lambda: clnt.get_service("lnbt.api.nobody", "lnbt/echo").call(text="x", fail=0))
         probe("unknown service without interface", lambda: clnt.get_service("lnbt.api.nobody"))
-        probe("async call", lambda: (svc.call_async(text="async", fail=0) is svc,
-                                     wait_for(svc.finished), svc.resp.text))
+        probe(
+            "async call", lambda: (svc.call_async(text="async", fail=0) is svc, wait_for(svc.finished), svc.resp.text)
+        )
     finally:
         stop.append(True)
         thread.join(5)

@@ -45,10 +45,19 @@ struct Logger : ln::log_service_base {
   Logger(ln::client& clnt, const std::string& name) { register_log_service(&clnt, name); }
   int on_log_service(ln::service_request& req, ln::log_service_t& d) override {
     const auto& r = d.req;
-    Item item{str(r.client_name, r.client_name_len), str(r.service_name, r.service_name_len),
-              str(r.service_interface, r.service_interface_len), str(r.peer_address, r.peer_address_len),
-              std::string(reinterpret_cast<const char*>(r.data), r.data_len), r.item_type, r.flags,
-              r.completion_time, r.transfer_time, r.request_time, r.client_id, r.request_id, r.thread_id};
+    Item item{str(r.client_name, r.client_name_len),
+              str(r.service_name, r.service_name_len),
+              str(r.service_interface, r.service_interface_len),
+              str(r.peer_address, r.peer_address_len),
+              std::string(reinterpret_cast<const char*>(r.data), r.data_len),
+              r.item_type,
+              r.flags,
+              r.completion_time,
+              r.transfer_time,
+              r.request_time,
+              r.client_id,
+              r.request_id,
+              r.thread_id};
     {
       std::lock_guard<std::mutex> lock(items_mutex);
       items.push_back(item);
@@ -120,9 +129,9 @@ int main(int argc, char** argv) {
       while (!stop) provider_client.wait_and_handle_service_group_requests(nullptr, 0.05);
     });
 
-    std::printf("not_own_service %s\n",
-                error_name(ln_register_as_service_logger(logger_client.clnt, (prefix + "x.foreign").c_str(), "*"))
-                    .c_str());
+    std::printf(
+        "not_own_service %s\n",
+        error_name(ln_register_as_service_logger(logger_client.clnt, (prefix + "x.foreign").c_str(), "*")).c_str());
     std::printf("unknown_service %s\n",
                 error_name(ln_register_as_service_logger(logger_client.clnt, (prefix + ".none").c_str(), "*")).c_str());
     logger_client.register_as_service_logger(prefix + ".log", prefix + ".*,!" + prefix + ".secret");
@@ -138,8 +147,8 @@ int main(int argc, char** argv) {
       std::string service, text;
       int fail;
     };
-    const std::vector<Call> calls = {{".echo", "one", 0}, {".echo", "two", 7}, {".secret", "hidden", 0},
-                                     {".late", "three", 0}};
+    const std::vector<Call> calls = {
+        {".echo", "one", 0}, {".echo", "two", 7}, {".secret", "hidden", 0}, {".late", "three", 0}};
     std::map<std::string, ln::service*> handles;
     for (const Call& c : calls) {
       ln::service*& handle = handles[c.service];
@@ -180,7 +189,8 @@ int main(int argc, char** argv) {
       if (request.type != 0) continue;
       const Item* response = nullptr;
       for (const Item& candidate : items)
-        if (candidate.type == 1 && candidate.client_id == request.client_id && candidate.request_id == request.request_id)
+        if (candidate.type == 1 && candidate.client_id == request.client_id &&
+            candidate.request_id == request.request_id)
           response = &candidate;
       std::string line = "request from " + request.client + " service " + request.service + " iface " +
                          request.interface + " flags " + std::to_string(request.flags) + " in_time " +
@@ -193,11 +203,10 @@ int main(int argc, char** argv) {
       } else {
         line += " | response from " + response->client + " service " + response->service + " iface " +
                 response->interface + " flags " + std::to_string(response->flags) + " in_time " +
-                (response->completion >= started && response->completion <= ended ? "yes" : "no") +
-                " request_time " +
+                (response->completion >= started && response->completion <= ended ? "yes" : "no") + " request_time " +
                 (response->request_time >= started && response->request_time <= response->completion ? "ok" : "bad") +
-                " same_peer " + (response->peer == request.peer && !request.peer.empty() ? "yes" : "no") +
-                " data " + hex(response->data);
+                " same_peer " + (response->peer == request.peer && !request.peer.empty() ? "yes" : "no") + " data " +
+                hex(response->data);
       }
       lines.emplace_back(request.data.substr(std::min<std::size_t>(14, request.data.size())), line);
     }

@@ -29,8 +29,8 @@
 #include <string>
 #include <vector>
 
-#include "lnbt_errors.h"
 #include "ln_messages.h"
+#include "lnbt_errors.h"
 
 namespace {
 
@@ -76,8 +76,9 @@ void introspect(ln::client& clnt, const std::string& interface, const std::vecto
   char* signature = nullptr;
   int ret = ln_get_service_signature(clnt.clnt, interface.c_str(), &definition, &signature);
   std::printf("signature %s %s\n", interface.c_str(),
-              ret != 0 ? error_name(ret).c_str()
-                       : (std::strcmp(signature, lnbt_echo_signature) == 0 && definition[0] != '\0' ? "ok" : "differs"));
+              ret != 0
+                  ? error_name(ret).c_str()
+                  : (std::strcmp(signature, lnbt_echo_signature) == 0 && definition[0] != '\0' ? "ok" : "differs"));
   if (ret == 0) {
     std::free(definition);
     std::free(signature);

@@ -20,8 +20,8 @@
 //   writer_create NAME VERSION COUNT
 //                              creates the segment as a target, "ready",
 //                              waits for a line on stdin, then writes as writer
-#include <ln/ln.h>
 #include <fcntl.h>
+#include <ln/ln.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -46,17 +46,19 @@ constexpr unsigned kElementSize = 64;
 // for a timeout).
 std::string result(int ret, int error) {
   std::string text = ret < -2 ? error_name(ret) : std::to_string(ret);
-  if (error != 0 && (ret == -1 || ret == 0)) text += std::string(" errno ") + (error == ETIMEDOUT ? "ETIMEDOUT" : error == ENOENT ? "ENOENT"
-                                                   : error == EINVAL    ? "EINVAL"
-                                                                        : std::to_string(error));
+  if (error != 0 && (ret == -1 || ret == 0))
+    text += std::string(" errno ") + (error == ETIMEDOUT ? "ETIMEDOUT"
+                                      : error == ENOENT  ? "ENOENT"
+                                      : error == EINVAL  ? "EINVAL"
+                                                         : std::to_string(error));
   return text;
 }
 
-#define STEP(label, call)                               \
-  do {                                                  \
-    errno = 0;                                          \
-    const int ret_ = (call);                            \
-    const int errno_ = errno;                           \
+#define STEP(label, call)                                          \
+  do {                                                             \
+    errno = 0;                                                     \
+    const int ret_ = (call);                                       \
+    const int errno_ = errno;                                      \
     std::printf("%s ret %s", label, result(ret_, errno_).c_str()); \
   } while (0)
 

@@ -41,15 +41,24 @@ int main(int argc, char** argv) {
     for (std::size_t i = 2; i + 1 < args.size(); i += 2) {
       const std::string& option = args[i];
       const double value = std::strtod(args[i + 1].c_str(), nullptr);
-      if (option == "--rate") rate = value;
-      else if (option == "--buffers") buffers = static_cast<unsigned>(value);
-      else if (option == "--count") count = static_cast<unsigned long>(value);
-      else if (option == "--duration") duration = value;
-      else if (option == "--first-timeout") first_timeout = value;
-      else if (option == "--sleep") sleep_per_read = value;
-      else if (option == "--stall-after") stall_after = static_cast<unsigned long>(value);
-      else if (option == "--stall") stall = value;
-      else if (option == "--watch-publisher") watch = value;
+      if (option == "--rate")
+        rate = value;
+      else if (option == "--buffers")
+        buffers = static_cast<unsigned>(value);
+      else if (option == "--count")
+        count = static_cast<unsigned long>(value);
+      else if (option == "--duration")
+        duration = value;
+      else if (option == "--first-timeout")
+        first_timeout = value;
+      else if (option == "--sleep")
+        sleep_per_read = value;
+      else if (option == "--stall-after")
+        stall_after = static_cast<unsigned long>(value);
+      else if (option == "--stall")
+        stall = value;
+      else if (option == "--watch-publisher")
+        watch = value;
       else {
         std::fprintf(stderr, "lnbt_subscriber: unknown option %s\n", option.c_str());
         return 2;

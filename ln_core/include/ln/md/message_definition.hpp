@@ -48,9 +48,7 @@ class Error : public std::runtime_error {
   std::string message_;
 };
 
-enum class Primitive : std::uint8_t {
-  Float, Double, Char, Int8, UInt8, Int16, UInt16, Int32, UInt32, Int64, UInt64
-};
+enum class Primitive : std::uint8_t { Float, Double, Char, Int8, UInt8, Int16, UInt16, Int32, UInt32, Int64, UInt64 };
 
 /// Canonical C spelling (`int32_t` for the alias `int`), as generated code
 /// and signatures use it.
@@ -100,8 +98,8 @@ struct Define {
 
 class Definition {
  public:
-  std::string name;   ///< e.g. "elevator/request/elevator_call"
-  std::string path;   ///< the file it was read from ("<text>" for put text)
+  std::string name;  ///< e.g. "elevator/request/elevator_call"
+  std::string path;  ///< the file it was read from ("<text>" for put text)
   Kind kind = Kind::Plain;
   std::vector<Define> defines;
   /// Indices into `defines` in the order the text lists them, a repeated
@@ -139,8 +137,7 @@ struct StructLayout {
   std::size_t size = 0;
   std::vector<std::size_t> offsets;  ///< one per field, in field order
 };
-StructLayout struct_layout(const std::vector<Field>& fields,
-                           std::size_t pointer_size = sizeof(void*));
+StructLayout struct_layout(const std::vector<Field>& fields, std::size_t pointer_size = sizeof(void*));
 
 /// Where `member` ("pose.position[2]") lies inside a packet of `definition`:
 /// byte offset and size of the addressed element (LN's

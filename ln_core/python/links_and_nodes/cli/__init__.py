@@ -28,8 +28,22 @@ import sys
 from .common import CliError, Session, describe_error
 
 #: The first arguments that belong to this `ln`; anything else is the system's ln.
-GROUPS = ("topic", "service", "param", "md", "client", "manager", "process", "state", "group", "ros",
-          "completion", "record", "play", "bag")
+GROUPS = (
+    "topic",
+    "service",
+    "param",
+    "md",
+    "client",
+    "manager",
+    "process",
+    "state",
+    "group",
+    "ros",
+    "completion",
+    "record",
+    "play",
+    "bag",
+)
 OWN_FIRST_ARGUMENTS = GROUPS + ("__complete", "-h", "--help", "--json", "--ln-manager", "--color")
 SYSTEM_LN = ("/bin/ln", "/usr/bin/ln")
 
@@ -45,24 +59,33 @@ class ArgumentParser(argparse.ArgumentParser):
 def common_options():
     """Options every command accepts, before or after the subcommand."""
     common = ArgumentParser(add_help=False)
-    common.add_argument("--json", action="store_true", default=argparse.SUPPRESS,
-                        help="machine-readable JSON output")
-    common.add_argument("--ln-manager", metavar="HOST:PORT", default=argparse.SUPPRESS,
-                        help="the ln_manager to talk to (default: $LN_MANAGER)")
-    common.add_argument("--color", choices=("auto", "always", "never"), default=argparse.SUPPRESS,
-                        help="colour the output (default: auto, i.e. on a terminal unless NO_COLOR is set)")
+    common.add_argument("--json", action="store_true", default=argparse.SUPPRESS, help="machine-readable JSON output")
+    common.add_argument(
+        "--ln-manager",
+        metavar="HOST:PORT",
+        default=argparse.SUPPRESS,
+        help="the ln_manager to talk to (default: $LN_MANAGER)",
+    )
+    common.add_argument(
+        "--color",
+        choices=("auto", "always", "never"),
+        default=argparse.SUPPRESS,
+        help="colour the output (default: auto, i.e. on a terminal unless NO_COLOR is set)",
+    )
     return common
 
 
 def build_parser():
     from . import bag, clients, completion, manager, md, param, processes, ros, service, topic
+
     common = common_options()
     parser = ArgumentParser(
-        prog="ln", parents=[common],
+        prog="ln",
+        parents=[common],
         description="Links and Nodes on the command line: inspect and use the topics, services, message "
-                    "definitions, clients and processes of a running ln_manager.",
-        epilog="Anything else (e.g. 'ln -s TARGET LINK') runs the system's ln. "
-               "Each command has --help.")
+        "definitions, clients and processes of a running ln_manager.",
+        epilog="Anything else (e.g. 'ln -s TARGET LINK') runs the system's ln. Each command has --help.",
+    )
     groups = parser.add_subparsers(dest="group", metavar="COMMAND")
     for module in (topic, service, param, md, clients, manager, processes, ros, bag, completion):
         module.register(groups, common)
@@ -86,11 +109,12 @@ def run_system_ln(argv):
 def parse(parser, argv):
     """parser.parse_args(), except that everything after 'md generate' goes to ln_generate as it is."""
     from .md import GENERATE_COMMAND
+
     for i in range(len(argv) - 1):
         if argv[i] in GROUPS:
-            if tuple(argv[i:i + 2]) == GENERATE_COMMAND:
-                args = parser.parse_args(argv[:i + 2])
-                args.arguments = argv[i + 2:]
+            if tuple(argv[i : i + 2]) == GENERATE_COMMAND:
+                args = parser.parse_args(argv[: i + 2])
+                args.arguments = argv[i + 2 :]
                 return args
             break
     args, extras = parser.parse_known_args(argv)
@@ -131,26 +155,28 @@ def main(argv=None):
         except (OSError, ValueError):
             pass
         return 0
-    except Exception as error:  # noqa: BLE001 - the user gets one line, not a traceback
+    except Exception as error:
         if os.environ.get("LN_CLI_DEBUG"):
             raise
         from .. import LNError
+
         if isinstance(error, LNError):
             return _fail(describe_error(error))
         return _fail("%s: %s (LN_CLI_DEBUG=1 shows the traceback)" % (type(error).__name__, describe_error(error)))
     finally:
         try:
             session.close()
-        except Exception:  # noqa: BLE001 - closing must not hide the real outcome
+        except Exception:
             pass
 
 
 def _fail(message, status=1):
     from .output import colour_wanted
+
     prefix = "\033[31mln: error:\033[0m" if colour_wanted("auto", sys.stderr) else "ln: error:"
     try:
         sys.stdout.flush()
-    except Exception:  # noqa: BLE001
+    except Exception:
         pass
     sys.stderr.write("%s %s\n" % (prefix, message))
     return status

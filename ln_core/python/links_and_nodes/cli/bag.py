@@ -14,8 +14,11 @@ def register(groups, common):
         missing = str(error)
 
         def run(session):
-            raise CliError("recordings need the ln_bag package (%s)" % missing,
-                           "build it: colcon build --packages-select ln_bag, then source install/setup.bash")
+            raise CliError(
+                "recordings need the ln_bag package (%s)" % missing,
+                "build it: colcon build --packages-select ln_bag, then source install/setup.bash",
+            )
+
         for name in COMMANDS:
             p = groups.add_parser(name, parents=[common], help="(needs the ln_bag package)", add_help=True)
             p.add_argument("arguments", nargs="*")

@@ -57,17 +57,26 @@ class Session:
 
 def connect(address, name=CLIENT_NAME):
     import links_and_nodes as ln
+
     if not address:
         raise CliError("no ln_manager address", "set LN_MANAGER=HOST:PORT or pass --ln-manager HOST:PORT")
     try:
         return ln.client(name, address)
     except ln.LNError as error:
-        if error.code in (ln.LNE_INVALID_MANAGER_ADDRESS, ln.LNE_INVALID_HOSTNAME, ln.LNE_UNKNOWN_HOSTNAME,
-                          ln.LNE_HOST_WRONG_NET):
-            raise CliError("invalid ln_manager address '%s': %s" % (address, lnerror_text(error)),
-                           "give HOST:PORT in LN_MANAGER or --ln-manager") from None
-        raise CliError("cannot reach the ln_manager at %s: %s" % (address, lnerror_text(error)),
-                       "is it running? check LN_MANAGER or --ln-manager") from None
+        if error.code in (
+            ln.LNE_INVALID_MANAGER_ADDRESS,
+            ln.LNE_INVALID_HOSTNAME,
+            ln.LNE_UNKNOWN_HOSTNAME,
+            ln.LNE_HOST_WRONG_NET,
+        ):
+            raise CliError(
+                "invalid ln_manager address '%s': %s" % (address, lnerror_text(error)),
+                "give HOST:PORT in LN_MANAGER or --ln-manager",
+            ) from None
+        raise CliError(
+            "cannot reach the ln_manager at %s: %s" % (address, lnerror_text(error)),
+            "is it running? check LN_MANAGER or --ln-manager",
+        ) from None
 
 
 def _first_line(error):
@@ -89,6 +98,7 @@ def lnerror_text(error):
 def describe_error(error):
     """One line for an exception from links_and_nodes."""
     from .. import LNError
+
     return lnerror_text(error) if isinstance(error, LNError) else _first_line(error)
 
 
@@ -98,8 +108,10 @@ def introspect(session, method):
     clnt = session.client()
     request = getattr(clnt, method, None)
     if request is None:
-        raise CliError("this links_and_nodes has no client.%s()" % method,
-                       "the manager introspection API is missing; rebuild ln_core")
+        raise CliError(
+            "this links_and_nodes has no client.%s()" % method,
+            "the manager introspection API is missing; rebuild ln_core",
+        )
     return request()
 
 

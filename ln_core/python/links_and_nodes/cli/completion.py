@@ -24,9 +24,12 @@ LIVE_TIMEOUT = 2.0
 
 
 def register(groups, common):
-    p = groups.add_parser("completion", help="print a shell completion script",
-                          description="Prints the completion script for SHELL. Load it with "
-                                      "'source <(ln completion bash)' (e.g. in ~/.bashrc).")
+    p = groups.add_parser(
+        "completion",
+        help="print a shell completion script",
+        description="Prints the completion script for SHELL. Load it with "
+        "'source <(ln completion bash)' (e.g. in ~/.bashrc).",
+    )
     p.add_argument("shell", choices=("bash",), metavar="SHELL", help="bash")
     p.set_defaults(run=cmd_completion, group_parser=p)
     hidden = groups.add_parser("__complete")  # no help=: not listed
@@ -68,6 +71,7 @@ def _option(parser, word):
 def complete(line, bash_word, session):
     """The candidates for the last word of `line` (the text up to the cursor)."""
     from . import build_parser, is_own_command
+
     words = _split(line)[1:]  # without "ln"
     current = words.pop()
     if words and not is_own_command(words):
@@ -100,8 +104,7 @@ def complete(line, bash_word, session):
         positional += 1
 
     if needs_value is not None:
-        candidates = list(needs_value.choices or []) or _live(getattr(needs_value, "completer", None), manager,
-                                                                session)
+        candidates = list(needs_value.choices or []) or _live(getattr(needs_value, "completer", None), manager, session)
     elif current.startswith("-"):
         candidates = sorted(s for s in parser._option_string_actions if s.startswith("--") or len(s) == 2)
     else:
@@ -110,10 +113,14 @@ def complete(line, bash_word, session):
             candidates = [name for name in sub.choices if not name.startswith("__")]
         else:
             args = [a for a in parser._actions if not a.option_strings and a.nargs not in ("...",)]
-            action = args[positional] if positional < len(args) else (args[-1] if args and args[-1].nargs == "*"
-                                                                     else None)
-            candidates = list(action.choices or []) if action is not None and action.choices else \
-                _live(getattr(action, "completer", None), manager, session)
+            action = (
+                args[positional] if positional < len(args) else (args[-1] if args and args[-1].nargs == "*" else None)
+            )
+            candidates = (
+                list(action.choices or [])
+                if action is not None and action.choices
+                else _live(getattr(action, "completer", None), manager, session)
+            )
     chosen = sorted(c for c in candidates if c.startswith(current))
     # bash splits words at ':' and '=' (COMP_WORDBREAKS): answer for its current word
     if bash_word is not None and current.endswith(bash_word) and bash_word != current:
@@ -129,6 +136,7 @@ def _live(kind, manager, session):
         return []
     from .common import connect
     from .md import definitions_in, local_dirs
+
     address = manager or session.manager_address
     if kind == "mds" and not address:
         return list(definitions_in(local_dirs()))
@@ -136,7 +144,7 @@ def _live(kind, manager, session):
         return []
     try:
         clnt = _connect_bounded(connect, address)
-    except Exception:  # noqa: BLE001 - no manager, no live names
+    except Exception:
         return list(definitions_in(local_dirs())) if kind == "mds" else []
     try:
         if kind == "topics":
@@ -147,13 +155,14 @@ def _live(kind, manager, session):
             return [c.name for c in clnt.list_clients() if c.name != clnt.name]
         if kind == "parameters":
             from .param import parameters
+
             return list(parameters(clnt))
         if kind in ("processes", "states", "groups"):
             kinds = {"processes": ("process", "state"), "states": ("state",), "groups": ("group",)}[kind]
             return [p.name for p in clnt.list_processes() if p.kind in kinds]
         if kind == "mds":
             return list(definitions_in(clnt.get_manager_status().message_definition_dirs))
-    except Exception:  # noqa: BLE001
+    except Exception:
         return []
     finally:
         clnt.close()
@@ -164,12 +173,13 @@ def _connect_bounded(connect, address):
     """connect() that gives up after LIVE_TIMEOUT (an unreachable host must
     not hang the shell)."""
     import threading
+
     result = {}
 
     def attempt():
         try:
             result["client"] = connect(address)
-        except Exception as error:  # noqa: BLE001
+        except Exception as error:
             result["error"] = error
 
     thread = threading.Thread(target=attempt, daemon=True)
@@ -178,4 +188,3 @@ def _connect_bounded(connect, address):
     if "client" not in result:
         raise result.get("error") or TimeoutError("no answer from %s" % address)
     return result["client"]
-

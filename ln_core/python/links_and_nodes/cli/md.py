@@ -11,17 +11,38 @@ from .common import CliError, introspect, lnerror_text
 POINTER_SIZE = struct.calcsize("P")
 KIND_NAMES = {"plain": "message", "service": "service", "event": "event"}
 #: Files in definition directories that are not definitions.
-NOT_DEFINITIONS = (".md", ".txt", ".rst", ".conf", ".py", ".pyc", ".h", ".hpp", ".c", ".cpp", ".json", ".yaml",
-                   ".yml", ".cmake", ".bak", ".orig", ".swp", "~")
+NOT_DEFINITIONS = (
+    ".md",
+    ".txt",
+    ".rst",
+    ".conf",
+    ".py",
+    ".pyc",
+    ".h",
+    ".hpp",
+    ".c",
+    ".cpp",
+    ".json",
+    ".yaml",
+    ".yml",
+    ".cmake",
+    ".bak",
+    ".orig",
+    ".swp",
+    "~",
+)
 #: The words after which everything goes to ln_generate unparsed.
 GENERATE_COMMAND = ("md", "generate")
 
 
 def register(groups, common):
-    group = groups.add_parser("md", help="show, find and generate message definitions",
-                              description="Message definitions: through the ln_manager when one is reachable, "
-                                          "else (or with --md-dir) on the local search path: --md-dir, the "
-                                          "built-in dirs, ~/ln_message_definitions, $LN_MESSAGE_DEFINITION_DIRS.")
+    group = groups.add_parser(
+        "md",
+        help="show, find and generate message definitions",
+        description="Message definitions: through the ln_manager when one is reachable, "
+        "else (or with --md-dir) on the local search path: --md-dir, the "
+        "built-in dirs, ~/ln_message_definitions, $LN_MESSAGE_DEFINITION_DIRS.",
+    )
     group.set_defaults(group_parser=group)
     sub = group.add_subparsers(dest="command", metavar="SUBCOMMAND")
 
@@ -30,26 +51,39 @@ def register(groups, common):
     _add_md_dir(p)
     p.set_defaults(run=cmd_show)
 
-    p = sub.add_parser("find", parents=[common], help="definitions whose name matches PATTERN",
-                       description="Lists the definitions on the search path whose name contains PATTERN "
-                                   "(case-insensitive), or matches it when it has wildcards (*, ?, [...]).")
+    p = sub.add_parser(
+        "find",
+        parents=[common],
+        help="definitions whose name matches PATTERN",
+        description="Lists the definitions on the search path whose name contains PATTERN "
+        "(case-insensitive), or matches it when it has wildcards (*, ?, [...]).",
+    )
     p.add_argument("pattern", metavar="PATTERN", nargs="?", default="")
     _add_md_dir(p)
     p.set_defaults(run=cmd_find)
 
-    p = sub.add_parser("generate", add_help=False, help="generate C/C++ headers (runs ln_generate)",
-                       description="Runs ln_generate with the remaining arguments ('ln md generate --help' "
-                                   "shows its options).")
+    p = sub.add_parser(
+        "generate",
+        add_help=False,
+        help="generate C/C++ headers (runs ln_generate)",
+        description="Runs ln_generate with the remaining arguments ('ln md generate --help' shows its options).",
+    )
     p.add_argument("arguments", nargs="...", help="ln_generate's arguments")
     p.set_defaults(run=cmd_generate, passthrough=True)
 
 
 def _add_md_dir(p):
-    p.add_argument("--md-dir", action="append", default=[], metavar="DIR",
-                   help="search this directory, locally, before the others (repeatable)")
+    p.add_argument(
+        "--md-dir",
+        action="append",
+        default=[],
+        metavar="DIR",
+        help="search this directory, locally, before the others (repeatable)",
+    )
 
 
 # ------------------------------------------------------------ search path
+
 
 def _prefix_of_package():
     """<prefix> of an installed links_and_nodes (<prefix>/lib/pythonX.Y/site-packages/links_and_nodes)."""
@@ -79,11 +113,14 @@ def local_dirs(extra=()):
     """LN's search order on this machine."""
     dirs = [os.path.abspath(d) for d in extra]
     share = os.path.join(_prefix_of_package(), "share")
-    dirs += [os.path.join(share, "links_and_nodes", "message_definitions"),
-             os.path.join(share, "ln_runtime", "message_definitions"),
-             os.path.expanduser("~/ln_message_definitions")]
-    dirs += [os.path.abspath(d.strip()) for d in os.environ.get("LN_MESSAGE_DEFINITION_DIRS", "").split(":")
-             if d.strip()]
+    dirs += [
+        os.path.join(share, "links_and_nodes", "message_definitions"),
+        os.path.join(share, "ln_runtime", "message_definitions"),
+        os.path.expanduser("~/ln_message_definitions"),
+    ]
+    dirs += [
+        os.path.abspath(d.strip()) for d in os.environ.get("LN_MESSAGE_DEFINITION_DIRS", "").split(":") if d.strip()
+    ]
     return _expand_md_conf(dirs)
 
 
@@ -100,12 +137,15 @@ def _manager_client(session):
 
 # ------------------------------------------------------------------ show
 
+
 def field_lines(fields):
     """'double vec[3]' per field, without the automatic x_len companions."""
     dynamic = {f[0] for f in fields if f[4]}
-    return ["%s%s %s%s" % (spelling, "*" if is_dynamic else "", name, "[%d]" % count if count > 1 else "")
-            for name, spelling, _, _, is_dynamic, count, _ in fields
-            if not (name.endswith("_len") and name[:-4] in dynamic)]
+    return [
+        "%s%s %s%s" % (spelling, "*" if is_dynamic else "", name, "[%d]" % count if count > 1 else "")
+        for name, spelling, _, _, is_dynamic, count, _ in fields
+        if not (name.endswith("_len") and name[:-4] in dynamic)
+    ]
 
 
 def struct_size(fields):
@@ -116,7 +156,7 @@ def layout(fields, defs, base=0, prefix=""):
     """Rows {offset, size, type, field} of the packed C struct (a dynamic
     field is a host pointer after its x_len); small sub-types are expanded."""
     rows, offset = [], base
-    for name, spelling, primitive, sub, dynamic, count, element in fields:
+    for name, spelling, _primitive, sub, dynamic, count, element in fields:
         size = POINTER_SIZE if dynamic else element * count
         type_text = spelling + ("*" if dynamic else "") + ("[%d]" % count if count > 1 else "")
         rows.append({"offset": offset, "size": size, "type": type_text, "field": prefix + name})
@@ -134,6 +174,7 @@ def layout(fields, defs, base=0, prefix=""):
 def _load(session, name):
     """(model, text, source) of a definition."""
     import links_and_nodes as ln
+
     clnt = _manager_client(session)
     try:
         if clnt is not None:
@@ -142,8 +183,9 @@ def _load(session, name):
         dirs = local_dirs(session.args.md_dir)
         model = ln._ln.model_from_dirs(name, dirs)
     except ln.LNError as error:
-        raise CliError("unknown message definition '%s': %s" % (name, lnerror_text(error)),
-                       "see 'ln md find'") from None
+        raise CliError(
+            "unknown message definition '%s': %s" % (name, lnerror_text(error)), "see 'ln md find'"
+        ) from None
     path = next(os.path.join(d, name) for d in dirs if os.path.isfile(os.path.join(d, name)))
     with open(path, encoding="utf-8", errors="replace") as f:
         return model, f.read(), path
@@ -153,20 +195,43 @@ def cmd_show(session):
     out = session.out
     model, text, source = _load(session, session.args.name)
     defs = model.get("defs", {})
-    sections = [("fields", model["fields"])] if model["kind"] == "plain" else [
-        ("request" if model["kind"] == "service" else "connect", model["fields"]),
-        ("response" if model["kind"] == "service" else "call", model["response_fields"])]
-    info = {"name": model["name"], "kind": KIND_NAMES.get(model["kind"], model["kind"]), "hash": model["hash"],
-            "size": model["size"], "signature": model["signature"], "source": source, "text": text,
-            "sizes": {label: struct_size(fields) for label, fields in sections},
-            "layout": {label: layout(fields, defs) for label, fields in sections}}
+    sections = (
+        [("fields", model["fields"])]
+        if model["kind"] == "plain"
+        else [
+            ("request" if model["kind"] == "service" else "connect", model["fields"]),
+            ("response" if model["kind"] == "service" else "call", model["response_fields"]),
+        ]
+    )
+    info = {
+        "name": model["name"],
+        "kind": KIND_NAMES.get(model["kind"], model["kind"]),
+        "hash": model["hash"],
+        "size": model["size"],
+        "signature": model["signature"],
+        "source": source,
+        "text": text,
+        "sizes": {label: struct_size(fields) for label, fields in sections},
+        "layout": {label: layout(fields, defs) for label, fields in sections},
+    }
     if session.json:
         out.json(info)
         return
-    size = ("%d bytes" % model["size"]) if model["kind"] == "plain" else \
-        ", ".join("%s %d bytes" % (label, n) for label, n in info["sizes"].items())
-    out.fields([("definition", model["name"]), ("kind", info["kind"]), ("size", size), ("hash", model["hash"]),
-                ("signature", model["signature"] or '""'), ("source", source)])
+    size = (
+        ("%d bytes" % model["size"])
+        if model["kind"] == "plain"
+        else ", ".join("%s %d bytes" % (label, n) for label, n in info["sizes"].items())
+    )
+    out.fields(
+        [
+            ("definition", model["name"]),
+            ("kind", info["kind"]),
+            ("size", size),
+            ("hash", model["hash"]),
+            ("signature", model["signature"] or '""'),
+            ("source", source),
+        ]
+    )
     out.line()
     out.line(out.paint("text:", "bold"))
     for line in text.rstrip("\n").splitlines():
@@ -177,12 +242,12 @@ def cmd_show(session):
         if not rows:
             out.line("  (empty)")
             continue
-        table = [("  %d" % r["offset"], r["size"], r["type"], "  " * r["field"].count(".") + r["field"])
-                 for r in rows]
+        table = [("  %d" % r["offset"], r["size"], r["type"], "  " * r["field"].count(".") + r["field"]) for r in rows]
         out.table(("  OFFSET", "SIZE", "TYPE", "FIELD"), table, numeric=(0, 1))
 
 
 # ------------------------------------------------------------------ find
+
 
 def _kind_of_file(path):
     try:
@@ -230,12 +295,16 @@ def cmd_find(session):
     out = session.out
     dirs = search_dirs(session)
     pattern = session.args.pattern
-    hits = [{"name": name, "kind": _kind_of_file(path), "path": path}
-            for name, path in sorted(definitions_in(dirs).items()) if matches(name, pattern)]
+    hits = [
+        {"name": name, "kind": _kind_of_file(path), "path": path}
+        for name, path in sorted(definitions_in(dirs).items())
+        if matches(name, pattern)
+    ]
     if not hits:
-        raise CliError("no message definition matches '%s'" % pattern,
-                       "searched %d director%s; see 'ln manager status'"
-                       % (len(dirs), "y" if len(dirs) == 1 else "ies"))
+        raise CliError(
+            "no message definition matches '%s'" % pattern,
+            "searched %d director%s; see 'ln manager status'" % (len(dirs), "y" if len(dirs) == 1 else "ies"),
+        )
     if session.json:
         out.json(hits)
         return
@@ -244,9 +313,13 @@ def cmd_find(session):
 
 # -------------------------------------------------------------- generate
 
+
 def ln_generate_path():
-    for candidate in (os.environ.get("LN_CORE_GENERATE"), os.path.join(_prefix_of_package(), "bin", "ln_generate"),
-                      shutil.which("ln_generate")):
+    for candidate in (
+        os.environ.get("LN_CORE_GENERATE"),
+        os.path.join(_prefix_of_package(), "bin", "ln_generate"),
+        shutil.which("ln_generate"),
+    ):
         if candidate and os.access(candidate, os.X_OK):
             return candidate
     raise CliError("ln_generate not found", "put ln_core's bin/ on PATH, e.g. '. launchless_scripts/env.sh'")

@@ -135,7 +135,7 @@ def yaml_lines(plain, max_array=0, paint=lambda text, style: text, indent=""):
         for item in plain:
             sub = yaml_lines(item, max_array, paint, indent + "  ")
             if sub:
-                sub[0] = indent + "- " + sub[0][len(indent) + 2:]
+                sub[0] = indent + "- " + sub[0][len(indent) + 2 :]
             else:
                 sub = [indent + "- {}"]
             lines.extend(sub)

@@ -9,26 +9,34 @@ PROVIDER_PREFIX = "ln.parameters.query_dict."
 
 
 def register(groups, common):
-    group = groups.add_parser("param", help="list, read and override parameters",
-                              description="Parameters that clients provide (parameter blocks). Names are full "
-                                          "names ('controller.gain'); LN_PARAMETER_PREFIX is not applied.")
+    group = groups.add_parser(
+        "param",
+        help="list, read and override parameters",
+        description="Parameters that clients provide (parameter blocks). Names are full "
+        "names ('controller.gain'); LN_PARAMETER_PREFIX is not applied.",
+    )
     group.set_defaults(group_parser=group)
     sub = group.add_subparsers(dest="command", metavar="SUBCOMMAND")
 
     p = sub.add_parser("list", parents=[common], help="parameters with their value, override and provider")
-    p.add_argument("prefix", nargs="?", default="", metavar="PREFIX",
-                   help="only the parameters below this group (default: all)")
+    p.add_argument(
+        "prefix", nargs="?", default="", metavar="PREFIX", help="only the parameters below this group (default: all)"
+    )
     p.set_defaults(run=cmd_list)
 
     p = sub.add_parser("get", parents=[common], help="a parameter: value in effect, input, override, description")
     p.add_argument("name", metavar="PARAMETER").completer = "parameters"
     p.set_defaults(run=cmd_get)
 
-    p = sub.add_parser("set", parents=[common], help="override a parameter",
-                       description="Overrides PARAMETER with VALUE, written as in Python: 2.5, true, "
-                                   "[1, 2, 3], [[1, 0], [0, 1]]. Waits until the provider's next update "
-                                   "applied it, unless --no-wait.",
-                       epilog="example: ln param set controller.gain 2.5")
+    p = sub.add_parser(
+        "set",
+        parents=[common],
+        help="override a parameter",
+        description="Overrides PARAMETER with VALUE, written as in Python: 2.5, true, "
+        "[1, 2, 3], [[1, 0], [0, 1]]. Waits until the provider's next update "
+        "applied it, unless --no-wait.",
+        epilog="example: ln param set controller.gain 2.5",
+    )
     p.add_argument("name", metavar="PARAMETER").completer = "parameters"
     p.add_argument("value", metavar="VALUE")
     p.add_argument("--no-wait", action="store_true", help="return without waiting for the provider's update")
@@ -43,6 +51,7 @@ def register(groups, common):
 def parameters(clnt, prefix=""):
     """{full name: value dict} of every provider (values as query_dict answers them)."""
     from .._parameters import parameters_proxy
+
     proxy = parameters_proxy(clnt, prefix, allow_empty=True, use_parameter_prefix=False)
     found = {}
     for _, _, value in proxy._all_parameters():
@@ -52,7 +61,7 @@ def parameters(clnt, prefix=""):
 
 def provider(value):
     service = value["service"]
-    return service[len(PROVIDER_PREFIX):] if service.startswith(PROVIDER_PREFIX) else service
+    return service[len(PROVIDER_PREFIX) :] if service.startswith(PROVIDER_PREFIX) else service
 
 
 def plain(value):
@@ -73,9 +82,15 @@ def text(value):
 
 
 def record(name, value):
-    return {"name": name, "value": plain(in_effect(value)), "input": plain(value["input"]),
-            "output": plain(value["output"]), "override_enabled": bool(value["override_enabled"]),
-            "description": value.get("description", ""), "provider": provider(value)}
+    return {
+        "name": name,
+        "value": plain(in_effect(value)),
+        "input": plain(value["input"]),
+        "output": plain(value["output"]),
+        "override_enabled": bool(value["override_enabled"]),
+        "description": value.get("description", ""),
+        "provider": provider(value),
+    }
 
 
 def find(session, name):
@@ -91,10 +106,20 @@ def cmd_list(session):
     if session.json:
         out.json([record(name, value) for name, value in found.items()])
         return
-    out.table(("PARAMETER", "VALUE", "OVERRIDE", "PROVIDER", "DESCRIPTION"),
-              [(name, text(in_effect(value)), "yes (input %s)" % text(value["input"]) if value["override_enabled"]
-                else "-", provider(value), value.get("description") or "-") for name, value in found.items()],
-              empty="no parameters" + (" below '%s'" % session.args.prefix if session.args.prefix else ""))
+    out.table(
+        ("PARAMETER", "VALUE", "OVERRIDE", "PROVIDER", "DESCRIPTION"),
+        [
+            (
+                name,
+                text(in_effect(value)),
+                "yes (input %s)" % text(value["input"]) if value["override_enabled"] else "-",
+                provider(value),
+                value.get("description") or "-",
+            )
+            for name, value in found.items()
+        ],
+        empty="no parameters" + (" below '%s'" % session.args.prefix if session.args.prefix else ""),
+    )
 
 
 def cmd_get(session):
@@ -104,13 +129,21 @@ def cmd_get(session):
     if session.json:
         out.json(info)
         return
-    out.fields([("parameter", name), ("value", text(info["value"])), ("input", text(info["input"])),
-                ("override", "yes" if info["override_enabled"] else "no"), ("provider", info["provider"]),
-                ("description", info["description"] or None)])
+    out.fields(
+        [
+            ("parameter", name),
+            ("value", text(info["value"])),
+            ("input", text(info["input"])),
+            ("override", "yes" if info["override_enabled"] else "no"),
+            ("provider", info["provider"]),
+            ("description", info["description"] or None),
+        ]
+    )
 
 
 def override(session, name, text_value):
     import links_and_nodes as ln
+
     value = find(session, name)
     service = value["service"].replace("query_dict", "override_dict_single")
     svc = session.client().get_service(service, "ln/parameters/override_dict_single")

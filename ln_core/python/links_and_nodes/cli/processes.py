@@ -7,50 +7,91 @@ import time
 from .common import CliError, as_dict, describe_error
 from .output import human_duration
 
-INFO_FIELDS = ("name", "kind", "state", "requested", "pid", "uptime", "restarts", "ready", "last_exit", "error",
-               "command", "depends_on", "members")
+INFO_FIELDS = (
+    "name",
+    "kind",
+    "state",
+    "requested",
+    "pid",
+    "uptime",
+    "restarts",
+    "ready",
+    "last_exit",
+    "error",
+    "command",
+    "depends_on",
+    "members",
+)
 #: how often a waiting command asks the manager
 POLL = 0.05
 
 
 def register(groups, common):
-    sub = _group(groups, common, "process", "processes",
-                 "the processes the manager runs (its .lnc config)",
-                 "Processes of the running ln_manager's config: list, inspect, start, stop, restart, read their "
-                 "output.",
-                 "processes with state, pid, uptime, restarts",
-                 (("start", "start processes (with what they depend on) and wait until they are ready"),
-                  ("stop", "stop processes (what depends on them first, as configured) and wait"),
-                  ("restart", "stop and start processes again, and wait until they are ready")))
-    p = sub.add_parser("info", parents=[common], help="one process in detail, with its last output lines",
-                       description="Everything the manager knows about one process, and its last output lines.")
+    sub = _group(
+        groups,
+        common,
+        "process",
+        "processes",
+        "the processes the manager runs (its .lnc config)",
+        "Processes of the running ln_manager's config: list, inspect, start, stop, restart, read their output.",
+        "processes with state, pid, uptime, restarts",
+        (
+            ("start", "start processes (with what they depend on) and wait until they are ready"),
+            ("stop", "stop processes (what depends on them first, as configured) and wait"),
+            ("restart", "stop and start processes again, and wait until they are ready"),
+        ),
+    )
+    p = sub.add_parser(
+        "info",
+        parents=[common],
+        help="one process in detail, with its last output lines",
+        description="Everything the manager knows about one process, and its last output lines.",
+    )
     p.add_argument("name", help="process name").completer = "processes"
     p.add_argument("-n", "--lines", type=int, default=10, metavar="N", help="output lines to show (default 10)")
     p.set_defaults(run=cmd_info, kind="process")
-    p = sub.add_parser("output", parents=[common], help="what a process printed; -f follows it",
-                       description="The output lines the manager kept of a process (or state); with -f, "
-                                   "new lines as they come, until Ctrl-C or --duration.")
+    p = sub.add_parser(
+        "output",
+        parents=[common],
+        help="what a process printed; -f follows it",
+        description="The output lines the manager kept of a process (or state); with -f, "
+        "new lines as they come, until Ctrl-C or --duration.",
+    )
     p.add_argument("name", help="process or state name").completer = "processes"
     p.add_argument("-n", "--lines", type=int, metavar="N", help="only the last N lines")
     p.add_argument("-f", "--follow", action="store_true", help="keep printing new lines")
     p.add_argument("--duration", type=float, metavar="S", help="with -f: stop following after S seconds")
     p.set_defaults(run=cmd_output)
-    _group(groups, common, "state", "states",
-           "the states the manager checks and brings up or down",
-           "States of the running ln_manager's config: conditions checked by a command (check), reached by "
-           "others (up, down).",
-           "states and what the manager knows of them",
-           (("check", "run a state's check command now and show the result"),
+    _group(
+        groups,
+        common,
+        "state",
+        "states",
+        "the states the manager checks and brings up or down",
+        "States of the running ln_manager's config: conditions checked by a command (check), reached by "
+        "others (up, down).",
+        "states and what the manager knows of them",
+        (
+            ("check", "run a state's check command now and show the result"),
             ("up", "bring states up (check first, then their up command) and wait"),
-            ("down", "bring states down (check first, then their down command) and wait")))
-    _group(groups, common, "group", "groups",
-           "start or stop the processes of a group together",
-           "Groups of the running ln_manager's config: sets of processes and states, started (states: brought "
-           "up) and stopped together.",
-           "groups and their members",
-           (("start", "start every member and wait until all are ready"),
+            ("down", "bring states down (check first, then their down command) and wait"),
+        ),
+    )
+    _group(
+        groups,
+        common,
+        "group",
+        "groups",
+        "start or stop the processes of a group together",
+        "Groups of the running ln_manager's config: sets of processes and states, started (states: brought "
+        "up) and stopped together.",
+        "groups and their members",
+        (
+            ("start", "start every member and wait until all are ready"),
             ("stop", "stop every member process and wait (states stay as they are)"),
-            ("restart", "restart every member process and wait until all are ready")))
+            ("restart", "restart every member process and wait until all are ready"),
+        ),
+    )
 
 
 def _group(groups, common, kind, completer, help_text, description, list_help, actions):
@@ -66,8 +107,7 @@ def _group(groups, common, kind, completer, help_text, description, list_help, a
         if kind == "process" and action != "stop":
             p.add_argument("--alt", metavar="ALT_COMMAND", help="start with this alt_command of the process")
         p.add_argument("--no-wait", action="store_true", help="return once the manager accepted the request")
-        p.add_argument("--timeout", type=float, default=60.0, metavar="S",
-                       help="wait at most S seconds (default 60)")
+        p.add_argument("--timeout", type=float, default=60.0, metavar="S", help="wait at most S seconds (default 60)")
         p.set_defaults(run=cmd_control, action=action, kind=kind)
     return sub
 
@@ -93,8 +133,10 @@ def _find(rows, name, kind):
                 raise CliError("'%s' is a %s, not a %s" % (name, row.kind, kind), "see 'ln %s'" % row.kind)
             return row
     names = sorted(row.name for row in rows if not kind or row.kind == kind)
-    raise CliError("the manager has no %s '%s'" % (kind or "process, state or group", name),
-                   "it has: %s" % ", ".join(names) if names else "its config has none")
+    raise CliError(
+        "the manager has no %s '%s'" % (kind or "process, state or group", name),
+        "it has: %s" % ", ".join(names) if names else "its config has none",
+    )
 
 
 def _uptime(row):
@@ -102,9 +144,19 @@ def _uptime(row):
 
 
 def _paint_state(out, state):
-    colours = {"ready": "green", "started": "green", "UP": "green", "failed": "red", "error": "red",
-               "restarting": "yellow", "starting": "yellow", "stopping": "yellow", "checking": "yellow",
-               "going up": "yellow", "going down": "yellow"}
+    colours = {
+        "ready": "green",
+        "started": "green",
+        "UP": "green",
+        "failed": "red",
+        "error": "red",
+        "restarting": "yellow",
+        "starting": "yellow",
+        "stopping": "yellow",
+        "checking": "yellow",
+        "going up": "yellow",
+        "going down": "yellow",
+    }
     return out.paint(state, colours.get(state, ""))
 
 
@@ -116,35 +168,53 @@ def cmd_list(session):
         return
     kind = session.args.kind
     if kind == "process":
-        out.table(("PROCESS", "STATE", "PID", "UPTIME", "RESTARTS", "LAST EXIT", "ERROR"),
-                  [(r.name, r.state, r.pid or "-", _uptime(r), r.restarts, r.last_exit or "-",
-                    r.error or "-") for r in rows],
-                  numeric=(2, 4), empty="no processes (the manager's config has none)")
+        out.table(
+            ("PROCESS", "STATE", "PID", "UPTIME", "RESTARTS", "LAST EXIT", "ERROR"),
+            [(r.name, r.state, r.pid or "-", _uptime(r), r.restarts, r.last_exit or "-", r.error or "-") for r in rows],
+            numeric=(2, 4),
+            empty="no processes (the manager's config has none)",
+        )
     elif kind == "state":
-        out.table(("STATE", "VALUE", "REQUESTED", "CHECK", "ERROR"),
-                  [(r.name, r.state, r.requested or "-", r.command or "-", r.error or "-")
-                   for r in rows], empty="no states (the manager's config has none)")
+        out.table(
+            ("STATE", "VALUE", "REQUESTED", "CHECK", "ERROR"),
+            [(r.name, r.state, r.requested or "-", r.command or "-", r.error or "-") for r in rows],
+            empty="no states (the manager's config has none)",
+        )
     else:
-        out.table(("GROUP", "RUNNING", "MEMBERS"), [(r.name, r.state, list(r.members)) for r in rows],
-                  empty="no groups (the manager's config has none)")
+        out.table(
+            ("GROUP", "RUNNING", "MEMBERS"),
+            [(r.name, r.state, list(r.members)) for r in rows],
+            empty="no groups (the manager's config has none)",
+        )
 
 
 def cmd_info(session):
     row = _find(_all(session), session.args.name, None)
     clnt = session.client()
     output = clnt.get_process_output(row.name) if row.kind != "group" else None
-    lines = list(output.lines[-session.args.lines:]) if output is not None and session.args.lines > 0 else []
+    lines = list(output.lines[-session.args.lines :]) if output is not None and session.args.lines > 0 else []
     out = session.out
     if session.json:
         info = as_dict(row, INFO_FIELDS)
         info["output"] = lines
         out.json(info)
         return
-    out.fields([("name", row.name), ("kind", row.kind), ("state", _paint_state(out, row.state)),
-                ("requested", row.requested or "-"), ("pid", row.pid or "-"), ("uptime", _uptime(row)),
-                ("restarts", row.restarts), ("last exit", row.last_exit or "-"), ("error", row.error or "-"),
-                ("command", row.command or "-"), ("depends on", list(row.depends_on)),
-                ("members", list(row.members)) if row.kind == "group" else ("ready", "yes" if row.ready else "no")])
+    out.fields(
+        [
+            ("name", row.name),
+            ("kind", row.kind),
+            ("state", _paint_state(out, row.state)),
+            ("requested", row.requested or "-"),
+            ("pid", row.pid or "-"),
+            ("uptime", _uptime(row)),
+            ("restarts", row.restarts),
+            ("last exit", row.last_exit or "-"),
+            ("error", row.error or "-"),
+            ("command", row.command or "-"),
+            ("depends on", list(row.depends_on)),
+            ("members", list(row.members)) if row.kind == "group" else ("ready", "yes" if row.ready else "no"),
+        ]
+    )
     if lines:
         out.line(out.paint("last output:", "bold"))
         for text in lines:
@@ -197,7 +267,7 @@ def cmd_control(session):
     for row in targets:
         try:
             clnt.control_process(row.name, args.action, getattr(args, "alt", None))
-        except Exception as error:  # noqa: BLE001 - one line for the user
+        except Exception as error:
             raise CliError("cannot %s '%s': %s" % (args.action, row.name, describe_error(error))) from None
     if args.no_wait:
         if session.json:
@@ -210,7 +280,9 @@ def cmd_control(session):
     for row in targets:
         if row.kind == "group":
             sub_action = "up" if args.action == "start" else args.action
-            watched += [(m, args.action if m.kind == "process" else sub_action) for m in _members(before, row, args.action)]
+            watched += [
+                (m, args.action if m.kind == "process" else sub_action) for m in _members(before, row, args.action)
+            ]
         else:
             watched.append((row, args.action))
     results = _wait(session, watched, before, args.timeout)
@@ -261,7 +333,7 @@ def cmd_output(session):
     output = clnt.get_process_output(args.name)
     lines = list(output.lines)
     if args.lines is not None:
-        lines = lines[-args.lines:] if args.lines > 0 else []
+        lines = lines[-args.lines :] if args.lines > 0 else []
     if session.json and not args.follow:
         out.json({"name": args.name, "lines": lines, "last": output.last, "dropped": output.dropped})
         return

@@ -14,24 +14,33 @@ import importlib
 import os
 import time
 
-from .common import CliError
-from .common import positive_float as _positive_float, positive_int as _positive_int
-from .topic import RateMeter, _ms, add_report_options
 from . import values as V
+from .common import CliError
+from .common import positive_float as _positive_float
+from .common import positive_int as _positive_int
+from .topic import RateMeter, _ms, add_report_options
 
 
 def register(groups, common):
-    group = groups.add_parser("ros", help="the ROS 2 graph: nodes, topics, services (needs rclpy)",
-                              description="Inspect and use the ROS 2 side (ROS 2 Jazzy's rclpy; the PyPI "
-                                          "ROS 2 has no 'ros2' command). Uses $ROS_DOMAIN_ID.")
+    group = groups.add_parser(
+        "ros",
+        help="the ROS 2 graph: nodes, topics, services (needs rclpy)",
+        description="Inspect and use the ROS 2 side (ROS 2 Jazzy's rclpy; the PyPI "
+        "ROS 2 has no 'ros2' command). Uses $ROS_DOMAIN_ID.",
+    )
     group.set_defaults(group_parser=group)
     kinds = group.add_subparsers(dest="ros_kind", metavar="KIND")
 
     def graph_options(p):
         # A new participant learns the others' nodes in 2-3 s (DDS discovery plus ROS's
         # ros_discovery_info); without ros2cli's daemon every command is such a newcomer.
-        p.add_argument("--spin-time", type=_positive_float, default=3.0, metavar="SECONDS",
-                       help="how long to let discovery find the others before answering (default 3)")
+        p.add_argument(
+            "--spin-time",
+            type=_positive_float,
+            default=3.0,
+            metavar="SECONDS",
+            help="how long to let discovery find the others before answering (default 3)",
+        )
 
     def subcommands(kind, what):
         parser = kinds.add_parser(kind, help="ROS %s" % what, description="%s of the ROS graph." % what.capitalize())
@@ -52,23 +61,37 @@ def register(groups, common):
     p.add_argument("name", metavar="TOPIC")
     graph_options(p)
     p.set_defaults(run=cmd_topic_info)
-    p = sub.add_parser("echo", parents=[common], help="print the messages of a topic",
-                       description="Subscribes to TOPIC (QoS: best available, so it matches reliable and "
-                                   "best-effort, volatile and transient-local publishers) and prints each "
-                                   "message (YAML-like; --json: one JSON object per line).")
+    p = sub.add_parser(
+        "echo",
+        parents=[common],
+        help="print the messages of a topic",
+        description="Subscribes to TOPIC (QoS: best available, so it matches reliable and "
+        "best-effort, volatile and transient-local publishers) and prints each "
+        "message (YAML-like; --json: one JSON object per line).",
+    )
     p.add_argument("name", metavar="TOPIC")
     p.add_argument("--type", "-t", metavar="TYPE", help="pkg/msg/Type (default: the topic's, from the graph)")
     p.add_argument("--once", action="store_true", help="print one message and exit (same as --count 1)")
     p.add_argument("--count", "-n", type=_positive_int, metavar="N", help="exit after N messages")
-    p.add_argument("--timeout", type=_positive_float, metavar="SECONDS",
-                   help="fail if no message arrives for this long")
-    p.add_argument("--max-array", type=int, default=32, metavar="N",
-                   help="show at most N values of an array (default 32; 0: all; not for --json)")
+    p.add_argument(
+        "--timeout", type=_positive_float, metavar="SECONDS", help="fail if no message arrives for this long"
+    )
+    p.add_argument(
+        "--max-array",
+        type=int,
+        default=32,
+        metavar="N",
+        help="show at most N values of an array (default 32; 0: all; not for --json)",
+    )
     graph_options(p)
     p.set_defaults(run=cmd_topic_echo)
-    p = sub.add_parser("hz", parents=[common], help="measure the rate of a topic",
-                       description="Subscribes to TOPIC and prints its rate and the intervals between "
-                                   "messages every --period seconds, over the last --window messages.")
+    p = sub.add_parser(
+        "hz",
+        parents=[common],
+        help="measure the rate of a topic",
+        description="Subscribes to TOPIC and prints its rate and the intervals between "
+        "messages every --period seconds, over the last --window messages.",
+    )
     p.add_argument("name", metavar="TOPIC")
     p.add_argument("--type", "-t", metavar="TYPE", help="pkg/msg/Type (default: the topic's, from the graph)")
     add_report_options(p)
@@ -77,22 +100,35 @@ def register(groups, common):
 
     sub = subcommands("service", "services")
     p = sub.add_parser("list", parents=[common], help="services with their types and servers")
-    p.add_argument("--all", "-a", action="store_true",
-                   help="also every node's parameter and type-description services")
+    p.add_argument("--all", "-a", action="store_true", help="also every node's parameter and type-description services")
     graph_options(p)
     p.set_defaults(run=cmd_service_list)
-    p = sub.add_parser("call", parents=[common], help="call a service and print the response",
-                       description="Calls SERVICE with a request given as 'field: value' pairs (YAML flow "
-                                   "style, as for 'ln service call'; fields not given keep their defaults) "
-                                   "and prints the response.",
-                       epilog="example: ln ros service call /robot/reset 'force: true'")
+    p = sub.add_parser(
+        "call",
+        parents=[common],
+        help="call a service and print the response",
+        description="Calls SERVICE with a request given as 'field: value' pairs (YAML flow "
+        "style, as for 'ln service call'; fields not given keep their defaults) "
+        "and prints the response.",
+        epilog="example: ln ros service call /robot/reset 'force: true'",
+    )
     p.add_argument("name", metavar="SERVICE")
     p.add_argument("values", nargs="*", metavar="'FIELD: VALUE ...'", help="request fields")
     p.add_argument("--type", "-t", metavar="TYPE", help="pkg/srv/Type (default: the service's, from the graph)")
-    p.add_argument("--timeout", type=_positive_float, default=10.0, metavar="SECONDS",
-                   help="give up after this long, waiting for the server included (default 10)")
-    p.add_argument("--max-array", type=int, default=32, metavar="N",
-                   help="show at most N values of an array (default 32; 0: all; not for --json)")
+    p.add_argument(
+        "--timeout",
+        type=_positive_float,
+        default=10.0,
+        metavar="SECONDS",
+        help="give up after this long, waiting for the server included (default 10)",
+    )
+    p.add_argument(
+        "--max-array",
+        type=int,
+        default=32,
+        metavar="N",
+        help="show at most N values of an array (default 32; 0: all; not for --json)",
+    )
     graph_options(p)
     p.set_defaults(run=cmd_service_call)
 
@@ -100,8 +136,15 @@ def register(groups, common):
 # ------------------------------------------------------------------ the node
 
 # ROS's per-node infrastructure services, left out of 'service list' unless --all.
-_NODE_SERVICES = ("/describe_parameters", "/get_parameter_types", "/get_parameters", "/list_parameters",
-                  "/set_parameters", "/set_parameters_atomically", "/get_type_description")
+_NODE_SERVICES = (
+    "/describe_parameters",
+    "/get_parameter_types",
+    "/get_parameters",
+    "/list_parameters",
+    "/set_parameters",
+    "/set_parameters_atomically",
+    "/get_type_description",
+)
 # rmw's name for a node whose participant is discovered but whose node names have not arrived yet.
 _UNKNOWN_NODE = "_NODE_NAME_UNKNOWN_"
 
@@ -114,13 +157,16 @@ class RosGraph:
             import rclpy
             from rclpy.executors import SingleThreadedExecutor
         except ImportError as error:
-            raise CliError("'ln ros' needs ROS 2 Jazzy's Python packages (rclpy), which this Python cannot "
-                           "import (%s)" % error, "source launchless_scripts/env.sh") from None
+            raise CliError(
+                "'ln ros' needs ROS 2 Jazzy's Python packages (rclpy), which this Python cannot import (%s)" % error,
+                "source launchless_scripts/env.sh",
+            ) from None
         self.rclpy = rclpy
         self.context = rclpy.Context()
         rclpy.init(context=self.context, args=["ln"])
-        self.node = rclpy.create_node("_ln_cli_%d" % os.getpid(), context=self.context,
-                                      start_parameter_services=False, enable_rosout=False)
+        self.node = rclpy.create_node(
+            "_ln_cli_%d" % os.getpid(), context=self.context, start_parameter_services=False, enable_rosout=False
+        )
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self.spin_time = spin_time
@@ -170,11 +216,11 @@ class RosGraph:
             if time.monotonic() >= deadline:
                 raise CliError("unknown ROS %s '%s'" % (what, topic), "see 'ln ros %s list'" % what)
             self.spin(0.1)
-            names = self.node.get_topic_names_and_types() if kind == "msg" \
-                else self.node.get_service_names_and_types()
+            names = self.node.get_topic_names_and_types() if kind == "msg" else self.node.get_service_names_and_types()
         if len(types) > 1:
-            raise CliError("ROS %s '%s' has several types (%s)" % (what, topic, ", ".join(types)),
-                           "choose one with --type")
+            raise CliError(
+                "ROS %s '%s' has several types (%s)" % (what, topic, ", ".join(types)), "choose one with --type"
+            )
         return types[0]
 
     def close(self):
@@ -196,6 +242,7 @@ def _graph(session):
                 graph.close()
             finally:
                 close()
+
         session.close = close_both
     return graph
 
@@ -214,11 +261,13 @@ def import_type(type_name):
     try:
         return getattr(importlib.import_module("%s.%s" % (parts[0], parts[1])), parts[2])
     except (ImportError, AttributeError) as error:
-        raise CliError("ROS type '%s' is not installed here (%s)" % (type_name, error),
-                       "build and source its package") from None
+        raise CliError(
+            "ROS type '%s' is not installed here (%s)" % (type_name, error), "build and source its package"
+        ) from None
 
 
 # --------------------------------------------------------------- messages as data
+
 
 def to_plain(message):
     """A ROS message as plain data (dicts, lists, numbers, text)."""
@@ -226,9 +275,9 @@ def to_plain(message):
         return {name: to_plain(getattr(message, name)) for name in message.get_fields_and_field_types()}
     if isinstance(message, (bytes, bytearray)):
         return list(message)
-    if hasattr(message, "tolist"):            # numpy arrays and scalars
+    if hasattr(message, "tolist"):  # numpy arrays and scalars
         return message.tolist()
-    if isinstance(message, (list, tuple)) or type(message).__name__ == "array":   # array.array
+    if isinstance(message, (list, tuple)) or type(message).__name__ == "array":  # array.array
         return [to_plain(v) for v in message]
     return message
 
@@ -252,8 +301,10 @@ def _assign_path(message, steps, value, type_name):
     name, rest = steps[0], steps[1:]
     fields = message.get_fields_and_field_types()
     if name not in fields:
-        raise CliError("'%s' has no field '%s'; fields: %s" % (type_name, name, ", ".join(fields)),
-                       "see 'ln ros topic info' / the .msg")
+        raise CliError(
+            "'%s' has no field '%s'; fields: %s" % (type_name, name, ", ".join(fields)),
+            "see 'ln ros topic info' / the .msg",
+        )
     slot = _slot_types(message)[name]
     where = "field '%s' of '%s'" % (name, type_name)
     if not rest:
@@ -279,7 +330,7 @@ def _assign_path(message, steps, value, type_name):
 def _set(message, name, value, where):
     try:
         setattr(message, name, value)
-    except (AssertionError, TypeError, ValueError) as error:   # rosidl's setters check types and ranges
+    except (AssertionError, TypeError, ValueError) as error:  # rosidl's setters check types and ranges
         raise CliError("%s: %s" % (where, str(error).strip() or "value does not fit")) from None
 
 
@@ -289,18 +340,18 @@ def _type_name(slot):
 
 def _convert(slot, value, current, where):
     """`value` (from parse_fields) as the field of ROS type `slot` needs it."""
-    if hasattr(slot, "value_type"):                       # arrays and sequences
+    if hasattr(slot, "value_type"):  # arrays and sequences
         if not isinstance(value, list):
             raise CliError("%s is an array: give [a, b, ...]" % where)
         element = slot.value_type
         return [_convert(element, v, None, "%s[%d]" % (where, i)) for i, v in enumerate(value)]
-    if hasattr(slot, "namespaces"):                        # a nested message
+    if hasattr(slot, "namespaces"):  # a nested message
         if not isinstance(value, dict):
             raise CliError("%s is a %s: give {field: value, ...}" % (where, _type_name(slot)))
         target = current if current is not None else _message_class(slot)()
         assign(target, value, _type_name(slot))
         return target
-    kind = getattr(slot, "typename", "string")             # BasicType; strings have no typename
+    kind = getattr(slot, "typename", "string")  # BasicType; strings have no typename
     if kind in ("string", "wstring"):
         if isinstance(value, (list, dict)):
             raise CliError("%s expects text" % where)
@@ -333,11 +384,14 @@ def _message_class(slot):
 
 # ----------------------------------------------------------------- commands
 
+
 def cmd_node_list(session):
     graph = _graph(session)
     graph.settle()
-    nodes = sorted(graph.fq_name(ns, name)
-                   for name, ns in graph.named(graph.node.get_node_names_and_namespaces, lambda entry: entry[0]))
+    nodes = sorted(
+        graph.fq_name(ns, name)
+        for name, ns in graph.named(graph.node.get_node_names_and_namespaces, lambda entry: entry[0])
+    )
     nodes = [n for n in nodes if not graph.own(n) and (session.args.all or not n.rsplit("/", 1)[-1].startswith("_"))]
     if session.json:
         session.out.json(nodes)
@@ -351,9 +405,15 @@ def _endpoints(fetch, name, graph):
         node = graph.fq_name(i.node_namespace, i.node_name)
         if graph.own(node):
             continue
-        qos = i.qos_profile   # (discovery does not carry the history depth of others' endpoints)
-        out.append({"node": node, "type": i.topic_type,
-                    "reliability": qos.reliability.name.lower(), "durability": qos.durability.name.lower()})
+        qos = i.qos_profile  # (discovery does not carry the history depth of others' endpoints)
+        out.append(
+            {
+                "node": node,
+                "type": i.topic_type,
+                "reliability": qos.reliability.name.lower(),
+                "durability": qos.durability.name.lower(),
+            }
+        )
     return out
 
 
@@ -368,9 +428,12 @@ def cmd_topic_list(session):
     if session.json:
         session.out.json(rows)
         return
-    session.out.table(("TOPIC", "TYPE", "PUBS", "SUBS"),
-                      [(r["name"], ", ".join(r["types"]), r["publishers"], r["subscribers"]) for r in rows],
-                      numeric=(2, 3), empty="no topics")
+    session.out.table(
+        ("TOPIC", "TYPE", "PUBS", "SUBS"),
+        [(r["name"], ", ".join(r["types"]), r["publishers"], r["subscribers"]) for r in rows],
+        numeric=(2, 3),
+        empty="no topics",
+    )
 
 
 def cmd_topic_info(session):
@@ -380,15 +443,24 @@ def cmd_topic_info(session):
     types = dict(graph.node.get_topic_names_and_types()).get(name)
     if not types:
         raise CliError("unknown ROS topic '%s'" % name, "see 'ln ros topic list'")
-    info = {"name": name, "types": types,
-            "publishers": _endpoints(graph.node.get_publishers_info_by_topic, name, graph),
-            "subscribers": _endpoints(graph.node.get_subscriptions_info_by_topic, name, graph)}
+    info = {
+        "name": name,
+        "types": types,
+        "publishers": _endpoints(graph.node.get_publishers_info_by_topic, name, graph),
+        "subscribers": _endpoints(graph.node.get_subscriptions_info_by_topic, name, graph),
+    }
     out = session.out
     if session.json:
         out.json(info)
         return
-    out.fields([("topic", name), ("type", ", ".join(types)), ("publishers", len(info["publishers"])),
-                ("subscribers", len(info["subscribers"]))])
+    out.fields(
+        [
+            ("topic", name),
+            ("type", ", ".join(types)),
+            ("publishers", len(info["publishers"])),
+            ("subscribers", len(info["subscribers"])),
+        ]
+    )
     for role in ("publishers", "subscribers"):
         if info[role]:
             out.line(out.paint(role + ":", "bold"))
@@ -398,13 +470,15 @@ def cmd_topic_info(session):
 
 def _subscribe(session, callback):
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
     graph = _graph(session)
     name = _absolute(session.args.name)
     # a topic that should carry messages within --timeout may also appear within it
     type_name = graph.topic_type(name, session.args.type, wait=getattr(session.args, "timeout", None) or 0.0)
     cls = import_type(type_name)
-    qos = QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_AVAILABLE,
-                     durability=DurabilityPolicy.BEST_AVAILABLE)
+    qos = QoSProfile(
+        depth=100, reliability=ReliabilityPolicy.BEST_AVAILABLE, durability=DurabilityPolicy.BEST_AVAILABLE
+    )
     graph.node.create_subscription(cls, name, callback, qos)
     return graph, name, type_name
 
@@ -420,8 +494,10 @@ def cmd_topic_echo(session):
         graph.executor.spin_once(timeout_sec=0.1)
         if not received:
             if args.timeout and time.monotonic() - waited_since > args.timeout:
-                raise CliError("no message on ROS topic '%s' for %g s" % (name, args.timeout),
-                               "is it published? see 'ln ros topic info %s'" % name)
+                raise CliError(
+                    "no message on ROS topic '%s' for %g s" % (name, args.timeout),
+                    "is it published? see 'ln ros topic info %s'" % name,
+                )
             continue
         waited_since = time.monotonic()
         while received and (limit is None or shown < limit):
@@ -440,7 +516,8 @@ def cmd_topic_hz(session):
     meter = RateMeter(args.window)
 
     def on_message(_message):
-        meter.add(time.monotonic(), meter.total, 0)   # ROS has no sequence numbers here: one per arrival
+        meter.add(time.monotonic(), meter.total, 0)  # ROS has no sequence numbers here: one per arrival
+
     graph, name, _ = _subscribe(session, on_message)
     start = time.monotonic()
     next_report = start + (args.duration or args.period)
@@ -450,8 +527,10 @@ def cmd_topic_hz(session):
         if now >= next_report:
             report = meter.report()
             if args.duration and meter.total == 0:
-                raise CliError("no message on ROS topic '%s' within %g s" % (name, args.duration),
-                               "is it published? see 'ln ros topic info %s'" % name)
+                raise CliError(
+                    "no message on ROS topic '%s' within %g s" % (name, args.duration),
+                    "is it published? see 'ln ros topic info %s'" % name,
+                )
             if report is not None:
                 report.pop("lost", None)
                 report["topic"] = name
@@ -460,9 +539,16 @@ def cmd_topic_hz(session):
             elif report is None:
                 out.line("no new messages")
             else:
-                out.line("rate: %s  min: %s  max: %s  jitter: %s  window: %d"
-                         % (out.paint("%.3f Hz" % report["rate"], "bold"), _ms(report["min"]), _ms(report["max"]),
-                            _ms(report["jitter"]), report["window"]))
+                out.line(
+                    "rate: %s  min: %s  max: %s  jitter: %s  window: %d"
+                    % (
+                        out.paint("%.3f Hz" % report["rate"], "bold"),
+                        _ms(report["min"]),
+                        _ms(report["max"]),
+                        _ms(report["jitter"]),
+                        report["window"],
+                    )
+                )
             out.flush()
             reports += 1
             if args.duration or (args.count and reports >= args.count):
@@ -481,9 +567,9 @@ def cmd_service_list(session):
         if graph.own(fq):
             continue
         try:
-            for service, types in graph.node.get_service_names_and_types_by_node(node_name, namespace):
+            for service, _types in graph.node.get_service_names_and_types_by_node(node_name, namespace):
                 servers.setdefault(service, []).append(fq)
-        except Exception:   # the node left between the two questions
+        except Exception:  # the node left between the two questions
             continue
     rows = []
     for name, types in sorted(graph.node.get_service_names_and_types()):
@@ -493,8 +579,11 @@ def cmd_service_list(session):
     if session.json:
         session.out.json(rows)
         return
-    session.out.table(("SERVICE", "TYPE", "SERVERS"),
-                      [(r["name"], ", ".join(r["types"]), r["servers"]) for r in rows], empty="no services")
+    session.out.table(
+        ("SERVICE", "TYPE", "SERVERS"),
+        [(r["name"], ", ".join(r["types"]), r["servers"]) for r in rows],
+        empty="no services",
+    )
 
 
 def cmd_service_call(session):
@@ -508,14 +597,17 @@ def cmd_service_call(session):
     try:
         parsed = V.parse_fields(args.values)
     except V.ValueSyntaxError as error:
-        raise CliError("malformed field values %s" % error,
-                       "write 'field: value, list: [1, 2], sub: {x: 1}'; quote text with spaces") from None
+        raise CliError(
+            "malformed field values %s" % error,
+            "write 'field: value, list: [1, 2], sub: {x: 1}'; quote text with spaces",
+        ) from None
     assign(request, parsed, type_name + "_Request")
     client = graph.node.create_client(cls, name)
     while not client.service_is_ready():
         if time.monotonic() - start >= args.timeout:
-            raise CliError("no server for ROS service '%s' within %g s" % (name, args.timeout),
-                           "see 'ln ros service list'")
+            raise CliError(
+                "no server for ROS service '%s' within %g s" % (name, args.timeout), "see 'ln ros service list'"
+            )
         graph.spin(0.05)
     future = client.call_async(request)
     while not future.done():
@@ -536,6 +628,7 @@ def cmd_service_call(session):
     if response.get("success") is False:
         out.flush()
         message = response.get("message")
-        raise CliError("ROS service '%s' answered success: false%s"
-                       % (name, ": %s" % message.strip() if isinstance(message, str) and message.strip() else ""))
-
+        raise CliError(
+            "ROS service '%s' answered success: false%s"
+            % (name, ": %s" % message.strip() if isinstance(message, str) and message.strip() else "")
+        )

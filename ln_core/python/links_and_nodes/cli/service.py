@@ -2,17 +2,18 @@
 
 import re
 
+from . import values as V
 from .common import CliError, as_dict, find_by_name, introspect, lnerror_text
 from .md import field_lines
 from .topic import _positive_float, fill
-from . import values as V
 
 SERVICE_FIELDS = ("name", "interface", "signature", "provider", "group")
 
 
 def register(groups, common):
-    group = groups.add_parser("service", help="list, inspect and call services",
-                              description="Services of the running ln_manager.")
+    group = groups.add_parser(
+        "service", help="list, inspect and call services", description="Services of the running ln_manager."
+    )
     group.set_defaults(group_parser=group)
     sub = group.add_subparsers(dest="command", metavar="SUBCOMMAND")
 
@@ -23,17 +24,30 @@ def register(groups, common):
     p.add_argument("name", metavar="SERVICE").completer = "services"
     p.set_defaults(run=cmd_info)
 
-    p = sub.add_parser("call", parents=[common], help="call a service and print the response",
-                       description="Calls SERVICE with a request given as 'field: value' pairs (YAML flow "
-                                   "style, as for 'ln topic pub'; fields not given are 0 or empty) and prints "
-                                   "the response, or the provider's error.",
-                       epilog="example: ln service call area_service.compute_circle_area 'radius: 2'")
+    p = sub.add_parser(
+        "call",
+        parents=[common],
+        help="call a service and print the response",
+        description="Calls SERVICE with a request given as 'field: value' pairs (YAML flow "
+        "style, as for 'ln topic pub'; fields not given are 0 or empty) and prints "
+        "the response, or the provider's error.",
+        epilog="example: ln service call area_service.compute_circle_area 'radius: 2'",
+    )
     p.add_argument("name", metavar="SERVICE").completer = "services"
     p.add_argument("values", nargs="*", metavar="'FIELD: VALUE ...'", help="request fields (default: all 0)")
-    p.add_argument("--timeout", type=_positive_float, metavar="SECONDS",
-                   help="give up after this long (default: wait for the response)")
-    p.add_argument("--max-array", type=int, default=32, metavar="N",
-                   help="show at most N values of an array (default 32; 0: all; not for --json)")
+    p.add_argument(
+        "--timeout",
+        type=_positive_float,
+        metavar="SECONDS",
+        help="give up after this long (default: wait for the response)",
+    )
+    p.add_argument(
+        "--max-array",
+        type=int,
+        default=32,
+        metavar="N",
+        help="show at most N values of an array (default 32; 0: all; not for --json)",
+    )
     p.set_defaults(run=cmd_call)
 
 
@@ -47,8 +61,11 @@ def cmd_list(session):
     if session.json:
         out.json([as_dict(s, SERVICE_FIELDS) for s in services])
         return
-    out.table(("SERVICE", "INTERFACE", "PROVIDER", "GROUP"),
-              [(s.name, s.interface, s.provider or "-", s.group or "-") for s in services], empty="no services")
+    out.table(
+        ("SERVICE", "INTERFACE", "PROVIDER", "GROUP"),
+        [(s.name, s.interface, s.provider or "-", s.group or "-") for s in services],
+        empty="no services",
+    )
 
 
 def cmd_info(session):
@@ -61,8 +78,15 @@ def cmd_info(session):
     if session.json:
         out.json(info)
         return
-    out.fields([("service", service.name), ("interface", service.interface), ("provider", service.provider or None),
-                ("group", service.group or None), ("signature", service.signature)])
+    out.fields(
+        [
+            ("service", service.name),
+            ("interface", service.interface),
+            ("provider", service.provider or None),
+            ("group", service.group or None),
+            ("signature", service.signature),
+        ]
+    )
     for section in ("request", "response"):
         out.line(out.paint(section + ":", "bold"))
         for text in info[section] or ["(empty)"]:
@@ -71,6 +95,7 @@ def cmd_info(session):
 
 def cmd_call(session):
     import links_and_nodes as ln
+
     args, out = session.args, session.out
     clnt = session.client()
     try:
@@ -99,5 +124,6 @@ def cmd_call(session):
     error_message = response.get("error_message")
     if isinstance(error_message, str) and error_message.strip():
         out.flush()
-        raise CliError("service '%s' answered with error_message: %s"
-                       % (args.name, error_message.strip().splitlines()[-1]))
+        raise CliError(
+            "service '%s' answered with error_message: %s" % (args.name, error_message.strip().splitlines()[-1])
+        )

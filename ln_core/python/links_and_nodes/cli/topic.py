@@ -5,93 +5,137 @@ import math
 import time
 from collections import deque
 
-from .common import CliError, as_dict, find_by_name, introspect, lnerror_text
-from .common import positive_float as _positive_float, positive_int as _positive_int
-from .output import human_bytes, human_rate
 from . import values as V
+from .common import CliError, as_dict, find_by_name, introspect, lnerror_text
+from .common import positive_float as _positive_float
+from .common import positive_int as _positive_int
+from .output import human_bytes, human_rate
 
 TOPIC_FIELDS = ("name", "message_definition", "hash", "message_size", "publisher", "subscribers", "packets", "rate")
 
 
 def register(groups, common):
-    group = groups.add_parser("topic", help="list, inspect, echo, measure and publish topics",
-                              description="Topics of the running ln_manager.")
+    group = groups.add_parser(
+        "topic", help="list, inspect, echo, measure and publish topics", description="Topics of the running ln_manager."
+    )
     group.set_defaults(group_parser=group)
     sub = group.add_subparsers(dest="command", metavar="SUBCOMMAND")
 
-    p = sub.add_parser("list", parents=[common], help="topics with definition, publisher, subscribers, rate",
-                       description="Every topic the manager knows: its message definition, publisher, number "
-                                   "of subscribers and rate (packets/s, measured by the manager).")
+    p = sub.add_parser(
+        "list",
+        parents=[common],
+        help="topics with definition, publisher, subscribers, rate",
+        description="Every topic the manager knows: its message definition, publisher, number "
+        "of subscribers and rate (packets/s, measured by the manager).",
+    )
     p.set_defaults(run=cmd_list)
 
     p = sub.add_parser("info", parents=[common], help="one topic in detail")
     p.add_argument("name", metavar="TOPIC").completer = "topics"
     p.set_defaults(run=cmd_info)
 
-    p = sub.add_parser("echo", parents=[common], help="print the messages of a topic",
-                       description="Subscribes to TOPIC and prints each message (YAML-like; --json: one JSON "
-                                   "object per line; --csv: a header line, then one line per message).")
+    p = sub.add_parser(
+        "echo",
+        parents=[common],
+        help="print the messages of a topic",
+        description="Subscribes to TOPIC and prints each message (YAML-like; --json: one JSON "
+        "object per line; --csv: a header line, then one line per message).",
+    )
     p.add_argument("name", metavar="TOPIC").completer = "topics"
     _add_read_options(p)
     p.add_argument("--once", action="store_true", help="print one message and exit (same as --count 1)")
     p.add_argument("--count", "-n", type=_positive_int, metavar="N", help="exit after N messages")
     p.add_argument("--field", "-f", metavar="PATH", help="print only this field, e.g. pose.position[2]")
     p.add_argument("--csv", action="store_true", help="comma-separated values, one line per message")
-    p.add_argument("--timeout", type=_positive_float, metavar="SECONDS",
-                   help="fail if no message arrives for this long")
-    p.add_argument("--max-array", type=int, default=32, metavar="N",
-                   help="show at most N values of an array (default 32; 0: all; not for --json/--csv)")
+    p.add_argument(
+        "--timeout", type=_positive_float, metavar="SECONDS", help="fail if no message arrives for this long"
+    )
+    p.add_argument(
+        "--max-array",
+        type=int,
+        default=32,
+        metavar="N",
+        help="show at most N values of an array (default 32; 0: all; not for --json/--csv)",
+    )
     p.add_argument("--rate", type=_positive_float, metavar="HZ", help="at most this many messages per second")
     p.set_defaults(run=cmd_echo)
 
     for name, run, what in (("hz", cmd_hz, "the rate and jitter"), ("bw", cmd_bw, "the bandwidth")):
-        p = sub.add_parser(name, parents=[common], help="measure %s of a topic" % what,
-                           description="Subscribes to TOPIC and prints %s every --period seconds, over the "
-                                       "last --window messages (lost packets are counted too)." % what)
+        p = sub.add_parser(
+            name,
+            parents=[common],
+            help="measure %s of a topic" % what,
+            description="Subscribes to TOPIC and prints %s every --period seconds, over the "
+            "last --window messages (lost packets are counted too)." % what,
+        )
         p.add_argument("name", metavar="TOPIC").completer = "topics"
         _add_read_options(p)
         add_report_options(p)
         p.set_defaults(run=run)
 
-    p = sub.add_parser("pub", parents=[common], help="publish messages on a topic",
-                       description="Publishes a message on TOPIC, given as 'field: value' pairs (YAML flow "
-                                   "style: 'time: 1.5, vec: [1, 2, 3], origin: {x: 1}', or a path as the key: "
-                                   "'corners[1].x: 7'); fields not given are 0. Values are checked against the "
-                                   "message definition before anything is published. Without --once/--count "
-                                   "it publishes until interrupted.",
-                       epilog="example: ln topic pub counter.counts 'time: 1.5, num_counts: 3' --rate 10")
+    p = sub.add_parser(
+        "pub",
+        parents=[common],
+        help="publish messages on a topic",
+        description="Publishes a message on TOPIC, given as 'field: value' pairs (YAML flow "
+        "style: 'time: 1.5, vec: [1, 2, 3], origin: {x: 1}', or a path as the key: "
+        "'corners[1].x: 7'); fields not given are 0. Values are checked against the "
+        "message definition before anything is published. Without --once/--count "
+        "it publishes until interrupted.",
+        epilog="example: ln topic pub counter.counts 'time: 1.5, num_counts: 3' --rate 10",
+    )
     p.add_argument("name", metavar="TOPIC").completer = "topics"
     p.add_argument("values", nargs="*", metavar="'FIELD: VALUE ...'", help="field values (default: all 0)")
-    p.add_argument("--type", "-t", metavar="MD", help="message definition (default: the topic's, if it exists)"
-                   ).completer = "mds"
-    p.add_argument("--rate", "-r", type=_positive_float, default=1.0, metavar="HZ",
-                   help="messages per second (default 1)")
+    p.add_argument(
+        "--type", "-t", metavar="MD", help="message definition (default: the topic's, if it exists)"
+    ).completer = "mds"
+    p.add_argument(
+        "--rate", "-r", type=_positive_float, default=1.0, metavar="HZ", help="messages per second (default 1)"
+    )
     p.add_argument("--once", action="store_true", help="publish one message and exit (same as --count 1)")
     p.add_argument("--count", "-n", type=_positive_int, metavar="N", help="exit after N messages")
-    p.add_argument("--wait", type=float, default=2.0, metavar="SECONDS",
-                   help="with --once/--count: wait this long for a subscriber first (default 2)")
+    p.add_argument(
+        "--wait",
+        type=float,
+        default=2.0,
+        metavar="SECONDS",
+        help="with --once/--count: wait this long for a subscriber first (default 2)",
+    )
     p.set_defaults(run=cmd_pub)
 
 
 def add_report_options(p):
     """--window, --period, --count, --duration of the commands that measure a topic (hz, bw)."""
-    p.add_argument("--window", "-w", type=_positive_int, default=100, metavar="N",
-                   help="messages to average over (default 100)")
-    p.add_argument("--period", type=_positive_float, default=1.0, metavar="SECONDS",
-                   help="seconds between reports (default 1)")
+    p.add_argument(
+        "--window", "-w", type=_positive_int, default=100, metavar="N", help="messages to average over (default 100)"
+    )
+    p.add_argument(
+        "--period", type=_positive_float, default=1.0, metavar="SECONDS", help="seconds between reports (default 1)"
+    )
     p.add_argument("--count", "-n", type=_positive_int, metavar="N", help="exit after N reports")
-    p.add_argument("--duration", "-d", type=_positive_float, metavar="SECONDS",
-                   help="measure this long, print one report and exit")
+    p.add_argument(
+        "--duration", "-d", type=_positive_float, metavar="SECONDS", help="measure this long, print one report and exit"
+    )
 
 
 def _add_read_options(p):
-    p.add_argument("--type", "-t", metavar="MD", help="message definition, to subscribe before the topic exists "
-                   "(default: the topic's)").completer = "mds"
-    p.add_argument("--buffers", type=_positive_int, default=1, metavar="N",
-                   help="subscriber buffers (default 1: always the newest message)")
+    p.add_argument(
+        "--type",
+        "-t",
+        metavar="MD",
+        help="message definition, to subscribe before the topic exists (default: the topic's)",
+    ).completer = "mds"
+    p.add_argument(
+        "--buffers",
+        type=_positive_int,
+        default=1,
+        metavar="N",
+        help="subscriber buffers (default 1: always the newest message)",
+    )
 
 
 # --------------------------------------------------------------- list/info
+
 
 def topic_table(session):
     return sorted(introspect(session, "list_topics"), key=lambda t: t.name)
@@ -103,9 +147,12 @@ def cmd_list(session):
     if session.json:
         out.json([as_dict(t, TOPIC_FIELDS) for t in topics])
         return
-    out.table(("TOPIC", "DEFINITION", "PUBLISHER", "SUBS", "RATE"),
-              [(t.name, t.message_definition, t.publisher or "-", t.subscribers, human_rate(t.rate)) for t in topics],
-              numeric=(3, 4), empty="no topics")
+    out.table(
+        ("TOPIC", "DEFINITION", "PUBLISHER", "SUBS", "RATE"),
+        [(t.name, t.message_definition, t.publisher or "-", t.subscribers, human_rate(t.rate)) for t in topics],
+        numeric=(3, 4),
+        empty="no topics",
+    )
 
 
 def cmd_info(session):
@@ -119,16 +166,26 @@ def cmd_info(session):
     if session.json:
         out.json(info)
         return
-    out.fields([("topic", topic.name), ("definition", topic.message_definition), ("hash", topic.hash),
-                ("size", "%d bytes" % topic.message_size), ("publisher", topic.publisher or None),
-                ("subscribers", "%d%s" % (topic.subscribers, ": " + ", ".join(subscribers) if subscribers else "")),
-                ("rate", human_rate(topic.rate)), ("packets", topic.packets)])
+    out.fields(
+        [
+            ("topic", topic.name),
+            ("definition", topic.message_definition),
+            ("hash", topic.hash),
+            ("size", "%d bytes" % topic.message_size),
+            ("publisher", topic.publisher or None),
+            ("subscribers", "%d%s" % (topic.subscribers, ": " + ", ".join(subscribers) if subscribers else "")),
+            ("rate", human_rate(topic.rate)),
+            ("packets", topic.packets),
+        ]
+    )
 
 
 # -------------------------------------------------------------- subscribing
 
+
 def _topic_definition(clnt, topic):
     import links_and_nodes as ln
+
     try:
         return clnt.get_message_definition_for_topic(topic)[0]
     except ln.LNError as error:
@@ -140,6 +197,7 @@ def _topic_definition(clnt, topic):
 def subscribe(session):
     """(port, message definition name) for the topic of the command."""
     import links_and_nodes as ln
+
     args = session.args
     clnt = session.client()
     md_name = args.type or _topic_definition(clnt, args.name)
@@ -160,8 +218,9 @@ def cmd_echo(session):
             steps = V.parse_path(args.field)
             V.select(port.packet, steps)  # fails now for a wrong path, not at the first message
         except (ValueError, KeyError, IndexError) as error:
-            raise CliError("topic '%s' (%s): %s" % (args.name, md_name, str(error).strip("'\"")),
-                           "see 'ln md show %s'" % md_name) from None
+            raise CliError(
+                "topic '%s' (%s): %s" % (args.name, md_name, str(error).strip("'\"")), "see 'ln md show %s'" % md_name
+            ) from None
     limit = 1 if args.once else args.count
     writer = csv.writer(out.stream, lineterminator="\n") if args.csv else None
     received = 0
@@ -170,8 +229,10 @@ def cmd_echo(session):
         packet = port.read(0.2)
         if packet is None:
             if args.timeout and time.monotonic() - waited_since > args.timeout:
-                raise CliError("no message on topic '%s' for %g s" % (args.name, args.timeout),
-                               "is it published? see 'ln topic info %s'" % args.name)
+                raise CliError(
+                    "no message on topic '%s' for %g s" % (args.name, args.timeout),
+                    "is it published? see 'ln topic info %s'" % args.name,
+                )
             continue
         waited_since = time.monotonic()
         plain = V.select(packet, steps) if steps else V.to_plain(packet)
@@ -192,6 +253,7 @@ def cmd_echo(session):
 
 
 # -------------------------------------------------------------- hz and bw
+
 
 class RateMeter:
     """Rate and interval statistics over the last `window` messages, from
@@ -224,8 +286,16 @@ class RateMeter:
             low, high = min(intervals), max(intervals)
         else:
             mean = jitter = low = high = None
-        return {"rate": rate, "mean": mean, "min": low, "max": high, "jitter": jitter,
-                "window": len(self.samples) - 1, "received": self.total, "lost": self.lost}
+        return {
+            "rate": rate,
+            "mean": mean,
+            "min": low,
+            "max": high,
+            "jitter": jitter,
+            "window": len(self.samples) - 1,
+            "received": self.total,
+            "lost": self.lost,
+        }
 
 
 def _ms(seconds):
@@ -247,8 +317,10 @@ def _measure(session, show):
         if now >= next_report:
             report = meter.report()
             if end is not None and meter.total == 0:
-                raise CliError("no message on topic '%s' within %g s" % (args.name, args.duration),
-                               "is it published? see 'ln topic info %s'" % args.name)
+                raise CliError(
+                    "no message on topic '%s' within %g s" % (args.name, args.duration),
+                    "is it published? see 'ln topic info %s'" % args.name,
+                )
             if report is not None:
                 report.update(topic=args.name, message_size=size, bandwidth=report["rate"] * size)
             show(report)
@@ -273,9 +345,18 @@ def cmd_hz(session):
         elif report is None:
             out.line("no new messages")
         else:
-            out.line("rate: %s  min: %s  max: %s  jitter: %s  window: %d  lost: %d"
-                     % (out.paint("%.3f Hz" % report["rate"], "bold"), _ms(report["min"]), _ms(report["max"]),
-                        _ms(report["jitter"]), report["window"], report["lost"]))
+            out.line(
+                "rate: %s  min: %s  max: %s  jitter: %s  window: %d  lost: %d"
+                % (
+                    out.paint("%.3f Hz" % report["rate"], "bold"),
+                    _ms(report["min"]),
+                    _ms(report["max"]),
+                    _ms(report["jitter"]),
+                    report["window"],
+                    report["lost"],
+                )
+            )
+
     _measure(session, show)
 
 
@@ -288,17 +369,26 @@ def cmd_bw(session):
         elif report is None:
             out.line("no new messages")
         else:
-            out.line("bandwidth: %s  (%s messages at %.3f Hz)  window: %d"
-                     % (out.paint(human_bytes(report["bandwidth"], per_second=True), "bold"),
-                        human_bytes(report["message_size"]), report["rate"], report["window"]))
+            out.line(
+                "bandwidth: %s  (%s messages at %.3f Hz)  window: %d"
+                % (
+                    out.paint(human_bytes(report["bandwidth"], per_second=True), "bold"),
+                    human_bytes(report["message_size"]),
+                    report["rate"],
+                    report["window"],
+                )
+            )
+
     _measure(session, show)
 
 
 # ----------------------------------------------------------------- publish
 
+
 def packet_from_values(clnt, md_name, texts, what):
     """A packet of `md_name` filled from 'field: value' texts (validated)."""
     import links_and_nodes as ln
+
     try:
         _, cls = clnt._topic_model(md_name)
     except ln.LNError as error:
@@ -313,14 +403,17 @@ def fill(part, texts, md_name):
     try:
         V.assign_fields(part, V.parse_fields(texts))
     except V.ValueSyntaxError as error:
-        raise CliError("malformed field values %s" % error,
-                       "write 'field: value, list: [1, 2], sub: {x: 1}'; quote text with spaces") from None
+        raise CliError(
+            "malformed field values %s" % error,
+            "write 'field: value, list: [1, 2], sub: {x: 1}'; quote text with spaces",
+        ) from None
     except (AttributeError, TypeError, ValueError) as error:
         raise CliError(str(error), "see 'ln md show %s'" % md_name) from None
 
 
 def cmd_pub(session):
     import links_and_nodes as ln
+
     args, out = session.args, session.out
     clnt = session.client()
     md_name = args.type
@@ -328,8 +421,10 @@ def cmd_pub(session):
         try:
             md_name = clnt.get_message_definition_for_topic(args.name)[0]
         except ln.LNError:
-            raise CliError("topic '%s' does not exist yet, so its message definition is unknown" % args.name,
-                           "give it with --type MD") from None
+            raise CliError(
+                "topic '%s' does not exist yet, so its message definition is unknown" % args.name,
+                "give it with --type MD",
+            ) from None
     packet = packet_from_values(clnt, md_name, args.values, "topic '%s'" % args.name)
     try:
         port = clnt.publish(args.name, md_name)
@@ -340,9 +435,15 @@ def cmd_pub(session):
     if limit:
         _wait_for_subscriber(port, args.wait)
     if not out.json_mode:
-        out.line("publishing %s (%s) at %g Hz%s" % (args.name, md_name, args.rate,
-                                                    ", %d message%s" % (limit, "s" * (limit > 1)) if limit else
-                                                    " until interrupted"))
+        out.line(
+            "publishing %s (%s) at %g Hz%s"
+            % (
+                args.name,
+                md_name,
+                args.rate,
+                ", %d message%s" % (limit, "s" * (limit > 1)) if limit else " until interrupted",
+            )
+        )
         out.flush()
     sent = 0
     next_time = time.monotonic()
@@ -359,8 +460,9 @@ def cmd_pub(session):
     except KeyboardInterrupt:
         pass
     if out.json_mode:
-        out.json({"topic": args.name, "message_definition": md_name, "published": sent,
-                  "message": V.to_plain(port.packet)})
+        out.json(
+            {"topic": args.name, "message_definition": md_name, "published": sent, "message": V.to_plain(port.packet)}
+        )
     else:
         out.line("published %d message%s" % (sent, "s" * (sent != 1)))
 

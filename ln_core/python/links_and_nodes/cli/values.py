@@ -18,8 +18,21 @@ import re
 
 import numpy as np
 
-from .._packets import (Part, FieldTypeError, FieldValueError, _Array, _Char, _CharArray, _DynNumeric, _DynSub,
-                        _DynText, _Length, _Scalar, _Sub, _SubArray)
+from .._packets import (
+    FieldTypeError,
+    FieldValueError,
+    Part,
+    _Array,
+    _Char,
+    _CharArray,
+    _DynNumeric,
+    _DynSub,
+    _DynText,
+    _Length,
+    _Scalar,
+    _Sub,
+    _SubArray,
+)
 
 
 class ValueSyntaxError(ValueError):
@@ -62,7 +75,7 @@ class _Parser:
         self.pos = 0
 
     def fail(self, what):
-        rest = self.text[self.pos:self.pos + 20]
+        rest = self.text[self.pos : self.pos + 20]
         raise ValueSyntaxError("%s at %s" % (what, "'%s'" % rest if rest.strip() else "the end"))
 
     def skip(self):
@@ -117,7 +130,7 @@ class _Parser:
         start = self.pos
         while self.pos < len(self.text) and self.text[self.pos] not in ":,{} \t\r\n":
             self.pos += 1
-        key = self.text[start:self.pos].strip()
+        key = self.text[start : self.pos].strip()
         if not key:
             self.fail("expected a field name")
         try:
@@ -162,7 +175,7 @@ class _Parser:
             self.pos += 1
         if self.pos == start:
             self.fail("unexpected '%s' (quote text that contains it)" % c)
-        return Bare(self.text[start:self.pos])
+        return Bare(self.text[start : self.pos])
 
     def quoted(self):
         quote = self.text[self.pos]
@@ -206,6 +219,7 @@ def parse_fields(texts):
 
 # ------------------------------------------------------------- conversion
 
+
 def _number(value, where):
     """An int, float or bool from a Bare word; text stays text (and fails in the packet)."""
     if not isinstance(value, Bare):
@@ -225,8 +239,9 @@ def _number(value, where):
 def _descriptor(part, name):
     descriptor = type(part).__dict__.get(name) if name in part._field_types else None
     if descriptor is None:
-        raise AttributeError("'%s' has no field '%s'; fields: %s"
-                             % (part._type_name, name, ", ".join(public_fields(part))))
+        raise AttributeError(
+            "'%s' has no field '%s'; fields: %s" % (part._type_name, name, ", ".join(public_fields(part)))
+        )
     return descriptor
 
 
@@ -282,8 +297,10 @@ def _fail_nested_index(part, name):
 
 def _assign_part(part, value, field_name):
     if not isinstance(value, dict):
-        raise FieldTypeError("field '%s' is a %s: give its fields as {%s}"
-                             % (field_name, part._type_name, ", ".join("%s: ..." % f for f in public_fields(part))))
+        raise FieldTypeError(
+            "field '%s' is a %s: give its fields as {%s}"
+            % (field_name, part._type_name, ", ".join("%s: ..." % f for f in public_fields(part)))
+        )
     assign_fields(part, value)
 
 
@@ -307,8 +324,9 @@ def _assign(part, name, descriptor, value):
         setattr(part, name, value)
     elif isinstance(descriptor, _Scalar):
         if isinstance(value, (list, dict)):
-            raise FieldTypeError("%s: expects one number, got %s"
-                                 % (where, "a list" if isinstance(value, list) else "{...}"))
+            raise FieldTypeError(
+                "%s: expects one number, got %s" % (where, "a list" if isinstance(value, list) else "{...}")
+            )
         number = _number(value, where)
         if isinstance(number, float) and number.is_integer() and descriptor.ctype not in ("float", "double"):
             number = int(number)  # 1e3 for an integer field
@@ -349,17 +367,16 @@ def _assign(part, name, descriptor, value):
 
 # ------------------------------------------------------------- plain data
 
+
 def public_fields(part):
     """Field names without the automatic `_len` companions of dynamic fields."""
     types = part._field_types
-    return [name for name in part._fields
-            if not (name.endswith("_len") and types.get(name[:-4], "").endswith("*"))]
+    return [name for name in part._fields if not (name.endswith("_len") and types.get(name[:-4], "").endswith("*"))]
 
 
 def _float32_list(array):
     # the shortest text that reads back as the same float32, so 0.1f shows as 0.1
-    return [float(np.format_float_positional(v, unique=True, trim="-")) if np.isfinite(v) else float(v)
-            for v in array]
+    return [float(np.format_float_positional(v, unique=True, trim="-")) if np.isfinite(v) else float(v) for v in array]
 
 
 def to_plain(value, descriptor=None):
@@ -386,7 +403,7 @@ def select(part, steps):
     for i, step in enumerate(steps):
         if isinstance(step, str):
             if not isinstance(value, Part) or step not in type(value).__dict__ or step not in value._field_types:
-                shown = format_path(steps[:i + 1])
+                shown = format_path(steps[: i + 1])
                 if isinstance(value, Part):
                     raise KeyError("no field '%s'; fields here: %s" % (shown, ", ".join(public_fields(value))))
                 raise KeyError("no field '%s' ('%s' has no sub-fields)" % (shown, format_path(steps[:i])))
@@ -396,8 +413,9 @@ def select(part, steps):
             if isinstance(value, (str, Part)) or not hasattr(value, "__len__"):
                 raise KeyError("'%s' is not an array" % format_path(steps[:i]))
             if not -len(value) <= step < len(value):
-                raise IndexError("index %d of '%s' is out of range (%d items)"
-                                 % (step, format_path(steps[:i]), len(value)))
+                raise IndexError(
+                    "index %d of '%s' is out of range (%d items)" % (step, format_path(steps[:i]), len(value))
+                )
             value = value[step]
             descriptor = None if isinstance(value, Part) else descriptor
     return to_plain(value, descriptor)

@@ -12,9 +12,8 @@ import sys
 import threading
 import time
 
-import pytest
-
 import links_and_nodes as ln
+import pytest
 
 #: Upper bound of every `ln` run; commands that stream get --count/--duration too.
 RUN_TIMEOUT = 30
@@ -26,14 +25,18 @@ def run_ln(manager, *args, timeout=RUN_TIMEOUT, env=None, **extra_env):
     environment.pop("LN_CLI_DEBUG", None)
     if env is not None:
         environment = env
-    return subprocess.run([sys.executable, "-m", "links_and_nodes.cli", *args], env=environment,
-                          capture_output=True, text=True, timeout=timeout)
+    return subprocess.run(
+        [sys.executable, "-m", "links_and_nodes.cli", *args],
+        env=environment,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
 
 
 def ok(result):
     """stdout of a run that must have succeeded."""
-    assert result.returncode == 0, "exit %d\nstdout: %s\nstderr: %s" % (result.returncode, result.stdout,
-                                                                       result.stderr)
+    assert result.returncode == 0, "exit %d\nstdout: %s\nstderr: %s" % (result.returncode, result.stdout, result.stderr)
     assert "Traceback" not in result.stderr
     return result.stdout
 
@@ -62,6 +65,7 @@ def one_line_error(result, *words):
 def table(text):
     """Rows of an aligned table (header first) split at runs of 2+ spaces."""
     import re
+
     return [re.split(r"\s{2,}", line.strip()) for line in text.strip().splitlines()]
 
 
@@ -136,6 +140,7 @@ class Providers:
 def no_manager_env(manager):
     """An environment whose LN_MANAGER points at a port where nothing listens."""
     import socket
+
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]

@@ -3,9 +3,8 @@
 import os
 
 import links_and_nodes as ln
-
-from conftest import MSGDEFS
 from cli_helpers import ok, ok_json, one_line_error, run_ln, table
+from conftest import MSGDEFS
 
 
 def local_env(manager):
@@ -44,8 +43,12 @@ def test_show_service(manager):
     info = ok_json(run_ln(manager, "md", "show", "area_service/circle_area", "--json"))
     assert info["kind"] == "service"
     assert info["signature"] == "double 8 1|double 8 1,int32_t 4 1,uint32_t 4 1,char* 1 1"
-    assert [r["field"] for r in info["layout"]["response"]] == ["area", "error_code", "error_message_len",
-                                                                 "error_message"]
+    assert [r["field"] for r in info["layout"]["response"]] == [
+        "area",
+        "error_code",
+        "error_message_len",
+        "error_message",
+    ]
     assert info["layout"]["response"][3] == {"offset": 16, "size": 8, "type": "char*", "field": "error_message"}
     assert info["sizes"] == {"request": 8, "response": 24}
     text = ok(run_ln(manager, "md", "show", "area_service/circle_area"))
@@ -62,8 +65,7 @@ def test_show_without_a_manager_uses_the_local_search_path(manager):
 
 
 def test_show_unknown_definition(manager):
-    one_line_error(run_ln(manager, "md", "show", "no/such_md"), "unknown message definition 'no/such_md'",
-                   "ln md find")
+    one_line_error(run_ln(manager, "md", "show", "no/such_md"), "unknown message definition 'no/such_md'", "ln md find")
     one_line_error(run_ln(None, "md", "show", "no/such_md", env=local_env(manager)), "no/such_md")
 
 
@@ -74,9 +76,11 @@ def test_find(manager):
     assert "counter/count_message" not in hits
     rows = table(ok(run_ln(manager, "md", "find", "*_area")))
     assert rows[0] == ["DEFINITION", "KIND", "FILE"]
-    assert [r[:2] for r in rows[1:]] == [["area_service/circle_area", "service"],
-                                         ["area_service/ellipse_area", "service"],
-                                         ["area_service/triangle_area", "service"]]
+    assert [r[:2] for r in rows[1:]] == [
+        ["area_service/circle_area", "service"],
+        ["area_service/ellipse_area", "service"],
+        ["area_service/triangle_area", "service"],
+    ]
     assert "COUNT" in ok(run_ln(manager, "md", "find", "COUNT")).upper()  # case-insensitive substring
     one_line_error(run_ln(manager, "md", "find", "zzz_nothing"), "no message definition matches 'zzz_nothing'")
 

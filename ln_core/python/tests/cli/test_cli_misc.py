@@ -9,13 +9,11 @@ import time
 import types
 import uuid
 
-import pytest
-
 import links_and_nodes as ln
-from links_and_nodes.cli import OWN_FIRST_ARGUMENTS
-
-from conftest import MSGDEFS
+import pytest
 from cli_helpers import Providers, no_manager_env, ok, ok_json, one_line_error, run_ln, table  # noqa: F401
+from conftest import MSGDEFS
+from links_and_nodes.cli import OWN_FIRST_ARGUMENTS
 
 LAUNCHER = os.environ.get("LN_CORE_LN")
 needs_launcher = pytest.mark.skipif(not LAUNCHER, reason="LN_CORE_LN (the generated `ln` launcher) not set")
@@ -39,6 +37,7 @@ def live(manager):
 
 
 # ---------------------------------------------------------------- clients
+
 
 def test_client_list(manager, live):
     clients = {c["name"]: c for c in ok_json(run_ln(manager, "client", "list", "--json"))}
@@ -74,6 +73,7 @@ def test_no_manager(manager, no_manager_env):
 
 # ------------------------------------------------------------- completion
 
+
 def complete(manager, line, word=None, **env):
     args = ["__complete", line] + ([word] if word is not None else [])
     return ok(run_ln(manager, *args, **env)).split()
@@ -87,10 +87,25 @@ def test_completion_script(manager):
 
 
 def test_completion_of_commands_and_options(manager):
-    assert complete(manager, "ln ") == ["bag", "client", "completion", "group", "manager", "md", "param", "play",
-                                        "process", "record", "ros", "service", "state", "topic"]
+    assert complete(manager, "ln ") == [
+        "bag",
+        "client",
+        "completion",
+        "group",
+        "manager",
+        "md",
+        "param",
+        "play",
+        "process",
+        "record",
+        "ros",
+        "service",
+        "state",
+        "topic",
+    ]
     import importlib.util
-    if importlib.util.find_spec("ln_bag") is not None:   # recordings come from the ln_bag package
+
+    if importlib.util.find_spec("ln_bag") is not None:  # recordings come from the ln_bag package
         assert complete(manager, "ln bag ") == ["convert", "info"]
         assert complete(manager, "ln record --e") == ["--exclude"]
     else:
@@ -126,14 +141,17 @@ def test_completion_without_a_manager_is_quick_and_empty(manager, no_manager_env
 def test_bash_uses_the_script(manager, live, tmp_path):
     env = manager.env(PATH=os.path.dirname(LAUNCHER) + os.pathsep + os.environ["PATH"])
     line = "ln topic info cli.misc"
-    script = ('source <(ln completion bash)\n'
-              'COMP_LINE="%s"; COMP_POINT=${#COMP_LINE}; COMP_WORDS=(ln topic info cli.misc); COMP_CWORD=3\n'
-              '_ln_complete; printf "%%s\\n" "${COMPREPLY[@]}"\n' % line)
+    script = (
+        'source <(ln completion bash)\n'
+        'COMP_LINE="%s"; COMP_POINT=${#COMP_LINE}; COMP_WORDS=(ln topic info cli.misc); COMP_CWORD=3\n'
+        '_ln_complete; printf "%%s\\n" "${COMPREPLY[@]}"\n' % line
+    )
     result = subprocess.run(["bash", "-c", script], env=env, capture_output=True, text=True, timeout=30)
     assert live.topic in result.stdout.split(), result.stderr
 
 
 # ----------------------------------------------------------------- usage
+
 
 def test_usage(manager):
     result = run_ln(manager)
@@ -161,8 +179,10 @@ def test_anything_else_is_the_system_ln(tmp_path):
 @needs_launcher
 def test_launcher(manager, live, tmp_path):
     def launch(*args):
-        return subprocess.run([LAUNCHER, *args], env=manager.env(), capture_output=True, text=True, timeout=30,
-                              cwd=str(tmp_path))
+        return subprocess.run(
+            [LAUNCHER, *args], env=manager.env(), capture_output=True, text=True, timeout=30, cwd=str(tmp_path)
+        )
+
     assert "usage: ln" in ok(launch("--help"))
     assert any(c["name"] == "cli_misc_publisher" for c in ok_json(launch("client", "list", "--json")))
     (tmp_path / "target").write_text("x")
@@ -182,13 +202,17 @@ def test_ln_ros_without_rclpy_is_one_clear_line():
     """`ln` never needs ROS; `ln ros ...` needs rclpy only when run, and says so when it is missing
     (the rest of `ln ros` runs against ROS peers in ln_ros2_bridge/test/test_ln_ros_cli.py)."""
     import sys
-    code = ("import sys; sys.modules['rclpy'] = None\n"   # as if rclpy were not installed
-            "import links_and_nodes.cli as cli\n"
-            "cli.build_parser()\n"
-            "assert not [m for m in sys.modules if m.startswith('rclpy') and sys.modules[m] is not None]\n"
-            "sys.exit(cli.main(sys.argv[1:]))")
-    result = subprocess.run([sys.executable, "-c", code, "ros", "topic", "list"], capture_output=True, text=True,
-                            timeout=60)
+
+    code = (
+        "import sys; sys.modules['rclpy'] = None\n"  # as if rclpy were not installed
+        "import links_and_nodes.cli as cli\n"
+        "cli.build_parser()\n"
+        "assert not [m for m in sys.modules if m.startswith('rclpy') and sys.modules[m] is not None]\n"
+        "sys.exit(cli.main(sys.argv[1:]))"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", code, "ros", "topic", "list"], capture_output=True, text=True, timeout=60
+    )
     one_line_error(result, "'ln ros' needs ROS 2 Jazzy's Python packages (rclpy)", "source launchless_scripts/env.sh")
     helped = subprocess.run([sys.executable, "-c", code, "ros", "--help"], capture_output=True, text=True, timeout=60)
     assert helped.returncode == 0 and "node" in helped.stdout and "service" in helped.stdout

@@ -4,11 +4,9 @@ import threading
 import time
 import uuid
 
+import links_and_nodes as ln
 import numpy as np
 import pytest
-
-import links_and_nodes as ln
-
 from cli_helpers import ok, ok_json, one_line_error, run_ln, table
 
 
@@ -34,6 +32,7 @@ def live(manager):
         while not stop.is_set():
             block.update()
             time.sleep(0.001)
+
     thread = threading.Thread(target=loop, daemon=True)
     thread.start()
     yield group, block

@@ -8,11 +8,9 @@ import subprocess
 import sys
 import time
 
-import pytest
-
 import links_and_nodes as ln
+import pytest
 from cli_helpers import ok, ok_json, one_line_error, run_ln
-
 from conftest import HERE, Manager
 
 QUICKSTART = os.path.join(HERE, "quickstart")
@@ -94,6 +92,7 @@ def test_failures_are_one_line_with_the_reason(manager):
 def test_completion_knows_the_names(manager):
     def complete(line):
         return ok(run_ln(manager, "__complete", line)).split()
+
     assert complete("ln process ") == ["info", "list", "output", "restart", "start", "stop"]
     assert complete("ln process start b") == ["broken", "broken_provider"]
     assert complete("ln process output m") == ["marker"], "states have output too"
@@ -170,24 +169,38 @@ def _free_port():
 
 def test_clients_wait_for_a_manager_that_starts_later():
     from conftest import manager_binary
+
     port = _free_port()
-    script = ("import sys, time, links_and_nodes as ln; print('trying', flush=True); t = time.monotonic(); "
-              "c = ln.client('early'); print('connected after %.1f s' % (time.monotonic() - t)); c.close()")
+    script = (
+        "import sys, time, links_and_nodes as ln; print('trying', flush=True); t = time.monotonic(); "
+        "c = ln.client('early'); print('connected after %.1f s' % (time.monotonic() - t)); c.close()"
+    )
     env = dict(os.environ, LN_MANAGER="127.0.0.1:%d" % port)
     env.pop("LN_MANAGER_CONNECT_TIMEOUT", None)
     refused = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=30)
     assert refused.returncode != 0 and "Connection refused" in refused.stderr, "LN 2.9's default: fail at once"
-    bad = subprocess.run([sys.executable, "-c", script], env=dict(env, LN_MANAGER_CONNECT_TIMEOUT="soon"),
-                         capture_output=True, text=True, timeout=30)
+    bad = subprocess.run(
+        [sys.executable, "-c", script],
+        env=dict(env, LN_MANAGER_CONNECT_TIMEOUT="soon"),
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
     assert bad.returncode != 0 and "LN_MANAGER_CONNECT_TIMEOUT='soon' is not a number of seconds" in bad.stderr
 
-    early = subprocess.Popen([sys.executable, "-c", script], env=dict(env, LN_MANAGER_CONNECT_TIMEOUT="20"),
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    early = subprocess.Popen(
+        [sys.executable, "-c", script],
+        env=dict(env, LN_MANAGER_CONNECT_TIMEOUT="20"),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     manager = None
     try:
         assert early.stdout.readline() == "trying\n"  # it connects now, before the manager listens
-        manager = subprocess.Popen([manager_binary(), "--listen", "127.0.0.1:%d" % port], stdout=subprocess.DEVNULL,
-                                   stderr=subprocess.DEVNULL)
+        manager = subprocess.Popen(
+            [manager_binary(), "--listen", "127.0.0.1:%d" % port], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+        )
         out, err = early.communicate(timeout=30)
     finally:
         if early.poll() is None:

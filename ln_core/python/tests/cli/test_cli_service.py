@@ -6,7 +6,6 @@ import types
 import uuid
 
 import pytest
-
 from cli_helpers import Providers, no_manager_env, ok, ok_json, one_line_error, run_ln, table  # noqa: F401
 
 
@@ -14,7 +13,7 @@ def circle_area(request, req, resp):
     if req.radius < 0:
         resp.area, resp.error_code, resp.error_message = 0.0, 1, "negative radius %g" % req.radius
     else:
-        resp.area, resp.error_code, resp.error_message = math.pi * req.radius ** 2, 0, ""
+        resp.area, resp.error_code, resp.error_message = math.pi * req.radius**2, 0, ""
     request.respond()
     return 0
 
@@ -47,6 +46,7 @@ def live(manager):
     def never_answers(request, req, resp):
         system.release.wait(10)
         return 0
+
     system.slow_provider.provide(system.slow, "pytest/sleep", never_answers)
     system.slow_provider.start()
     yield system
@@ -72,8 +72,14 @@ def test_list(manager, live):
 def test_info(manager, live):
     info = ok_json(run_ln(manager, "service", "info", live.echo, "--json"))
     assert info["provider"] == live.providers.client.name
-    assert info["request"] == ["uint32_t counter", "double vec[3]", "double* values", "char* text", "point_t origin",
-                               "point_t* points"]
+    assert info["request"] == [
+        "uint32_t counter",
+        "double vec[3]",
+        "double* values",
+        "char* text",
+        "point_t origin",
+        "point_t* points",
+    ]
     assert info["response"][:2] == ["uint32_t counter", "double sum"]
     text = ok(run_ln(manager, "service", "info", live.area))
     assert "interface  area_service/circle_area" in text
@@ -89,22 +95,40 @@ def test_call_prints_the_response(manager, live):
 
 
 def test_call_with_dynamic_and_nested_fields(manager, live):
-    response = ok_json(run_ln(
-        manager, "service", "call", live.echo, "--json",
-        'counter: 41, vec: [1, 2, 3], values: [0.5, 1.5], text: "hi there"',
-        "origin: {x: 10}", "points: [{x: 1, y: 2}, {x: 3}]"))
-    assert response == {"counter": 42, "sum": 16.0, "values": [1.0, 3.0], "text": "echo: hi there",
-                        "points": [{"x": 2.0, "y": 1.0}, {"x": 0.0, "y": 3.0}]}
+    response = ok_json(
+        run_ln(
+            manager,
+            "service",
+            "call",
+            live.echo,
+            "--json",
+            'counter: 41, vec: [1, 2, 3], values: [0.5, 1.5], text: "hi there"',
+            "origin: {x: 10}",
+            "points: [{x: 1, y: 2}, {x: 3}]",
+        )
+    )
+    assert response == {
+        "counter": 42,
+        "sum": 16.0,
+        "values": [1.0, 3.0],
+        "text": "echo: hi there",
+        "points": [{"x": 2.0, "y": 1.0}, {"x": 0.0, "y": 3.0}],
+    }
     text = ok(run_ln(manager, "service", "call", live.echo, "counter: 1", "values: [1, 2, 3]"))
     assert "counter: 2\n" in text and "values: [2.0, 4.0, 6.0]\n" in text and 'text: "echo: "' in text
     assert "points: []" in text
 
 
 def test_call_failures_are_one_line(manager, live):
-    one_line_error(run_ln(manager, "service", "call", live.echo, "counter: 99"),
-                   "service '%s' failed" % live.echo, "error 7", "counter 99 is not allowed")
-    one_line_error(run_ln(manager, "service", "call", "cli.no_such_service"), "no provider for service",
-                   "ln service list")
+    one_line_error(
+        run_ln(manager, "service", "call", live.echo, "counter: 99"),
+        "service '%s' failed" % live.echo,
+        "error 7",
+        "counter 99 is not allowed",
+    )
+    one_line_error(
+        run_ln(manager, "service", "call", "cli.no_such_service"), "no provider for service", "ln service list"
+    )
     one_line_error(run_ln(manager, "service", "call", live.echo, "counter: x"), "field 'counter'", "expects a number")
     one_line_error(run_ln(manager, "service", "call", live.echo, "points: [1, 2]"), "points[0]", "{x: ..., y: ...}")
     one_line_error(run_ln(manager, "service", "call", live.echo, "vec: [1, 2]"), "expects 3 values, got 2")

@@ -7,12 +7,9 @@ import time
 import types
 import uuid
 
-import pytest
-
 import links_and_nodes as ln
-
-from cli_helpers import (Publisher, json_lines, no_manager_env, ok, ok_json, one_line_error, run_ln,  # noqa: F401
-                         table, wait_until)
+import pytest
+from cli_helpers import Publisher, json_lines, no_manager_env, ok, ok_json, one_line_error, run_ln, table, wait_until  # noqa: F401
 
 COUNTER_RATE = 50
 
@@ -35,8 +32,9 @@ def fill_all_types(packet, i):
 def live(manager):
     unique = uuid.uuid4().hex[:8]
     system = types.SimpleNamespace(counter="cli.counter." + unique, all="cli.all." + unique, unique=unique)
-    system.counter_pub = Publisher("cli_pub_counter", system.counter, "counter/count_message", COUNTER_RATE,
-                                   fill_counter)
+    system.counter_pub = Publisher(
+        "cli_pub_counter", system.counter, "counter/count_message", COUNTER_RATE, fill_counter
+    )
     system.all_pub = Publisher("cli_pub_all", system.all, "pytest/all_types", 20, fill_all_types)
     system.listener = ln.client("cli_listener")
     system.listener_port = system.listener.subscribe(system.counter, "counter/count_message")
@@ -52,10 +50,14 @@ def topic_rows(manager):
 
 # ------------------------------------------------------------------- list/info
 
+
 def test_list_shows_definition_publisher_subscribers_and_rate(manager, live):
     # the publisher reports its packet count about once a second
-    row = wait_until(lambda: (topic_rows(manager).get(live.counter) or {}).get("rate") and
-                     topic_rows(manager)[live.counter], timeout=15, what="a rate in 'ln topic list'")
+    row = wait_until(
+        lambda: (topic_rows(manager).get(live.counter) or {}).get("rate") and topic_rows(manager)[live.counter],
+        timeout=15,
+        what="a rate in 'ln topic list'",
+    )
     assert row["message_definition"] == "counter/count_message"
     assert row["publisher"] == live.counter_pub.client.name
     assert row["subscribers"] == 1
@@ -89,11 +91,11 @@ def test_info(manager, live):
 
 
 def test_info_of_an_unknown_topic(manager, live):
-    one_line_error(run_ln(manager, "topic", "info", "no.such.topic"), "unknown topic 'no.such.topic'",
-                   "ln topic list")
+    one_line_error(run_ln(manager, "topic", "info", "no.such.topic"), "unknown topic 'no.such.topic'", "ln topic list")
 
 
 # ------------------------------------------------------------------------ echo
+
 
 def test_echo_once_prints_the_fields(manager, live):
     text = ok(run_ln(manager, "topic", "echo", live.all, "--once"))
@@ -107,8 +109,7 @@ def test_echo_once_prints_the_fields(manager, live):
 
 
 def test_echo_count_json_gives_consecutive_messages(manager, live):
-    messages = json_lines(run_ln(manager, "topic", "echo", live.counter, "--count", "3", "--json",
-                                 "--buffers", "16"))
+    messages = json_lines(run_ln(manager, "topic", "echo", live.counter, "--count", "3", "--json", "--buffers", "16"))
     assert len(messages) == 3
     counts = [m["num_counts"] for m in messages]
     assert counts == sorted(counts) and len(set(counts)) == 3
@@ -117,8 +118,9 @@ def test_echo_count_json_gives_consecutive_messages(manager, live):
 
 def test_echo_field(manager, live):
     assert ok(run_ln(manager, "topic", "echo", live.all, "--field", "vec[1]", "--count", "2")).split() == ["2.5"] * 2
-    assert json_lines(run_ln(manager, "topic", "echo", live.all, "--field", "corners[1]", "--once", "--json")) == \
-        [{"x": 7.0, "y": 0.0}]
+    assert json_lines(run_ln(manager, "topic", "echo", live.all, "--field", "corners[1]", "--once", "--json")) == [
+        {"x": 7.0, "y": 0.0}
+    ]
     assert ok(run_ln(manager, "topic", "echo", live.all, "-f", "origin.y", "--once")).strip() == "-0.5"
 
 
@@ -149,8 +151,13 @@ def test_echo_times_out_without_messages(manager, live):
 
 
 def start_ln(manager, *args):
-    return subprocess.Popen([sys.executable, "-m", "links_and_nodes.cli", *args], env=manager.env(),
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    return subprocess.Popen(
+        [sys.executable, "-m", "links_and_nodes.cli", *args],
+        env=manager.env(),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
 
 
 def test_echo_ends_quietly_on_ctrl_c_and_on_a_closed_pipe(manager, live):
@@ -176,6 +183,7 @@ def test_echo_ends_quietly_on_ctrl_c_and_on_a_closed_pipe(manager, live):
 
 # ---------------------------------------------------------------------- hz/bw
 
+
 def test_hz_measures_rate_and_jitter(manager, live):
     reports = json_lines(run_ln(manager, "topic", "hz", live.counter, "--duration", "2", "--json"))
     assert len(reports) == 1
@@ -193,6 +201,7 @@ def test_hz_adds_up_the_losses_of_every_read():
     # sample_info.lost counts the packets skipped since the previous read;
     # taken for a running total, losses went missing and turned negative.
     from links_and_nodes.cli.topic import RateMeter
+
     meter = RateMeter(window=10)
     for now, sequence, lost in ((0.0, 3, 2), (0.1, 4, 0), (0.2, 7, 2), (0.3, 8, 0), (0.4, 9, 0)):
         meter.add(now, sequence, lost)
@@ -212,21 +221,41 @@ def test_bw_measures_bytes_per_second(manager, live):
 
 def test_hz_without_messages_fails(manager, live):
     silent = "cli.silent_hz." + live.unique
-    one_line_error(run_ln(manager, "topic", "hz", silent, "-t", "counter/count_message", "--duration", "0.5"),
-                   "no message")
+    one_line_error(
+        run_ln(manager, "topic", "hz", silent, "-t", "counter/count_message", "--duration", "0.5"), "no message"
+    )
 
 
 # ------------------------------------------------------------------------- pub
+
 
 def test_pub_delivers_validated_values(manager, live):
     topic = "cli.pub." + live.unique
     clnt = ln.client("cli_pub_reader")
     try:
         port = clnt.subscribe(topic, "counter/count_message", buffers=8)
-        process = subprocess.Popen([sys.executable, "-m", "links_and_nodes.cli", "topic", "pub", topic,
-                                    "time: 1.5", "num_counts: 0x10", "--type", "counter/count_message",
-                                    "--count", "5", "--rate", "20"],
-                                   env=manager.env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        process = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "links_and_nodes.cli",
+                "topic",
+                "pub",
+                topic,
+                "time: 1.5",
+                "num_counts: 0x10",
+                "--type",
+                "counter/count_message",
+                "--count",
+                "5",
+                "--rate",
+                "20",
+            ],
+            env=manager.env(),
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         received = []
         deadline = time.monotonic() + 20
         while time.monotonic() < deadline and (process.poll() is None or port.read(False) is not None):
@@ -237,15 +266,28 @@ def test_pub_delivers_validated_values(manager, live):
     finally:
         clnt.close()
     assert process.returncode == 0, stderr
-    assert stdout.splitlines() == ["publishing %s (counter/count_message) at 20 Hz, 5 messages" % topic,
-                                   "published 5 messages"]
+    assert stdout.splitlines() == [
+        "publishing %s (counter/count_message) at 20 Hz, 5 messages" % topic,
+        "published 5 messages",
+    ]
     assert received and set(received) == {(1.5, 16)}
 
 
 def test_pub_nested_values_json(manager, live):
     topic = "cli.pub_nested." + live.unique
-    result = run_ln(manager, "topic", "pub", topic, "--type", "pytest/all_types", "--once", "--wait", "0", "--json",
-                    'name: "hi you", corners[1].x: 3, vec: [1, 2, 3e0], origin: {x: 1}, small[2]: -7, f: .5')
+    result = run_ln(
+        manager,
+        "topic",
+        "pub",
+        topic,
+        "--type",
+        "pytest/all_types",
+        "--once",
+        "--wait",
+        "0",
+        "--json",
+        'name: "hi you", corners[1].x: 3, vec: [1, 2, 3e0], origin: {x: 1}, small[2]: -7, f: .5',
+    )
     report = ok_json(result)
     assert report["published"] == 1 and report["topic"] == topic
     message = report["message"]
@@ -254,14 +296,17 @@ def test_pub_nested_values_json(manager, live):
     assert message["f"] == 0.5
 
 
-@pytest.mark.parametrize("values, words", [
-    ("num_counts: -1", ["num_counts", "out of range"]),
-    ("time: abc", ["field 'time'", "expects a number, got 'abc'"]),
-    ("bogus: 1", ["no field 'bogus'", "time, num_counts"]),
-    ("time: [1", ["malformed", "missing ']'"]),
-    ("time 1", ["malformed", "expected ':'"]),
-    ("time: 1, time: 2", ["given twice"]),
-])
+@pytest.mark.parametrize(
+    "values, words",
+    [
+        ("num_counts: -1", ["num_counts", "out of range"]),
+        ("time: abc", ["field 'time'", "expects a number, got 'abc'"]),
+        ("bogus: 1", ["no field 'bogus'", "time, num_counts"]),
+        ("time: [1", ["malformed", "missing ']'"]),
+        ("time 1", ["malformed", "expected ':'"]),
+        ("time: 1, time: 2", ["given twice"]),
+    ],
+)
 def test_pub_rejects_bad_values_before_publishing(manager, live, values, words):
     topic = "cli.pub_bad." + live.unique
     one_line_error(run_ln(manager, "topic", "pub", topic, values, "-t", "counter/count_message", "--once"), *words)
@@ -275,6 +320,7 @@ def test_pub_needs_a_definition_and_a_free_topic(manager, live):
 
 
 # -------------------------------------------------------------- no manager
+
 
 def test_no_manager_is_one_line(manager, no_manager_env):
     for args in (["topic", "list"], ["topic", "echo", "x", "--once"], ["topic", "hz", "x", "--duration", "1"]):

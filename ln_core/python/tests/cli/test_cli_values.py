@@ -3,15 +3,13 @@ selection, and the output formats (no manager needed)."""
 
 import io
 
-import pytest
-
 import links_and_nodes as ln
+import pytest
+from conftest import MSGDEFS
 from links_and_nodes import _ln
 from links_and_nodes._packets import Compiler
 from links_and_nodes.cli import values as V
 from links_and_nodes.cli.output import Output, format_number, human_bytes, yaml_lines
-
-from conftest import MSGDEFS
 
 
 def packet(md_name, section="fields"):
@@ -27,21 +25,25 @@ def filled(md_name, *texts, section="fields"):
 
 # ------------------------------------------------------------------ syntax
 
-@pytest.mark.parametrize("text, expected", [
-    ("a: 1", {"a": "1"}),
-    ("a: 1, b: x", {"a": "1", "b": "x"}),
-    ("a: 1 b: -2.5e3", {"a": "1", "b": "-2.5e3"}),  # spaces separate pairs too
-    ("{a: 1, b: [1, 2, 3]}", {"a": "1", "b": ["1", "2", "3"]}),
-    ("a: {x: 1, y: [1 2]}", {"a": {"x": "1", "y": ["1", "2"]}}),
-    ('s: "two words, a: colon"', {"s": "two words, a: colon"}),
-    ("s: 'it''s'", {"s": "it's"}),
-    ('s: "tab\\there"', {"s": "tab\there"}),
-    ('"quoted key": 1', {"quoted key": "1"}),
-    ("corners[1].x: 7", {"corners[1].x": "7"}),
-    ("a: 1,\nb: 2  # comment", {"a": "1", "b": "2"}),
-    ("l: []", {"l": []}),
-    ("", {}),
-])
+
+@pytest.mark.parametrize(
+    "text, expected",
+    [
+        ("a: 1", {"a": "1"}),
+        ("a: 1, b: x", {"a": "1", "b": "x"}),
+        ("a: 1 b: -2.5e3", {"a": "1", "b": "-2.5e3"}),  # spaces separate pairs too
+        ("{a: 1, b: [1, 2, 3]}", {"a": "1", "b": ["1", "2", "3"]}),
+        ("a: {x: 1, y: [1 2]}", {"a": {"x": "1", "y": ["1", "2"]}}),
+        ('s: "two words, a: colon"', {"s": "two words, a: colon"}),
+        ("s: 'it''s'", {"s": "it's"}),
+        ('s: "tab\\there"', {"s": "tab\there"}),
+        ('"quoted key": 1', {"quoted key": "1"}),
+        ("corners[1].x: 7", {"corners[1].x": "7"}),
+        ("a: 1,\nb: 2  # comment", {"a": "1", "b": "2"}),
+        ("l: []", {"l": []}),
+        ("", {}),
+    ],
+)
 def test_parse(text, expected):
     assert V.parse_fields([text]) == expected
 
@@ -51,18 +53,21 @@ def test_bare_words_are_marked_and_quoted_ones_are_not():
     assert isinstance(parsed["a"], V.Bare) and not isinstance(parsed["b"], V.Bare)
 
 
-@pytest.mark.parametrize("text, message", [
-    ("a 1", "expected ':' after 'a'"),
-    ("a:", "missing value for 'a'"),
-    ("a: [1, 2", "missing ']'"),
-    ("a: {x: 1", "missing '}'"),
-    ("a: 'open", "missing closing '"),
-    ("a: 1:2", "expected a field name"),
-    ("a: [1,,2]", "missing list item"),
-    ("{a: 1} b", "after the closing '}'"),
-    ("a..b: 1", "not a field name"),
-    ("a: 1, a: 2", "given twice"),
-])
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("a 1", "expected ':' after 'a'"),
+        ("a:", "missing value for 'a'"),
+        ("a: [1, 2", "missing ']'"),
+        ("a: {x: 1", "missing '}'"),
+        ("a: 'open", "missing closing '"),
+        ("a: 1:2", "expected a field name"),
+        ("a: [1,,2]", "missing list item"),
+        ("{a: 1} b", "after the closing '}'"),
+        ("a..b: 1", "not a field name"),
+        ("a: 1, a: 2", "given twice"),
+    ],
+)
 def test_parse_errors(text, message):
     with pytest.raises(V.ValueSyntaxError) as info:
         V.parse_fields([text])
@@ -77,10 +82,14 @@ def test_arguments_merge_and_must_not_repeat_fields():
 
 # -------------------------------------------------------------- validation
 
+
 def test_values_are_converted_for_their_fields():
-    p = filled("pytest/all_types", "f: 0.5, d: -1e-3, i8: -128, u8: 0xff, u16: 0b101, i64: -9_000, u64: 1e3",
-               'name: 123, c: A, vec: [1, 2.5, nan], small: [1, -2, 3, 4], bytes: "hi", origin: {y: 2}',
-               "corners[1].x: 7, corners[0]: {x: 1, y: 1}")
+    p = filled(
+        "pytest/all_types",
+        "f: 0.5, d: -1e-3, i8: -128, u8: 0xff, u16: 0b101, i64: -9_000, u64: 1e3",
+        'name: 123, c: A, vec: [1, 2.5, nan], small: [1, -2, 3, 4], bytes: "hi", origin: {y: 2}',
+        "corners[1].x: 7, corners[0]: {x: 1, y: 1}",
+    )
     assert (p.f, p.d, p.i8, p.u8, p.u16, p.i64, p.u64) == (0.5, -1e-3, -128, 255, 5, -9000, 1000)
     assert p.name == "123" and p.c == ord("A")
     assert list(p.vec[:2]) == [1.0, 2.5] and p.vec[2] != p.vec[2]
@@ -92,29 +101,31 @@ def test_values_are_converted_for_their_fields():
 
 
 def test_dynamic_fields_of_a_service_request():
-    req = filled("pytest/echo", 'values: [1, 2], text: hello, points: [{x: 1}, {y: 2}], vec[2]: 9',
-                 section="fields")
+    req = filled("pytest/echo", 'values: [1, 2], text: hello, points: [{x: 1}, {y: 2}], vec[2]: 9', section="fields")
     assert list(req.values) == [1.0, 2.0] and req.values_len == 2 and req.text == "hello"
     assert [(pt.x, pt.y) for pt in req.points] == [(1.0, 0.0), (0.0, 2.0)] and list(req.vec) == [0, 0, 9]
 
 
-@pytest.mark.parametrize("text, error, words", [
-    ("u8: 256", ln.FieldValueError, ["u8", "out of range"]),
-    ("i8: x", ln.FieldTypeError, ["field 'i8'", "expects a number, got 'x'"]),
-    ("u32: 1.5", ln.FieldTypeError, ["u32", "integer"]),
-    ("vec: [1, 2]", ln.FieldValueError, ["vec", "expects 3 values, got 2"]),
-    ("vec: 1", ln.FieldTypeError, ["vec", "a list"]),
-    ("vec[3]: 1", ln.FieldValueError, ["index 3 is out of range"]),
-    ("name: toolongname", ln.FieldValueError, ["name", "at most 8 bytes"]),
-    ("name: [1]", ln.FieldTypeError, ["name", "expects text"]),
-    ("origin: 3", ln.FieldTypeError, ["origin", "{x: ..., y: ...}"]),
-    ("origin: {z: 1}", AttributeError, ["no field 'z'", "x, y"]),
-    ("corners: [{x: 1}]", ln.FieldValueError, ["corners", "expects 2 items, got 1"]),
-    ("nope: 1", AttributeError, ["no field 'nope'", "f, d, c"]),
-    ("d.x: 1", AttributeError, ["no sub-fields"]),
-    ("d[0]: 1", ln.FieldTypeError, ["not an array"]),
-    ("_fields: 1", AttributeError, ["no field '_fields'"]),
-])
+@pytest.mark.parametrize(
+    "text, error, words",
+    [
+        ("u8: 256", ln.FieldValueError, ["u8", "out of range"]),
+        ("i8: x", ln.FieldTypeError, ["field 'i8'", "expects a number, got 'x'"]),
+        ("u32: 1.5", ln.FieldTypeError, ["u32", "integer"]),
+        ("vec: [1, 2]", ln.FieldValueError, ["vec", "expects 3 values, got 2"]),
+        ("vec: 1", ln.FieldTypeError, ["vec", "a list"]),
+        ("vec[3]: 1", ln.FieldValueError, ["index 3 is out of range"]),
+        ("name: toolongname", ln.FieldValueError, ["name", "at most 8 bytes"]),
+        ("name: [1]", ln.FieldTypeError, ["name", "expects text"]),
+        ("origin: 3", ln.FieldTypeError, ["origin", "{x: ..., y: ...}"]),
+        ("origin: {z: 1}", AttributeError, ["no field 'z'", "x, y"]),
+        ("corners: [{x: 1}]", ln.FieldValueError, ["corners", "expects 2 items, got 1"]),
+        ("nope: 1", AttributeError, ["no field 'nope'", "f, d, c"]),
+        ("d.x: 1", AttributeError, ["no sub-fields"]),
+        ("d[0]: 1", ln.FieldTypeError, ["not an array"]),
+        ("_fields: 1", AttributeError, ["no field '_fields'"]),
+    ],
+)
 def test_invalid_values_name_the_field(text, error, words):
     with pytest.raises(error) as info:
         filled("pytest/all_types", text)
@@ -124,6 +135,7 @@ def test_invalid_values_name_the_field(text, error, words):
 
 # --------------------------------------------------------- plain and select
 
+
 def test_to_plain_select_and_flatten():
     p = filled("pytest/all_types", "f: 0.1, vec: [1, 2, 3], name: ab, corners[1].y: -4")
     plain = V.to_plain(p)
@@ -132,8 +144,13 @@ def test_to_plain_select_and_flatten():
     assert V.select(p, V.parse_path("corners[1].y")) == -4.0
     assert V.select(p, V.parse_path("vec[-1]")) == 3.0
     assert V.select(p, V.parse_path("corners[1]")) == {"x": 0.0, "y": -4.0}
-    for path, message in (("zz", "no field 'zz'"), ("vec[3]", "out of range"), ("f.x", "no sub-fields"),
-                          ("f[0]", "not an array"), ("corners[0].z", "no field 'corners[0].z'")):
+    for path, message in (
+        ("zz", "no field 'zz'"),
+        ("vec[3]", "out of range"),
+        ("f.x", "no sub-fields"),
+        ("f[0]", "not an array"),
+        ("corners[0].z", "no field 'corners[0].z'"),
+    ):
         with pytest.raises((KeyError, IndexError)) as info:
             V.select(p, V.parse_path(path))
         assert message in str(info.value)
@@ -146,10 +163,20 @@ def test_to_plain_select_and_flatten():
 
 # ------------------------------------------------------------------ output
 
+
 def test_yaml_lines():
     data = {"a": 1.5, "s": "x\"y", "l": [1, 2, 3], "d": {"b": True}, "items": [{"x": 1, "y": 2}], "e": {}}
-    assert yaml_lines(data) == ["a: 1.5", 's: "x\\"y"', "l: [1, 2, 3]", "d:", "  b: true", "items:", "  - x: 1",
-                                "    y: 2", "e: {}"]
+    assert yaml_lines(data) == [
+        "a: 1.5",
+        's: "x\\"y"',
+        "l: [1, 2, 3]",
+        "d:",
+        "  b: true",
+        "items:",
+        "  - x: 1",
+        "    y: 2",
+        "e: {}",
+    ]
     assert yaml_lines({"long": list(range(10))}, max_array=3) == ["long: [0, 1, 2, ... (10 values)]"]
 
 
@@ -166,8 +193,15 @@ def test_table_alignment_and_colour():
 
 
 def test_numbers_for_people():
-    assert [format_number(v) for v in (0.1 * 29, 3.0, -0.5, 1e20, 2 ** 0.5, float("nan"), 7)] == \
-        ["2.9", "3.0", "-0.5", "1e+20", "1.4142135623731", "nan", "7"]
+    assert [format_number(v) for v in (0.1 * 29, 3.0, -0.5, 1e20, 2**0.5, float("nan"), 7)] == [
+        "2.9",
+        "3.0",
+        "-0.5",
+        "1e+20",
+        "1.4142135623731",
+        "nan",
+        "7",
+    ]
 
 
 def test_human_units():

@@ -29,18 +29,30 @@ int main(int argc, char** argv) {
   });
   step("flag", [&] { return std::string(params.get_input<bool>("flag") ? "true" : "false"); });
   step("description", [&] { return params.get_description("gain"); });
-  step("set gain", [&] { params.set_override("gain", 2.5); return std::to_string(params.get_output<double>("gain")); });
+  step("set gain", [&] {
+    params.set_override("gain", 2.5);
+    return std::to_string(params.get_output<double>("gain"));
+  });
   step("set vec", [&] {
     params.set_override("vec", std::vector<double>{4, 5, 6});
     return std::to_string(params.get_output<std::vector<double>>("vec")[2]);
   });
-  step("set n", [&] { params.set_override("n", 2.9); return std::to_string(params.get_output<int>("n")); });
+  step("set n", [&] {
+    params.set_override("n", 2.9);
+    return std::to_string(params.get_output<int>("n"));
+  });
   step("set mat", [&] {
     params.set_override("mat", std::vector<std::vector<int>>{{9, 8, 7}, {6, 5, 4}});
     return std::to_string(params.get_output<std::vector<std::vector<int>>>("mat")[1][0]);
   });
-  step("wrong shape", [&] { params.set_override("vec", std::vector<double>{1, 2}); return std::string("set"); });
-  step("too big", [&] { params.set_override("small", 1000); return std::string("set"); });
+  step("wrong shape", [&] {
+    params.set_override("vec", std::vector<double>{1, 2});
+    return std::string("set");
+  });
+  step("too big", [&] {
+    params.set_override("small", 1000);
+    return std::string("set");
+  });
   step("unknown", [&] { return std::to_string(params.get_input<double>("nothere")); });
   return 0;
 }

@@ -17,14 +17,14 @@ int main(int argc, char** argv) {
   bool flag = true, flag_out = false;
   int32_t limit = 5, limit_out = 0;
   ln::parameters::parameter_block block(&clnt, argv[1]);
-  const bool ok = block.register_parameters(
-      ln::parameters::port_description<double>("gain", "the gain", &gain, &gain_out),
-      ln::parameters::port_description<float[3]>("vec", "", &vec, &vec_out),
-      ln::parameters::port_description<int16_t[2][2]>("mat", "", &mat, &mat_out),
-      ln::parameters::port_description<bool>("flag", "", &flag, &flag_out),
-      ln::parameters::port_description<int32_t>(
-          "limit", "below 100", &limit, &limit_out, [](int32_t& v) { return v < 100; },
-          [](int32_t& v) { std::printf("applied limit %d\n", v), std::fflush(stdout); }));
+  const bool ok =
+      block.register_parameters(ln::parameters::port_description<double>("gain", "the gain", &gain, &gain_out),
+                                ln::parameters::port_description<float[3]>("vec", "", &vec, &vec_out),
+                                ln::parameters::port_description<int16_t[2][2]>("mat", "", &mat, &mat_out),
+                                ln::parameters::port_description<bool>("flag", "", &flag, &flag_out),
+                                ln::parameters::port_description<int32_t>(
+                                    "limit", "below 100", &limit, &limit_out, [](int32_t& v) { return v < 100; },
+                                    [](int32_t& v) { std::printf("applied limit %d\n", v), std::fflush(stdout); }));
   if (!ok) {
     std::printf("register failed: %s\n", block.error_message().c_str());
     return 1;

@@ -13,8 +13,8 @@ int main(int argc, char** argv) {
   pytest_all_types_t p;
   for (int got = 0; got < n;) {
     if (!port->read(&p, 10.0)) return 2;
-    std::printf("u32=%u d=%g vec=%g,%g,%g name=%.8s corner1.x=%g i8=%d\n", p.u32, p.d, p.vec[0], p.vec[1],
-                p.vec[2], p.name, p.corners[1].x, p.i8);
+    std::printf("u32=%u d=%g vec=%g,%g,%g name=%.8s corner1.x=%g i8=%d\n", p.u32, p.d, p.vec[0], p.vec[1], p.vec[2],
+                p.name, p.corners[1].x, p.i8);
     ++got;
   }
   return 0;

@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
 """Quickstart (wrapped services API): calls the area services."""
+
 import sys
 
 import links_and_nodes as ln

@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
 """Quickstart (wrapped services API): provides area_service.compute_*_area."""
+
 import math
 import sys
 
@@ -25,7 +26,7 @@ class area_provider(ln.service_provider):
 
     def compute_circle_area(self, radius):
         error_message, error_code = checked("radius", radius)
-        area = math.nan if radius < 0 else math.pi * radius ** 2
+        area = math.nan if radius < 0 else math.pi * radius**2
         print("circle with radius %5.2f has area %5.2f" % (radius, area))
         return {"area": area, "error_message": error_message, "error_code": error_code}
 

@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
 """Quickstart (topics): publishes counts 1..N on counter.counts at 10 Hz."""
+
 import sys
 import time
 

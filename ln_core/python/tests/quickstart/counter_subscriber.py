@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
 """Quickstart (topics): prints the counts it receives until the last one."""
+
 import sys
 import time
 
