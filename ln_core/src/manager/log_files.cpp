@@ -242,11 +242,15 @@ void write_pcap(AtomicFile& file, const std::vector<SavedTopic>& topics, const S
 // ------------------------------------------------------------------ MCAP
 
 /// How long ln bag convert may take: a minute, and a second more per 10000
-/// messages, but well within the client's wait for the answer (600 s).
+/// messages and per 32 MiB, but well within the client's wait for the answer
+/// (600 s). (It converts about 100000 small messages a second.)
 std::chrono::milliseconds conversion_timeout(const std::vector<SavedTopic>& topics) {
-  std::uint64_t messages = 0;
-  for (const SavedTopic& topic : topics) messages += sample_count(topic);
-  return std::chrono::seconds(std::min<std::uint64_t>(60 + messages / 10000, 480));
+  std::uint64_t messages = 0, bytes = 0;
+  for (const SavedTopic& topic : topics) {
+    messages += sample_count(topic);
+    if (topic.samples) bytes += sample_count(topic) * topic.samples->sample_size();
+  }
+  return std::chrono::seconds(std::min<std::uint64_t>(60 + messages / 10000 + bytes / (32u << 20), 480));
 }
 
 void write_mcap(AtomicFile& file, const std::vector<SavedTopic>& topics, const SaveOptions& options) {
