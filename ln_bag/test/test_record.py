@@ -85,6 +85,13 @@ def fill_pose(packet, i):
     packet.flags = [1, -1, i % 100]
 
 
+def assert_filled_pose(d, i):
+    """`d`, a decoded bagtest/pose, holds what fill_pose(_, i) wrote."""
+    assert (d.time, d.counter, d.position.x, d.position.y, d.position.z) == (i * 0.01, i, i, -i, 0.5)
+    assert list(d.orientation) == [0, 0, 0, 1] and list(d.flags) == [1, -1, i % 100]
+    assert bytes(d.frame) == b"base" + bytes(12)
+
+
 def fill_counter(packet, i):
     packet.count = i
     packet.stamp = i * 0.001
@@ -130,10 +137,7 @@ def test_records_every_message_with_its_ln_definition(manager, unique, tmp_path)
     for i, m in enumerate(poses):
         assert m.publish_time == round(Fraction(EPOCH + i / 1000.0) * 10**9)  # the LN timestamp, to the ns
         assert abs(m.log_time / 1e9 - time.time()) < 120  # when it was received
-        d = m.decoded
-        assert (d.time, d.counter, d.position.x, d.position.y, d.position.z) == (i * 0.01, i, i, -i, 0.5)
-        assert list(d.orientation) == [0, 0, 0, 1] and list(d.flags) == [1, -1, i % 100]
-        assert bytes(d.frame) == b"base" + bytes(12)
+        assert_filled_pose(m.decoded, i)
     counts = [m.decoded.count for m in by_topic["/bag/%s/counter" % unique]]
     assert counts == list(range(n))
     log_times = [m.log_time for m in messages]

@@ -793,8 +793,11 @@ LN_API int ln_logger_download(ln_logger logger, ln_logger_data* logger_data);
 LN_API int ln_logger_direct_download(ln_logger logger, ln_logger_data* logger_data);
 /** Lets the manager write the recording to a file on its host.
     @param format "raw" (the samples of a one-topic logger back to back),
-    "pcap" (LN's recorder format), "mat" (MATLAB 5), "mat4" (MATLAB 4), or
-    "auto"/NULL: chosen by the file name's extension (.raw, .pcap, .mat).
+    "pcap" (LN's recorder format), "mat" (MATLAB 5), "mat4" (MATLAB 4),
+    "mcap" (MCAP for ROS 2 tools: the pcap converted by ln_bag's
+    `ln bag convert`, which must be the `ln` on the manager's PATH), or
+    "auto"/NULL: chosen by the file name's extension (.raw, .pcap, .mat,
+    .mcap).
     "pickle" is refused: the manager is not a Python program. */
 LN_API int ln_logger_manager_save(ln_logger logger, const char* filename, const char* format);
 /** Writes logger data to a file in LN 2.9's format (loadable by LN 2.9).

@@ -324,7 +324,7 @@ class logger:
         return logger_data_wrapper(self._native.direct_download())
 
     def manager_save(self, filename, format="auto"):
-        """The manager writes the recording to a file on its host: raw, pcap, mat, mat4 or auto."""
+        """The manager writes the recording to a file on its host: raw, pcap, mat, mat4, mcap or auto."""
         self._native.manager_save(str(filename), format)
 
     def __repr__(self):

@@ -18,6 +18,8 @@
 #include <cerrno>
 #include <cstring>
 #include <fstream>
+#include <mutex>
+#include <set>
 #include <sstream>
 
 #ifndef CLOSE_RANGE_CLOEXEC
@@ -26,6 +28,10 @@
 
 namespace ln::manager {
 namespace {
+
+// Helper children, held while forking one so that no one sees its PID before it is here.
+std::mutex helpers_mutex;
+std::set<pid_t> helpers;
 
 // What the child reports through its status pipe before exec: which step
 // went wrong and errno. Fatal ones end the child; the others are warnings.
@@ -220,11 +226,17 @@ SpawnedChild spawn_child(const SpawnRequest& request) {
   Fd status_read(status_fds[0]), status_write(status_fds[1]);
 
   const pid_t parent = ::getpid();
+  std::unique_lock<std::mutex> helpers_lock(helpers_mutex, std::defer_lock);
+  if (request.helper) helpers_lock.lock();
   const pid_t pid = ::fork();
   if (pid < 0) throw SpawnError(errno_text("fork failed"));
   if (pid == 0)
     run_child(request, argv.data(), envp.data(), request.pty ? slave_name : nullptr, null_fd.get(), output_write.get(),
               status_write.get(), parent);
+  if (request.helper) {
+    helpers.insert(pid);
+    helpers_lock.unlock();
+  }
   status_write.reset();
   output_write.reset();
 
@@ -248,6 +260,7 @@ SpawnedChild spawn_child(const SpawnRequest& request) {
     int status = 0;
     while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
     }
+    forget_helper_child(pid);
     throw SpawnError(fatal);
   }
   child.pidfd = static_cast<int>(::syscall(SYS_pidfd_open, pid, 0));
@@ -256,6 +269,7 @@ SpawnedChild spawn_child(const SpawnRequest& request) {
     ::kill(-pid, SIGKILL);
     int status = 0;
     ::waitpid(pid, &status, 0);
+    forget_helper_child(pid);
     throw SpawnError(reason);
   }
   ::fcntl(child.pidfd, F_SETFD, FD_CLOEXEC);
@@ -284,6 +298,16 @@ Reaped reap_child(int pidfd, pid_t pid, int& code, int& status) {
 std::string describe_exit(int code, int status) {
   if (code == CLD_EXITED) return "exit status " + std::to_string(status);
   return "killed by " + signal_name(status) + (code == CLD_DUMPED ? " (core dumped)" : "");
+}
+
+bool is_helper_child(pid_t pid) {
+  std::lock_guard<std::mutex> lock(helpers_mutex);
+  return helpers.count(pid) != 0;
+}
+
+void forget_helper_child(pid_t pid) {
+  std::lock_guard<std::mutex> lock(helpers_mutex);
+  helpers.erase(pid);
 }
 
 bool process_group_alive(pid_t group) {

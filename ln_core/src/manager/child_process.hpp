@@ -39,6 +39,11 @@ struct SpawnRequest {
   int extra_fd = -1;
   /// stdout and stderr go to /dev/null (no output descriptor).
   bool discard_output = false;
+  /// A program the manager runs for itself (not one of its configuration's
+  /// processes, e.g. manager_save's MCAP converter): is_helper_child() knows
+  /// it from the moment it exists until forget_helper_child(), so that the
+  /// orphan sweep leaves it alone.
+  bool helper = false;
 };
 
 struct SpawnedChild {
@@ -64,6 +69,11 @@ enum class Reaped {
 };
 /// waitid() for the child behind `pidfd` without blocking.
 Reaped reap_child(int pidfd, pid_t pid, int& code, int& status);
+
+/// Whether `pid` is a child spawned with SpawnRequest::helper and not forgotten yet.
+bool is_helper_child(pid_t pid);
+/// The helper child `pid` was reaped.
+void forget_helper_child(pid_t pid);
 
 /// Whether any process of process group `group` still runs (zombies do not
 /// count).

@@ -16,6 +16,9 @@
 #include <map>
 #include <mutex>
 
+extern char** environ;
+
+#include "manager/mcap_converter.hpp"
 #include "manager/request_error.hpp"
 
 namespace ln::manager {
@@ -67,13 +70,17 @@ class AtomicFile {
     write(&value, sizeof value);
   }
 
-  void commit() {
+  /// Finishes writing temp_path() (checking for errors) without renaming it.
+  void close_written() {
     if (file_ == nullptr) write(nullptr, 0);
     const bool failed = std::fflush(file_) != 0 || std::ferror(file_) != 0;
     const int error = errno;
     std::fclose(file_);
     file_ = nullptr;
     if (failed) cannot_write(filename_, std::strerror(error));
+  }
+  void commit() {
+    close_written();
     commit_written();
   }
   /// commit() for a file written by someone else at temp_path().
@@ -108,7 +115,7 @@ void for_each_sample(const SavedTopic& topic, const std::function<void(const uns
 
 // ------------------------------------------------------------------- raw
 
-void write_raw(AtomicFile& file, const std::vector<SavedTopic>& topics) {
+void write_raw(AtomicFile& file, const std::vector<SavedTopic>& topics, const SaveOptions&) {
   if (topics.size() != 1)
     throw RequestError(LNE_REQUEST_FAILED, "the raw format holds exactly one topic; this logger has " +
                                                std::to_string(topics.size()) + " (use pcap or mat)");
@@ -170,7 +177,8 @@ void append_field(std::string& out, const std::string& text) {
   out += text;
 }
 
-void write_pcap(AtomicFile& file, const std::vector<SavedTopic>& topics) {
+/// The pcap into `file`, not committed yet.
+void write_pcap_frames(AtomicFile& file, const std::vector<SavedTopic>& topics) {
   for (const SavedTopic& topic : topics)
     if (topic.only_ts && sample_count(topic) > 0)
       throw RequestError(LNE_REQUEST_FAILED,
@@ -224,7 +232,50 @@ void write_pcap(AtomicFile& file, const std::vector<SavedTopic>& topics) {
     pcap.frame(earliest_ts, kTopicPacketFrame, data);
     ++earliest->next;
   }
+}
+
+void write_pcap(AtomicFile& file, const std::vector<SavedTopic>& topics, const SaveOptions&) {
+  write_pcap_frames(file, topics);
   file.commit();
+}
+
+// ------------------------------------------------------------------ MCAP
+
+/// How long ln bag convert may take: a minute, and a second more per 10000
+/// messages and per 32 MiB, but well within the client's wait for the answer
+/// (600 s). (It converts about 100000 small messages a second.)
+std::chrono::milliseconds conversion_timeout(const std::vector<SavedTopic>& topics) {
+  std::uint64_t messages = 0, bytes = 0;
+  for (const SavedTopic& topic : topics) {
+    messages += sample_count(topic);
+    if (topic.samples) bytes += sample_count(topic) * topic.samples->sample_size();
+  }
+  return std::chrono::seconds(std::min<std::uint64_t>(60 + messages / 10000 + bytes / (32u << 20), 480));
+}
+
+void write_mcap(AtomicFile& file, const std::vector<SavedTopic>& topics, const SaveOptions& options) {
+  for (const SavedTopic& topic : topics)
+    if (topic.only_ts && sample_count(topic) > 0)
+      throw RequestError(LNE_REQUEST_FAILED,
+                         "MCAP files carry packets, but this logger recorded only timestamps "
+                         "(set_only_ts); use raw or mat");
+  // The recorder pcap next to the target (never renamed into place: dropped
+  // at the end), converted into the target's temporary file.
+  AtomicFile pcap(file.filename() + ".pcap");
+  write_pcap_frames(pcap, topics);
+  pcap.close_written();
+  McapConversion conversion;
+  conversion.pcap = pcap.temp_path();
+  conversion.mcap = file.temp_path();
+  conversion.target = file.filename();
+  conversion.md_dirs = options.md_dirs;
+  conversion.environment = options.environment;
+  if (conversion.environment.empty())
+    for (char** entry = environ; *entry != nullptr; ++entry) conversion.environment.emplace_back(*entry);
+  conversion.timeout = conversion_timeout(topics);
+  conversion.cancelled = options.cancelled;
+  convert_pcap_to_mcap(conversion);
+  file.commit_written();
 }
 
 // ------------------------------------------------------------------ MATLAB
@@ -437,7 +488,7 @@ struct Format {
   const char* name;
   std::vector<const char*> aliases;     ///< other spellings LN 2.9 accepts
   std::vector<const char*> extensions;  ///< chosen by "auto" for these file name endings
-  void (*write)(AtomicFile&, const std::vector<SavedTopic>&);
+  void (*write)(AtomicFile&, const std::vector<SavedTopic>&, const SaveOptions&);
 };
 
 const std::vector<Format>& formats() {
@@ -447,11 +498,16 @@ const std::vector<Format>& formats() {
       {"mat",
        {"matlab", "matlab5"},
        {"mat", "matlab"},
-       [](AtomicFile& file, const std::vector<SavedTopic>& topics) { write_matlab(file, topics, false); }},
+       [](AtomicFile& file, const std::vector<SavedTopic>& topics, const SaveOptions&) {
+         write_matlab(file, topics, false);
+       }},
       {"mat4",
        {"matlab4"},
        {},
-       [](AtomicFile& file, const std::vector<SavedTopic>& topics) { write_matlab(file, topics, true); }},
+       [](AtomicFile& file, const std::vector<SavedTopic>& topics, const SaveOptions&) {
+         write_matlab(file, topics, true);
+       }},
+      {"mcap", {}, {"mcap"}, write_mcap},
   };
   return table;
 }
@@ -507,19 +563,21 @@ std::string choose_format(const std::string& format, const std::string& filename
   for (const Format& candidate : formats())
     for (const char* known : candidate.extensions)
       if (extension == known) return candidate.name;
-  throw RequestError(LNE_REQUEST_FAILED,
-                     "format 'auto' cannot tell the format of '" + filename +
-                         "' from its name (LN 2.9 would write "
-                         "a Python pickle, which ln_core's native manager cannot); name a file .raw, .pcap or .mat, or "
-                         "pass one of " +
-                         format_list());
+  throw RequestError(
+      LNE_REQUEST_FAILED,
+      "format 'auto' cannot tell the format of '" + filename +
+          "' from its name (LN 2.9 would write "
+          "a Python pickle, which ln_core's native manager cannot); name a file .raw, .pcap, .mat or .mcap, or "
+          "pass one of " +
+          format_list());
 }
 
-void save_log_file(const std::string& filename, const std::string& format, const std::vector<SavedTopic>& topics) {
+void save_log_file(const std::string& filename, const std::string& format, const std::vector<SavedTopic>& topics,
+                   const SaveOptions& options) {
   if (filename.empty()) throw RequestError(LNE_REQUEST_FAILED, "manager_save needs a file name");
   const Format& chosen = format_named(format);
   AtomicFile file(filename);
-  chosen.write(file, topics);
+  chosen.write(file, topics, options);
 }
 
 }  // namespace ln::manager

@@ -11,7 +11,10 @@
 //           named and shaped as LN 2.9's manager names them (via scipy)
 //   mat4    MATLAB 4; types MATLAB 4 lacks (int8, uint32, 64-bit integers)
 //           are stored as double
-// "auto" picks by file name (.raw, .pcap, .mat/.matlab). LN 2.9's default,
+//   mcap    MCAP that ROS 2 tools read: the pcap, converted by ln_bag's
+//           `ln bag convert` (mcap_converter.hpp), as it converts LN 2.9's
+//           logger pcap files; needs ln_bag's `ln` on the manager's PATH
+// "auto" picks by file name (.raw, .pcap, .mat/.matlab, .mcap). LN 2.9's default,
 // a Python pickle, is refused with the reason: a native manager cannot
 // write Python objects. Files appear complete or not at all (written under a
 // temporary name, then renamed).
@@ -20,6 +23,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -61,8 +65,17 @@ struct SavedTopic {
 /// formats.
 std::string choose_format(const std::string& format, const std::string& filename);
 
+/// What the mcap format needs besides the topics.
+struct SaveOptions {
+  std::vector<std::string> md_dirs;  ///< the manager's definition search path (for the converter)
+  std::function<bool()> cancelled;   ///< polled while converting; true stops the converter
+  /// The converter's environment ("NAME=VALUE"); empty: the manager's.
+  std::vector<std::string> environment;
+};
+
 /// Writes `topics` to `filename` in `format` (as choose_format returns it).
 /// Throws RequestError with the reason.
-void save_log_file(const std::string& filename, const std::string& format, const std::vector<SavedTopic>& topics);
+void save_log_file(const std::string& filename, const std::string& format, const std::vector<SavedTopic>& topics,
+                   const SaveOptions& options = {});
 
 }  // namespace ln::manager

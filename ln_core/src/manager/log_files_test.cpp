@@ -8,11 +8,19 @@
 #include <matio.h>
 #endif
 
+#include <signal.h>
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <map>
 
+#include "manager/mcap_converter.hpp"
 #include "manager/request_error.hpp"
 #include "manager/test_support.hpp"
 
@@ -403,9 +411,9 @@ TEST_F(LogFilesTest, TimestampOnlyLogsGiveTheHeaderColumns) {
 TEST_F(LogFilesTest, UnwritablePlacesAreRefusedWithTheReason) {
   const SavedTopic a = topic("a.sample", "t/sample", 1, 100.0, 0.01, fill_sample);
 #ifdef LN_WITH_MATIO
-  const std::vector<const char*> formats = {"raw", "pcap", "mat", "mat4"};
+  const std::vector<const char*> formats = {"raw", "pcap", "mat", "mat4", "mcap"};
 #else
-  const std::vector<const char*> formats = {"raw", "pcap"};
+  const std::vector<const char*> formats = {"raw", "pcap", "mcap"};
 #endif
   for (const char* format : formats) {
     try {
@@ -415,6 +423,113 @@ TEST_F(LogFilesTest, UnwritablePlacesAreRefusedWithTheReason) {
       EXPECT_NE(std::string(error.what()).find("No such file or directory"), std::string::npos) << error.what();
     }
   }
+}
+
+// ------------------------------------------------------------------ mcap
+// The converter itself (ln_bag's `ln bag convert`) is tested with ln_bag
+// (ln_bag/test/test_manager_save.py); here stand-in `ln` scripts check how
+// the manager runs it.
+
+/// The names in `path` (a directory).
+std::vector<std::string> names_in(const std::string& path) {
+  std::vector<std::string> names;
+  for (const auto& entry : std::filesystem::directory_iterator(path)) names.push_back(entry.path().filename());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+/// An executable `ln` script with `body` in bin/ of `dir`; the environment
+/// that finds it first.
+std::vector<std::string> fake_ln(const TempDir& dir, const std::string& body) {
+  const std::string script = dir.write("bin/ln", "#!/bin/sh\n" + body);
+  ::chmod(script.c_str(), 0755);
+  return {"PATH=" + dir.path() + "/bin:/usr/bin:/bin", "OUT=" + dir.path()};
+}
+
+TEST_F(LogFilesTest, McapIsTheConvertersOutputOfThePcapRenamedIntoPlace) {
+  const SavedTopic a = topic("a.sample", "t/sample", 3, 100.0, 0.02, fill_sample);
+  TempDir tools, target;
+  SaveOptions options;
+  options.md_dirs = {dir.path(), "/second dir"};
+  // The stand-in copies its input to the output and keeps its arguments.
+  options.environment = fake_ln(tools, "printf '%s\\n' \"$@\" > \"$OUT/args\"; cp \"$3\" \"$4\"\n");
+  EXPECT_EQ(choose_format("auto", "/x/run.MCAP"), "mcap");
+  save_log_file(target.path() + "/run.mcap", "mcap", {a}, options);
+  save_log_file(tools.path() + "/reference.pcap", "pcap", {a});
+  EXPECT_EQ(file_bytes(target.path() + "/run.mcap"), file_bytes(tools.path() + "/reference.pcap"));
+  EXPECT_EQ(names_in(target.path()), std::vector<std::string>{"run.mcap"});  // the pcap is gone
+  const std::string pcap = target.path() + "/run.mcap.pcap.ln-tmp-" + std::to_string(::getpid());
+  const std::string temp = target.path() + "/run.mcap.ln-tmp-" + std::to_string(::getpid());
+  EXPECT_EQ(file_bytes(tools.path() + "/args"), "bag\nconvert\n" + pcap + "\n" + temp + "\n--overwrite\n--md-dir\n" +
+                                                    dir.path() + "\n--md-dir\n/second dir\n");
+}
+
+TEST_F(LogFilesTest, McapFailuresSayWhyAndLeaveNoFile) {
+  const SavedTopic a = topic("a.sample", "t/sample", 2, 100.0, 0.02, fill_sample);
+  TempDir target;
+  const std::string path = target.path() + "/run.mcap";
+  const auto message = [&](const std::vector<std::string>& environment) {
+    SaveOptions options;
+    options.environment = environment;
+    try {
+      save_log_file(path, "mcap", {a}, options);
+    } catch (const RequestError& error) {
+      return std::string(error.what());
+    }
+    return std::string("(saved)");
+  };
+  // Coreutils' ln on PATH is not LN's.
+  std::string text = message({"PATH=/usr/bin:/bin"});
+  EXPECT_NE(text.find("cannot write '" + path + "' as MCAP"), std::string::npos) << text;
+  EXPECT_NE(text.find("has no LN `ln` command"), std::string::npos) << text;
+  EXPECT_TRUE(names_in(target.path()).empty());
+
+  TempDir tools;
+  text = message(fake_ln(tools,
+                         "echo half > \"$4\"; echo 'ln: recordings need the ln_bag package (No module named ln_bag)' "
+                         ">&2; exit 1\n"));
+  EXPECT_NE(text.find("bag convert failed (exit status 1): ln: recordings need the ln_bag package (No module "
+                      "named ln_bag)"),
+            std::string::npos)
+      << text;
+  EXPECT_TRUE(names_in(target.path()).empty());
+
+  text = message(fake_ln(tools, "kill -9 $$\n"));
+  EXPECT_NE(text.find("failed (killed by SIGKILL): (it printed nothing)"), std::string::npos) << text;
+
+  SavedTopic only_ts = a;
+  only_ts.only_ts = true;
+  EXPECT_THROW(save_log_file(path, "mcap", {only_ts}), RequestError);
+  EXPECT_TRUE(names_in(target.path()).empty());
+}
+
+TEST_F(LogFilesTest, AConverterThatTakesTooLongOrOutlivesTheManagerIsStopped) {
+  TempDir tools;
+  McapConversion conversion;
+  conversion.pcap = tools.path() + "/in.pcap";
+  conversion.mcap = tools.path() + "/out.mcap";
+  conversion.target = "/data/run.mcap";
+  conversion.environment = fake_ln(tools, "echo $$ > \"$OUT/pid\"; exec sleep 60\n");
+  const auto stopped = [&](const char* words) {
+    const auto start = std::chrono::steady_clock::now();
+    try {
+      convert_pcap_to_mcap(conversion);
+      ADD_FAILURE() << "the conversion succeeded";
+    } catch (const RequestError& error) {
+      EXPECT_NE(std::string(error.what()).find(words), std::string::npos) << error.what();
+    }
+    EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(20));
+    // It ended and was reaped (no zombie).
+    const pid_t pid = std::stoi(file_bytes(tools.path() + "/pid"));
+    EXPECT_EQ(::kill(pid, 0), -1);
+    EXPECT_EQ(errno, ESRCH);
+    std::filesystem::remove(tools.path() + "/pid");
+  };
+  conversion.timeout = std::chrono::milliseconds(1000);
+  stopped("bag convert did not finish within 1 s and was stopped");
+  conversion.timeout = std::chrono::seconds(60);
+  conversion.cancelled = [&] { return tools.exists("pid"); };
+  stopped("the manager stops, so");
 }
 
 }  // namespace

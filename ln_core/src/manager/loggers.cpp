@@ -104,6 +104,7 @@ Loggers::Loggers(Registry& registry, DefinitionStore& definitions, Post post, Lo
       saver_(std::make_unique<Worker>()) {}
 
 Loggers::~Loggers() {
+  closing_->store(true);
   saver_.reset();
   attacher_.reset();
 }
@@ -434,11 +435,14 @@ void Loggers::manager_save(Id client, const Message& request) {
     saved.samples = view_of(topic);
     topics.push_back(std::move(saved));
   }
+  SaveOptions options;
+  if (format == "mcap") options.md_dirs = definitions_.search_dirs();
+  options.cancelled = [closing = closing_] { return closing->load(); };
   saver_->add([=, post = post_] {
     std::string problem;
     int code = 0;
     try {
-      save_log_file(filename, format, topics);
+      save_log_file(filename, format, topics, options);
     } catch (const RequestError& error) {
       problem = error.what();
       code = error.code();

@@ -22,6 +22,7 @@
 // through `post`, and the requests that wait for them are answered then.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -124,6 +125,8 @@ class Loggers {
   std::uint64_t last_answer_ = 0;
   std::map<Id, Download> downloads_;  ///< by client
   std::int64_t last_download_ = 0;
+  /// Set when the manager stops: a running manager_save conversion is stopped.
+  std::shared_ptr<std::atomic<bool>> closing_ = std::make_shared<std::atomic<bool>>(false);
   std::unique_ptr<Worker> attacher_;  // last members: their threads stop first
   std::unique_ptr<Worker> saver_;
 };

@@ -997,7 +997,7 @@ struct ProcessControl::Impl {
       if (s->child.running()) known.insert(s->child.pid);
     if (keeper.running()) known.insert(keeper.pid());
     for (pid_t pid : list_children()) {
-      if (known.count(pid) || foreign.count(pid)) continue;
+      if (known.count(pid) || foreign.count(pid) || is_helper_child(pid)) continue;
       std::string command;
       std::getline(std::ifstream("/proc/" + std::to_string(pid) + "/cmdline"), command, '\0');
       log(LogLevel::Info, "stopping orphaned process " + std::to_string(pid) + " (" + command +

@@ -122,7 +122,7 @@ def parse(parser, argv):
     # only before them when some came first)
     if extras and isinstance(getattr(args, "values", None), list) and not any(e.startswith("-") for e in extras):
         args.values.extend(extras)
-    elif extras:
+    elif extras and not getattr(args, "any_arguments", False):
         parser.error("unrecognized arguments: %s" % " ".join(extras))
     return args
 

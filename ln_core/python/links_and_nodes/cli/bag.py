@@ -22,6 +22,7 @@ def register(groups, common):
         for name in COMMANDS:
             p = groups.add_parser(name, parents=[common], help="(needs the ln_bag package)", add_help=True)
             p.add_argument("arguments", nargs="*")
-            p.set_defaults(run=run)
+            # whatever options follow (ln bag convert A B --overwrite): the answer is what is missing
+            p.set_defaults(run=run, any_arguments=True)
         return
     cli.register(groups, common)

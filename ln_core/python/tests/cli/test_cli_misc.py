@@ -110,6 +110,7 @@ def test_completion_of_commands_and_options(manager):
         assert complete(manager, "ln record --e") == ["--exclude"]
     else:
         one_line_error(run_ln(manager, "record", "a.b"), "recordings need the ln_bag package", "colcon build")
+        one_line_error(run_ln(manager, "bag", "convert", "a", "b", "--overwrite"), "recordings need the ln_bag package")
     assert complete(manager, "ln ros ") == ["node", "service", "topic"]
     assert complete(manager, "ln ros topic ") == ["echo", "hz", "info", "list"]
     assert complete(manager, "ln to") == ["topic"]
