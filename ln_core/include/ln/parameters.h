@@ -79,8 +79,8 @@ uint32_t _get_param_typeid() {
 }
 
 /// Describes one parameter of type T; specialised for arithmetic types and
-/// C arrays of them (programs may add their own specialisations, as LN 2.9's
-/// ln/parameters_eigen.h does for Eigen matrices).
+/// C arrays of them; ln/parameters_eigen.h adds Eigen matrices (programs may
+/// add their own specialisations).
 template <typename T, typename T2 = T>
 struct port_description;
 
@@ -118,6 +118,40 @@ struct port_description_fields {
   }
 };
 
+/// A port_description that owns its shape (what `dims` points to), so that
+/// copies point to their own.
+template <typename Value>
+struct port_description_shaped : port_description_fields<Value> {
+  port_description_shaped(std::string name, std::string description, uint32_t type, std::vector<uint32_t> extents,
+                          void* input_, void* output_, bool row_major_,
+                          const std::function<bool(Value&)>& before_update,
+                          const std::function<void(Value&)>& after_update)
+      : port_description_fields<Value>(std::move(name), std::move(description), product(extents), type,
+                                       static_cast<uint32_t>(extents.size()), input_, output_, row_major_,
+                                       before_update, after_update),
+        extents_(std::move(extents)) {
+    this->dims = extents_.data();
+  }
+  port_description_shaped(const port_description_shaped& other)
+      : port_description_fields<Value>(other), extents_(other.extents_) {
+    this->dims = extents_.data();
+  }
+  port_description_shaped& operator=(const port_description_shaped& other) {
+    port_description_fields<Value>::operator=(other);
+    extents_ = other.extents_;
+    this->dims = extents_.data();
+    return *this;
+  }
+
+ private:
+  static uint32_t product(const std::vector<uint32_t>& extents) {
+    uint32_t n = 1;
+    for (uint32_t extent : extents) n *= extent;
+    return n;
+  }
+  std::vector<uint32_t> extents_;
+};
+
 }  // namespace detail
 
 template <typename T>
@@ -136,34 +170,24 @@ template <typename T>
 struct port_description<
     T, typename std::enable_if<
            std::is_array<T>::value && std::is_arithmetic<typename std::remove_all_extents<T>::type>::value, T>::type>
-    : detail::port_description_fields<T> {
+    : detail::port_description_shaped<T> {
   typedef typename std::remove_all_extents<T>::type scalar_type;
 
   port_description(std::string signal_name_, std::string signal_description_, T* input_, T* output_,
                    std::function<bool(T&)> before_update = std::function<bool(T&)>(),
                    std::function<void(T&)> after_update = std::function<void(T&)>())
-      : detail::port_description_fields<T>(std::move(signal_name_), std::move(signal_description_),
-                                           static_cast<uint32_t>(sizeof(T) / sizeof(scalar_type)),
-                                           _get_param_typeid<scalar_type>(), static_cast<uint32_t>(std::rank<T>::value),
-                                           input_, output_, true, before_update, after_update),
-        extents_{static_cast<uint32_t>(std::extent<T, 0>::value), static_cast<uint32_t>(std::extent<T, 1>::value),
-                 static_cast<uint32_t>(std::extent<T, 2>::value)} {
-    extents_.resize(this->num_dims);
-    this->dims = extents_.data();
-  }
-  port_description(const port_description& other)
-      : detail::port_description_fields<T>(other), extents_(other.extents_) {
-    this->dims = extents_.data();
-  }
-  port_description& operator=(const port_description& other) {
-    detail::port_description_fields<T>::operator=(other);
-    extents_ = other.extents_;
-    this->dims = extents_.data();
-    return *this;
-  }
+      : detail::port_description_shaped<T>(std::move(signal_name_), std::move(signal_description_),
+                                           _get_param_typeid<scalar_type>(), extents(), input_, output_, true,
+                                           before_update, after_update) {}
 
  private:
-  std::vector<uint32_t> extents_;  // what dims points to
+  static std::vector<uint32_t> extents() {
+    std::vector<uint32_t> all{static_cast<uint32_t>(std::extent<T, 0>::value),
+                              static_cast<uint32_t>(std::extent<T, 1>::value),
+                              static_cast<uint32_t>(std::extent<T, 2>::value)};
+    all.resize(std::rank<T>::value);  // more than two dimensions: refused when registered
+    return all;
+  }
 };
 
 /// A group of parameters named "<LN_PARAMETER_PREFIX><group>.<signal>".
