@@ -10,6 +10,7 @@ MODE:
   stall  calls SERVICE pipelined and asks the manager for definition texts, and reads nothing
   idle   holds N (default 4000) idle TCP connections to the manager, opening new ones for those
          the manager closes, and 64 idle connections to SERVICE's provider
+  busy   no LN traffic at all: keeps a CPU busy, to show what sharing the CPUs alone costs
 
 Prints {"attacking": true, ...} once the attack runs (for the measured clients to start), then
 {"ok": true, ...} with what it did when it stops (after S seconds, default 60, or SIGTERM).
@@ -245,9 +246,17 @@ def idle(args, deadline, report):
         top_up()
 
 
+def busy(args, deadline, report):
+    print(json.dumps({"attacking": True}), flush=True)
+    while time.monotonic() < deadline and not report["stop"]:
+        for _ in range(100_000):
+            pass
+        report["requests"] += 1
+
+
 def main():
     parser = argparse.ArgumentParser()
-    parser.add_argument("mode", choices=("flood", "stall", "idle"))
+    parser.add_argument("mode", choices=("flood", "stall", "idle", "busy"))
     parser.add_argument("--manager", required=True)
     parser.add_argument("--service", required=True)
     parser.add_argument("--seconds", type=float, default=60)
@@ -256,7 +265,7 @@ def main():
     deadline = time.monotonic() + args.seconds
     report = {"stop": False, "requests": 0, "bytes_read": 0, "closed": 0, "opened": 0}
     signal.signal(signal.SIGTERM, lambda *_: report.update(stop=True))
-    {"flood": flood, "stall": stall, "idle": idle}[args.mode](args, deadline, report)
+    {"flood": flood, "stall": stall, "idle": idle, "busy": busy}[args.mode](args, deadline, report)
     report.pop("stop")
     print(json.dumps({"ok": True, "mode": args.mode, **report}), flush=True)
 
