@@ -4,7 +4,7 @@ import atexit
 import weakref
 
 from . import _introspection, _ln
-from ._errors import LNE_INVALID_PARAMETER, LNE_NOT_YET_IMPLEMENTED, LNError
+from ._errors import LNE_INVALID_PARAMETER, LNError
 from ._packets import Compiler, ln29_definition
 
 _live_clients = weakref.WeakSet()
@@ -297,9 +297,6 @@ class client:
 
     def register_as_service_logger(self, logger_service_name, service_name_patterns_to_log):
         self._native.register_as_service_logger(logger_service_name, service_name_patterns_to_log)
-
-    def _unsupported(self, what):
-        raise LNError("%s is not supported by links_and_nodes on ln_core" % what, LNE_NOT_YET_IMPLEMENTED, 0)
 
     def get_parameters(self, parameter_group_prefix="", allow_empty=False):
         """The parameters other clients provide below `parameter_group_prefix`
