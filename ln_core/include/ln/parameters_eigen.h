@@ -46,8 +46,7 @@ struct port_description<T, typename std::enable_if<std::is_base_of<Eigen::EigenB
       : detail::port_description_shaped<T>(std::move(signal_name_), std::move(signal_description_),
                                            _get_param_typeid<scalar_type>(), extents(*input_), input_->data(),
                                            output_ != nullptr ? output_->data() : nullptr,
-                                           static_cast<bool>(T::IsRowMajor) && input_->cols() > 1, nullptr,
-                                           nullptr) {
+                                           static_cast<bool>(T::IsRowMajor) && input_->cols() > 1, nullptr, nullptr) {
     // The core hands callbacks the value in the program's layout; a map of
     // the registered shape shows it to the callback as a T.
     const Eigen::Index rows = input_->rows(), cols = input_->cols();
