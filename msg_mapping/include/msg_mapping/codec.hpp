@@ -77,7 +77,7 @@ struct MutableBytes {
   std::size_t size = 0;
 };
 
-struct CodecProgram;  // the compiled op lists (codec.cpp)
+struct CodecProgram;  // the compiled op lists (src/codec_program.hpp)
 
 /// The conversion program for one paired type, compiled once from the
 /// mapping: a flat list of copy/convert ops per struct in which runs of
