@@ -2,8 +2,9 @@
 ln29_recordings.py: an LN 2.9 system to record, a logger, and LN 2.9's own
 reading of its recording files (the reference the conversion is compared with).
 
-    publish TOPIC N RATE     bagtest/pose: "ready", then on a line on stdin N packets (counter = i),
-                             "published", and the topic stays until stdin closes
+    publish TOPIC N RATE     bagtest/pose: "ready", then on a line on stdin ("go": once the topic
+                             has a subscriber, the recorder; "go now": at once) N packets
+                             (counter = i), "published", and the topic stays until stdin closes
     provide SERVICE          bagtest/add (sum = a + b, text = "sum of " + text) until stdin closes
     call SERVICE N           N calls: a = i, b = 10, text = "call i"
     logger TOPIC PREFIX N RATE   publishes N packets on TOPIC (a publish child) while a logger logs them,
@@ -22,7 +23,10 @@ def publish(topic, n, rate):
     client = ln.client("ln29_publisher")
     port = client.publish(topic, "bagtest/pose")
     print("ready", flush=True)
-    sys.stdin.readline()  # "go": the recorder and the logger are attached
+    if sys.stdin.readline().strip() == "go":  # the recorder subscribes (LN 2.9 delivers nothing written before)
+        deadline = time.time() + 30
+        while not port.has_subscriber() and time.time() < deadline:
+            time.sleep(0.01)
     start = time.time()
     for i in range(int(n)):
         p = port.packet
@@ -33,7 +37,7 @@ def publish(topic, n, rate):
         p.frame = list(b"base".ljust(16, b"\0"))
         p.flags = [1, -1, i % 100]
         port.write()
-        time.sleep(max(0.0, start + (i + 1) / float(rate) - time.time()))
+        time.sleep(max(0.0, start + (i + 1) / float(rate) - time.time()))  # pacing at `rate`
     print("published", flush=True)
     sys.stdin.read()
 
@@ -63,7 +67,7 @@ def call(service, n):
     for i in range(int(n)):
         svc.req.a, svc.req.b, svc.req.text = i, 10, "call %d" % i
         svc.call()
-        time.sleep(0.02)
+        time.sleep(0.02)  # calls spread over a while, as a program makes them
     print("called", flush=True)
 
 
@@ -78,12 +82,14 @@ def logger(topic, prefix, n, rate):
     )
     print("publisher %d" % publisher.pid, flush=True)  # its /dev/shm segments are named after it
     assert publisher.stdout.readline().strip() == "ready"
+    # LN 2.9's logger (read by its daemon, not a subscriber: has_subscriber() stays False) shows
+    # nothing of when it sees the topic, has attached or has read the last packet: margins.
     time.sleep(1.0)
     log = client.get_logger("ln29_test_logger")
     log.add_topic(topic, 1000, 1)
     log.enable()
     time.sleep(1.0)
-    publisher.stdin.write("go\n")
+    publisher.stdin.write("go now\n")
     publisher.stdin.flush()
     assert publisher.stdout.readline().strip() == "published"
     time.sleep(0.5)

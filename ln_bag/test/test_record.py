@@ -97,6 +97,14 @@ def fill_counter(packet, i):
     packet.stamp = i * 0.001
 
 
+def readable(path, topic=None):
+    """How many messages (of `topic`, a ROS name) a reader finds in the file so far."""
+    if not os.path.exists(path):
+        return 0
+    messages, _ = mcap_stream(path)
+    return len([m for m in messages if topic is None or m.topic == topic])
+
+
 def md_text(name):
     with open(os.path.join(MSGDEFS, name)) as f:
         return f.read()
@@ -153,19 +161,18 @@ def test_duration_and_interrupt_close_the_file_with_its_index(manager, unique, t
         record = start_ln(manager, "record", topic, "-o", timed, "--duration", "1.5")
         source.wait_for_subscriber().start()
         result = finish(record)
-        assert 1.5 <= time.monotonic() - start < 15
+        assert 1.5 <= time.monotonic() - start < 25  # ended by itself (a loaded machine starts it slowly)
         assert "recorded" in ok(result)
-        assert 100 < len(mcap_messages(timed)) < 1000
+        assert 0 < len(mcap_messages(timed)) < 1000  # 300 at 200 Hz for 1.5 s; fewer under load
 
         interrupted = str(tmp_path / "interrupted.mcap")
         record = start_ln(manager, "record", topic, "-o", interrupted)
-        wait_until(lambda: os.path.exists(interrupted) and os.path.getsize(interrupted) > 0, 15, what="the file")
-        time.sleep(1.0)
+        wait_until(lambda: readable(interrupted) >= 50, 30, interval=0.2, what="50 messages in the file")
         record.send_signal(signal.SIGINT)
         result = finish(record)
         assert result.returncode == 0, result.stderr
         count = len(mcap_messages(interrupted))  # the summary and index are there
-        assert count > 50
+        assert count >= 50
         assert "recorded %d messages" % count in result.stdout
     finally:
         source.close()
@@ -178,7 +185,8 @@ def test_sigkill_leaves_everything_up_to_the_last_chunk_readable(manager, unique
     try:
         record = start_ln(manager, "record", topic, "-o", out)
         source.wait_for_subscriber().start()
-        time.sleep(2.6)  # chunks are closed at least every second
+        # chunks are closed at least every second: wait until more than one is in the file
+        wait_until(lambda: readable(out) >= 400, 30, interval=0.2, what="400 messages in the file")
         record.kill()
         record.communicate(timeout=30)
     finally:
@@ -213,15 +221,15 @@ def test_all_topics_except_excluded_ones_also_those_appearing_later(manager, uni
             "other.*",
             "-o",
             out,
-            "--duration",
-            "4",
             "--json",
         )
-        early[0].wait_for_subscriber().start()
+        early[0].wait_for_subscriber().start()  # the recorder has looked at the topics by now
         early[1].start()
-        time.sleep(1.0)
         sources.append(Source(late, "bagtest/pose", fill_pose, 10**6, rate=100))
         sources[-1].wait_for_subscriber().start()
+        late_ros = "/bag/%s/late" % unique
+        wait_until(lambda: readable(out, late_ros), 30, interval=0.2, what="messages of %s in the file" % late)
+        record.send_signal(signal.SIGINT)
         summary = json.loads(ok(finish(record)))
     finally:
         for s in sources:

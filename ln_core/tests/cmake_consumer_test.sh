@@ -135,7 +135,7 @@ $out_c"
   fi
 
   # Touch the definition every header imports: all are regenerated.
-  sleep 1
+  sleep 1  # a newer file time than the headers', on file systems with 1 s resolution
   touch "$dir/src/msgdefs/consumer/pose"
   if ! build "$dir" build3; then cat "$log"; fail "$variant: build after touching pose"; return; fi
   if grep -q "Generating LN message header consumer_topics/consumer_topics.h" "$log" &&
@@ -153,7 +153,7 @@ $out_c"
 
   # Touch the service definition only: the topic header stays as it is.
   before_topics=$(mtime "$topics"); before_services=$(mtime "$services")
-  sleep 1
+  sleep 1  # a newer file time than the headers', on file systems with 1 s resolution
   touch "$dir/src/msgdefs/consumer/set_pose"
   if ! build "$dir" build5; then cat "$log"; fail "$variant: build after touching set_pose"; return; fi
   if [ "$scan" = glob ]; then

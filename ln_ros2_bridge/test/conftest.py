@@ -9,7 +9,8 @@ ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and a loopback-only CYCLONEDDS_URI.
 
 Fixtures: `ln` (an LN manager; parametrized over LN 2.9 and ln_core, skipped
 when one is not available), `start_bridge`, `ln_peer`, `ros` (an in-process
-rclpy node with a spinning executor).
+rclpy node with a spinning executor), `bridge_loops` (waits for the bridges'
+own progress before checking that something did not happen).
 """
 
 import os
@@ -227,6 +228,44 @@ def ros():
 
 def wait_until(predicate, timeout, what):
     return ln_testing.wait_for(predicate, timeout, what, interval=0.02)
+
+
+class BridgeLoops:
+    """Watches /diagnostics, which each bridge publishes once a second from its
+    reconciliation thread, between passes: for checks that something does NOT happen,
+    wait_passes() waits until the bridges have run long enough for it to have happened
+    (their own progress, not a guess of wall-clock time on a loaded machine)."""
+
+    def __init__(self, ros):
+        from diagnostic_msgs.msg import DiagnosticArray
+
+        self._lock = threading.Lock()
+        self._seen = []  # node names, one per /diagnostics message
+        ros.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_array, 50)
+
+    def _on_array(self, array):
+        suffix = ": LN connection"
+        with self._lock:
+            self._seen += [s.name[: -len(suffix)] for s in array.status if s.name.endswith(suffix)]
+
+    def wait_passes(self, node_names, reports=3, timeout=60):
+        """Returns once each bridge in `node_names` has published `reports` more
+        diagnostics (so ran at least `reports` - 1 seconds with reconciliation passes
+        in between) than when called."""
+        with self._lock:
+            start = len(self._seen)
+
+        def done():
+            with self._lock:
+                later = self._seen[start:]
+            return all(later.count(name) >= reports for name in node_names)
+
+        wait_until(done, timeout, "%d diagnostics reports from each of %s" % (reports, ", ".join(node_names)))
+
+
+@pytest.fixture
+def bridge_loops(ros):
+    return BridgeLoops(ros)
 
 
 def ln_snapshot(ln):

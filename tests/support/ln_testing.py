@@ -1,7 +1,7 @@
 """The one helper of the Python tests and benchmarks: an LN manager of either kind
-(ln_core's or LN 2.9's) started and stopped, readiness waits with deadlines, free
-ports, processes started and ended by PID, and skipping (failing under CI) when a
-prerequisite is missing.
+(ln_core's or LN 2.9's) started and stopped, readiness waits with deadlines (also for a
+thread to block in the call under test), free ports, processes started and ended by
+PID, and skipping (failing under CI) when a prerequisite is missing.
 
 It is not installed with any package: test and benchmark code puts this directory
 on sys.path (conftest.py files, bench/ln/harness.py, the demo):
@@ -84,6 +84,24 @@ def wait_for(predicate: Callable[[], T], timeout: float, what: str, interval: fl
         if time.monotonic() >= deadline:
             raise TimeoutError("timed out after %.1f s waiting for %s" % (timeout, what))
         time.sleep(interval)
+
+
+def wait_asleep(tid: int, timeout: float, what: str, pid: int | str = "self", looks: int = 3) -> None:
+    """Waits until thread `tid` of process `pid` (a threading.Thread's native_id; a
+    process's PID for its main thread) sleeps in the kernel -- in the blocking call it
+    was started for -- on `looks` looks in a row 20 ms apart (a Python thread may sleep
+    on the GIL for a moment; between our looks the GIL is free). Linux: reads
+    /proc/PID/task/TID/stat; raises TimeoutError naming `what`."""
+    stat = Path("/proc", str(pid), "task", str(tid), "stat")
+    in_a_row = [0]
+
+    def asleep():
+        text = read_text(stat)
+        state = text[text.rfind(")") + 2 : text.rfind(")") + 3] if ")" in text else ""
+        in_a_row[0] = in_a_row[0] + 1 if state == "S" else 0
+        return in_a_row[0] >= looks
+
+    wait_for(asleep, timeout, what)
 
 
 def wait_for_log(path, pattern: str, timeout: float, proc: subprocess.Popen | None = None) -> re.Match:

@@ -7,10 +7,11 @@ import threading
 import time
 
 import links_and_nodes as ln
+import ln_testing  # tests/support, on sys.path through conftest.py
 import pytest
 
 
-def handle_until(clnt, condition, timeout=5.0):
+def handle_until(clnt, condition, timeout=20.0):
     deadline = time.time() + timeout
     while not condition():
         assert time.time() < deadline, "condition not met within %s s" % timeout
@@ -32,6 +33,7 @@ def test_resource_events_arrive_as_messages(clnt, manager, unique):
     assert conn.id == 1
     handle_until(clnt, lambda: any(e[0] == "initial_sync_done" for e in seen))
     other = ln.client("py_other_" + unique)
+    other_name = other.name
     try:
         port = other.publish("topic.%s" % unique, "counter/count_message")
         handle_until(clnt, lambda: len(seen) >= 2)
@@ -42,7 +44,10 @@ def test_resource_events_arrive_as_messages(clnt, manager, unique):
         other.unpublish(port)
     finally:
         other.close()
-    time.sleep(0.2)  # the other client's departure would be an event now
+    # Once the manager has dropped the other client, its departure would be an event now.
+    ln_testing.wait_for(
+        lambda: all(c.name != other_name for c in clnt.list_clients()), 20, "the manager to drop " + other_name
+    )
     clnt.wait_and_handle_service_group_requests(None, 0.2)
     assert [e[0] for e in seen] == ["initial_sync_done", "topic_new_publisher"], "nothing after disconnect"
 

@@ -23,7 +23,7 @@ sys.stdin.readline()          # until the test says "stop"
 """
 
 
-def wait_for(condition, timeout=8.0, pace=0.02):
+def wait_for(condition, timeout=20.0, pace=0.02):
     """Polls `condition` (at a pace that spares the manager) until it returns
     something true; returns that, or None after `timeout` seconds."""
     deadline = time.monotonic() + timeout
@@ -140,13 +140,14 @@ def test_rate_while_writing_and_zero_after(clnt, unique):
         while not stop.is_set():
             port.write()
             written += 1
-            time.sleep(0.01)
+            time.sleep(0.01)  # a writer at up to 100 Hz
 
     thread = threading.Thread(target=writer)
     thread.start()
     try:
-        busy = wait_for(lambda: (lambda t: t if t and 50 < t.rate < 150 else None)(topic_named(clnt, topic)))
-        assert busy, "rate of a ~100 Hz writer: %r" % (topic_named(clnt, topic),)
+        # (a loaded machine may run the writer at well below 100 Hz)
+        busy = wait_for(lambda: (lambda t: t if t and 10 < t.rate < 150 else None)(topic_named(clnt, topic)))
+        assert busy, "rate of a writer at up to 100 Hz: %r" % (topic_named(clnt, topic),)
         assert busy.packets > 0
     finally:
         stop.set()

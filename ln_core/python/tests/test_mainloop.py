@@ -27,7 +27,7 @@ def test_select_mainloop_runs_timeouts_idles_and_removes_sources():
     assert len(ticks) == 3 and idles
     assert loop.source_remove(idle) and not loop.source_remove(idle)
     seen = len(idles)
-    loop.sleep(0.02)
+    loop.sleep(0.02)  # the loop runs a while: the removed idle callback would run now
     assert len(idles) == seen and len(ticks) == 3
 
 
@@ -121,7 +121,7 @@ def test_mainloop_multi_waiter_reads_and_calls_back(clnt, unique):
     assert seen == [("t", 1), ("t", 2), ("t", 3)]
     pub.packet.seq = 4  # the callback returned False for 3: the port is no longer watched
     pub.write()
-    loop.sleep(0.1)
+    loop.sleep(0.1)  # the loop runs a while: the packet would be seen now
     assert len(seen) == 3
     waiter.stop()
 
@@ -141,5 +141,8 @@ def test_glib_mainloop_needs_pygobject():
     loop = ln.GLibMainloop()
     fired = []
     loop.timeout_add(0.01, lambda: fired.append(1) and False)
-    loop.sleep(0.05)
+    deadline = time.monotonic() + DEADLINE
+    while not fired and time.monotonic() < deadline:
+        loop.sleep(0.05)
+    loop.sleep(0.05)  # returning False: it does not fire again
     assert fired == [1]

@@ -9,7 +9,6 @@ import os
 import signal
 import subprocess
 import sys
-import time
 
 import ln_testing  # tests/support, on sys.path through conftest.py
 import pytest
@@ -52,7 +51,7 @@ def run_area(python, env):
             if "NOT_YET_IMPLEMENTED" in error:
                 pytest.skip("libln: services not implemented yet")
             raise AssertionError("provider failed: %s" % error)
-        time.sleep(0.2)
+        # "ready": its services are registered (in its constructor), the client may call
         client = subprocess.run(
             [python, "area_client_wrapped.py"], cwd=QUICKSTART, env=env, capture_output=True, text=True, timeout=60
         )

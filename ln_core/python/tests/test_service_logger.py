@@ -63,7 +63,7 @@ def test_python_logger_gets_both_items_of_a_call(manager, unique):
         svc.req.radius = 2.0
         svc.call()
         assert svc.resp.area == 12.0
-        deadline = time.time() + 5
+        deadline = time.time() + 20
         while len(items) < 2 and time.time() < deadline:
             time.sleep(0.02)
         items.sort()

@@ -189,12 +189,12 @@ def test_timeout_async_and_futures(clnt, serve, unique):
     serve("svc.sleep." + unique, "pytest/sleep", recorded(sleepy, threading.Event(), finished))
     svc = clnt.get_service("svc.sleep." + unique, "pytest/sleep")
     with pytest.raises(ln.LNError) as info:
-        svc.call_with_timeout(seconds=1.0, timeout=0.2)
+        svc.call_with_timeout(seconds=5.0, timeout=0.2)  # the handler outlasts the timeout, even on a loaded machine
     assert info.value.code == ln.LNE_SVC_TIMEOUT
     assert finished.wait(10), "the handler of the timed-out call never returned"  # the provider is free again
-    svc.call_async(seconds=0.2)
-    assert svc.finished() is False
-    deadline = time.time() + 5
+    svc.call_async(seconds=1.0)
+    assert svc.finished() is False  # the handler takes a second
+    deadline = time.time() + 20
     while not svc.finished():
         assert time.time() < deadline
         time.sleep(0.01)
@@ -223,6 +223,7 @@ def test_wait_for_service_and_availability(clnt, serve, unique, nyi):
     waiter = threading.Thread(target=wait)
     waiter.start()
     assert waiting.wait(10)
+    ln_testing.wait_asleep(waiter.native_id, 10, "the waiter blocked in wait_for_service()")
     assert found == [], "wait_for_service returned before the service existed"
     serve(name, "pytest/small_srv", small_handler)
     waiter.join(10)

@@ -8,6 +8,7 @@ import threading
 import time
 
 import links_and_nodes as ln
+import ln_testing  # tests/support, on sys.path through conftest.py
 import numpy as np
 import pytest
 from conftest import handshake
@@ -119,7 +120,7 @@ def test_unblock_ends_a_blocking_read(clnt, unique):
 
     thread = threading.Thread(target=reader)
     thread.start()
-    time.sleep(0.2)
+    ln_testing.wait_asleep(thread.native_id, 10, "the reader blocked in read(True)")
     sub.unblock()
     thread.join(5)
     assert not thread.is_alive()
@@ -203,7 +204,7 @@ def test_ctrl_c_interrupts_a_blocking_read(manager, tmp_path, unique):
     proc = subprocess.Popen([sys.executable, str(script), unique], env=manager.env(), stdout=subprocess.PIPE, text=True)
     try:
         assert proc.stdout.readline().strip() == "reading"
-        time.sleep(0.3)
+        ln_testing.wait_asleep(proc.pid, 10, "the program blocked in read(True)", pid=proc.pid)
         proc.send_signal(signal.SIGINT)
         out, _ = proc.communicate(timeout=10)
     finally:
@@ -256,11 +257,10 @@ def test_close_ends_reads_blocked_in_other_threads(manager, unique):
 
     thread = threading.Thread(target=reader)
     thread.start()
-    time.sleep(0.2)
-    start = time.time()
+    ln_testing.wait_asleep(thread.native_id, 10, "the reader blocked in read(True)")
     c.close()
-    thread.join(5)
-    assert not thread.is_alive() and time.time() - start < 3
+    thread.join(10)
+    assert not thread.is_alive()
     assert errors and errors[0] in (ln.LNE_PORT_UNBLOCKED, ln.LNE_CLIENT_NOT_INITIALIZED)
     c.close()  # twice is fine
 

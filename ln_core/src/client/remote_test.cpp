@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "client/c_api.hpp"
+#include "testing/wait.hpp"
 
 namespace ln::clientlib {
 namespace {
@@ -112,14 +113,7 @@ struct Datagram {
   }
 };
 
-bool eventually(const std::function<bool()>& condition) {
-  const auto deadline = std::chrono::steady_clock::now() + 5s;
-  while (!condition()) {
-    if (std::chrono::steady_clock::now() > deadline) return false;
-    std::this_thread::sleep_for(1ms);
-  }
-  return true;
-}
+bool eventually(const std::function<bool()>& condition) { return test::wait_until(condition, 5s); }
 
 class Receiving : public ::testing::Test {
  protected:
@@ -163,6 +157,43 @@ class Receiving : public ::testing::Test {
     datagram.payload = bytes_of(sequence, 16);
     send(datagram);
   }
+  // Returns once the receiver has handled every datagram sent before: a
+  // marker datagram for another, routed inbox is sent after them and read
+  // from that inbox (one socket, one receiving thread: handled in order).
+  void flush() {
+    if (!marker_open_) {
+      RemoteReceiver::InboxHandlers handlers;
+      handlers.adopt = [this](UniqueFd ring, std::int64_t, std::uint64_t written_before) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        transport::ReaderOptions options;
+        options.buffers = 16;
+        options.resume_after = written_before;
+        marker_reader_ = std::make_unique<transport::ShmReader>(transport::ShmReader::attach(std::move(ring), options));
+      };
+      handlers.fail = [](int, const std::string&) {};
+      receiver_.open_inbox(&marker_owner_, 64, 16, std::move(handlers));
+      receiver_.route(&marker_owner_, kMarkerId);
+      marker_open_ = true;
+    }
+    Datagram marker;
+    marker.subscription_id = kMarkerId;
+    marker.joined_after = 0;
+    marker.sequence = ++marker_sequence_;
+    marker.payload = bytes_of(marker.sequence, 16);
+    send(marker);
+    std::vector<unsigned char> buffer(64);
+    std::uint64_t newest = 0;
+    EXPECT_TRUE(eventually([&] {
+      std::lock_guard<std::mutex> lock(mutex_);
+      transport::SampleInfo info;
+      while (marker_reader_ && marker_reader_->read(buffer.data(), buffer.size(), info) == transport::ReadStatus::ok) {
+        newest = info.sequence;
+      }
+      return newest >= marker_sequence_;
+    })) << "the receiver did not handle marker "
+        << marker_sequence_;
+  }
+
   // Every (sequence, lost) the reader gets until `last` arrives.
   std::vector<std::pair<std::uint64_t, std::uint64_t>> read_until(std::uint64_t last) {
     std::vector<std::pair<std::uint64_t, std::uint64_t>> got;
@@ -181,7 +212,12 @@ class Receiving : public ::testing::Test {
     return got;
   }
 
+  static constexpr std::int64_t kMarkerId = 99;
   int owner_ = 0;
+  int marker_owner_ = 0;
+  bool marker_open_ = false;
+  std::uint64_t marker_sequence_ = 0;
+  std::unique_ptr<transport::ShmReader> marker_reader_;
   RemoteReceiver receiver_;
   UniqueFd socket_;
   sockaddr_in to_{};
@@ -199,7 +235,7 @@ TEST_F(Receiving, PacketsBeforeTheRouteAreHeldAndKeepThePublishersNumbers) {
   // The publisher counted the subscription after its packet 100 and sends
   // before the subscriber's client knows its subscription id.
   for (std::uint64_t s : {101, 102, 104, 104, 103, 105, 107}) send(s);
-  std::this_thread::sleep_for(50ms);  // arrived, and held
+  flush();  // arrived, and held
   {
     std::lock_guard<std::mutex> lock(mutex_);
     EXPECT_EQ(reader_, nullptr);
@@ -235,9 +271,9 @@ TEST_F(Receiving, EndedSubscriptionsAreNotHeld) {
   receiver_.route(&owner_, 7);
   receiver_.route(&owner_, 8);  // a new id after a manager restart
   send(101);                    // for id 7, which ended
-  std::this_thread::sleep_for(50ms);
+  flush();
   receiver_.route(&owner_, 7);  // ... and is routed again: nothing held for it
-  std::this_thread::sleep_for(20ms);
+  flush();
   std::lock_guard<std::mutex> lock(mutex_);
   EXPECT_EQ(reader_, nullptr);
 }
@@ -255,7 +291,7 @@ TEST_F(Receiving, OtherByteOrderIsAnErrorNotData) {
     return failure_ != 0;
   }));
   send(102);
-  std::this_thread::sleep_for(20ms);
+  flush();
   std::lock_guard<std::mutex> lock(mutex_);
   EXPECT_EQ(failure_, LNE_WRONG_BYTE_ORDER);
   EXPECT_EQ(reader_, nullptr);  // nothing delivered

@@ -372,11 +372,13 @@ TEST_F(TopicTest, UnblockEndsABlockedRead) {
   ln_inport in = subscribe("t.unblock");
   handshake(out, in);
   std::atomic<int> result{-100};
+  std::atomic<pid_t> reader_id{0};
   std::thread reader([&] {
+    reader_id = ln::test::current_thread_id();
     P64 received{};
     result = ln_read(in, &received, sizeof received, nullptr, 1);
   });
-  std::this_thread::sleep_for(20ms);
+  EXPECT_TRUE(wait_until([&] { return ln::test::thread_sleeps(reader_id); }));  // blocked in the read
   EXPECT_EQ(result, -100);
   EXPECT_EQ(ln_unblock(in), 0);
   reader.join();
@@ -385,11 +387,13 @@ TEST_F(TopicTest, UnblockEndsABlockedRead) {
   // Also while waiting for a publisher that does not exist yet.
   ln_inport lonely = subscribe("t.nobody");
   result = -100;
+  std::atomic<pid_t> waiter_id{0};
   std::thread waiter([&] {
+    waiter_id = ln::test::current_thread_id();
     P64 received{};
     result = ln_read(lonely, &received, sizeof received, nullptr, 1);
   });
-  std::this_thread::sleep_for(20ms);
+  EXPECT_TRUE(wait_until([&] { return ln::test::thread_sleeps(waiter_id); }));
   ln_unblock(lonely);
   waiter.join();
   EXPECT_EQ(result, -LNE_PORT_UNBLOCKED);
@@ -435,8 +439,9 @@ TEST_F(TopicTest, MultiWaiterAndPipeNotifier) {
   ASSERT_EQ(ln_multi_waiter_add_port(waiter, in_a), 0);
   ASSERT_EQ(ln_multi_waiter_add_port(waiter, in_b), 0);
   EXPECT_EQ(ln_multi_waiter_wait(waiter, 0.02), 0);
+  const pid_t waiting_thread = ln::test::current_thread_id();
   std::thread writer([&] {
-    std::this_thread::sleep_for(10ms);
+    wait_until([&] { return ln::test::thread_sleeps(waiting_thread); });  // once the wait below sleeps
     P64 p = packet(5);
     ln_write(out_b, &p, sizeof p, nullptr);
   });
@@ -908,7 +913,7 @@ TEST_F(TopicTest, ManagerRestartKeepsDataFlowingAndReconnects) {
   ln_inport refused = nullptr;
   const auto start = Clock::now();
   EXPECT_EQ(ln_subscribe(subscriber_, "t.other", "test/p64", &refused, -1, 0), -LNE_LOST_CONNECTION);
-  EXPECT_LT(Clock::now() - start, 100ms);
+  EXPECT_LT(Clock::now() - start, 1s);  // at once (room for a loaded machine), no waiting for the manager
   EXPECT_NE(std::string(ln_get_error_message(subscriber_)).find("ln_manager"), std::string::npos);
   P64 p = packet(77), received{};
   ASSERT_EQ(ln_write(out, &p, sizeof p, nullptr), 0);

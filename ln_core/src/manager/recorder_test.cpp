@@ -109,13 +109,13 @@ TEST_F(RecorderTest, PacketsOverwrittenBeforeItCameAreReportedAndThePeriodShrink
   auto log = SampleLog::create(1000, 28);
   recorder.attach(1, stream.reader(4), 4, {log, 1, false, "logger 'L', topic 'fast'"});
   // Let it settle to its longest period, then flood the 4-packet window.
-  const auto settled = std::chrono::steady_clock::now() + 2s;
+  const auto settled = std::chrono::steady_clock::now() + 10s;
   while (recorder.period() < kMaxPeriod && std::chrono::steady_clock::now() < settled) std::this_thread::sleep_for(1ms);
   for (std::uint64_t i = 1; i <= 200; ++i) stream.write(i, i);
   recorder.catch_up(1);
   EXPECT_LT(log->count(), 200u);
   EXPECT_EQ(values(*log).back(), 200u);  // the newest survive
-  const auto deadline = std::chrono::steady_clock::now() + 2s;
+  const auto deadline = std::chrono::steady_clock::now() + 10s;
   while (recorder.period() == kMaxPeriod && std::chrono::steady_clock::now() < deadline)
     std::this_thread::sleep_for(1ms);
   EXPECT_LT(recorder.period(), kMaxPeriod);

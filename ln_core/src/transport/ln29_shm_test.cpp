@@ -15,6 +15,8 @@
 #include <thread>
 #include <vector>
 
+#include "testing/wait.hpp"
+
 namespace ln::transport::ln29 {
 namespace {
 
@@ -190,8 +192,9 @@ TEST_F(Ln29ShmTest, WaitsEndWithAPacketATimeoutOrUnblock) {
   EXPECT_EQ(reader.read_next(data, 8, ts, counter, 100ms), ReadResult::timeout);
   EXPECT_GE(std::chrono::steady_clock::now() - started, 100ms);
 
+  const pid_t waiting_thread = test::current_thread_id();
   std::thread late_writer([&] {
-    std::this_thread::sleep_for(50ms);
+    test::wait_until([&] { return test::thread_sleeps(waiting_thread); });  // once the read below waits
     writer.write(1, "woken up", 8);
   });
   EXPECT_EQ(reader.read_next(data, 8, ts, counter, 10s), ReadResult::packet);
@@ -199,7 +202,7 @@ TEST_F(Ln29ShmTest, WaitsEndWithAPacketATimeoutOrUnblock) {
   EXPECT_EQ(std::string(data, 8), "woken up");
 
   std::thread unblocker([&] {
-    std::this_thread::sleep_for(50ms);
+    test::wait_until([&] { return test::thread_sleeps(waiting_thread); });
     reader.unblock();
   });
   EXPECT_EQ(reader.read_next(data, 8, ts, counter, -1ns), ReadResult::unblocked);

@@ -90,7 +90,7 @@ class IntrospectionProcessTest : public ::testing::Test {
   /// Polls the topic listing (at a pace that spares the manager) until
   /// `condition` holds for `topic`'s row; false after `timeout`.
   bool wait_for_topic(const std::string& topic, const std::function<bool(const ln_topic_info&)>& condition,
-                      std::chrono::milliseconds timeout = 8s) {
+                      std::chrono::milliseconds timeout = 20s) {
     const auto deadline = Clock::now() + timeout;
     for (;;) {
       Listing<ln_topic_info> topics;
@@ -226,10 +226,11 @@ TEST_F(IntrospectionProcessTest, RateDropsToZeroWhenThePublisherStopsWriting) {
     char packet[64] = {};
     while (!stop.load()) {
       if (ln_write(out, packet, sizeof packet, nullptr) == 0) ++written;
-      ln_sleep_seconds(0.01);
+      ln_sleep_seconds(0.01);  // a writer at up to 100 Hz
     }
   });
-  EXPECT_TRUE(wait_for_topic("i.burst", [](const ln_topic_info& t) { return t.rate > 50 && t.rate < 150; }))
+  // (a loaded machine may run the writer at well below 100 Hz)
+  EXPECT_TRUE(wait_for_topic("i.burst", [](const ln_topic_info& t) { return t.rate > 10 && t.rate < 150; }))
       << "rate " << rate_of("i.burst");
   stop = true;
   writer.join();

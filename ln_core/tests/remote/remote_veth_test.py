@@ -126,9 +126,15 @@ class Network:
             ) from e
         # Wait until the link is up on both ends (carrier).
         if not shutil.which("ping"):
-            time.sleep(0.5)
-            return
-        deadline = time.monotonic() + 5
+            deadline = time.monotonic() + 10
+            ends = ((self.ns_a, self.veth_a), (self.ns_b, self.veth_b))
+            while time.monotonic() < deadline:
+                shown = [sh("ip", "-n", ns, "link", "show", "dev", dev, check=False).stdout for ns, dev in ends]
+                if all("LOWER_UP" in text for text in shown):
+                    return
+                time.sleep(0.05)
+            raise TestFailure(f"the veth pair {self.veth_a} - {self.veth_b} did not come up")
+        deadline = time.monotonic() + 10
         while time.monotonic() < deadline:
             if (
                 sh("ip", "netns", "exec", self.ns_a, "ping", "-c", "1", "-W", "1", self.ip_b, check=False).returncode
@@ -184,8 +190,12 @@ class Program:
         self.lines: list[str] = []
         self.err: list[str] = []
         self.queue: queue.Queue[str | None] = queue.Queue()
-        threading.Thread(target=self._pump, args=(self.proc.stdout, self.lines, True), daemon=True).start()
-        threading.Thread(target=self._pump, args=(self.proc.stderr, self.err, False), daemon=True).start()
+        self.pumps = [
+            threading.Thread(target=self._pump, args=(self.proc.stdout, self.lines, True), daemon=True),
+            threading.Thread(target=self._pump, args=(self.proc.stderr, self.err, False), daemon=True),
+        ]
+        for pump in self.pumps:
+            pump.start()
 
     def _pump(self, stream, sink, to_queue):
         for raw in stream:
@@ -229,7 +239,9 @@ class Program:
                     pass
 
     def describe(self) -> str:
-        time.sleep(0.05)  # let the reader threads catch up
+        if self.proc.poll() is not None:  # all it wrote, once the reader threads reach the end
+            for pump in self.pumps:
+                pump.join(5)
         return (
             f"--- {self.label}: {' '.join(self.argv)} (exit {self.proc.poll()})\n"
             + "\n".join(self.lines[-40:])

@@ -1,6 +1,7 @@
 /* A service provider written as for LN 2.9 (C API). Usage:
      ln_svc_provider SERVICE [pool N | group]
-   Prints "ready" once registered, then serves svc/test until killed.
+   Prints "ready" once registered, then serves svc/test until killed; "slow"
+   when it starts handling a SLOW request (a test waits for that line).
    The request's mode selects the behaviour (see services_process_test.cpp). */
 #include <pthread.h>
 #include <stdio.h>
@@ -70,7 +71,9 @@ static int handle(ln_client clnt, ln_service_request req, void* user_data) {
   if (ln_service_request_set_data(req, &data, svc_test_signature) != 0) return -LNE_SVC_REQ_SET_DATA_WRONG;
   switch (data.req.mode) {
     case SLOW:
-      sleep_ms(data.req.delay_ms);
+      printf("slow\n");
+      fflush(stdout);
+      sleep_ms(data.req.delay_ms); /* the slow handler under test */
       break;
     case USER_ERROR:
       return data.req.error;

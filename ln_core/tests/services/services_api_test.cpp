@@ -799,7 +799,7 @@ TEST_F(ServiceApiTest, FailedSyncCallsLeaveTheirReasonInTheErrorMessage) {
   ASSERT_EQ(call(svc, ECHO), 0);
   std::atomic<int> result{1};
   std::thread calling([&] { result = call(svc, SLOW, 10000); });
-  std::this_thread::sleep_for(200ms);
+  EXPECT_NE(child->wait_for_line("slow"), "");  // the provider handles the call
   child->kill(SIGKILL);
   calling.join();
   EXPECT_EQ(result.load(), -LNE_SVC_RECV_RESP);

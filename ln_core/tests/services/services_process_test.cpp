@@ -16,6 +16,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cerrno>
 #include <cstdlib>
 #include <cstring>
 #include <set>
@@ -76,8 +77,8 @@ TEST_F(ServiceProcessTest, TimeoutThenNextCallWorks) {
   auto child = provider({"pool", "2"});
   ln_service svc = caller();
   const auto start = Clock::now();
-  EXPECT_EQ(call(svc, SLOW, 3000, 0.2), -LNE_SVC_TIMEOUT);
-  EXPECT_LT(Clock::now() - start, 2s);
+  EXPECT_EQ(call(svc, SLOW, 10000, 0.2), -LNE_SVC_TIMEOUT);
+  EXPECT_LT(Clock::now() - start, 8s);  // long before the 10 s answer, even on a loaded machine
   EXPECT_EQ(call(svc, ECHO), 0) << ln_get_error_message(client_);
 }
 
@@ -87,7 +88,7 @@ TEST_F(ServiceProcessTest, AbortFromAnotherThread) {
   ASSERT_EQ(call(svc, ECHO), 0);
   std::atomic<int> result{1};
   std::thread calling([&] { result = call(svc, SLOW, 5000); });
-  std::this_thread::sleep_for(200ms);
+  EXPECT_NE(child->wait_for_line("slow"), "");  // the call is with the provider
   EXPECT_EQ(ln_service_call_abort(svc), 0);
   calling.join();
   EXPECT_EQ(result.load(), -LNE_SVC_REQ_ABORTED);
@@ -167,7 +168,6 @@ TEST_F(ServiceProcessTest, ThreadPoolServesEightCallersConcurrently) {
   for (ln_service svc : handles) ASSERT_EQ(call(svc, ECHO), 0);  // connect first
   std::atomic<uint32_t> most{0};
   std::atomic<int> failures{0};
-  const auto start = Clock::now();
   std::vector<std::thread> threads;
   for (ln_service svc : handles) {
     threads.emplace_back([&, svc] {
@@ -183,8 +183,7 @@ TEST_F(ServiceProcessTest, ThreadPoolServesEightCallersConcurrently) {
   }
   for (auto& t : threads) t.join();
   EXPECT_EQ(failures.load(), 0);
-  EXPECT_GE(most.load(), 4u);
-  EXPECT_LT(Clock::now() - start, 2000ms);
+  EXPECT_GE(most.load(), 4u);  // handled at the same time (a count, not a time: machines get loaded)
 }
 
 TEST_F(ServiceProcessTest, GroupHandledByOneThreadIsSerialized) {
@@ -214,11 +213,11 @@ TEST_F(ServiceProcessTest, ProviderKilledMidCall) {
   std::atomic<int> result{1};
   const auto start = Clock::now();
   std::thread calling([&] { result = call(svc, SLOW, 10000); });
-  std::this_thread::sleep_for(200ms);
+  EXPECT_NE(child->wait_for_line("slow"), "");  // the provider handles the call
   child->kill(SIGKILL);
   calling.join();
   EXPECT_LT(result.load(), 0);
-  EXPECT_LT(Clock::now() - start, 5s);
+  EXPECT_LT(Clock::now() - start, 9s);  // before the 10 s answer would have come, even on a loaded machine
 }
 
 TEST_F(ServiceProcessTest, UnknownServiceAndWrongSignature) {
@@ -256,8 +255,9 @@ TEST_F(ServiceProcessTest, WaitForServiceAndAvailabilityHandler) {
   EXPECT_TRUE(wait_until([&] { return seen.get() == std::vector<int>{0}; }));
   EXPECT_EQ(ln_wait_for_service(client_, "svc", 0), 0);
   std::unique_ptr<ChildProcess> child;
+  const pid_t waiting_thread = ln::test::current_thread_id();
   std::thread starting([&] {
-    std::this_thread::sleep_for(100ms);
+    wait_until([&] { return ln::test::thread_sleeps(waiting_thread); });  // in ln_wait_for_service below
     child = provider();
   });
   EXPECT_EQ(ln_wait_for_service(client_, "svc", 10), 1);
@@ -334,7 +334,15 @@ TEST_F(ServiceProcessTest, ProviderSurvivesGarbage) {
     std::string junk(100000, '\0');
     for (size_t i = 0; i < junk.size(); ++i) junk[i] = static_cast<char>(i * 131 + 17);
     ::send(fd, junk.data(), junk.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
-    std::this_thread::sleep_for(50ms);
+    // The provider drops the connection over the junk (and lives on: the calls below).
+    EXPECT_TRUE(wait_until(
+        [&] {
+          char reply[4096];
+          const ssize_t n = ::recv(fd, reply, sizeof reply, MSG_DONTWAIT);
+          return n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK);
+        },
+        10s))
+        << "round " << round;
     ::close(fd);
   }
   ::close(manager);
@@ -504,8 +512,8 @@ TEST_F(RemoteServiceProcessTest, TimeoutThenNextCallWorksOverTcp) {
   ln_service svc = caller();
   const int tcp_before = established_tcp_sockets_of_this_process();
   const auto start = Clock::now();
-  EXPECT_EQ(call(svc, SLOW, 3000, 0.2), -LNE_SVC_TIMEOUT);
-  EXPECT_LT(Clock::now() - start, 2s);
+  EXPECT_EQ(call(svc, SLOW, 10000, 0.2), -LNE_SVC_TIMEOUT);
+  EXPECT_LT(Clock::now() - start, 8s);  // long before the 10 s answer, even on a loaded machine
   EXPECT_EQ(call(svc, ECHO), 0) << ln_get_error_message(client_);
   EXPECT_GE(established_tcp_sockets_of_this_process(), tcp_before + 1);
 }
@@ -530,11 +538,11 @@ TEST_F(RemoteServiceProcessTest, ProviderKilledMidCallOverTcp) {
   std::atomic<int> result{1};
   const auto start = Clock::now();
   std::thread calling([&] { result = call(svc, SLOW, 10000); });
-  std::this_thread::sleep_for(200ms);
+  EXPECT_NE(child->wait_for_line("slow"), "");  // the provider handles the call
   child->kill(SIGKILL);
   calling.join();
   EXPECT_LT(result.load(), 0);
-  EXPECT_LT(Clock::now() - start, 5s);
+  EXPECT_LT(Clock::now() - start, 9s);  // before the 10 s answer would have come, even on a loaded machine
 }
 
 // ------------------------------------- across two network namespaces (veth)
