@@ -58,7 +58,10 @@ def until(command, check, what, timeout=45):
     answers = []
 
     def passes():
-        answers.append(json.loads(ok(run_ln(*command, "--json"))))
+        result = run_ln(*command, "--json")
+        if result.returncode != 0 and "unknown ROS" in result.stderr:
+            return False  # not discovered yet by this newcomer
+        answers.append(json.loads(ok(result)))
         return check(answers[-1])
 
     wait_until(passes, timeout, what)
@@ -77,10 +80,16 @@ def test_graph_commands(ros, talker):
     )
     chatter = next(t for t in topics if t["name"] == "/clitest/chatter")
     assert chatter["types"] == ["std_msgs/msg/String"] and chatter["publishers"] == 1
-    text = ok(run_ln("topic", "list", "--spin-time", "5"))
-    assert any(line.split()[:2] == ["/clitest/chatter", "std_msgs/msg/String"] for line in text.splitlines())
+    wait_until(
+        lambda: any(
+            line.split()[:2] == ["/clitest/chatter", "std_msgs/msg/String"]
+            for line in ok(run_ln("topic", "list", "--spin-time", "5")).splitlines()
+        ),
+        45,
+        "/clitest/chatter and its type in the text of 'ln ros topic list'",
+    )
 
-    info = json.loads(ok(run_ln("topic", "info", "/clitest/chatter", "--json")))
+    info = until(["topic", "info", "/clitest/chatter"], lambda info: info["publishers"], "the talker in 'topic info'")
     assert info["publishers"] == [
         {"node": own, "type": "std_msgs/msg/String", "reliability": "reliable", "durability": "volatile"}
     ]
