@@ -18,6 +18,7 @@ start=$SECONDS
 step() { printf '\n== test.sh: %s\n' "$*"; }
 fail_step() { echo "test.sh: FAILED: $*" >&2; FAILED=$((FAILED + 1)); FAILED_NAMES+=("step: $*"); }
 finish() {
+  [ "$FAILED" -eq 0 ] || failure_details
   step "done in $((SECONDS - start)) s ($SKIPPED skipped)"
   local name
   for name in "${FAILED_NAMES[@]}"; do echo "test.sh: failed: $name"; done
@@ -40,6 +41,35 @@ for case in ET.parse(sys.argv[1]).iter("testcase"):
         failed.append("failed %s::%s" % (case.get("classname", ""), case.get("name", "")))
 print(n["passed"], n["failed"], n["skipped"])
 print("\n".join(failed))
+EOF
+}
+
+# failure_details: the end of each failed case's report from every JUnit file of this run, so that
+# the tail of a CI log says why a test failed, not only which one
+failure_details() {
+  step "why tests failed (the end of each report)"
+  python3 - "$ROOT" "$ASAN_DIR" <<'EOF' || true
+import glob, os, sys, xml.etree.ElementTree as ET
+root, asan = sys.argv[1:]
+files = glob.glob(os.path.join(root, "build", "*", "pytest.xml"))
+files += glob.glob(os.path.join(root, "build", "*", "test_results", "**", "*.xml"), recursive=True)
+files += [os.path.join(asan, "ctest-junit.xml"), os.path.join(root, "log", "pytest-junit.xml")]
+shown = 0
+for path in files:
+    try:
+        cases = list(ET.parse(path).iter("testcase"))
+    except (OSError, ET.ParseError):
+        continue
+    for case in cases:
+        for problem in (child for child in case if child.tag in ("failure", "error")):
+            if shown == 12:
+                print("(more failures: see the full log)")
+                sys.exit(0)
+            shown += 1
+            text = "\n".join(filter(None, [problem.get("message", ""), problem.text or ""]))
+            lines = text.strip().splitlines()
+            print("--- %s::%s (%s)" % (case.get("classname", ""), case.get("name", ""), os.path.relpath(path, root)))
+            print("\n".join(line[:300] for line in lines[-25:]))
 EOF
 }
 

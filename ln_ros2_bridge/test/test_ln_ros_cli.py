@@ -73,13 +73,13 @@ def test_graph_commands(ros, talker):
     nodes = until(["node", "list"], lambda nodes: own in nodes, "the test's node in 'ln ros node list'")
     assert not [n for n in nodes if n.rsplit("/", 1)[-1].startswith("_")], "hidden nodes listed"
 
-    topics = until(
-        ["topic", "list"],
-        lambda topics: any(t["name"] == "/clitest/chatter" for t in topics),
-        "/clitest/chatter in 'ln ros topic list'",
-    )
-    chatter = next(t for t in topics if t["name"] == "/clitest/chatter")
-    assert chatter["types"] == ["std_msgs/msg/String"] and chatter["publishers"] == 1
+    chatter = {"name": "/clitest/chatter", "types": ["std_msgs/msg/String"], "publishers": 1}
+
+    def lists_chatter(topics):
+        return any({key: t.get(key) for key in chatter} == chatter for t in topics)
+
+    topics = until(["topic", "list"], lists_chatter, "/clitest/chatter with its publisher in 'ln ros topic list'")
+    assert lists_chatter(topics)
     wait_until(
         lambda: any(
             line.split()[:2] == ["/clitest/chatter", "std_msgs/msg/String"]
@@ -89,20 +89,27 @@ def test_graph_commands(ros, talker):
         "/clitest/chatter and its type in the text of 'ln ros topic list'",
     )
 
-    info = until(["topic", "info", "/clitest/chatter"], lambda info: info["publishers"], "the talker in 'topic info'")
-    assert info["publishers"] == [
-        {"node": own, "type": "std_msgs/msg/String", "reliability": "reliable", "durability": "volatile"}
-    ]
-
-    services = until(
-        ["service", "list"],
-        lambda services: any(s["name"] == "/clitest/enable" for s in services),
-        "/clitest/enable in 'ln ros service list'",
+    # A newcomer may see an endpoint before the ROS discovery info that names its node: wait for both.
+    talker_info = [{"node": own, "type": "std_msgs/msg/String", "reliability": "reliable", "durability": "volatile"}]
+    info = until(
+        ["topic", "info", "/clitest/chatter"],
+        lambda info: info["publishers"] == talker_info,
+        "the talker with its node in 'topic info'",
     )
-    assert {"name": "/clitest/enable", "types": ["std_srvs/srv/SetBool"], "servers": [own]} in services
+    assert info["publishers"] == talker_info
+
+    enable = {"name": "/clitest/enable", "types": ["std_srvs/srv/SetBool"], "servers": [own]}
+    services = until(
+        ["service", "list"], lambda services: enable in services, "/clitest/enable in 'ln ros service list'"
+    )
+    assert enable in services
     assert own + "/get_parameters" not in {s["name"] for s in services}
-    everything = json.loads(ok(run_ln("service", "list", "--all", "--json")))
-    assert own + "/get_parameters" in {s["name"] for s in everything}
+    everything = until(
+        ["service", "list", "--all"],
+        lambda everything: own + "/get_parameters" in {s["name"] for s in everything},
+        "the node's parameter services in 'ln ros service list --all'",
+    )
+    assert enable in everything
 
 
 def test_echo_and_hz(ros, talker):
