@@ -789,6 +789,8 @@ TEST_F(ServiceApiTest, FailedSyncCallsLeaveTheirReasonInTheErrorMessage) {
 
   EXPECT_EQ(call(svc, SLOW, 3000, 0.25), -LNE_SVC_TIMEOUT);
   EXPECT_TRUE(contains(error_message(), "service 'svc': no response within 0.25 s")) << error_message();
+  // Its handler's "slow" line, read now so that it cannot stand for the next slow call's below.
+  EXPECT_NE(child->wait_for_line("slow"), "");
 
   ln_service wrong = caller("svc", "int32_t 4 1|");
   EXPECT_LT(call(wrong, ECHO), 0);
