@@ -48,7 +48,8 @@ install_apt_packages() {
   } > "$CACHE/apt.log" 2>&1 || { tail -n 30 "$CACHE/apt.log" >&2; die "apt-get failed for: ${missing[*]}"; }
 }
 
-# Prints the path of a CPython 3.11 that has Python.h and ensurepip (the ROS wheels are cp311).
+# Prints the path of a CPython 3.11 that has Python.h and ensurepip (the ROS wheels are cp311): the
+# real interpreter, also when a virtual environment (ours, say) is active.
 find_python() {
   local c
   for c in "${LN_CORE_PYTHON:-}" python3.11 python3 /usr/bin/python3.11; do
@@ -57,7 +58,7 @@ find_python() {
 import ensurepip, os, sys, sysconfig
 assert sys.version_info[:2] == (3, 11)
 assert os.path.isfile(os.path.join(sysconfig.get_paths()["include"], "Python.h"))
-print(sys.executable)
+print(os.path.realpath(sys.executable))
 EOF
   done
   return 1
