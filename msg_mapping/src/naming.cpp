@@ -4,118 +4,17 @@
 #include <array>
 #include <cstdio>
 
+#include "ln/md/message_definition.hpp"
 #include "msg_mapping/ros_model.hpp"
 #include "text_util.hpp"
 
 namespace msg_mapping {
 namespace {
 
-// C (C23), C++ (C++23, with alternative tokens) keywords.
-constexpr std::string_view c_keywords[] = {"_Alignas",
-                                           "_Alignof",
-                                           "_Atomic",
-                                           "_Bool",
-                                           "_Complex",
-                                           "_Generic",
-                                           "_Imaginary",
-                                           "_Noreturn",
-                                           "_Static_assert",
-                                           "_Thread_local",
-                                           "alignas",
-                                           "alignof",
-                                           "and",
-                                           "and_eq",
-                                           "asm",
-                                           "auto",
-                                           "bitand",
-                                           "bitor",
-                                           "bool",
-                                           "break",
-                                           "case",
-                                           "catch",
-                                           "char",
-                                           "char8_t",
-                                           "char16_t",
-                                           "char32_t",
-                                           "class",
-                                           "compl",
-                                           "concept",
-                                           "const",
-                                           "consteval",
-                                           "constexpr",
-                                           "constinit",
-                                           "const_cast",
-                                           "continue",
-                                           "co_await",
-                                           "co_return",
-                                           "co_yield",
-                                           "decltype",
-                                           "default",
-                                           "delete",
-                                           "do",
-                                           "double",
-                                           "dynamic_cast",
-                                           "else",
-                                           "enum",
-                                           "explicit",
-                                           "export",
-                                           "extern",
-                                           "false",
-                                           "float",
-                                           "for",
-                                           "friend",
-                                           "goto",
-                                           "if",
-                                           "inline",
-                                           "int",
-                                           "long",
-                                           "mutable",
-                                           "namespace",
-                                           "new",
-                                           "noexcept",
-                                           "not",
-                                           "not_eq",
-                                           "nullptr",
-                                           "operator",
-                                           "or",
-                                           "or_eq",
-                                           "private",
-                                           "protected",
-                                           "public",
-                                           "register",
-                                           "reinterpret_cast",
-                                           "requires",
-                                           "restrict",
-                                           "return",
-                                           "short",
-                                           "signed",
-                                           "sizeof",
-                                           "static",
-                                           "static_assert",
-                                           "static_cast",
-                                           "struct",
-                                           "switch",
-                                           "template",
-                                           "this",
-                                           "thread_local",
-                                           "throw",
-                                           "true",
-                                           "try",
-                                           "typedef",
-                                           "typeid",
-                                           "typename",
-                                           "typeof",
-                                           "typeof_unqual",
-                                           "union",
-                                           "unsigned",
-                                           "using",
-                                           "virtual",
-                                           "void",
-                                           "volatile",
-                                           "wchar_t",
-                                           "while",
-                                           "xor",
-                                           "xor_eq"};
+// C keywords beyond the ones LN's definitions already refuse (ln::md::is_reserved_word):
+// C11's and C23's, for names of generated C code.
+constexpr std::string_view more_c_keywords[] = {"_Alignas",       "_Alignof",      "_Atomic", "_Imaginary",
+                                                "_Static_assert", "_Thread_local", "typeof",  "typeof_unqual"};
 
 // Python 3 keywords and IDL 4.2 keywords (rosidl's .idl stage), exact spelling.
 constexpr std::string_view other_keywords[] = {
@@ -216,10 +115,12 @@ bool is_valid_ros_constant_name(std::string_view name) {
   return true;
 }
 
-bool is_c_reserved_identifier(std::string_view name) { return contains(c_keywords, name); }
+bool is_c_reserved_identifier(std::string_view name) {
+  return ln::md::is_reserved_word(name) || contains(more_c_keywords, name);
+}
 
 bool is_reserved_identifier(std::string_view name) {
-  return contains(c_keywords, name) || contains(other_keywords, name);
+  return is_c_reserved_identifier(name) || contains(other_keywords, name);
 }
 
 std::string camel_to_snake(std::string_view value) {

@@ -57,6 +57,26 @@ std::string identifier_from_name(std::string_view name) {
   return std::string(text::strip(id, "_"));
 }
 
+bool is_reserved_word(std::string_view name) {
+  // clang-format off
+  static constexpr std::array<std::string_view, 97> words{
+      "alignas", "alignof", "and", "and_eq", "asm", "auto", "bitand", "bitor",
+      "bool", "break", "case", "catch", "char", "char8_t", "char16_t", "char32_t",
+      "class", "compl", "concept", "const", "consteval", "constexpr", "constinit", "const_cast",
+      "continue", "co_await", "co_return", "co_yield", "decltype", "default", "delete", "do",
+      "double", "dynamic_cast", "else", "enum", "explicit", "export", "extern", "false",
+      "float", "for", "friend", "goto", "if", "inline", "int", "long",
+      "mutable", "namespace", "new", "noexcept", "not", "not_eq", "nullptr", "operator",
+      "or", "or_eq", "private", "protected", "public", "register", "reinterpret_cast", "requires",
+      "restrict", "return", "short", "signed", "sizeof", "static", "static_assert", "static_cast",
+      "struct", "switch", "template", "this", "thread_local", "throw", "true", "try",
+      "typedef", "typeid", "typename", "union", "unsigned", "using", "virtual", "void",
+      "volatile", "wchar_t", "while", "xor", "xor_eq", "_Bool", "_Complex", "_Generic",
+      "_Noreturn"};
+  // clang-format on
+  return std::find(words.begin(), words.end(), name) != words.end();
+}
+
 namespace text {
 
 bool is_identifier(std::string_view s) {
@@ -65,107 +85,6 @@ bool is_identifier(std::string_view s) {
   auto digit = [](char c) { return c >= '0' && c <= '9'; };
   if (!alpha(s.front())) return false;
   return std::all_of(s.begin(), s.end(), [&](char c) { return alpha(c) || digit(c); });
-}
-
-bool is_reserved_word(std::string_view s) {
-  static constexpr std::array<std::string_view, 97> words{"alignas",
-                                                          "alignof",
-                                                          "and",
-                                                          "and_eq",
-                                                          "asm",
-                                                          "auto",
-                                                          "bitand",
-                                                          "bitor",
-                                                          "bool",
-                                                          "break",
-                                                          "case",
-                                                          "catch",
-                                                          "char",
-                                                          "char8_t",
-                                                          "char16_t",
-                                                          "char32_t",
-                                                          "class",
-                                                          "compl",
-                                                          "concept",
-                                                          "const",
-                                                          "consteval",
-                                                          "constexpr",
-                                                          "constinit",
-                                                          "const_cast",
-                                                          "continue",
-                                                          "co_await",
-                                                          "co_return",
-                                                          "co_yield",
-                                                          "decltype",
-                                                          "default",
-                                                          "delete",
-                                                          "do",
-                                                          "double",
-                                                          "dynamic_cast",
-                                                          "else",
-                                                          "enum",
-                                                          "explicit",
-                                                          "export",
-                                                          "extern",
-                                                          "false",
-                                                          "float",
-                                                          "for",
-                                                          "friend",
-                                                          "goto",
-                                                          "if",
-                                                          "inline",
-                                                          "int",
-                                                          "long",
-                                                          "mutable",
-                                                          "namespace",
-                                                          "new",
-                                                          "noexcept",
-                                                          "not",
-                                                          "not_eq",
-                                                          "nullptr",
-                                                          "operator",
-                                                          "or",
-                                                          "or_eq",
-                                                          "private",
-                                                          "protected",
-                                                          "public",
-                                                          "register",
-                                                          "reinterpret_cast",
-                                                          "requires",
-                                                          "restrict",
-                                                          "return",
-                                                          "short",
-                                                          "signed",
-                                                          "sizeof",
-                                                          "static",
-                                                          "static_assert",
-                                                          "static_cast",
-                                                          "struct",
-                                                          "switch",
-                                                          "template",
-                                                          "this",
-                                                          "thread_local",
-                                                          "throw",
-                                                          "true",
-                                                          "try",
-                                                          "typedef",
-                                                          "typeid",
-                                                          "typename",
-                                                          "union",
-                                                          "unsigned",
-                                                          "using",
-                                                          "virtual",
-                                                          "void",
-                                                          "volatile",
-                                                          "wchar_t",
-                                                          "while",
-                                                          "xor",
-                                                          "xor_eq",
-                                                          "_Bool",
-                                                          "_Complex",
-                                                          "_Generic",
-                                                          "_Noreturn"};
-  return std::find(words.begin(), words.end(), s) != words.end();
 }
 
 char32_t decode_utf8(std::string_view s, std::size_t i, std::size_t& length) {

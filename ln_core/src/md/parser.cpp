@@ -94,7 +94,7 @@ class DefinitionParser {
     const std::string target(quoted.substr(1, quoted.size() - 2));
 
     if (primitive_from_spelling(local)) fail("'" + local + "' is a built-in type and cannot be redefined");
-    if (!text::is_identifier(local) || text::is_reserved_word(local))
+    if (!text::is_identifier(local) || is_reserved_word(local))
       fail("'" + local + "' is not a usable type name (a C identifier that is not a keyword)");
     if (!is_valid_definition_name(target))
       fail("'" + target + "' is not a valid message-definition name (relative, '/'-separated, no '..')");
@@ -146,7 +146,7 @@ class DefinitionParser {
     }
     field.hash_name = std::string(name);  // LN hashes the name with blanks before '['
     field.name = std::string(text::strip_unicode(name));
-    if (!text::is_identifier(field.name) || text::is_reserved_word(field.name))
+    if (!text::is_identifier(field.name) || is_reserved_word(field.name))
       fail("'" + field.name + "' is not a valid field name (a C identifier that is not a keyword)");
 
     // One lookup per field: definitions can come from any client, and a

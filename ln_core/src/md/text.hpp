@@ -35,8 +35,6 @@ inline bool ends_with(std::string_view s, std::string_view suffix) {
 
 /// A C identifier: [A-Za-z_][A-Za-z0-9_]*.
 bool is_identifier(std::string_view s);
-/// A C or C++ keyword: cannot be a field or type name in generated code.
-bool is_reserved_word(std::string_view s);
 /// Valid UTF-8 (no overlong forms, no surrogates).
 bool is_valid_utf8(std::string_view s);
 

@@ -238,4 +238,8 @@ bool is_valid_definition_name(std::string_view name);
 /// '.' become '_', outer '_' stripped ("a/b/c" -> "a_b_c").
 std::string identifier_from_name(std::string_view name);
 
+/// A C++ keyword or alternative token, or a C keyword (`restrict`, `_Bool`, ...): a name that
+/// generated C/C++ code cannot use, so no field or type of a definition may have it.
+bool is_reserved_word(std::string_view name);
+
 }  // namespace ln::md
