@@ -39,6 +39,7 @@ install(FILES
   ${CMAKE_CURRENT_BINARY_DIR}/lnConfig.cmake
   ${CMAKE_CURRENT_BINARY_DIR}/lnConfigVersion.cmake
   cmake/ln_generate_headers.cmake
+  cmake/ln_build_helpers.cmake
   DESTINATION ${LN_CMAKE_INSTALL_DIR})
 
 # LN 2.9's package name: a thin forwarder to lnConfig.cmake, versioned as the
