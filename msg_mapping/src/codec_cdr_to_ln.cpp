@@ -61,22 +61,11 @@ class Decoder {
 
   void step(const Op& op) {
     switch (op.code) {
-      case OpCode::Copy: {
-        if (op.runtime_align)
-          in_.align(op.align);
-        else
-          in_.take(op.pad);
+      case OpCode::Copy:
+      case OpCode::Bool:  // one byte on both sides: copied as it is
+        skip_cdr_padding(in_, op);
         out_.put(in_.take(op.size), op.size);
         return;
-      }
-      case OpCode::Bool: {
-        if (op.runtime_align)
-          in_.align(op.align);
-        else
-          in_.take(op.pad);
-        out_.put(in_.take(op.size), op.size);
-        return;
-      }
       case OpCode::Zero:
         in_.take(1);
         return;

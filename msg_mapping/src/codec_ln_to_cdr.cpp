@@ -61,19 +61,12 @@ class Encoder {
 
   void step(const Op& op) {
     switch (op.code) {
-      case OpCode::Copy: {
-        if (op.runtime_align)
-          out_.align(op.align);
-        else
-          out_.zero(op.pad);
+      case OpCode::Copy:
+        put_cdr_padding(out_, op);
         out_.put(in_.take(op.size), op.size);
         return;
-      }
       case OpCode::Bool: {
-        if (op.runtime_align)
-          out_.align(op.align);
-        else
-          out_.zero(op.pad);
+        put_cdr_padding(out_, op);
         const std::uint8_t* src = in_.take(op.size);
         for (std::uint32_t i = 0; i < op.size; ++i) {
           const std::uint8_t b = src[i] != 0;

@@ -184,6 +184,23 @@ class Counter {
   std::size_t pos_ = 0, est_ = 0;
 };
 
+// The CDR padding before a Copy or Bool element: aligned at run time, or the compiler's static
+// count of bytes (skipped when decoding, written as zeros when encoding).
+inline void skip_cdr_padding(Reader& cdr, const Op& op) {
+  if (op.runtime_align)
+    cdr.align(op.align);
+  else
+    cdr.take(op.pad);
+}
+
+template <class CdrOut>
+void put_cdr_padding(CdrOut& cdr, const Op& op) {
+  if (op.runtime_align)
+    cdr.align(op.align);
+  else
+    cdr.zero(op.pad);
+}
+
 inline constexpr int max_depth = 64;  // nesting of recursive (opaque) LN data
 
 // Prefixes the field path to an error on its way out (only paid when failing).
