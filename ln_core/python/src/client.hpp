@@ -114,11 +114,7 @@ class Client {
   double ping(double timeout) {
     Use use(*state_);
     double rtt = 0;
-    int ret;
-    {
-      nb::gil_scoped_release release;
-      ret = ln_ping(state_->handle, timeout, &rtt);
-    }
+    const int ret = without_gil([&] { return ln_ping(state_->handle, timeout, &rtt); });
     check(ret, "ping");
     return rtt;
   }
@@ -128,11 +124,8 @@ class Client {
     Use use(*state_);
     char *md = nullptr, *hash = nullptr, *flat = nullptr;
     unsigned int size = 0;
-    int ret;
-    {
-      nb::gil_scoped_release release;
-      ret = ln_get_message_definition_v21(state_->handle, name.c_str(), &md, &size, &hash, &flat);
-    }
+    const int ret = without_gil(
+        [&] { return ln_get_message_definition_v21(state_->handle, name.c_str(), &md, &size, &hash, &flat); });
     check(ret, "get_message_definition('" + name + "')");
     auto text = take_string(md);
     auto hash_text = take_string(hash);
@@ -145,11 +138,9 @@ class Client {
     Use use(*state_);
     char *md_name = nullptr, *md = nullptr, *hash = nullptr;
     unsigned int size = 0;
-    int ret;
-    {
-      nb::gil_scoped_release release;
-      ret = ln_get_message_definition_for_topic_v17(state_->handle, topic.c_str(), &md_name, &md, &size, &hash);
-    }
+    const int ret = without_gil([&] {
+      return ln_get_message_definition_for_topic_v17(state_->handle, topic.c_str(), &md_name, &md, &size, &hash);
+    });
     check(ret, "get_message_definition_for_topic('" + topic + "')");
     auto n = take_string(md_name);
     auto t = take_string(md);
@@ -209,11 +200,8 @@ class Client {
     require_no_nul(interface, "the service interface");
     Use use(*state_);
     char *definition = nullptr, *signature = nullptr;
-    int ret;
-    {
-      nb::gil_scoped_release release;
-      ret = ln_get_service_signature(state_->handle, interface.c_str(), &definition, &signature);
-    }
+    const int ret = without_gil(
+        [&] { return ln_get_service_signature(state_->handle, interface.c_str(), &definition, &signature); });
     check(ret, "get_service_signature('" + interface + "')");
     auto d = take_string(definition);
     auto s = take_string(signature);
@@ -224,11 +212,9 @@ class Client {
     require_no_nul(service, "the service name");
     Use use(*state_);
     char *interface = nullptr, *definition = nullptr, *signature = nullptr;
-    int ret;
-    {
-      nb::gil_scoped_release release;
-      ret = ln_get_service_signature_for_service(state_->handle, service.c_str(), &interface, &definition, &signature);
-    }
+    const int ret = without_gil([&] {
+      return ln_get_service_signature_for_service(state_->handle, service.c_str(), &interface, &definition, &signature);
+    });
     check(ret, "get_service_signature_for_service('" + service + "')");
     auto i = take_string(interface);
     auto d = take_string(definition);
@@ -257,11 +243,7 @@ class Client {
   void needs_provider(const std::string& name, double timeout) {
     require_no_nul(name, "the service or topic name");
     Use use(*state_);
-    int ret;
-    {
-      nb::gil_scoped_release release;
-      ret = ln_needs_provider(state_->handle, name.c_str(), timeout);
-    }
+    const int ret = without_gil([&] { return ln_needs_provider(state_->handle, name.c_str(), timeout); });
     check(ret, "needs_provider('" + name + "')");
   }
 
@@ -300,11 +282,8 @@ class Client {
     const double deadline = forever ? INFINITY : now() + timeout;
     double slice = forever ? kSlice : std::min(kSlice, timeout);
     for (;;) {
-      int ret;
-      {
-        nb::gil_scoped_release release;
-        ret = ln_wait_and_handle_service_group_requests(state_->handle, group_name, slice);
-      }
+      const int ret =
+          without_gil([&] { return ln_wait_and_handle_service_group_requests(state_->handle, group_name, slice); });
       if (ret < 0) fail(ret, "wait_and_handle_service_group_requests", state_->handle);
       if (timeout == 0 || state_->handled.load() != handled_before) return;
       if (PyErr_CheckSignals() != 0) throw nb::python_error();

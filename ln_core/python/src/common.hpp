@@ -42,6 +42,13 @@ void require_no_nul(const std::optional<std::string>& value, const char* what);
 
 [[noreturn]] void throw_closed();
 
+/// Runs a blocking libln call with the GIL released, so that other Python threads run meanwhile.
+template <class Call>
+auto without_gil(Call&& call) {
+  nb::gil_scoped_release release;
+  return call();
+}
+
 inline double now() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
@@ -70,11 +77,7 @@ int wait_in_slices(double timeout, const ClientState* state, Step step, OnInterr
       on_interrupt();
       throw_closed();
     }
-    int ret;
-    {
-      nb::gil_scoped_release release;
-      ret = step(slice);
-    }
+    const int ret = without_gil([&] { return step(slice); });
     if (ret != 0) return ret;
     if (PyErr_CheckSignals() != 0) {
       on_interrupt();

@@ -17,13 +17,11 @@ class EventConnection {
                   nb::object callback)
       : state_(client.state()), callback_(std::move(callback)) {
     Use use(*state_);
-    int ret;
-    {
-      nb::gil_scoped_release release;
-      ret = ln_event_connect_flat(state_->handle, &connection_, name.c_str(), connect_signature.c_str(),
-                                  const_cast<char*>(connect_flat.c_str()), static_cast<uint32_t>(connect_flat.size()),
-                                  &EventConnection::deliver, this);
-    }
+    const int ret = without_gil([&] {
+      return ln_event_connect_flat(state_->handle, &connection_, name.c_str(), connect_signature.c_str(),
+                                   const_cast<char*>(connect_flat.c_str()), static_cast<uint32_t>(connect_flat.size()),
+                                   &EventConnection::deliver, this);
+    });
     if (ret < 0) fail(ret, "connect_to_event('" + name + "')", state_->handle);
   }
   ~EventConnection() { disconnect(); }

@@ -1,4 +1,5 @@
 #include "introspection.hpp"
+#include "common.hpp"
 
 #include <nanobind/stl/string.h>
 
@@ -112,11 +113,7 @@ nb::list list_of(WithClient with_client, nb::handle ln_error, nb::handle client,
   with_client(client, [&](ln_client handle) {
     Row* rows = nullptr;
     unsigned int count = 0;
-    int ret;
-    {
-      nb::gil_scoped_release release;
-      ret = list(handle, &rows, &count);
-    }
+    const int ret = without_gil([&] { return list(handle, &rows, &count); });
     if (ret < 0) raise_ln_error(ln_error, ret, what, handle);
     const std::unique_ptr<Row, FreeList> owned(rows);
     for (unsigned int i = 0; i < count; ++i) out.append(as_dict(rows[i]));
@@ -152,11 +149,7 @@ void register_introspection(nb::module_& module, WithClient with_client) {
         nb::dict out;
         with_client(client, [&](ln_client handle) {
           ln_manager_status* status = nullptr;
-          int ret;
-          {
-            nb::gil_scoped_release release;
-            ret = ln_get_manager_status(handle, &status);
-          }
+          const int ret = without_gil([&] { return ln_get_manager_status(handle, &status); });
           if (ret < 0) raise_ln_error(ln_error, ret, "get_manager_status", handle);
           const std::unique_ptr<ln_manager_status, FreeList> owned(status);
           out = as_dict(*status);
@@ -175,11 +168,8 @@ void register_introspection(nb::module_& module, WithClient with_client) {
       [with_client, ln_error](nb::handle client, const std::string& name, const std::string& action,
                               const std::string& alt_command) {
         with_client(client, [&](ln_client handle) {
-          int ret;
-          {
-            nb::gil_scoped_release release;
-            ret = ln_control_process(handle, name.c_str(), action.c_str(), alt_command.c_str());
-          }
+          const int ret = without_gil(
+              [&] { return ln_control_process(handle, name.c_str(), action.c_str(), alt_command.c_str()); });
           if (ret < 0) raise_ln_error(ln_error, ret, "control_process('" + name + "', '" + action + "')", handle);
         });
       },
@@ -191,11 +181,7 @@ void register_introspection(nb::module_& module, WithClient with_client) {
         nb::dict out;
         with_client(client, [&](ln_client handle) {
           ln_process_output* output = nullptr;
-          int ret;
-          {
-            nb::gil_scoped_release release;
-            ret = ln_get_process_output(handle, name.c_str(), after, &output);
-          }
+          const int ret = without_gil([&] { return ln_get_process_output(handle, name.c_str(), after, &output); });
           if (ret < 0) raise_ln_error(ln_error, ret, "get_process_output('" + name + "')", handle);
           const std::unique_ptr<ln_process_output, FreeList> owned(output);
           out["lines"] = names(output->lines);

@@ -1,4 +1,5 @@
 #include "loggers.hpp"
+#include "common.hpp"
 
 #include <nanobind/stl/string.h>
 
@@ -23,21 +24,13 @@ class LoggerData {
 
   static LoggerData* load(const std::string& filename, nb::object ln_error) {
     ln_logger_data data = nullptr;
-    int ret;
-    {
-      nb::gil_scoped_release release;
-      ret = ln_logger_data_load(&data, filename.c_str());
-    }
+    const int ret = without_gil([&] { return ln_logger_data_load(&data, filename.c_str()); });
     if (ret < 0) raise_ln_error(ln_error, ret, "logger_data.load('" + filename + "')", nullptr);
     return new LoggerData(data, std::move(ln_error));
   }
 
   void save(const std::string& filename) {
-    int ret;
-    {
-      nb::gil_scoped_release release;
-      ret = ln_logger_data_save(data_, filename.c_str());
-    }
+    const int ret = without_gil([&] { return ln_logger_data_save(data_, filename.c_str()); });
     if (ret < 0) raise_ln_error(ln_error_, ret, "logger_data.save('" + filename + "')", nullptr);
   }
 
@@ -118,11 +111,7 @@ class Logger {
   template <typename Body>
   void call(const std::string& what, Body&& body) {
     with_client_(client_, [&](ln_client client) {
-      int ret;
-      {
-        nb::gil_scoped_release release;
-        ret = body();
-      }
+      const int ret = without_gil([&] { return body(); });
       if (ret < 0) raise_ln_error(ln_error_, ret, "logger '" + name_ + "'." + what, client);
     });
   }

@@ -1,4 +1,5 @@
 #include "parameters.hpp"
+#include "common.hpp"
 
 #include <nanobind/stl/string.h>
 #include <nanobind/stl/vector.h>
@@ -29,11 +30,9 @@ class ParameterBlockBridge {
       : client_(std::move(client)), with_client_(with_client), ln_error_(std::move(ln_error)) {
     with_client_(client_, [&](ln_client handle) {
       handle_ = handle;
-      int ret;
-      {
-        nb::gil_scoped_release release;
-        ret = ln_parameter_block_init(handle, &block_, name.c_str(), always_publish ? 1 : 0, topic_name.c_str());
-      }
+      const int ret = without_gil([&] {
+        return ln_parameter_block_init(handle, &block_, name.c_str(), always_publish ? 1 : 0, topic_name.c_str());
+      });
       if (ret < 0) raise_ln_error(ln_error_, ret, "parameter_block('" + name + "')", handle);
     });
   }
@@ -113,11 +112,9 @@ class ParameterBlockBridge {
       described.push_back(d);
     }
     with_client_(client_, [&](ln_client handle) {
-      int ret;
-      {
-        nb::gil_scoped_release release;
-        ret = ln_parameter_block_register(block_, described.data(), static_cast<unsigned>(described.size()));
-      }
+      const int ret = without_gil([&] {
+        return ln_parameter_block_register(block_, described.data(), static_cast<unsigned>(described.size()));
+      });
       if (ret < 0) raise_ln_error(ln_error_, ret, "ParameterBlock.register()", handle);
     });
     registered_ = true;

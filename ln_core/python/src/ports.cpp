@@ -17,11 +17,8 @@ class OutPort {
     require_no_nul(topic, "the topic name");
     require_no_nul(md_name, "the message definition name");
     Use use(*state_);
-    int ret;
-    {
-      nb::gil_scoped_release release;
-      ret = ln_publish_with_buffers(state_->handle, topic.c_str(), md_name.c_str(), buffers, &port_);
-    }
+    const int ret = without_gil(
+        [&] { return ln_publish_with_buffers(state_->handle, topic.c_str(), md_name.c_str(), buffers, &port_); });
     if (ret < 0) fail(ret, "cannot publish '" + topic + "'", state_->handle);
     size_ = static_cast<unsigned int>(ln_get_message_size(port_));
     const char* hash = ln_get_msg_def_hash(port_);

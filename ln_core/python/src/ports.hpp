@@ -45,12 +45,10 @@ class InPort {
     require_no_nul(topic, "the topic name");
     require_no_nul(md_name, "the message definition name");
     Use use(*state_);
-    int ret;
-    {
-      nb::gil_scoped_release release;
-      ret = ln_subscribe_with_buffers(state_->handle, topic.c_str(), md_name.c_str(), &port_, rate, reliable ? 1 : 0,
-                                      buffers);
-    }
+    const int ret = without_gil([&] {
+      return ln_subscribe_with_buffers(state_->handle, topic.c_str(), md_name.c_str(), &port_, rate, reliable ? 1 : 0,
+                                       buffers);
+    });
     if (ret < 0) fail(ret, "cannot subscribe '" + topic + "'", state_->handle);
     size_ = static_cast<unsigned int>(ln_get_message_size(port_));
     const char* hash = ln_get_msg_def_hash(port_);

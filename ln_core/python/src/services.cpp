@@ -159,11 +159,8 @@ class Service {
     require_no_nul(interface, "the service interface");
     require_no_nul(signature, "the service signature");
     Use use(*state_);
-    int ret;
-    {
-      nb::gil_scoped_release release;
-      ret = ln_service_init(state_->handle, &svc_, name.c_str(), interface.c_str(), signature.c_str());
-    }
+    const int ret = without_gil(
+        [&] { return ln_service_init(state_->handle, &svc_, name.c_str(), interface.c_str(), signature.c_str()); });
     if (ret < 0) fail(ret, "cannot create service '" + name + "'", state_->handle);
   }
 
