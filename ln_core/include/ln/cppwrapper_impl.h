@@ -226,20 +226,15 @@ inline void client::get_message_definition(std::string message_definition_name, 
 
 inline void client::get_message_definition(std::string message_definition_name, std::string& message_definition,
                                            unsigned int& message_size, std::string& hash) {
-  char* md = nullptr;
-  char* md_hash = nullptr;
-  const int ret = ln_get_message_definition_v17(clnt, message_definition_name.c_str(), &md, &message_size, &md_hash);
-  if (ret != 0) throw_error(ret, "ln::client::get_message_definition('" + message_definition_name + "')");
-  detail::take_c_string(md, message_definition);
-  detail::take_c_string(md_hash, hash);
+  std::string flat_message_definition;
+  get_message_definition(std::move(message_definition_name), message_definition, message_size, hash,
+                         flat_message_definition);
 }
 
 inline void client::get_message_definition(std::string message_definition_name, std::string& message_definition,
                                            unsigned int& message_size) {
-  char* md = nullptr;
-  const int ret = ln_get_message_definition(clnt, message_definition_name.c_str(), &md, &message_size);
-  if (ret != 0) throw_error(ret, "ln::client::get_message_definition('" + message_definition_name + "')");
-  detail::take_c_string(md, message_definition);
+  std::string hash;
+  get_message_definition(std::move(message_definition_name), message_definition, message_size, hash);
 }
 
 inline void client::get_message_definition_for_topic(std::string topic_name, std::string& message_definition_name,
@@ -258,12 +253,9 @@ inline void client::get_message_definition_for_topic(std::string topic_name, std
 
 inline void client::get_message_definition_for_topic(std::string topic_name, std::string& message_definition_name,
                                                      std::string& message_definition, unsigned int& message_size) {
-  char* md_name = nullptr;
-  char* md = nullptr;
-  const int ret = ln_get_message_definition_for_topic(clnt, topic_name.c_str(), &md_name, &md, &message_size);
-  if (ret != 0) throw_error(ret, "ln::client::get_message_definition_for_topic('" + topic_name + "')");
-  detail::take_c_string(md_name, message_definition_name);
-  detail::take_c_string(md, message_definition);
+  std::string hash;
+  get_message_definition_for_topic(std::move(topic_name), message_definition_name, message_definition, message_size,
+                                   hash);
 }
 
 inline std::string client::put_message_definition(std::string message_definition_name, std::string message_definition) {

@@ -458,14 +458,7 @@ namespace {
 std::string element_text(ElementType type, const void* p, bool display) {
   const Scalar v = load_element(type, p);
   if (type == ElementType::Boolean) return v.u != 0 ? "True" : "False";
-  switch (v.kind) {
-    case Scalar::Kind::Signed:
-      return std::to_string(v.s);
-    case Scalar::Kind::Unsigned:
-      return std::to_string(v.u);
-    case Scalar::Kind::Float:
-      break;
-  }
+  if (v.kind != Scalar::Kind::Float) return scalar_text(v);
   return float_text(v.f, type == ElementType::Single, display);
 }
 

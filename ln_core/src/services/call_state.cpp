@@ -94,6 +94,16 @@ Status take_response(const ServiceSignature& signature, frames::Payload& respons
   return Status::failure(LNE_SVC_RECV_RESP, "invalid response from the provider: " + s.detail());
 }
 
+// Parses a response frame that must answer request `request_id`.
+Status parse_response_to(std::uint32_t request_id, const frames::Payload& response, frames::ResponseHead& head,
+                         std::string_view& text, std::size_t& body_offset) {
+  Status s = frames::parse_response(response, head, text, body_offset);
+  if (s.ok() && head.request_id != request_id)
+    s = Status::failure(LNE_SVC_RECV_RESP, "response to request " + std::to_string(head.request_id) + ", expected " +
+                                               std::to_string(request_id));
+  return s;
+}
+
 }  // namespace
 
 // ------------------------------------------------------------- AsyncCall
@@ -176,10 +186,7 @@ void AsyncCall::on_ready(std::uint64_t key, std::uint32_t events) {
   if (connection.assembler.next(response_)) {
     frames::ResponseHead head;
     std::string_view text;
-    Status s = frames::parse_response(response_, head, text, body_offset_);
-    if (s.ok() && head.request_id != request_id_)
-      s = Status::failure(LNE_SVC_RECV_RESP, "response to request " + std::to_string(head.request_id) + ", expected " +
-                                                 std::to_string(request_id_));
+    Status s = parse_response_to(request_id_, response_, head, text, body_offset_);
     if (s.ok() && head.result == 0) s = take_response(*signature_, response_, body_offset_, nullptr, limits_, arena_);
     if (!s.ok()) {
       connection.give_up();
@@ -564,10 +571,7 @@ int ServiceCaller::run_call(void* data, std::string_view flat_request, double ti
 
   frames::ResponseHead head;
   std::string_view text;
-  Status s = frames::parse_response(response_, head, text, body_offset_);
-  if (s.ok() && head.request_id != request_id)
-    s = Status::failure(LNE_SVC_RECV_RESP, "response to request " + std::to_string(head.request_id) + ", expected " +
-                                               std::to_string(request_id));
+  Status s = parse_response_to(request_id, response_, head, text, body_offset_);
   if (!s.ok()) {
     drop_connection(connection);
     response_ = frames::Payload();
