@@ -344,6 +344,18 @@ def _capacity_check(v):
     return None if 1 <= v <= MAX_CAPACITY else "must be 1..%d" % MAX_CAPACITY
 
 
+def _names_and_types(r, config, what, kind):
+    """(ln, ros, ln_type, ros_type) of a topic or service entry: 'ln' is required, 'ros' defaults to
+    the name automatic mode would give it."""
+    ln_name = r.get("ln", str, check=_ln_name_problem)
+    if ln_name is None:
+        r.fail("needs 'ln' (the LN %s name)" % what)
+    r.where = "%s %s" % (what, ln_name)
+    ln_type, ros_type = _types_of(r, kind)
+    derived = ln_to_ros_name(ln_name, AutoSettings(ros_namespace=config.auto.ros_namespace, remap=config.auto.remap))
+    return ln_name, r.get("ros", str, derived, check=_ros_name_check), ln_type, ros_type
+
+
 def _types_of(r, kind):
     """(ln_type, ros_type) of an entry: `type` names an LN definition or a ROS type,
     `ros_type` a ROS type."""
@@ -492,20 +504,11 @@ def parse_config(data, source="<config>"):
     seen = {}
     for i, raw in enumerate(top.get("topics", list, []) or []):
         r = _Reader(raw, "topics[%d]" % i, source)
-        ln_name = r.get("ln", str, check=_ln_name_problem)
-        if ln_name is None:
-            r.fail("needs 'ln' (the LN topic name)")
-        r.where = "topic %s" % ln_name
-        ln_type, ros_type = _types_of(r, "msg")
+        ln_name, ros_name, ln_type, ros_type = _names_and_types(r, config, "topic", "msg")
         _merge_capacities(r, ros_type, config, owners)
         entry = TopicEntry(
             ln=ln_name,
-            ros=r.get(
-                "ros",
-                str,
-                ln_to_ros_name(ln_name, AutoSettings(ros_namespace=config.auto.ros_namespace, remap=config.auto.remap)),
-                check=_ros_name_check,
-            ),
+            ros=ros_name,
             direction=r.get("direction", str, "ln_to_ros", DIRECTIONS_TOPIC),
             ln_type=ln_type,
             ros_type=ros_type,
@@ -526,19 +529,10 @@ def parse_config(data, source="<config>"):
 
     for i, raw in enumerate(top.get("services", list, []) or []):
         r = _Reader(raw, "services[%d]" % i, source)
-        ln_name = r.get("ln", str, check=_ln_name_problem)
-        if ln_name is None:
-            r.fail("needs 'ln' (the LN service name)")
-        r.where = "service %s" % ln_name
-        ln_type, ros_type = _types_of(r, "srv")
+        ln_name, ros_name, ln_type, ros_type = _names_and_types(r, config, "service", "srv")
         entry = ServiceEntry(
             ln=ln_name,
-            ros=r.get(
-                "ros",
-                str,
-                ln_to_ros_name(ln_name, AutoSettings(ros_namespace=config.auto.ros_namespace, remap=config.auto.remap)),
-                check=_ros_name_check,
-            ),
+            ros=ros_name,
             direction=r.get("direction", str, "ln_to_ros", DIRECTIONS_SERVICE),
             ln_type=ln_type,
             ros_type=ros_type,

@@ -57,17 +57,24 @@ def fill_error_fields(response, code, text):
     return found
 
 
-class LnToRosService:
+class _BridgedService:
+    """What both directions of a bridged service keep: the entry, its types, the counters."""
+
+    def __init__(self, node, entry, service_type):
+        self.entry = entry
+        self.service_type = service_type
+        self.count = 0  # calls answered
+        self.errors = 0  # calls that failed
+        self._node = node
+
+
+class LnToRosService(_BridgedService):
     """A ROS service server that calls the LN service."""
 
     direction = "ln_to_ros"
 
     def __init__(self, node, ln, entry, service_type):
-        self.entry = entry
-        self.service_type = service_type
-        self.count = 0
-        self.errors = 0
-        self._node = node
+        super().__init__(node, entry, service_type)
         self._response_class = service_type.srv_class.Response
         self._ln_service = ln.service_client(entry.ln, service_type.ln_name)
         self.server = node.create_service(
@@ -107,17 +114,13 @@ class LnToRosService:
         self._ln_service.release()
 
 
-class RosToLnService:
+class RosToLnService(_BridgedService):
     """An LN service provider that calls the ROS service."""
 
     direction = "ros_to_ln"
 
     def __init__(self, node, ln, entry, service_type):
-        self.entry = entry
-        self.service_type = service_type
-        self.count = 0
-        self.errors = 0
-        self._node = node
+        super().__init__(node, entry, service_type)
         self._request_class = service_type.srv_class.Request
         self.client = node.create_client(service_type.srv_class, entry.ros, callback_group=ReentrantCallbackGroup())
         self._provider = ln.service_provider(entry.ln, service_type.ln_name, self._handle)

@@ -306,62 +306,54 @@ class TypeRegistry:
     # -- resolution ----------------------------------------------------------
     def topic_type(self, ln_name=None, ros_type=None):
         """The TopicType for an LN message definition and/or a ROS type. Raises UnknownType."""
-        if ln_name is None:
-            ln_name = self.ln_name_for_ros(ros_type)
-            if ln_name is None:
-                raise UnknownType(self.why_unmapped(ros_type))
-        key = (ln_name, ros_type)
-        with self._lock:
-            if key in self._topic_cache:
-                return self._topic_cache[key]
-            derived_from = self.derived_ros_type(ln_name) if ln_name not in self._index else None
+
+        def make(ln_name, derived_from):
             for rule in self._rules.get(ln_name, []):
                 if ros_type in (None, rule.ros_name):
-                    result = TopicType(
+                    return TopicType(
                         ln_name, rule.ros_name, _import_ros_type(rule.ros_name), rule, rule.ln_size, "rule"
                     )
-                    break
-            else:
-                if derived_from is not None:
-                    result = self._topic_cache[key] = self._derived_topic(ln_name, derived_from, ros_type)
-                    return result
-                entry = self._generated(ln_name, "message", ros_type)
-                codec = self._codec(ln_name)
-                result = TopicType(
-                    ln_name,
-                    entry["ros_type"],
-                    _import_ros_type(entry["ros_type"]),
-                    codec,
-                    codec.fixed_ln_size,
-                    "generated",
-                )
-            self._topic_cache[key] = result
-            return result
+            if derived_from is not None:
+                return self._derived_topic(ln_name, derived_from, ros_type)
+            entry = self._generated(ln_name, "message", ros_type)
+            codec = self._codec(ln_name)
+            return TopicType(
+                ln_name, entry["ros_type"], _import_ros_type(entry["ros_type"]), codec, codec.fixed_ln_size, "generated"
+            )
+
+        return self._resolved(self._topic_cache, ln_name, ros_type, make)
 
     def service_type(self, ln_name=None, ros_type=None):
         """The ServiceType for an LN service definition and/or a ROS service type. Raises UnknownType."""
-        if ln_name is None:
-            ln_name = self.ln_name_for_ros(ros_type)
-            if ln_name is None:
-                raise UnknownType(self.why_unmapped(ros_type))
-        key = (ln_name, ros_type)
-        with self._lock:
-            if key in self._service_cache:
-                return self._service_cache[key]
-            derived_from = self.derived_ros_type(ln_name) if ln_name not in self._index else None
+
+        def make(ln_name, derived_from):
             if derived_from is not None:
-                result = self._service_cache[key] = self._derived_service(ln_name, derived_from, ros_type)
-                return result
+                return self._derived_service(ln_name, derived_from, ros_type)
             entry = self._generated(ln_name, "service", ros_type)
-            result = ServiceType(
+            return ServiceType(
                 ln_name,
                 entry["ros_type"],
                 _import_ros_type(entry["ros_type"]),
                 self._codec(ln_name, "request"),
                 self._codec(ln_name, "response"),
             )
-            self._service_cache[key] = result
-            return result
+
+        return self._resolved(self._service_cache, ln_name, ros_type, make)
+
+    def _resolved(self, cache, ln_name, ros_type, make):
+        """cache[(ln_name, ros_type)], made once by make(ln_name, derived_from): derived_from is the
+        ROS type an LN definition without a generated interface is derived from (else None). Without
+        ln_name, the LN definition mapped to ros_type."""
+        if ln_name is None:
+            ln_name = self.ln_name_for_ros(ros_type)
+            if ln_name is None:
+                raise UnknownType(self.why_unmapped(ros_type))
+        key = (ln_name, ros_type)
+        with self._lock:
+            if key not in cache:
+                derived_from = self.derived_ros_type(ln_name) if ln_name not in self._index else None
+                cache[key] = make(ln_name, derived_from)
+            return cache[key]
 
     def _generated(self, ln_name, kind, ros_type):
         try:
