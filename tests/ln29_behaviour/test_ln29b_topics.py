@@ -5,6 +5,7 @@ the behaviour is deterministic, structurally where it depends on timing)."""
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import time
 
@@ -62,6 +63,21 @@ def pub_sub(
     return publisher, subscriber
 
 
+@contextlib.contextmanager
+def publishing(lnbt, system, client_name, name):
+    """An lnbt_probe client that publishes topic `name` (lnbt/counter) until the block ends."""
+    holder = support.Program(
+        [system.programs["lnbt_probe"], "publish", client_name, name, "lnbt/counter", "30"],
+        lnbt.client_env(system),
+        stdin_pipe=True,
+    )
+    try:
+        assert holder.wait_for_line("ready", 10) is not None, holder.describe()
+        yield holder
+    finally:
+        holder.finish(10)
+
+
 # ------------------------------------------------------------------- errors
 
 
@@ -69,17 +85,9 @@ def test_second_publisher_is_refused(lnbt):
     results = {}
     for system in lnbt.systems():
         name = topic("twice")
-        first = support.Program(
-            [system.programs["lnbt_probe"], "publish", "lnbt_first", name, "lnbt/counter", "30"],
-            lnbt.client_env(system),
-            stdin_pipe=True,
-        )
-        try:
-            assert first.wait_for_line("ready", 10) is not None, first.describe()
+        with publishing(lnbt, system, "lnbt_first", name):
             second = probe(lnbt, system, "publish", "lnbt_second", name, "lnbt/counter")
             other_md = probe(lnbt, system, "publish", "lnbt_third", name, "lnbt/other")
-        finally:
-            first.finish(10)
         assert "already published" in second.stderr, second.describe()
         results[system.label] = (outcome(second), outcome(other_md))
     assert results["ln29"] == (
@@ -93,17 +101,9 @@ def test_definition_mismatch_and_unknown_definition(lnbt):
     results = {}
     for system in lnbt.systems():
         name = topic("mismatch")
-        holder = support.Program(
-            [system.programs["lnbt_probe"], "publish", "lnbt_holder", name, "lnbt/counter", "30"],
-            lnbt.client_env(system),
-            stdin_pipe=True,
-        )
-        try:
-            assert holder.wait_for_line("ready", 10) is not None, holder.describe()
+        with publishing(lnbt, system, "lnbt_holder", name):
             mismatch = probe(lnbt, system, "subscribe", "lnbt_mismatch", name, "lnbt/other")
             matching = probe(lnbt, system, "subscribe", "lnbt_matching", name, "lnbt/counter")
-        finally:
-            holder.finish(10)
         assert "you requested message_definition 'lnbt/other' but topic" in mismatch.stderr, mismatch.describe()
         unknown_sub = probe(lnbt, system, "subscribe", "lnbt_unknown_sub", topic("unknown"), "lnbt/does_not_exist")
         unknown_pub = probe(lnbt, system, "publish", "lnbt_unknown_pub", topic("unknown"), "lnbt/does_not_exist")

@@ -11,7 +11,6 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <filesystem>
 #include <fstream>
 #include <memory>
 #include <set>
@@ -20,9 +19,13 @@
 #include "manager/config_drafts.hpp"
 #include "manager/limits.hpp"
 #include "manager/lnc_eval.hpp"
+#include "md/files.hpp"
 
 namespace ln::manager {
 namespace {
+
+using md::files::is_directory;
+using md::files::is_regular_file;
 
 constexpr int max_include_depth = 32;
 constexpr int max_template_depth = 16;
@@ -141,17 +144,6 @@ std::string expand_home(const std::string& path) {
   const char* home = std::getenv("HOME");
   if (home && (path == "~" || starts_with(path, "~/"))) return home + path.substr(1);
   return path;
-}
-
-// std::filesystem's checks without exceptions: a path that cannot be examined is not there.
-bool is_directory(const std::string& path) {
-  std::error_code error;
-  return std::filesystem::is_directory(path, error);
-}
-
-bool is_regular_file(const std::string& path) {
-  std::error_code error;
-  return std::filesystem::is_regular_file(path, error);
 }
 
 std::string read_whole_file(const std::string& path) {

@@ -5,30 +5,18 @@
 
 #include <algorithm>
 #include <cstdlib>
-#include <filesystem>
 #include <fstream>
 
 #include "ln/md/message_definition.hpp"
+#include "md/files.hpp"
 #include "md/text.hpp"
 
 namespace ln::md {
 namespace {
 
-// std::filesystem's checks without exceptions: a path that cannot be examined is not there.
-bool is_directory(const std::string& path) {
-  std::error_code error;
-  return std::filesystem::is_directory(path, error);
-}
-
-bool is_regular_file(const std::string& path) {
-  std::error_code error;
-  return std::filesystem::is_regular_file(path, error);
-}
-
-bool exists(const std::string& path) {
-  std::error_code error;
-  return std::filesystem::exists(path, error);
-}
+using files::exists;
+using files::is_directory;
+using files::is_regular_file;
 
 std::string home_directory() {
   const char* home = std::getenv("HOME");
