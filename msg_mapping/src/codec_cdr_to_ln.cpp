@@ -36,13 +36,7 @@ class Decoder {
       out_.put(in_.take(bytes), bytes);
       return;
     }
-    for (std::uint32_t i = 0; i < n; ++i) {
-      try {
-        run(op.routine);
-      } catch (const CodecError& e) {
-        rethrow_in("[" + u(i) + "]", e);
-      }
-    }
+    for_each_element(n, [&] { run(op.routine); });
   }
 
   // CDR string -> (text, n); accepts Cyclone's length 0 for "".

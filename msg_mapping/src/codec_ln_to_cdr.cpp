@@ -35,13 +35,7 @@ class Encoder {
       out_.zero(std::size_t{n} * per_element);
       return;
     }
-    for (std::uint32_t i = 0; i < n; ++i) {
-      try {
-        run(op.routine);
-      } catch (const CodecError& e) {
-        rethrow_in("[" + u(i) + "]", e);
-      }
-    }
+    for_each_element(n, [&] { run(op.routine); });
   }
 
   void check_count(const Op& op, std::uint32_t n, const char* what) {
@@ -142,13 +136,7 @@ class Encoder {
       throw CodecError("count " + u(n) + " is impossible: only " + u(in.left()) + " byte(s) left");
     Counter sink;
     Encoder<Counter> walker(p, in, sink, depth);
-    for (std::uint32_t i = 0; i < n; ++i) {
-      try {
-        walker.run(routine);
-      } catch (const CodecError& e) {
-        rethrow_in("[" + u(i) + "]", e);
-      }
-    }
+    for_each_element(n, [&] { walker.run(routine); });
   }
 
  private:

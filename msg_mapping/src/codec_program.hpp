@@ -209,6 +209,18 @@ inline constexpr int max_depth = 64;  // nesting of recursive (opaque) LN data
   throw CodecError(where + ": " + e.what());
 }
 
+// Runs `element()` n times (the elements of an array or sequence); a failure names the element.
+template <class Element>
+void for_each_element(std::uint32_t n, Element&& element) {
+  for (std::uint32_t i = 0; i < n; ++i) {
+    try {
+      element();
+    } catch (const CodecError& e) {
+      rethrow_in("[" + u(i) + "]", e);
+    }
+  }
+}
+
 // Runs `step` for each op of a routine; a failure names the field it failed in.
 template <class Step>
 void for_each_op(const CodecProgram& p, int routine, Step&& step) {
