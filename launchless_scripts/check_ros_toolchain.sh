@@ -13,6 +13,22 @@ WS=$(mktemp -d /tmp/ln_core_ros_check.XXXXXX)
 trap 'rm -rf "$WS"' EXIT
 echo "check_ros_toolchain: workspace $WS"
 
+# write_package_xml DIR NAME XML...: an ament_cmake package.xml with these further elements
+write_package_xml() {
+  local dir=$1 name=$2
+  shift 2
+  {
+    echo '<?xml version="1.0"?>'
+    echo '<package format="3">'
+    echo "  <name>$name</name><version>0.0.1</version><description>check</description>"
+    echo '  <maintainer email="x@example.invalid">x</maintainer><license>Apache-2.0</license>'
+    echo '  <buildtool_depend>ament_cmake</buildtool_depend>'
+    printf '  %s\n' "$@"
+    echo '  <export><build_type>ament_cmake</build_type></export>'
+    echo '</package>'
+  } > "$dir/package.xml"
+}
+
 timeout 60 colcon --help > /dev/null
 timeout 60 python -c "import rclpy; from std_msgs.msg import Header; print('rclpy', rclpy.__file__)"
 
@@ -30,19 +46,10 @@ rosidl_generate_interfaces(${PROJECT_NAME} "msg/Sample.msg" "srv/Compute.srv" DE
 ament_export_dependencies(rosidl_default_runtime)
 ament_package()
 EOF
-cat > "$P/package.xml" <<'EOF'
-<?xml version="1.0"?>
-<package format="3">
-  <name>lncheck_interfaces</name><version>0.0.1</version><description>check</description>
-  <maintainer email="x@example.invalid">x</maintainer><license>Apache-2.0</license>
-  <buildtool_depend>ament_cmake</buildtool_depend>
-  <buildtool_depend>rosidl_default_generators</buildtool_depend>
-  <depend>std_msgs</depend>
-  <exec_depend>rosidl_default_runtime</exec_depend>
-  <member_of_group>rosidl_interface_packages</member_of_group>
-  <export><build_type>ament_cmake</build_type></export>
-</package>
-EOF
+write_package_xml "$P" lncheck_interfaces \
+  '<buildtool_depend>rosidl_default_generators</buildtool_depend>' '<depend>std_msgs</depend>' \
+  '<exec_depend>rosidl_default_runtime</exec_depend>' \
+  '<member_of_group>rosidl_interface_packages</member_of_group>'
 
 # A C program on rcl (no rclcpp on PyPI): needs libpython and DT_RPATH, and the libtinyxml2 fix.
 C=$WS/src/lncheck_c
@@ -90,17 +97,7 @@ target_link_options(c_pub PRIVATE "-Wl,--disable-new-dtags" "-Wl,--no-as-needed"
 install(TARGETS c_pub DESTINATION lib/${PROJECT_NAME})
 ament_package()
 EOF
-cat > "$C/package.xml" <<'EOF'
-<?xml version="1.0"?>
-<package format="3">
-  <name>lncheck_c</name><version>0.0.1</version><description>check</description>
-  <maintainer email="x@example.invalid">x</maintainer><license>Apache-2.0</license>
-  <buildtool_depend>ament_cmake</buildtool_depend>
-  <depend>rcl</depend>
-  <depend>lncheck_interfaces</depend>
-  <export><build_type>ament_cmake</build_type></export>
-</package>
-EOF
+write_package_xml "$C" lncheck_c '<depend>rcl</depend>' '<depend>lncheck_interfaces</depend>'
 
 cat > "$WS/check.py" <<'EOF'
 import time

@@ -19,6 +19,24 @@ def _client(ros, srv, name):
     return client
 
 
+def _bridge_rcompute(start_bridge, timeout):
+    """Bridges the ROS service /bt/rcompute into LN as bt.rcompute, calls timing out after `timeout` s."""
+    start_bridge(
+        {
+            "services": [
+                {
+                    "ln": "bt.rcompute",
+                    "ros": "/bt/rcompute",
+                    "type": "bridgetest/compute",
+                    "direction": "ros_to_ln",
+                    "timeout": timeout,
+                }
+            ]
+        },
+        wait=["bridging service bt.rcompute"],
+    )
+
+
 def test_ros_client_calls_ln_provider(ln, start_bridge, ln_peer, ros):
     from bridgetest_ln_msgs.srv import Compute
 
@@ -71,20 +89,7 @@ def test_ln_caller_calls_ros_server(ln, start_bridge, ln_peer, ros):
 
     ros.node.create_service(Compute, "/bt/rcompute", handle)
     # (the timeout includes the bridge's wait for DDS discovery of our server: seconds on a busy machine)
-    start_bridge(
-        {
-            "services": [
-                {
-                    "ln": "bt.rcompute",
-                    "ros": "/bt/rcompute",
-                    "type": "bridgetest/compute",
-                    "direction": "ros_to_ln",
-                    "timeout": 10.0,
-                }
-            ]
-        },
-        wait=["bridging service bt.rcompute"],
-    )
+    _bridge_rcompute(start_bridge, timeout=10.0)
     caller = ln_peer(
         "lncall", "call", "bt.rcompute", "--request", '{"a": 2, "values": [1, 2, 3.5], "op": "x"}', "--timeout", 15
     )
@@ -95,20 +100,7 @@ def test_ln_caller_calls_ros_server(ln, start_bridge, ln_peer, ros):
 def test_ln_caller_gets_error_when_ros_server_missing_or_slow(ln, start_bridge, ln_peer, ros):
     from bridgetest_ln_msgs.srv import Compute
 
-    start_bridge(
-        {
-            "services": [
-                {
-                    "ln": "bt.rcompute",
-                    "ros": "/bt/rcompute",
-                    "type": "bridgetest/compute",
-                    "direction": "ros_to_ln",
-                    "timeout": 1.0,
-                }
-            ]
-        },
-        wait=["bridging service bt.rcompute"],
-    )
+    _bridge_rcompute(start_bridge, timeout=1.0)
     caller = ln_peer(
         "lncall", "call", "bt.rcompute", "--request", '{"a": 1, "values": [1], "op": "x"}', "--timeout", 30
     )

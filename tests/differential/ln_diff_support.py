@@ -185,6 +185,30 @@ def run(argv, env, cwd=None, timeout=TOOL_TIMEOUT, stdin=None) -> Run:
     return Run(argv, p.returncode, p.stdout.decode("utf-8", "replace"), p.stderr.decode("utf-8", "replace"))
 
 
+def write_definitions(root: Path, files: dict[str, str]) -> Path:
+    """Writes {definition name: text} as a definitions directory root/md (UTF-8); returns it."""
+    md = root / "md"
+    for name, text in files.items():
+        path = md / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(text.encode("utf-8"))
+    return md
+
+
+def single_error_problems(run: Run) -> list[str]:
+    """What keeps a run from being a clean refusal: a failure status (> 0, no signal), exactly one
+    non-empty stderr line, no crash output."""
+    problems = []
+    lines = [l for l in run.stderr.splitlines() if l.strip()]
+    if run.returncode <= 0:
+        problems.append(f"exit status {run.returncode}, expected a failure status (> 0, no signal)")
+    if len(lines) != 1:
+        problems.append(f"{len(lines)} non-empty stderr lines, expected exactly one")
+    if "Traceback" in run.stderr or "terminate called" in run.stderr:
+        problems.append("crash output instead of an error message")
+    return problems
+
+
 def md_dir_args(md_dirs) -> list[str]:
     args = []
     for d in md_dirs:

@@ -305,13 +305,27 @@ MUTATIONS = (
 )
 
 
+# Mutations that append one invalid line.
+_APPENDED_LINE = {
+    "name_with_dash": "double has-dash",
+    "pointer_array": "double* values[3]",
+    "double_pointer": "uint8_t** raw",
+    "count_not_an_expression": "double bad[abc]",
+    "count_two_dimensional": "double matrix[2][3]",
+    "count_zero": "double nothing[0]",
+    "count_negative": "double negative[1-3]",
+}
+
+
 def mutate(rng: random.Random, definition: Definition, mutation: Mutation, sub_types: list[str]) -> str | None:
     """The text of `definition` broken by `mutation`, or None when this
     definition has nothing the mutation needs."""
     lines = list(definition.lines)
     fields = [i for i, line in enumerate(lines) if _is_field(line)]
     kind = mutation.kind
-    if kind == "unknown_type":
+    if kind in _APPENDED_LINE:
+        lines.append(_APPENDED_LINE[kind])
+    elif kind == "unknown_type":
         lines.insert(rng.randint(_first_body_line(lines), len(lines)), "vector3d_t position")
     elif kind == "duplicate_field":
         plain_fields = [i for i in fields if "*" not in lines[i].split("#")[0]]
@@ -322,12 +336,6 @@ def mutate(rng: random.Random, definition: Definition, mutation: Mutation, sub_t
         lines.insert(_first_body_line(lines), 'define gone_t as "no/such/definition"')
     elif kind == "one_word_line":
         lines.insert(rng.randint(_first_body_line(lines), len(lines)), "double")
-    elif kind == "name_with_dash":
-        lines.append("double has-dash")
-    elif kind == "pointer_array":
-        lines.append("double* values[3]")
-    elif kind == "double_pointer":
-        lines.append("uint8_t** raw")
     elif kind == "define_name_in_quotes":
         if not sub_types:
             return None
@@ -337,14 +345,6 @@ def mutate(rng: random.Random, definition: Definition, mutation: Mutation, sub_t
             return None
         lines.insert(_first_body_line(lines), "late_t early")
         lines.append(f'define late_t as "{sub_types[0]}"')
-    elif kind == "count_not_an_expression":
-        lines.append("double bad[abc]")
-    elif kind == "count_two_dimensional":
-        lines.append("double matrix[2][3]")
-    elif kind == "count_zero":
-        lines.append("double nothing[0]")
-    elif kind == "count_negative":
-        lines.append("double negative[1-3]")
     elif kind == "cxx_keyword_field":
         lines.append("int32_t " + rng.choice(("class", "template", "namespace", "virtual")))
     elif kind == "redefine_to_other_target":

@@ -82,14 +82,7 @@ def _make_md_dir(root: Path, case: str, files: dict) -> Path:
 
 
 def _check_single_error(run: support.Run, md: Path, where) -> list[str]:
-    problems = []
-    lines = [l for l in run.stderr.splitlines() if l.strip()]
-    if run.returncode <= 0:
-        problems.append(f"exit status {run.returncode}, expected a failure status (> 0)")
-    if len(lines) != 1:
-        problems.append(f"{len(lines)} non-empty stderr lines, expected exactly one")
-    if "Traceback" in run.stderr or "terminate called" in run.stderr:
-        problems.append("crash output instead of an error message")
+    problems = support.single_error_problems(run)
     if run.stdout.strip():
         problems.append(f"unexpected stdout {run.stdout[:200]!r}")
     text = run.stderr

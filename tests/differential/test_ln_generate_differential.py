@@ -23,8 +23,6 @@ Runs are batched: one generator run and one probe compile per header set.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import ln_diff_support as support
 import pytest
 from ln_diff_support import REPORT
@@ -253,31 +251,10 @@ DELIBERATE_DIVERGENCES = {
 }
 
 
-def _write_files(root: Path, files: dict[str, str]) -> Path:
-    md = root / "md"
-    for rel, text in files.items():
-        p = md / rel
-        p.parent.mkdir(parents=True, exist_ok=True)
-        p.write_text(text, encoding="utf-8")
-    return md
-
-
-def _one_clear_error_line(run: support.Run) -> list[str]:
-    problems = []
-    lines = [l for l in run.stderr.splitlines() if l.strip()]
-    if run.returncode <= 0:
-        problems.append(f"exit status {run.returncode} (expected a failure status > 0, no signal)")
-    if len(lines) != 1:
-        problems.append(f"{len(lines)} stderr lines instead of exactly one")
-    if "Traceback" in run.stderr:
-        problems.append("a traceback instead of an error message")
-    return problems
-
-
 @pytest.mark.parametrize("case", sorted(LN_CANNOT_PROCESS))
 def test_ln_cannot_process(case, reference, our_tools, tool_env, work_dir, c_compiler):
     spec = LN_CANNOT_PROCESS[case]
-    _write_files(work_dir, spec["files"])
+    support.write_definitions(work_dir, spec["files"])
     md = "md"  # relative to work_dir: LN's self-recursion check compares path strings
     ln = support.run(
         [reference.ln_generate, "--md-dir", md, "-o", work_dir / "ln.h", spec["name"]], tool_env, cwd=work_dir
@@ -289,7 +266,7 @@ def test_ln_cannot_process(case, reference, our_tools, tool_env, work_dir, c_com
     out = work_dir / "ours.h"
     ours = support.run([our_tools.ln_generate, "--md-dir", md, "-o", out, spec["name"]], tool_env, cwd=work_dir)
     if spec["ours"] == "error":
-        problems = _one_clear_error_line(ours)
+        problems = support.single_error_problems(ours)
         assert not problems and not out.exists(), (
             f"{case} ({spec['reason']}): ours should refuse it with one clear error line: "
             f"{problems or ['but wrote ' + str(out)]}\n{ours.describe()}"
@@ -312,7 +289,7 @@ def test_ln_cannot_process(case, reference, our_tools, tool_env, work_dir, c_com
 @pytest.mark.parametrize("case", sorted(DELIBERATE_DIVERGENCES))
 def test_deliberate_divergence(case, reference, our_tools, tool_env, work_dir):
     spec = DELIBERATE_DIVERGENCES[case]
-    md = _write_files(work_dir, spec["files"])
+    md = support.write_definitions(work_dir, spec["files"])
     ln = support.run(
         [reference.ln_generate, "--md-dir", md, "-o", work_dir / "ln.h", spec["name"]], tool_env, cwd=work_dir
     )
@@ -320,7 +297,7 @@ def test_deliberate_divergence(case, reference, our_tools, tool_env, work_dir):
     assert ln.returncode == 0, f"{case}: LN 2.9 no longer accepts this\n{ln.describe()}"
     out = work_dir / "ours.h"
     ours = support.run([our_tools.ln_generate, "--md-dir", md, "-o", out, spec["name"]], tool_env, cwd=work_dir)
-    problems = _one_clear_error_line(ours)
+    problems = support.single_error_problems(ours)
     path = str(md / spec["name"])
     if path not in ours.stderr:
         problems.append(f"the error does not name {path}")

@@ -24,7 +24,6 @@ import concurrent.futures
 import os
 import random
 import re
-from pathlib import Path
 
 import ln_diff_support as support
 import md_generator
@@ -37,15 +36,6 @@ SEEDS = range(FIRST_SEED, FIRST_SEED + int(os.environ.get("LN_RANDOM_MD_SEEDS", 
 SIZE = int(os.environ.get("LN_RANDOM_MD_SIZE", "24"))
 #: invalid definitions per seed
 INVALID = int(os.environ.get("LN_RANDOM_MD_INVALID", str(len(md_generator.MUTATIONS))))
-
-
-def _write_tree(root: Path, files: dict[str, str]) -> Path:
-    md = root / "md"
-    for name, text in files.items():
-        path = md / name
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_bytes(text.encode("utf-8"))
-    return md
 
 
 def _reproduce(seed: int) -> str:
@@ -84,7 +74,7 @@ def c_declarations(part: str) -> list[str]:
 def test_random_valid_definitions(seed, reference, our_tools, tool_env, work_dir, c_compiler):
     tree = md_generator.RandomDefinitions(seed)
     tops = tree.build(sub_types=max(2, SIZE // 2), top_level=SIZE)
-    md = _write_tree(work_dir, tree.files())
+    md = support.write_definitions(work_dir, tree.files())
     names = tuple(tree.definitions)  # sub-types too: each is a definition of its own
     dset = support.DefinitionSet(f"random{seed}", "random", (md,), names)
     r = support.Differential(reference, our_tools, tool_env, work_dir / "out", c_compiler).compute(dset)
@@ -133,7 +123,7 @@ def test_random_invalid_definitions(seed, reference, our_tools, tool_env, work_d
         i, mutation, name, text = case
         files = dict(tree.files())
         files[name] = text
-        md = _write_tree(work_dir / f"case{i}", files)
+        md = support.write_definitions(work_dir / f"case{i}", files)
         out = work_dir / f"case{i}"
         ln = support.run([reference.ln_generate, "--md-dir", md, "-o", out / "ln.h", name], tool_env, cwd=out)
         ours = support.run([our_tools.ln_generate, "--md-dir", md, "-o", out / "ours.h", name], tool_env, cwd=out)

@@ -413,12 +413,7 @@ class Session:
         plus `extra` (a value of None removes the variable)."""
         env = dict(self.env)
         env["LN_MANAGER"] = self.managers[system.label].address
-        for key, value in extra.items():
-            if value is None:
-                env.pop(key, None)
-            else:
-                env[key] = value
-        return env
+        return ln_testing.overridden(env, extra)
 
     def address(self, system: System) -> str:
         return self.managers[system.label].address

@@ -123,6 +123,16 @@ def wait_for_log(path, pattern: str, timeout: float, proc: subprocess.Popen | No
     return wait_for(found, timeout, "'%s' in %s" % (pattern, path))
 
 
+def overridden(env: dict[str, str], extra: Mapping[str, str | None]) -> dict[str, str]:
+    """`env` with the variables of `extra` set, or removed where their value is None."""
+    for key, value in extra.items():
+        if value is None:
+            env.pop(key, None)
+        else:
+            env[key] = value
+    return env
+
+
 def read_text(path) -> str:
     try:
         return Path(path).read_text(errors="replace")
@@ -351,12 +361,7 @@ class LnSystem:
         env["LN_MANAGER"] = self.address
         env["HOME"] = str(self.home)
         env["PYTHONPATH"] = os.pathsep.join(p for p in [self.python_path(), env.get("PYTHONPATH", "")] if p)
-        for key, value in extra.items():
-            if value is None:
-                env.pop(key, None)
-            else:
-                env[key] = value
-        return env
+        return overridden(env, extra)
 
     def write_config(self, md_dirs, port: int = 0, extra_config: str = "") -> Path:
         config = self.work_dir / "manager.lnc"
