@@ -68,6 +68,13 @@ build() {
 # ln_generate's depfile names each header's definitions; glob = a generator
 # without --depfile, so every definition in the directory is a dependency of
 # every header and touching one regenerates all of them.
+# next_build_has_no_work DIR BUILD: after a regeneration, building again does nothing.
+next_build_has_no_work() {
+  build "$1" "$2"
+  grep -q "no work to do" "$log" && pass "$variant: ...and the next build has no work" ||
+    { cat "$log"; fail "$variant: build after regeneration still had work"; }
+}
+
 check_variant() {
   local variant=$1 package=$2 scan=$3
   shift 3
@@ -147,9 +154,7 @@ $out_c"
     cat "$log"
     fail "$variant: touching consumer/pose did not regenerate every header"
   fi
-  build "$dir" build4
-  grep -q "no work to do" "$log" && pass "$variant: ...and the next build has no work" ||
-    { cat "$log"; fail "$variant: build after regeneration still had work"; }
+  next_build_has_no_work "$dir" build4
 
   # Touch the service definition only: the topic header stays as it is.
   before_topics=$(mtime "$topics"); before_services=$(mtime "$services")
@@ -172,9 +177,7 @@ $out_c"
     cat "$log"
     fail "$variant: touching consumer/set_pose regenerated the wrong headers"
   fi
-  build "$dir" build6
-  grep -q "no work to do" "$log" && pass "$variant: ...and the next build has no work" ||
-    { cat "$log"; fail "$variant: build after regeneration still had work"; }
+  next_build_has_no_work "$dir" build6
 }
 
 check_variant ln ln precise

@@ -3,7 +3,6 @@ LN and ROS peers coming and going -- the bridge reports, recovers, never dies.""
 
 import subprocess
 import sys
-import time
 
 import pytest
 from conftest import MANAGER_MD_DIRS, wait_until
@@ -172,14 +171,9 @@ def test_ros_peers_come_and_go(ln, start_bridge, ln_peer, ros):
         publisher = ros.node.create_publisher(Sample, "/bt/in", 10)
         server = ros.node.create_service(Compute, "/bt/rsrv", lambda req, resp: Compute.Response(result=7.0 + round_))
         wait_until(lambda: publisher.get_subscription_count() > 0, 20, "the bridge matching the publisher")
-        before = len([e for e in subscriber.events() if e["event"] == "packet"])
-        deadline = time.monotonic() + 20
-        while (
-            time.monotonic() < deadline and len([e for e in subscriber.events() if e["event"] == "packet"]) < before + 5
-        ):
-            publisher.publish(Sample(seq=round_, label=[0] * 16))
-            time.sleep(0.02)
-        assert len([e for e in subscriber.events() if e["event"] == "packet"]) >= before + 5
+        before = len(subscriber.events_named("packet"))
+        subscriber.feed_until(lambda: publisher.publish(Sample(seq=round_, label=[0] * 16)), before + 5)
+        assert len(subscriber.events_named("packet")) >= before + 5
         for _ in range(20):  # until the bridge's client has discovered this server
             caller = ln_peer("lncall", "call", "bt.rsrv", "--request", '{"a": 0, "values": [], "op": ""}')
             event = caller.wait_event("response", 20) if "response" in _events_of(caller) else None

@@ -1,6 +1,7 @@
 """Topics through the bridge with rclpy peers (Fast DDS): both directions,
 field by field, and what the ROS graph shows of the bridge."""
 
+import itertools
 import time
 
 from conftest import wait_until
@@ -40,9 +41,10 @@ def test_ros_to_ln_fields(ln, start_bridge, ln_peer, ros):
     subscriber.wait_event("ready")
     publisher = ros.node.create_publisher(Sample, "/bt/sample", 10)
     wait_until(lambda: publisher.get_subscription_count() > 0, 20, "the bridge subscribing /bt/sample")
-    seq = 0
-    deadline = time.monotonic() + 30
-    while time.monotonic() < deadline and len([e for e in subscriber.events() if e["event"] == "packet"]) < 10:
+    seqs = itertools.count()
+
+    def publish():
+        seq = next(seqs)
         publisher.publish(
             Sample(
                 seq=seq,
@@ -53,8 +55,8 @@ def test_ros_to_ln_fields(ln, start_bridge, ln_peer, ros):
                 label=list(b"ros%d" % seq) + [0] * (16 - len(b"ros%d" % seq)),
             )
         )
-        seq += 1
-        time.sleep(0.02)
+
+    subscriber.feed_until(publish, 10, timeout=30)
     packets = subscriber.wait_event("packet", 10, count=10)
     last = packets[-1]
     assert last["vec"] == [1.0, 2.0, float(last["seq"])] and last["stamp"] == 1.5 * last["seq"]
@@ -141,10 +143,7 @@ def test_rule_mapped_standard_type_both_ways(ln, start_bridge, ln_peer, ros):
     message.header.frame_id = "odom"
     message.header.stamp.sec, message.header.stamp.nanosec = 12, 500000000
     message.point.x, message.point.y, message.point.z = 1.5, -0.25, 0.001
-    deadline = time.monotonic() + 20
-    while time.monotonic() < deadline and len([e for e in subscriber.events() if e["event"] == "packet"]) < 3:
-        publisher.publish(message)
-        time.sleep(0.02)
+    subscriber.feed_until(lambda: publisher.publish(message), 3)
     packet = subscriber.wait_event("packet", 10, count=3)[-1]
     assert packet["time"] == 12.5 and packet["frame"] == "odom"
     assert [round(v, 6) for v in packet["pos_mm"]] == [1500.0, -250.0, 1.0]
@@ -167,12 +166,8 @@ def test_both_directions_follow_the_publishing_side(ln, start_bridge, ln_peer, r
     bridge.wait_log("stopped bridging topic bt.both \\(ln_to_ros\\)", 20)
     bridge.wait_log("bridging topic bt.both <- /bt/both", 20)
     wait_until(lambda: ros_publisher.get_subscription_count() > 0, 20, "the bridge subscribing /bt/both")
-    deadline = time.monotonic() + 20
-    seq = 1000
-    while time.monotonic() < deadline and len([e for e in subscriber.events() if e["event"] == "packet"]) < 5:
-        ros_publisher.publish(Sample(seq=seq, label=[0] * 16))
-        seq += 1
-        time.sleep(0.02)
+    seqs = itertools.count(1000)
+    subscriber.feed_until(lambda: ros_publisher.publish(Sample(seq=next(seqs), label=[0] * 16)), 5)
     assert min(e["seq"] for e in subscriber.wait_event("packet", 10, count=5)) >= 1000
 
 

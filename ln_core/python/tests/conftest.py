@@ -114,23 +114,3 @@ def run_python(manager, script, *args, timeout=30, **env):
 
 def which_compiler():
     return shutil.which("g++") or shutil.which("c++")
-
-
-@pytest.fixture
-def nyi():
-    """Context manager: skips the test where libln reports a feature as not
-    implemented yet (parts of the C API are still being filled in)."""
-    import contextlib
-
-    import links_and_nodes as ln
-
-    @contextlib.contextmanager
-    def guard():
-        try:
-            yield
-        except ln.LNError as error:
-            if error.code == ln.LNE_NOT_YET_IMPLEMENTED:
-                pytest.skip("libln: %s" % error)
-            raise
-
-    return guard

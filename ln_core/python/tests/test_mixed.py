@@ -164,7 +164,7 @@ def call_echo(svc):
 EXPECTED_ECHO = "counter=42 sum=7 values=2,4,7 text=cpp: hello from C++ points=(3,4),(1,2)"
 
 
-def test_cpp_provider_python_caller(manager, clnt, programs, unique, nyi):
+def test_cpp_provider_python_caller(manager, clnt, programs, unique):
     name = "mixed.cpp_echo." + unique
     provider = subprocess.Popen(
         [programs["echo_provider"], name], env=manager.env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
@@ -174,11 +174,8 @@ def test_cpp_provider_python_caller(manager, clnt, programs, unique, nyi):
         if line != "ready":
             provider.wait(5)
             err = provider.stderr.read()
-            if "NOT_YET_IMPLEMENTED" in err or "not implemented" in err:
-                pytest.skip("libln: services not implemented yet")
             pytest.fail("provider failed: %s" % err)
-        with nyi():
-            svc = clnt.get_service(name, "pytest/echo")
+        svc = clnt.get_service(name, "pytest/echo")
         assert call_echo(svc) == EXPECTED_ECHO
         svc2 = clnt.get_service(name)  # interface asked from the manager
         assert call_echo(svc2) == EXPECTED_ECHO
@@ -187,10 +184,9 @@ def test_cpp_provider_python_caller(manager, clnt, programs, unique, nyi):
         provider.wait()
 
 
-def test_python_provider_cpp_caller(manager, clnt, programs, unique, nyi):
+def test_python_provider_cpp_caller(manager, clnt, programs, unique):
     name = "mixed.py_echo." + unique
-    with nyi():
-        svc = clnt.get_service_provider(name, "pytest/echo")
+    svc = clnt.get_service_provider(name, "pytest/echo")
     svc.set_handler(python_echo_handler)
     svc.do_register()
     result = {}
@@ -211,10 +207,9 @@ def test_python_provider_cpp_caller(manager, clnt, programs, unique, nyi):
     assert out.stdout.strip() == EXPECTED_ECHO
 
 
-def test_python_provider_python_caller(clnt, unique, nyi):
+def test_python_provider_python_caller(clnt, unique):
     name = "mixed.py_py." + unique
-    with nyi():
-        svc = clnt.get_service_provider(name, "pytest/echo")
+    svc = clnt.get_service_provider(name, "pytest/echo")
     svc.set_handler(python_echo_handler)
     svc.do_register(group_name="pool_group")
     clnt.handle_service_group_in_thread_pool("pool_group", "pool")

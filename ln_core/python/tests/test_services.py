@@ -38,12 +38,11 @@ class Provider:
 
 
 @pytest.fixture
-def serve(nyi):
+def serve():
     providers = []
 
     def start(name, interface, handler):
-        with nyi():
-            providers.append(Provider(name, interface, handler))
+        providers.append(Provider(name, interface, handler))
         return providers[-1]
 
     yield start
@@ -150,9 +149,8 @@ def test_errors_from_the_provider(clnt, serve, unique):
     assert info.value.user_code == 9
 
 
-def test_no_provider(clnt, unique, nyi):
-    with nyi():
-        svc = clnt.get_service("svc.nobody." + unique, "pytest/small_srv")
+def test_no_provider(clnt, unique):
+    svc = clnt.get_service("svc.nobody." + unique, "pytest/small_srv")
     with pytest.raises(ln.LNError):
         svc.call(seq=1)
     with pytest.raises(ln.LNError):
@@ -203,16 +201,11 @@ def test_timeout_async_and_futures(clnt, serve, unique):
     assert future.result(5).done == 1 and future.done()
 
 
-def test_wait_for_service_and_availability(clnt, serve, unique, nyi):
+def test_wait_for_service_and_availability(clnt, serve, unique):
     name = "svc.avail." + unique
-    with nyi():
-        assert clnt.wait_for_service(name, 0) is False
+    assert clnt.wait_for_service(name, 0) is False
     events = []
-    try:
-        clnt.set_service_availability_handler(name, lambda n, up: events.append(up))
-    except ln.LNError as error:
-        if error.code != ln.LNE_NOT_YET_IMPLEMENTED:
-            raise
+    clnt.set_service_availability_handler(name, lambda n, up: events.append(up))
     found = []
     waiting = threading.Event()
 
@@ -288,11 +281,10 @@ class AreaCalls(ln.services_wrapper):
         self.wrap_service("compute_triangle_area", "area_service/triangle_area", default_arguments={"height": 1.0})
 
 
-def test_wrapped_api(clnt, unique, nyi):
+def test_wrapped_api(clnt, unique):
     prefix = "area." + unique
-    with nyi():
-        provider_client = ln.client("wrapped_provider")
-        areas = Areas(provider_client, prefix)
+    provider_client = ln.client("wrapped_provider")
+    areas = Areas(provider_client, prefix)
     thread = threading.Thread(target=areas.handle_service_group_requests, daemon=True)
     thread.start()
     try:

@@ -213,7 +213,7 @@ def test_ctrl_c_interrupts_a_blocking_read(manager, tmp_path, unique):
     assert "interrupted" in out and proc.returncode == 0
 
 
-def test_publisher_availability_handler(clnt, unique, nyi):
+def test_publisher_availability_handler(clnt, unique):
     topic = "pytest.avail.%s" % unique
     seen = []
     event = threading.Event()
@@ -223,8 +223,7 @@ def test_publisher_availability_handler(clnt, unique, nyi):
         if available:
             event.set()
 
-    with nyi():
-        clnt.set_publisher_availability_handler(topic, handler)
+    clnt.set_publisher_availability_handler(topic, handler)
     other = ln.client("pytest_avail_pub")
     other.publish(topic, "counter/count_message")
     assert event.wait(5)

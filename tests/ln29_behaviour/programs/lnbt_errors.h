@@ -5,6 +5,7 @@
 
 #include <ln/ln.h>
 
+#include <cstdio>
 #include <string>
 
 namespace lnbt {
@@ -95,6 +96,17 @@ inline std::string error_name(int code) {
   for (const ErrorName& e : error_names)
     if (e.code == code) return e.name;
   return "LNE_#" + std::to_string(code);
+}
+
+/// How a program ends on an ln::exception: "error NAME" on stdout (compared across the systems),
+/// the details on stderr; returns the exit status 3.
+template <class Exception>
+int report_exception(const char* program, const Exception& e) {
+  std::printf("error %s\n", error_name(e.error).c_str());
+  std::fprintf(stderr, "%s: %s (error %d, error_code %d)\n", program, e.what(), static_cast<int>(e.error),
+               e.error_code);
+  std::fflush(stdout);
+  return 3;
 }
 
 }  // namespace lnbt

@@ -30,6 +30,7 @@
 namespace {
 
 using lnbt::error_name;
+using lnbt::report_exception;
 
 // Holds until stdin reaches EOF (the test closes it) or `seconds` pass.
 void hold(double seconds) {
@@ -98,12 +99,9 @@ int main(int argc, char** argv) {
       return 2;
     }
   } catch (const ln::exception& e) {
-    std::printf("error %s\n", error_name(e.error).c_str());
-    std::fprintf(stderr, "lnbt_probe: %s (error %d, error_code %d)\n", e.what(), static_cast<int>(e.error),
-                 e.error_code);
-    std::fflush(stdout);
+    const int status = report_exception("lnbt_probe", e);
     delete clnt;
-    return 3;
+    return status;
   }
   std::fflush(stdout);
   delete clnt;

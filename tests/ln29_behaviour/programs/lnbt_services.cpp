@@ -41,6 +41,7 @@ struct {
 } clnt_manager_args;
 
 using lnbt::error_name;
+using lnbt::report_exception;
 
 struct Provider : lnbt::echo_base {
   Provider(ln::client& clnt, const std::string& name) { register_echo(&clnt, name); }
@@ -235,12 +236,9 @@ int main(int argc, char** argv) {
       return 2;
     }
   } catch (const ln::exception& e) {
-    std::printf("error %s\n", error_name(e.error).c_str());
-    std::fprintf(stderr, "lnbt_services: %s (error %d, error_code %d)\n", e.what(), static_cast<int>(e.error),
-                 e.error_code);
-    std::fflush(stdout);
+    const int status = report_exception("lnbt_services", e);
     delete clnt;
-    return 3;
+    return status;
   }
   std::fflush(stdout);
   delete clnt;
