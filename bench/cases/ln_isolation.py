@@ -56,32 +56,13 @@ def run(ctx):
                 for workload in ("service", "topic"):
                     name = f"lniso{rep}{mode}{workload}"
                     service = f"{name}.small"
+                    counts = ["--n", ctx.n(10000, 1000), "--warmup", ctx.n(300, 50)]
                     if workload == "service":
-                        server = [core.program("srv"), "provide", "--name", name]
-                        client = [
-                            core.program("srv"),
-                            "call",
-                            "--test",
-                            "rtt",
-                            "--name",
-                            name,
-                            "--n",
-                            ctx.n(10000, 1000),
-                            "--warmup",
-                            ctx.n(300, 50),
-                        ]
+                        roles, shared = ("provide", "call"), ["--name", name]
+                        server, client = H.pair_commands(core.program("srv"), roles, shared, ["--test", "rtt", *counts])
                     else:
-                        common = ["--size", 64, "--topic", name, "--mode", "copy"]
-                        server = [core.program("pingpong"), "pong", *common]
-                        client = [
-                            core.program("pingpong"),
-                            "ping",
-                            *common,
-                            "--n",
-                            ctx.n(10000, 1000),
-                            "--warmup",
-                            ctx.n(300, 50),
-                        ]
+                        shared = ["--size", 64, "--topic", name, "--mode", "copy"]
+                        server, client = H.pair_commands(core.program("pingpong"), ("pong", "ping"), shared, counts)
                         # the hostile client attacks the service of a provider started alongside
                         service = f"{name}svc.small"
                     alongside = None

@@ -123,21 +123,18 @@ def run(ctx):
                                 f"ln pub/sub RTT {size_text} {placement} {system.label} {mode} run {rep + 1}/{ctx.reps}"
                             )
                             topic = f"lnbench.rtt{size}.{mode}"
-                            common = ["--size", size, "--topic", topic, "--mode", mode]
-                            r = cmp.measure(
+                            cmp.pair(
                                 system,
-                                lambda: H.run_pair(
-                                    ctx,
-                                    system,
-                                    [system.program("pingpong"), "pong", *common],
-                                    [system.program("pingpong"), "ping", *common, "--n", n, "--warmup", warmup],
-                                    cpus=cpus,
-                                    timeout=90,
-                                    what=f"pub/sub RTT {size_text} {mode} {placement}",
-                                )[0],
+                                "pingpong",
+                                ("pong", "ping"),
+                                ["--size", size, "--topic", topic, "--mode", mode],
+                                ["--n", n, "--warmup", warmup],
+                                store=rtt,
+                                key=(placement, size, system.key, mode),
+                                cpus=cpus,
+                                timeout=90,
+                                what=f"pub/sub RTT {size_text} {mode} {placement}",
                             )
-                            if r is not None:
-                                rtt.setdefault((placement, size, system.key, mode), []).append(r)
             for placement, cpus in ctx.placements.items():
                 for buffers, paced in RATE_CONFIGS[placement]:
                     for system in cmp.systems:
@@ -145,18 +142,16 @@ def run(ctx):
                             f"ln rate 64 B buffers={buffers} {rate_text(paced)} {placement} {system.label} "
                             f"run {rep + 1}/{ctx.reps}"
                         )
-                        args = ["--buffers", buffers, "--topic", f"lnbench.rate{buffers}"]
-                        r = cmp.measure(
+                        r = cmp.pair(
                             system,
-                            lambda: H.run_pair(
-                                ctx,
-                                system,
-                                [system.program("rate"), "sub", *args],
-                                [system.program("rate"), "pub", *args, "--seconds", ctx.n(2, 0.5), "--rate", paced],
-                                cpus=cpus,
-                                timeout=60,
-                                what=f"rate buffers={buffers} {rate_text(paced)} {placement}",
-                            ),
+                            "rate",
+                            ("sub", "pub"),
+                            ["--buffers", buffers, "--topic", f"lnbench.rate{buffers}"],
+                            ["--seconds", ctx.n(2, 0.5), "--rate", paced],
+                            whole=True,
+                            cpus=cpus,
+                            timeout=60,
+                            what=f"rate buffers={buffers} {rate_text(paced)} {placement}",
                         )
                         if r is not None:
                             pub, subs = r
