@@ -37,7 +37,7 @@ HOSTILE = Path(__file__).resolve().parent.parent / "ln" / "py" / "hostile.py"
 
 
 def run(ctx):
-    from benchlib import Row, median, spread_note
+    from benchlib import RTT_METRICS, median, median_row
 
     core = H.LnCore()
     try:
@@ -111,20 +111,20 @@ def run(ctx):
             hostile = runs.get((workload, mode), [])
             if not hostile or not alone:
                 continue
-            for key, metric in (("median_us", "RTT median"), ("p99_us", "RTT p99")):
-                value, ref = median(r[key] for r in hostile), median(r[key] for r in alone)
-                note = spread_note([r[key] for r in hostile])
+            for key, metric in RTT_METRICS:
+                values, ref = [r[key] for r in hostile], median(r[key] for r in alone)
+                goal = ""
                 if key == "median_us" and mode != "busy":
-                    note += f"; goal <= {GOAL:g}x: {'met' if value <= GOAL * ref else 'NOT met'}"
-                yield Row(
-                    group=f"isolation: normal clients, {texts[workload]}, split cores",
-                    name=NAMES[mode],
-                    metric=metric,
-                    unit="us",
-                    value=value,
+                    goal = f"goal <= {GOAL:g}x: {'met' if median(values) <= GOAL * ref else 'NOT met'}"
+                yield median_row(
+                    f"isolation: normal clients, {texts[workload]}, split cores",
+                    NAMES[mode],
+                    metric,
+                    "us",
+                    values,
+                    [goal],
                     reference_name="no misbehaving client",
                     reference_value=ref,
-                    note=note,
                 )
     if failures:
         raise RuntimeError("; ".join(failures[:3]))

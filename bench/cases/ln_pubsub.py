@@ -64,21 +64,10 @@ def rate_text(paced):
 
 def bare_mechanism_rows(group, probe_runs, ln29_runs):
     """The same-core bare mechanism with LN 2.9's copying round trip as reference."""
-    from benchlib import Row, median, spread_note
+    from benchlib import rtt_rows
 
-    for key, metric in (("median_us", "RTT median"), ("p99_us", "RTT p99")):
-        values = [r[key] for r in probe_runs]
-        ref = median([r[key] for r in ln29_runs]) if ln29_runs else None
-        yield Row(
-            group=group,
-            name=BARE_NAME,
-            metric=metric,
-            unit="us",
-            value=median(values),
-            reference_name="LN 2.9 pub/sub, copying read" if ref else "",
-            reference_value=ref,
-            note="; ".join(x for x in (spread_note(values), f"{len(values)} runs") if x),
-        )
+    notes = [f"{len(probe_runs)} runs"]
+    yield from rtt_rows(group, BARE_NAME, probe_runs, notes, "LN 2.9 pub/sub, copying read", ln29_runs)
 
 
 def run(ctx):
@@ -94,24 +83,8 @@ def run(ctx):
                     n, warmup = (ctx.n(2000, 200), ctx.n(50, 20)) if big else (ctx.n(20000, 2000), ctx.n(500, 100))
                     if placement == "same" and size in BARE_SIZES:
                         ctx.log(f"ln pub/sub RTT {size_text} same core: bare mechanism run {rep + 1}/{ctx.reps}")
-                        bare.setdefault(size, []).extend(
-                            ctx.run_json(
-                                [
-                                    ctx.probe("shm_rtt"),
-                                    "--mode",
-                                    "yield",
-                                    "--cpus",
-                                    ctx.cpus_arg(cpus),
-                                    "--iters",
-                                    n,
-                                    "--warmup",
-                                    warmup,
-                                    "--payload",
-                                    size,
-                                ],
-                                timeout=60,
-                            )
-                        )
+                        probe_args = ["--mode", "yield", "--payload", size]
+                        bare.setdefault(size, []).extend(ctx.probe_rtt("shm_rtt", cpus, n, warmup, *probe_args))
                     for system in cmp.systems:
                         modes = (
                             ["copy"]

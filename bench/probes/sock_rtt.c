@@ -92,26 +92,16 @@ static int send_all(int fd, const char* buf, size_t n) {
 
 int main(int argc, char** argv) {
   alarm(PROBE_HARD_ALARM_S);
-  const char* kind_name = arg_str(argc, argv, "--kind", "unix");
+  static const char* const kind_names[] = {"unix", "udp", "tcp"};  // as enum kind
+  const enum kind k = (enum kind)arg_choice(argc, argv, "--kind", kind_names, 3);
+  const char* kind_name = kind_names[k];
   int cpu_a, cpu_b;
   arg_cpus(argc, argv, &cpu_a, &cpu_b);
-  long iters = arg_long(argc, argv, "--iters", 20000);
-  long warmup = arg_long(argc, argv, "--warmup", 2000);
+  long iters, warmup;
+  arg_iters(argc, argv, &iters, &warmup);
   long size = arg_long(argc, argv, "--size", 64);
-  long deadline_s = arg_long(argc, argv, "--deadline-s", 20);
-
-  enum kind k;
-  if (!strcmp(kind_name, "unix"))
-    k = K_UNIX;
-  else if (!strcmp(kind_name, "udp"))
-    k = K_UDP;
-  else if (!strcmp(kind_name, "tcp"))
-    k = K_TCP;
-  else
-    die("unknown --kind '%s' (unix, udp, tcp)", kind_name);
-  if (iters < 1 || iters > 10000000 || warmup < 0 || warmup > 1000000) die("bad --iters/--warmup");
+  long deadline_s = arg_deadline_s(argc, argv);
   if (size < 1 || size > MAX_SIZE) die("--size must be 1..%d", MAX_SIZE);
-  if (deadline_s < 1 || deadline_s > PROBE_HARD_ALARM_S - 10) die("--deadline-s out of range");
 
   int fd[2];
   make_pair(k, fd);
@@ -135,12 +125,7 @@ int main(int argc, char** argv) {
   }
 
   close(fd[1]);
-  if (pin_to_cpu(cpu_a)) {
-    kill(pid, SIGKILL);
-    die("cannot pin to cpu %d", cpu_a);
-  }
-  uint64_t* samples = calloc((size_t)iters, sizeof *samples);
-  if (!samples) die("out of memory");
+  uint64_t* samples = start_measuring(pid, cpu_a, iters);
   int failed = 0;
   for (long i = 0; i < total; i++) {
     uint64_t t0 = now_ns();
