@@ -85,17 +85,29 @@ static inline int arg_choice(int argc, char** argv, const char* key, const char*
   }
   die("unknown %s '%s' (%s)", key, s, list);
 }
-/* "--iters N --warmup W" of a round-trip probe: N timed round trips after W untimed ones. */
-static inline void arg_iters(int argc, char** argv, long* iters, long* warmup) {
-  *iters = arg_long(argc, argv, "--iters", 20000);
-  *warmup = arg_long(argc, argv, "--warmup", 2000);
-  if (*iters < 1 || *iters > 10000000 || *warmup < 0 || *warmup > 1000000) die("bad --iters/--warmup");
-}
 /* "--deadline-s S": the wall-clock limit of the measurement, well below the hard alarm. */
 static inline long arg_deadline_s(int argc, char** argv) {
   long s = arg_long(argc, argv, "--deadline-s", 20);
   if (s < 1 || s > PROBE_HARD_ALARM_S - 10) die("--deadline-s out of range");
   return s;
+}
+/* The options of a round-trip probe: `choice_key` NAME (one of the n choice_names, the first when
+ * absent: its index), --cpus A,B, --iters N timed round trips after --warmup W untimed ones, and
+ * --deadline-s S (arg_deadline_s). */
+struct rtt_args {
+  int choice, cpu_a, cpu_b;
+  long iters, warmup, deadline_s;
+};
+static inline struct rtt_args arg_rtt(int argc, char** argv, const char* choice_key, const char* const* choice_names,
+                                      int n) {
+  struct rtt_args o;
+  o.choice = arg_choice(argc, argv, choice_key, choice_names, n);
+  arg_cpus(argc, argv, &o.cpu_a, &o.cpu_b);
+  o.iters = arg_long(argc, argv, "--iters", 20000);
+  o.warmup = arg_long(argc, argv, "--warmup", 2000);
+  if (o.iters < 1 || o.iters > 10000000 || o.warmup < 0 || o.warmup > 1000000) die("bad --iters/--warmup");
+  o.deadline_s = arg_deadline_s(argc, argv);
+  return o;
 }
 
 /* --- the two processes of a probe: the measuring one (A) and the forked peer (B) --- */
