@@ -97,6 +97,27 @@ def spread_note(values: Sequence[float]) -> str:
     return f"range {fmt_num(min(values))}..{fmt_num(max(values))} over {len(values)} runs"
 
 
+def median_row(group: str, name: str, metric: str, unit: str, values: Sequence[float], notes=(), **fields) -> Row:
+    """A Row whose value is the median of `values` (one per run); its note: the spread over the
+    runs, then `notes` (empty ones left out). `fields`: other Row fields (reference_name, ...)."""
+    note = "; ".join(x for x in (spread_note(values), *notes) if x)
+    return Row(group=group, name=name, metric=metric, unit=unit, value=median(values), note=note, **fields)
+
+
+RTT_METRICS = (("median_us", "RTT median"), ("p99_us", "RTT p99"))
+
+
+def rtt_rows(group: str, name: str, runs: Sequence[dict], notes=(), reference_name="", reference_runs=()):
+    """median_row()s "RTT median" and "RTT p99" (us) of round-trip results (median_us, p99_us
+    each), against the median of reference_runs when there are any and reference_name is set."""
+    for key, metric in RTT_METRICS:
+        ref = median(r[key] for r in reference_runs) if reference_runs and reference_name else None
+        values = [r[key] for r in runs]
+        yield median_row(
+            group, name, metric, "us", values, notes, reference_name=reference_name if ref else "", reference_value=ref
+        )
+
+
 class Context:
     """Everything a case needs from the runner. One instance per run, shared by all cases."""
 
@@ -136,6 +157,12 @@ class Context:
     @staticmethod
     def cpus_arg(pair: tuple[int, int]) -> str:
         return f"{pair[0]},{pair[1]}"
+
+    def probe_rtt(self, name: str, cpus: tuple[int, int], iters: int, warmup: int, *args) -> list[dict]:
+        """Runs a round-trip probe of bench/probes (shm_rtt, sock_rtt) between the CPUs `cpus`:
+        `warmup` round trips, then `iters` timed ones; `args`: the probe's other options."""
+        cmd = [self.probe(name), "--cpus", self.cpus_arg(cpus), "--iters", iters, "--warmup", warmup, *args]
+        return self.run_json(cmd, timeout=60)
 
     # ---- running programs -----------------------------------------------------------------
     def log(self, msg: str) -> None:

@@ -37,7 +37,7 @@ HOSTILE = Path(__file__).resolve().parent.parent / "ln" / "py" / "hostile.py"
 
 
 def run(ctx):
-    from benchlib import Row, median, spread_note
+    from benchlib import RTT_METRICS, median, median_row
 
     core = H.LnCore()
     try:
@@ -56,32 +56,13 @@ def run(ctx):
                 for workload in ("service", "topic"):
                     name = f"lniso{rep}{mode}{workload}"
                     service = f"{name}.small"
+                    counts = ["--n", ctx.n(10000, 1000), "--warmup", ctx.n(300, 50)]
                     if workload == "service":
-                        server = [core.program("srv"), "provide", "--name", name]
-                        client = [
-                            core.program("srv"),
-                            "call",
-                            "--test",
-                            "rtt",
-                            "--name",
-                            name,
-                            "--n",
-                            ctx.n(10000, 1000),
-                            "--warmup",
-                            ctx.n(300, 50),
-                        ]
+                        roles, shared = ("provide", "call"), ["--name", name]
+                        server, client = H.pair_commands(core.program("srv"), roles, shared, ["--test", "rtt", *counts])
                     else:
-                        common = ["--size", 64, "--topic", name, "--mode", "copy"]
-                        server = [core.program("pingpong"), "pong", *common]
-                        client = [
-                            core.program("pingpong"),
-                            "ping",
-                            *common,
-                            "--n",
-                            ctx.n(10000, 1000),
-                            "--warmup",
-                            ctx.n(300, 50),
-                        ]
+                        shared = ["--size", 64, "--topic", name, "--mode", "copy"]
+                        server, client = H.pair_commands(core.program("pingpong"), ("pong", "ping"), shared, counts)
                         # the hostile client attacks the service of a provider started alongside
                         service = f"{name}svc.small"
                     alongside = None
@@ -130,20 +111,20 @@ def run(ctx):
             hostile = runs.get((workload, mode), [])
             if not hostile or not alone:
                 continue
-            for key, metric in (("median_us", "RTT median"), ("p99_us", "RTT p99")):
-                value, ref = median(r[key] for r in hostile), median(r[key] for r in alone)
-                note = spread_note([r[key] for r in hostile])
+            for key, metric in RTT_METRICS:
+                values, ref = [r[key] for r in hostile], median(r[key] for r in alone)
+                goal = ""
                 if key == "median_us" and mode != "busy":
-                    note += f"; goal <= {GOAL:g}x: {'met' if value <= GOAL * ref else 'NOT met'}"
-                yield Row(
-                    group=f"isolation: normal clients, {texts[workload]}, split cores",
-                    name=NAMES[mode],
-                    metric=metric,
-                    unit="us",
-                    value=value,
+                    goal = f"goal <= {GOAL:g}x: {'met' if median(values) <= GOAL * ref else 'NOT met'}"
+                yield median_row(
+                    f"isolation: normal clients, {texts[workload]}, split cores",
+                    NAMES[mode],
+                    metric,
+                    "us",
+                    values,
+                    [goal],
                     reference_name="no misbehaving client",
                     reference_value=ref,
-                    note=note,
                 )
     if failures:
         raise RuntimeError("; ".join(failures[:3]))

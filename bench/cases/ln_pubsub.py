@@ -64,21 +64,10 @@ def rate_text(paced):
 
 def bare_mechanism_rows(group, probe_runs, ln29_runs):
     """The same-core bare mechanism with LN 2.9's copying round trip as reference."""
-    from benchlib import Row, median, spread_note
+    from benchlib import rtt_rows
 
-    for key, metric in (("median_us", "RTT median"), ("p99_us", "RTT p99")):
-        values = [r[key] for r in probe_runs]
-        ref = median([r[key] for r in ln29_runs]) if ln29_runs else None
-        yield Row(
-            group=group,
-            name=BARE_NAME,
-            metric=metric,
-            unit="us",
-            value=median(values),
-            reference_name="LN 2.9 pub/sub, copying read" if ref else "",
-            reference_value=ref,
-            note="; ".join(x for x in (spread_note(values), f"{len(values)} runs") if x),
-        )
+    notes = [f"{len(probe_runs)} runs"]
+    yield from rtt_rows(group, BARE_NAME, probe_runs, notes, "LN 2.9 pub/sub, copying read", ln29_runs)
 
 
 def run(ctx):
@@ -94,24 +83,8 @@ def run(ctx):
                     n, warmup = (ctx.n(2000, 200), ctx.n(50, 20)) if big else (ctx.n(20000, 2000), ctx.n(500, 100))
                     if placement == "same" and size in BARE_SIZES:
                         ctx.log(f"ln pub/sub RTT {size_text} same core: bare mechanism run {rep + 1}/{ctx.reps}")
-                        bare.setdefault(size, []).extend(
-                            ctx.run_json(
-                                [
-                                    ctx.probe("shm_rtt"),
-                                    "--mode",
-                                    "yield",
-                                    "--cpus",
-                                    ctx.cpus_arg(cpus),
-                                    "--iters",
-                                    n,
-                                    "--warmup",
-                                    warmup,
-                                    "--payload",
-                                    size,
-                                ],
-                                timeout=60,
-                            )
-                        )
+                        probe_args = ["--mode", "yield", "--payload", size]
+                        bare.setdefault(size, []).extend(ctx.probe_rtt("shm_rtt", cpus, n, warmup, *probe_args))
                     for system in cmp.systems:
                         modes = (
                             ["copy"]
@@ -123,21 +96,18 @@ def run(ctx):
                                 f"ln pub/sub RTT {size_text} {placement} {system.label} {mode} run {rep + 1}/{ctx.reps}"
                             )
                             topic = f"lnbench.rtt{size}.{mode}"
-                            common = ["--size", size, "--topic", topic, "--mode", mode]
-                            r = cmp.measure(
+                            cmp.pair(
                                 system,
-                                lambda: H.run_pair(
-                                    ctx,
-                                    system,
-                                    [system.program("pingpong"), "pong", *common],
-                                    [system.program("pingpong"), "ping", *common, "--n", n, "--warmup", warmup],
-                                    cpus=cpus,
-                                    timeout=90,
-                                    what=f"pub/sub RTT {size_text} {mode} {placement}",
-                                )[0],
+                                "pingpong",
+                                ("pong", "ping"),
+                                ["--size", size, "--topic", topic, "--mode", mode],
+                                ["--n", n, "--warmup", warmup],
+                                store=rtt,
+                                key=(placement, size, system.key, mode),
+                                cpus=cpus,
+                                timeout=90,
+                                what=f"pub/sub RTT {size_text} {mode} {placement}",
                             )
-                            if r is not None:
-                                rtt.setdefault((placement, size, system.key, mode), []).append(r)
             for placement, cpus in ctx.placements.items():
                 for buffers, paced in RATE_CONFIGS[placement]:
                     for system in cmp.systems:
@@ -145,18 +115,16 @@ def run(ctx):
                             f"ln rate 64 B buffers={buffers} {rate_text(paced)} {placement} {system.label} "
                             f"run {rep + 1}/{ctx.reps}"
                         )
-                        args = ["--buffers", buffers, "--topic", f"lnbench.rate{buffers}"]
-                        r = cmp.measure(
+                        r = cmp.pair(
                             system,
-                            lambda: H.run_pair(
-                                ctx,
-                                system,
-                                [system.program("rate"), "sub", *args],
-                                [system.program("rate"), "pub", *args, "--seconds", ctx.n(2, 0.5), "--rate", paced],
-                                cpus=cpus,
-                                timeout=60,
-                                what=f"rate buffers={buffers} {rate_text(paced)} {placement}",
-                            ),
+                            "rate",
+                            ("sub", "pub"),
+                            ["--buffers", buffers, "--topic", f"lnbench.rate{buffers}"],
+                            ["--seconds", ctx.n(2, 0.5), "--rate", paced],
+                            whole=True,
+                            cpus=cpus,
+                            timeout=60,
+                            what=f"rate buffers={buffers} {rate_text(paced)} {placement}",
                         )
                         if r is not None:
                             pub, subs = r

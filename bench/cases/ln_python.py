@@ -31,162 +31,83 @@ def run(ctx):
     split = ctx.placements.get("split", ctx.placements["same"])
     with H.Comparison(ctx, python=True) as cmp:
 
-        def checked(system, fn):
-            def go():
-                r = fn()
-                # ln_core's rows must not silently run LN 2.9's package (or the reverse)
-                mod = r.get("ln_module", "")
-                if (system is cmp.core) == (cmp.ln29.venv is not None and str(cmp.ln29.venv) in mod):
-                    raise H.MeasureError(f"{system.label}: links_and_nodes came from {mod}")
-                return r
+        def pair(test, placement, system, cpus, script, roles, shared, counts, what):
+            """Runs bench/ln/py/<script> as server and client; counts = (n, warm-up) of the client."""
+            ctx.log(f"ln {what} {system.label} run {rep + 1}/{ctx.reps}")
+            client = ["--n", counts[0], "--warmup", counts[1]]
+            cmp.pair(
+                system,
+                PY / script,
+                roles,
+                shared,
+                client,
+                store=results,
+                key=(test, placement, system.key),
+                cpus=cpus,
+                timeout=90,
+                what=what,
+            )
 
-            return cmp.measure(system, go)
-
+        pingpong = ("pingpong.py", ("pong", "ping"))
         for rep in range(ctx.reps):
+            small = (ctx.n(10000, 1000), ctx.n(200, 50))
             for placement, cpus in ctx.placements.items():
                 for system in cmp.systems:
-                    ctx.log(f"ln Python pub/sub RTT 64 B {placement} {system.label} run {rep + 1}/{ctx.reps}")
-                    common = ["--size", 64, "--topic", f"lnbench.pyrtt{rep}{placement}"]
-                    r = checked(
+                    shared = ["--size", 64, "--topic", f"lnbench.pyrtt{rep}{placement}"]
+                    pair(
+                        "rtt64",
+                        placement,
                         system,
-                        lambda: H.run_pair(
-                            ctx,
-                            system,
-                            [PY / "pingpong.py", "pong", *common],
-                            [
-                                PY / "pingpong.py",
-                                "ping",
-                                *common,
-                                "--n",
-                                ctx.n(10000, 1000),
-                                "--warmup",
-                                ctx.n(200, 50),
-                            ],
-                            cpus=cpus,
-                            timeout=90,
-                            what=f"Python pub/sub RTT 64 B {placement}",
-                            python=True,
-                        )[0],
+                        cpus,
+                        *pingpong,
+                        shared,
+                        small,
+                        f"Python pub/sub RTT 64 B {placement}",
                     )
-                    if r is not None:
-                        results.setdefault(("rtt64", placement, system.key), []).append(r)
                 for system in cmp.systems:
-                    ctx.log(f"ln Python service RTT {placement} {system.label} run {rep + 1}/{ctx.reps}")
-                    name = f"lnbench.pysrv{rep}{placement}"
-                    r = checked(
-                        system,
-                        lambda: H.run_pair(
-                            ctx,
-                            system,
-                            [PY / "srv.py", "provide", "--name", name],
-                            [
-                                PY / "srv.py",
-                                "call",
-                                "--name",
-                                name,
-                                "--n",
-                                ctx.n(10000, 1000),
-                                "--warmup",
-                                ctx.n(200, 50),
-                            ],
-                            cpus=cpus,
-                            timeout=90,
-                            what=f"Python service RTT {placement}",
-                            python=True,
-                        )[0],
-                    )
-                    if r is not None:
-                        results.setdefault(("srv", placement, system.key), []).append(r)
+                    shared = ["--name", f"lnbench.pysrv{rep}{placement}"]
+                    srv = ("srv.py", ("provide", "call"))
+                    pair("srv", placement, system, cpus, *srv, shared, small, f"Python service RTT {placement}")
+            big = (ctx.n(1000, 100), ctx.n(50, 10))
             for system in cmp.systems:
-                ctx.log(f"ln Python pub/sub RTT 1 MiB (numpy) split {system.label} run {rep + 1}/{ctx.reps}")
-                common = ["--size", 1 << 20, "--topic", f"lnbench.pyrtt1m{rep}"]
-                r = checked(
-                    system,
-                    lambda: H.run_pair(
-                        ctx,
-                        system,
-                        [PY / "pingpong.py", "pong", *common],
-                        [PY / "pingpong.py", "ping", *common, "--n", ctx.n(1000, 100), "--warmup", ctx.n(50, 10)],
-                        cpus=split,
-                        timeout=90,
-                        what="Python pub/sub RTT 1 MiB",
-                        python=True,
-                    )[0],
-                )
-                if r is not None:
-                    results.setdefault(("rtt1m", "split", system.key), []).append(r)
+                shared = ["--size", 1 << 20, "--topic", f"lnbench.pyrtt1m{rep}"]
+                pair("rtt1m", "split", system, split, *pingpong, shared, big, "Python pub/sub RTT 1 MiB (numpy) split")
             # ln_core only: the same with its zero-copy read port.borrow() (numpy views in place)
-            ctx.log(f"ln Python pub/sub RTT 1 MiB (lent read) split ln_core run {rep + 1}/{ctx.reps}")
-            common = ["--size", 1 << 20, "--topic", f"lnbench.pyrtt1mb{rep}", "--mode", "borrow"]
-            r = checked(
-                cmp.core,
-                lambda: H.run_pair(
-                    ctx,
-                    cmp.core,
-                    [PY / "pingpong.py", "pong", *common],
-                    [PY / "pingpong.py", "ping", *common, "--n", ctx.n(1000, 100), "--warmup", ctx.n(50, 10)],
-                    cpus=split,
-                    timeout=90,
-                    what="Python pub/sub RTT 1 MiB, lent read",
-                    python=True,
-                )[0],
+            shared = ["--size", 1 << 20, "--topic", f"lnbench.pyrtt1mb{rep}", "--mode", "borrow"]
+            pair(
+                "rtt1m_borrow", "split", cmp.core, split, *pingpong, shared, big, "Python pub/sub RTT 1 MiB, lent read"
             )
-            if r is not None:
-                results.setdefault(("rtt1m_borrow", "split", cmp.core.key), []).append(r)
 
     ln29, core = cmp.ln29, cmp.core
 
     def runs(test, placement, system):
         return results.get((test, placement, system.key), [])
 
+    def rows(group, name, ref_name, ref_runs, core_runs, target, **kw):
+        return compare_rows(
+            cmp,
+            group,
+            name,
+            ref_name,
+            ref_runs,
+            core_runs,
+            [("median_us", "RTT median"), ("p99_us", "RTT p99")],
+            "us",
+            target,
+            extra=lambda rs: f"n={rs[0]['n']}",
+            **kw,
+        )
+
     for placement in ctx.placements:
-        yield from compare_rows(
-            cmp,
-            f"ln: Python pub/sub RTT 64 B, {PLACEMENT_TEXT[placement]}",
-            "Python pub/sub",
-            "LN 2.9 Python pub/sub",
-            runs("rtt64", placement, ln29),
-            runs("rtt64", placement, core),
-            [("median_us", "RTT median"), ("p99_us", "RTT p99")],
-            "us",
-            0.5,
-            extra=lambda rs: f"n={rs[0]['n']}",
-        )
-        yield from compare_rows(
-            cmp,
-            f"ln: Python service RTT, small request, {PLACEMENT_TEXT[placement]}",
-            "Python service call",
-            "LN 2.9 Python service call",
-            runs("srv", placement, ln29),
-            runs("srv", placement, core),
-            [("median_us", "RTT median"), ("p99_us", "RTT p99")],
-            "us",
-            0.5,
-            extra=lambda rs: f"n={rs[0]['n']}",
-        )
-    yield from compare_rows(
-        cmp,
-        "ln: Python pub/sub RTT 1 MiB, read into numpy, split cores",
-        "Python pub/sub 1 MiB",
-        "LN 2.9 Python pub/sub 1 MiB",
-        runs("rtt1m", "split", ln29),
-        runs("rtt1m", "split", core),
-        [("median_us", "RTT median"), ("p99_us", "RTT p99")],
-        "us",
-        None,
-        extra=lambda rs: f"n={rs[0]['n']}",
-    )
-    yield from compare_rows(
-        cmp,
-        "ln: Python pub/sub RTT 1 MiB, read into numpy, split cores",
-        "Python pub/sub 1 MiB, lent read (port.borrow)",
-        "LN 2.9 Python pub/sub 1 MiB",
-        runs("rtt1m", "split", ln29),
-        runs("rtt1m_borrow", "split", core),
-        [("median_us", "RTT median"), ("p99_us", "RTT p99")],
-        "us",
-        None,
-        extra=lambda rs: f"n={rs[0]['n']}",
-        ref_only=False,
-    )
+        where = PLACEMENT_TEXT[placement]
+        rtt64 = (runs("rtt64", placement, ln29), runs("rtt64", placement, core))
+        yield from rows(f"ln: Python pub/sub RTT 64 B, {where}", "Python pub/sub", "LN 2.9 Python pub/sub", *rtt64, 0.5)
+        srv = (runs("srv", placement, ln29), runs("srv", placement, core))
+        group = f"ln: Python service RTT, small request, {where}"
+        yield from rows(group, "Python service call", "LN 2.9 Python service call", *srv, 0.5)
+    group = "ln: Python pub/sub RTT 1 MiB, read into numpy, split cores"
+    ref_name, ref_runs = "LN 2.9 Python pub/sub 1 MiB", runs("rtt1m", "split", ln29)
+    yield from rows(group, "Python pub/sub 1 MiB", ref_name, ref_runs, runs("rtt1m", "split", core), None)
+    lent = "Python pub/sub 1 MiB, lent read (port.borrow)"
+    yield from rows(group, lent, ref_name, ref_runs, runs("rtt1m_borrow", "split", core), None, ref_only=False)
     cmp.finish()

@@ -31,66 +31,37 @@ def run(ctx):
     stalls = {}
     split = ctx.placements.get("split", ctx.placements["same"])
     with H.Comparison(ctx) as cmp:
+        srv = ("provide", "call")
         for rep in range(ctx.reps):
             for placement, cpus in ctx.placements.items():
                 for system in cmp.systems:
                     ctx.log(f"ln service RTT small {placement} {system.label} run {rep + 1}/{ctx.reps}")
-                    name = f"lnbench.srv.rtt{rep}{placement}"
-                    r = cmp.measure(
+                    cmp.pair(
                         system,
-                        lambda: H.run_pair(
-                            ctx,
-                            system,
-                            [system.program("srv"), "provide", "--name", name],
-                            [
-                                system.program("srv"),
-                                "call",
-                                "--test",
-                                "rtt",
-                                "--name",
-                                name,
-                                "--n",
-                                ctx.n(20000, 2000),
-                                "--warmup",
-                                ctx.n(500, 100),
-                            ],
-                            cpus=cpus,
-                            timeout=90,
-                            what=f"service RTT {placement}",
-                        )[0],
+                        "srv",
+                        srv,
+                        ["--name", f"lnbench.srv.rtt{rep}{placement}"],
+                        ["--test", "rtt", "--n", ctx.n(20000, 2000), "--warmup", ctx.n(500, 100)],
+                        store=rtt,
+                        key=(placement, system.key),
+                        cpus=cpus,
+                        timeout=90,
+                        what=f"service RTT {placement}",
                     )
-                    if r is not None:
-                        rtt.setdefault((placement, system.key), []).append(r)
             for system in cmp.systems:
                 ctx.log(f"ln service 1 MiB response split {system.label} run {rep + 1}/{ctx.reps}")
-                name = f"lnbench.srv.blob{rep}"
-                r = cmp.measure(
+                cmp.pair(
                     system,
-                    lambda: H.run_pair(
-                        ctx,
-                        system,
-                        [system.program("srv"), "provide", "--name", name],
-                        [
-                            system.program("srv"),
-                            "call",
-                            "--test",
-                            "blob",
-                            "--name",
-                            name,
-                            "--size",
-                            1 << 20,
-                            "--n",
-                            ctx.n(500, 50),
-                            "--warmup",
-                            ctx.n(20, 5),
-                        ],
-                        cpus=split,
-                        timeout=90,
-                        what="service 1 MiB response",
-                    )[0],
+                    "srv",
+                    srv,
+                    ["--name", f"lnbench.srv.blob{rep}"],
+                    ["--test", "blob", "--size", 1 << 20, "--n", ctx.n(500, 50), "--warmup", ctx.n(20, 5)],
+                    store=blob,
+                    key=system.key,
+                    cpus=split,
+                    timeout=90,
+                    what="service 1 MiB response",
                 )
-                if r is not None:
-                    blob.setdefault(system.key, []).append(r)
             for system in cmp.systems:
                 if not cmp.ready.get(system.key):
                     continue

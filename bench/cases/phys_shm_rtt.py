@@ -7,7 +7,7 @@ is the reference within each placement: it is what a blocking read costs without
 All modes and placements are interleaved run by run, so load changes hit them alike.
 """
 
-from benchlib import Row, median, spread_note
+from benchlib import median, rtt_rows
 
 TITLE = "shared-memory round trip: spin, futex, adaptive spin-then-futex, yield"
 ORDER = 20
@@ -29,34 +29,12 @@ def run(ctx):
         for placement, cpus in ctx.placements.items():
             for mode in modes_for[placement]:
                 ctx.log(f"shm rtt: {mode:8s} {placement} cpus {cpus} run {rep + 1}/{ctx.reps}")
-                (r,) = ctx.run_json(
-                    [
-                        ctx.probe("shm_rtt"),
-                        "--mode",
-                        mode,
-                        "--cpus",
-                        ctx.cpus_arg(cpus),
-                        "--iters",
-                        iters,
-                        "--warmup",
-                        warmup,
-                        "--payload",
-                        PAYLOAD,
-                        "--spin-iters",
-                        SPIN_ITERS,
-                    ],
-                    timeout=60,
-                )
+                args = ["--mode", mode, "--payload", PAYLOAD, "--spin-iters", SPIN_ITERS]
+                (r,) = ctx.probe_rtt("shm_rtt", cpus, iters, warmup, *args)
                 runs.setdefault((placement, mode), []).append(r)
 
     for placement, cpus in ctx.placements.items():
         group = f"physical: shm RTT {PAYLOAD} B, {PLACEMENT_TEXT[placement]}"
-
-        def stat(mode, key):
-            values = [r[key] for r in runs[(placement, mode)]]
-            return median(values), spread_note(values)
-
-        ref = {key: stat("futex", key)[0] for key in ("median_us", "p99_us")}
         for mode in modes_for[placement]:
             mode_runs = runs[(placement, mode)]
             extra = f"cpus {cpus[0]}+{cpus[1]}; n={iters} x {len(mode_runs)} runs"
@@ -68,16 +46,5 @@ def run(ctx):
             timeouts = sum(r["futex_timeouts"] for r in mode_runs)
             if timeouts:  # 1 s futex timeouts: a lost wake-up in the protocol, or a stalled machine
                 extra += f"; {timeouts} FUTEX TIMEOUTS"
-            for key, metric in (("median_us", "RTT median"), ("p99_us", "RTT p99")):
-                value, spread = stat(mode, key)
-                is_ref = mode == "futex"
-                yield Row(
-                    group=group,
-                    name=f"shm {mode}",
-                    metric=metric,
-                    unit="us",
-                    value=value,
-                    reference_name="" if is_ref else "shm futex",
-                    reference_value=None if is_ref else ref[key],
-                    note="; ".join(x for x in (spread, extra) if x),
-                )
+            ref_name = "" if mode == "futex" else "shm futex"
+            yield from rtt_rows(group, f"shm {mode}", mode_runs, [extra], ref_name, runs[(placement, "futex")])

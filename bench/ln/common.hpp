@@ -18,9 +18,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <initializer_list>
 #include <map>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace bench {
@@ -220,6 +222,34 @@ int guarded_main(F&& f) {
   }
   return 2;
 }
+
+// main() of a program with roles, `prog ROLE [--key value]...`: prepare(args) (when given), then a
+// client named client_prefix + ROLE runs the role's function; failures become the error line.
+using Role = int (*)(ln::client&, const Args&);
+inline int role_main(int argc, char** argv, const std::string& client_prefix,
+                     std::initializer_list<std::pair<const char*, Role>> roles,
+                     void (*prepare)(const Args&) = nullptr) {
+  return guarded_main([&] {
+    Args args(argc, argv);
+    if (prepare != nullptr) prepare(args);
+    std::string names;
+    for (const auto& role : roles) {
+      if (args.role() == role.first) {
+        ln::client clnt(client_prefix + args.role());
+        return role.second(clnt, args);
+      }
+      names += (names.empty() ? "" : " or ") + std::string(role.first);
+    }
+    throw std::invalid_argument("role must be " + names);
+  });
+}
+
+// A lnbench/p64 packet (msgdefs/lnbench/p64): sequence number + payload.
+struct Packet64 {
+  uint32_t seq;
+  uint8_t pad[60];
+};
+static_assert(sizeof(Packet64) == 64, "lnbench/p64 is 64 bytes");
 
 constexpr uint32_t kHandshake = 0xfffffff0u;
 constexpr uint32_t kStop = 0xffffffffu;

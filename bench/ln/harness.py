@@ -444,6 +444,46 @@ def _drain(q: queue.Queue, sink) -> None:
         sink(line)
 
 
+def _spawn(system: System, cmd: list[str], env: dict, read: bool = False):
+    """Starts `cmd` in its own process group (stdout and stderr as text, no stdin) and notes its
+    PID in `system`; with read=True returns (process, queue of its lines from a _reader thread)."""
+    proc = subprocess.Popen(
+        cmd,
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env=env,
+        process_group=0,
+    )
+    system.started_pids.add(proc.pid)
+    if not read:
+        return proc
+    q: queue.Queue = queue.Queue()
+    threading.Thread(target=_reader, args=(proc.stdout, q), daemon=True).start()
+    return proc, q
+
+
+def _wait_results(
+    ctx, system: System, proc: subprocess.Popen, timeout: float, what: str, wait: float | None = None
+) -> list[dict]:
+    """Waits for `proc` to end (up to `wait`, default `timeout`: the limit the error names; kills
+    its group after that), logs its output and returns its ok result lines; raises when it timed
+    out, failed or printed no result."""
+    try:
+        out, _ = proc.communicate(timeout=timeout if wait is None else wait)
+    except subprocess.TimeoutExpired:
+        _kill_group(proc)
+        out, _ = proc.communicate()
+        ctx.log_text(out)
+        raise MeasureError(f"{system.label} {what}: no result within {timeout:g} s: {_tail(out, 2)}") from None
+    ctx.log_text(out)
+    results = _check_results(system, what, _json_lines(out), proc.returncode, out)
+    if not results:
+        raise MeasureError(f"{system.label} {what}: printed no result: {_tail(out)}")
+    return results
+
+
 def _check_results(system: System, what: str, results: list[dict], rc: int | None, text: str) -> list[dict]:
     for r in results:
         if r.get("ok") is False:
@@ -482,18 +522,7 @@ def run_pair(
     cli_cmd = ["taskset", "-c", str(cpus[0])] + prefix + [str(c) for c in client]
     ctx.log_text(f"$ [{system.label}] {shlex.join(srv_cmd)} &\n")
     deadline = time.monotonic() + timeout
-    srv = subprocess.Popen(
-        srv_cmd,
-        stdin=subprocess.DEVNULL,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-        env=env,
-        process_group=0,
-    )
-    system.started_pids.add(srv.pid)
-    q: queue.Queue = queue.Queue()
-    threading.Thread(target=_reader, args=(srv.stdout, q), daemon=True).start()
+    srv, q = _spawn(system, srv_cmd, env, read=True)
     srv_lines: list[str] = []
     cli = None
     other = None
@@ -523,27 +552,8 @@ def run_pair(
         if alongside is not None:
             other = _start_alongside(ctx, system, alongside, env, deadline, what)
         ctx.log_text(f"$ [{system.label}] {shlex.join(cli_cmd)}\n")
-        cli = subprocess.Popen(
-            cli_cmd,
-            stdin=subprocess.DEVNULL,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT,
-            text=True,
-            env=env,
-            process_group=0,
-        )
-        system.started_pids.add(cli.pid)
-        try:
-            cli_out, _ = cli.communicate(timeout=max(1.0, deadline - time.monotonic()))
-        except subprocess.TimeoutExpired:
-            _kill_group(cli)
-            cli_out, _ = cli.communicate()
-            ctx.log_text(cli_out)
-            raise MeasureError(f"{system.label} {what}: no result within {timeout:g} s: {_tail(cli_out, 2)}") from None
-        ctx.log_text(cli_out)
-        cli_results = _check_results(system, what, _json_lines(cli_out), cli.returncode, cli_out)
-        if not cli_results:
-            raise MeasureError(f"{system.label} {what}: printed no result: {_tail(cli_out)}")
+        cli = _spawn(system, cli_cmd, env)
+        cli_results = _wait_results(ctx, system, cli, timeout, what, wait=max(1.0, deadline - time.monotonic()))
         # the server ends on the client's stop message; give it a few seconds
         try:
             srv.wait(timeout=max(1.0, min(10.0, deadline - time.monotonic())))
@@ -565,21 +575,16 @@ def run_pair(
     return cli_results[-1], srv_results
 
 
+def pair_commands(program, roles: tuple[str, str], shared: list, client: list = ()) -> tuple[list, list]:
+    """The server and client command lines of one of bench/ln's programs: `program server-role
+    *shared` and `program client-role *shared *client` (roles = (server role, client role))."""
+    return [program, roles[0], *shared], [program, roles[1], *shared, *client]
+
+
 def _start_alongside(ctx, system: System, cmd: list, env: dict, deadline: float, what: str):
     full = [str(c) for c in cmd]
     ctx.log_text(f"$ [{system.label}] {shlex.join(full)} &\n")
-    proc = subprocess.Popen(
-        full,
-        stdin=subprocess.DEVNULL,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-        env=env,
-        process_group=0,
-    )
-    system.started_pids.add(proc.pid)
-    q: queue.Queue = queue.Queue()
-    threading.Thread(target=_reader, args=(proc.stdout, q), daemon=True).start()
+    proc, q = _spawn(system, full, env, read=True)
     while True:
         left = deadline - time.monotonic()
         try:
@@ -609,28 +614,7 @@ def run_single(ctx, system: System, cmd: list, *, cpu: int, timeout: float, what
     env = {**_measured_environ(), **system.env()}
     full = ["taskset", "-c", str(cpu)] + [str(c) for c in cmd]
     ctx.log_text(f"$ [{system.label}] {shlex.join(full)}\n")
-    proc = subprocess.Popen(
-        full,
-        stdin=subprocess.DEVNULL,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-        env=env,
-        process_group=0,
-    )
-    system.started_pids.add(proc.pid)
-    try:
-        out, _ = proc.communicate(timeout=timeout)
-    except subprocess.TimeoutExpired:
-        _kill_group(proc)
-        out, _ = proc.communicate()
-        ctx.log_text(out)
-        raise MeasureError(f"{system.label} {what}: no result within {timeout:g} s") from None
-    ctx.log_text(out)
-    results = _check_results(system, what, _json_lines(out), proc.returncode, out)
-    if not results:
-        raise MeasureError(f"{system.label} {what}: printed no result: {_tail(out)}")
-    return results[-1]
+    return _wait_results(ctx, system, _spawn(system, full, env), timeout, what)[-1]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -691,6 +675,29 @@ class Comparison:
             self.failures.append(str(e))
             self.ctx.log(f"FAILED: {e}")
         return None
+
+    def pair(self, system: System, program, roles, shared, client, *, store=None, key=None, whole=False, **kw):
+        """measure() of run_pair with pair_commands(program, roles, shared, client) of `system`
+        (`program`: a Python script, or with python=False the name of a bench/ln C++ program;
+        keywords as run_pair's); returns the client's result (or, whole=True, run_pair's (client
+        result, server results)), None when there is none, and adds it to store[key]. A Python
+        program must have run `system`'s own links_and_nodes."""
+
+        def go():
+            exe = program if self.python else system.program(program)
+            server_cmd, client_cmd = pair_commands(exe, roles, shared, client)
+            out = run_pair(self.ctx, system, server_cmd, client_cmd, python=self.python, **kw)
+            if self.python:
+                # ln_core's rows must not silently run LN 2.9's package (or the reverse)
+                mod = out[0].get("ln_module", "")
+                if (system is self.core) == (self.ln29.venv is not None and str(self.ln29.venv) in mod):
+                    raise MeasureError(f"{system.label}: links_and_nodes came from {mod}")
+            return out if whole else out[0]
+
+        r = self.measure(system, go)
+        if r is not None and store is not None:
+            store.setdefault(key, []).append(r)
+        return r
 
     def why_missing(self, system: System) -> str:
         if system.label in self.unavailable:

@@ -19,12 +19,6 @@ using namespace bench;
 
 namespace {
 
-struct Packet {
-  uint32_t seq;
-  uint8_t pad[60];
-};
-static_assert(sizeof(Packet) == 64, "lnbench/p64 is 64 bytes");
-
 void sleep_until(Clock::time_point deadline) {
   const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(deadline.time_since_epoch()).count();
   timespec at{static_cast<time_t>(ns / 1000000000), static_cast<long>(ns % 1000000000)};
@@ -45,7 +39,7 @@ int pub(ln::client& clnt, const Args& args) {
     logger->add_topic(topic, static_cast<uint64_t>(n + warmup), 1);
     logger->enable();
   }
-  Packet packet{};
+  Packet64 packet{};
   std::vector<double> cost, late;
   cost.reserve(static_cast<size_t>(n));
   late.reserve(static_cast<size_t>(n));
@@ -93,11 +87,4 @@ int pub(ln::client& clnt, const Args& args) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  return guarded_main([&] {
-    Args args(argc, argv);
-    ln::client clnt("lnbench_logger_" + args.role());
-    if (args.role() == "pub") return pub(clnt, args);
-    throw std::invalid_argument("role must be pub");
-  });
-}
+int main(int argc, char** argv) { return role_main(argc, argv, "lnbench_logger_", {{"pub", pub}}); }

@@ -254,13 +254,8 @@ int ping(ln::client& clnt, const Args& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  return guarded_main([&] {
-    Args args(argc, argv);
+  return role_main(argc, argv, "lnbench_", {{"ping", ping}, {"pong", pong}}, [](const Args& args) {
     g_mode = args.str("mode", "copy");
     check_mode();
-    ln::client clnt("lnbench_" + args.role());
-    if (args.role() == "pong") return pong(clnt, args);
-    if (args.role() == "ping") return ping(clnt, args);
-    throw std::invalid_argument("role must be ping or pong");
   });
 }

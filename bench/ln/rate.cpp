@@ -26,18 +26,12 @@ using namespace bench;
 
 namespace {
 
-struct Packet {
-  uint32_t seq;
-  uint8_t pad[60];
-};
-static_assert(sizeof(Packet) == 64, "lnbench/p64 is 64 bytes");
-
 int sub(ln::client& clnt, const Args& args) {
   const unsigned buffers = static_cast<unsigned>(args.integer("buffers", 1));
   const std::string topic = args.str("topic", "lnbench.rate");
   const double max_seconds = args.real("max-seconds", 60);
   ln::inport* in = clnt.subscribe(topic, "lnbench/p64", -1, buffers);
-  Packet pkt{};
+  Packet64 pkt{};
   print_ready();
   const auto t_start = Clock::now();
   long long reads = 0, fresh = 0, repeats = 0, older = 0, lost = 0, torn = 0;
@@ -114,7 +108,7 @@ int pub(ln::client& clnt, const Args& args) {
     std::this_thread::sleep_for(std::chrono::milliseconds(1));  // polling interval of the condition
   }
   const double wait_s = seconds_since(t_wait);
-  Packet pkt{};
+  Packet64 pkt{};
   uint32_t seq = 0;
   const auto t0 = Clock::now();
   double elapsed = 0;
@@ -133,7 +127,7 @@ int pub(ln::client& clnt, const Args& args) {
     if (elapsed >= seconds || seq >= 0xfff00000u) break;
   }
   const long long written = seq;
-  Packet stop{};
+  Packet64 stop{};
   stop.seq = kStop;
   std::memcpy(stop.pad, &written, sizeof written);
   out->write(&stop);
@@ -156,12 +150,4 @@ int pub(ln::client& clnt, const Args& args) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  return guarded_main([&] {
-    Args args(argc, argv);
-    ln::client clnt("lnbench_rate_" + args.role());
-    if (args.role() == "sub") return sub(clnt, args);
-    if (args.role() == "pub") return pub(clnt, args);
-    throw std::invalid_argument("role must be sub or pub");
-  });
-}
+int main(int argc, char** argv) { return role_main(argc, argv, "lnbench_rate_", {{"sub", sub}, {"pub", pub}}); }

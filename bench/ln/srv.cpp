@@ -235,11 +235,5 @@ int call(ln::client& clnt, const Args& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  return guarded_main([&] {
-    Args args(argc, argv);
-    ln::client clnt("lnbench_srv_" + args.role());
-    if (args.role() == "provide") return provide(clnt, args);
-    if (args.role() == "call") return call(clnt, args);
-    throw std::invalid_argument("role must be provide or call");
-  });
+  return role_main(argc, argv, "lnbench_srv_", {{"provide", provide}, {"call", call}});
 }

@@ -7,11 +7,14 @@
 #define BENCH_PROBE_H
 #define _GNU_SOURCE
 #include <sched.h>
+#include <signal.h>
 #include <stdarg.h>
+#include <stdatomic.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -69,6 +72,71 @@ static inline long arg_long(int argc, char** argv, const char* key, long dflt) {
 static inline void arg_cpus(int argc, char** argv, int* a, int* b) {
   const char* s = arg_str(argc, argv, "--cpus", "0,1");
   if (sscanf(s, "%d,%d", a, b) != 2) die("--cpus wants A,B (e.g. 0,1 or 0,0), got '%s'", s);
+}
+
+/* "KEY NAME", NAME one of the n names: its index (0 when the option is absent). */
+static inline int arg_choice(int argc, char** argv, const char* key, const char* const* names, int n) {
+  const char* s = arg_str(argc, argv, key, names[0]);
+  char list[256] = "";
+  for (int i = 0; i < n; i++) {
+    if (!strcmp(s, names[i])) return i;
+    size_t used = strlen(list);
+    snprintf(list + used, sizeof list - used, "%s%s", i ? ", " : "", names[i]);
+  }
+  die("unknown %s '%s' (%s)", key, s, list);
+}
+/* "--deadline-s S": the wall-clock limit of the measurement, well below the hard alarm. */
+static inline long arg_deadline_s(int argc, char** argv) {
+  long s = arg_long(argc, argv, "--deadline-s", 20);
+  if (s < 1 || s > PROBE_HARD_ALARM_S - 10) die("--deadline-s out of range");
+  return s;
+}
+/* The options of a round-trip probe: `choice_key` NAME (one of the n choice_names, the first when
+ * absent: its index), --cpus A,B, --iters N timed round trips after --warmup W untimed ones, and
+ * --deadline-s S (arg_deadline_s). */
+struct rtt_args {
+  int choice, cpu_a, cpu_b;
+  long iters, warmup, deadline_s;
+};
+static inline struct rtt_args arg_rtt(int argc, char** argv, const char* choice_key, const char* const* choice_names,
+                                      int n) {
+  struct rtt_args o;
+  o.choice = arg_choice(argc, argv, choice_key, choice_names, n);
+  arg_cpus(argc, argv, &o.cpu_a, &o.cpu_b);
+  o.iters = arg_long(argc, argv, "--iters", 20000);
+  o.warmup = arg_long(argc, argv, "--warmup", 2000);
+  if (o.iters < 1 || o.iters > 10000000 || o.warmup < 0 || o.warmup > 1000000) die("bad --iters/--warmup");
+  o.deadline_s = arg_deadline_s(argc, argv);
+  return o;
+}
+
+/* --- the two processes of a probe: the measuring one (A) and the forked peer (B) --- */
+/* A after fork(): pins itself to `cpu`, or kills the peer `pid` and dies. */
+static inline void pin_or_end_peer(pid_t pid, int cpu) {
+  if (pin_to_cpu(cpu)) {
+    kill(pid, SIGKILL);
+    die("cannot pin to cpu %d", cpu);
+  }
+}
+/* A after fork(): pin_or_end_peer() and zeroed room for `iters` round-trip samples. */
+static inline uint64_t* start_measuring(pid_t pid, int cpu, long iters) {
+  pin_or_end_peer(pid, cpu);
+  uint64_t* samples = calloc((size_t)iters, sizeof *samples);
+  if (!samples) die("out of memory");
+  return samples;
+}
+/* A after its loop: when A `failed`, raises *abort_flag (B stops waiting) and kills B; reaps B
+ * and dies when B failed (its exit code 4: it could not pin itself). `peer` names B. */
+static inline void reap_peer(pid_t pid, int failed, _Atomic int* abort_flag, const char* peer) {
+  if (failed) {
+    atomic_store(abort_flag, 1);
+    kill(pid, SIGKILL);
+  }
+  int status = 0;
+  waitpid(pid, &status, 0);
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    die("%s failed (%s)", peer,
+        WIFEXITED(status) && WEXITSTATUS(status) == 4 ? "cannot pin it to its cpu" : "deadline or signal");
 }
 
 /* --- statistics over round-trip samples (ns); sorts in place --- */

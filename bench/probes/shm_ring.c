@@ -46,11 +46,10 @@ int main(int argc, char** argv) {
   long msgs = arg_long(argc, argv, "--msgs", 5000000);
   long size = arg_long(argc, argv, "--size", 64);
   long slots = arg_long(argc, argv, "--slots", 1024);
-  long deadline_s = arg_long(argc, argv, "--deadline-s", 20);
+  long deadline_s = arg_deadline_s(argc, argv);
   if (msgs < 1 || msgs > 1000000000) die("--msgs out of range");
   if (size < 8 || size > MAX_SIZE) die("--size must be 8..%d (a message carries its 8-byte sequence number)", MAX_SIZE);
   if (slots < 2 || slots > MAX_SLOTS || (slots & (slots - 1))) die("--slots must be a power of two, 2..%d", MAX_SLOTS);
-  if (deadline_s < 1 || deadline_s > PROBE_HARD_ALARM_S - 10) die("--deadline-s out of range");
 
   const size_t stride = ((size_t)size + 63) & ~(size_t)63; /* no two slots share a cache line */
   const uint64_t mask = (uint64_t)slots - 1;
@@ -92,10 +91,7 @@ int main(int argc, char** argv) {
     _exit(0);
   }
 
-  if (pin_to_cpu(cpu_a)) {
-    kill(pid, SIGKILL);
-    die("cannot pin to cpu %d", cpu_a);
-  }
+  pin_or_end_peer(pid, cpu_a);
   int failed = 0;
   uint32_t spins = 0;
   /* start the clock only once the consumer runs, so fork and pinning are not timed */
@@ -111,15 +107,7 @@ int main(int argc, char** argv) {
     memcpy(sh->slots + (head & mask) * stride, msg, (size_t)size);
     atomic_store_explicit(&sh->head, head + 1, memory_order_release);
   }
-  if (failed) {
-    atomic_store(&sh->abort_flag, 1);
-    kill(pid, SIGKILL);
-  }
-  int status = 0;
-  waitpid(pid, &status, 0);
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
-    die("consumer failed (%s)",
-        WIFEXITED(status) && WEXITSTATUS(status) == 4 ? "cannot pin it to its cpu" : "deadline or signal");
+  reap_peer(pid, failed, &sh->abort_flag, "consumer");
   if (failed) die("producer: deadline of %ld s passed", deadline_s);
   double secs = (double)(sh->consumer_done_ns - t0) / 1e9;
   printf(

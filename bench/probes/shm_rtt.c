@@ -157,52 +157,31 @@ static void responder(struct side* s, int cpu, long total, size_t payload) {
 
 int main(int argc, char** argv) {
   alarm(PROBE_HARD_ALARM_S);
-  const char* mode_name = arg_str(argc, argv, "--mode", "spin");
-  int cpu_a, cpu_b;
-  arg_cpus(argc, argv, &cpu_a, &cpu_b);
-  long iters = arg_long(argc, argv, "--iters", 20000);
-  long warmup = arg_long(argc, argv, "--warmup", 2000);
+  static const char* const mode_names[] = {"spin", "futex", "adaptive", "yield"};  // as enum mode
+  const struct rtt_args o = arg_rtt(argc, argv, "--mode", mode_names, 4);
+  const enum mode mode = (enum mode)o.choice;
+  const char* mode_name = mode_names[mode];
   long payload = arg_long(argc, argv, "--payload", 64);
   long spin_iters = arg_long(argc, argv, "--spin-iters", 200);
-  long deadline_s = arg_long(argc, argv, "--deadline-s", 20);
-
-  enum mode mode;
-  if (!strcmp(mode_name, "spin"))
-    mode = M_SPIN;
-  else if (!strcmp(mode_name, "futex"))
-    mode = M_FUTEX;
-  else if (!strcmp(mode_name, "adaptive"))
-    mode = M_ADAPTIVE;
-  else if (!strcmp(mode_name, "yield"))
-    mode = M_YIELD;
-  else
-    die("unknown --mode '%s' (spin, futex, adaptive, yield)", mode_name);
-  if (iters < 1 || iters > 10000000 || warmup < 0 || warmup > 1000000) die("bad --iters/--warmup");
   if (payload < 0 || payload > MAX_PAYLOAD) die("--payload must be 0..%d", MAX_PAYLOAD);
   if (spin_iters < 1) die("--spin-iters must be >= 1");
-  if (deadline_s < 1 || deadline_s > PROBE_HARD_ALARM_S - 10) die("--deadline-s out of range");
   /* Both spinners on one CPU only progress when the scheduler preempts one: milliseconds per hop. */
-  if (mode == M_SPIN && cpu_a == cpu_b && cpu_a >= 0)
-    die("spin with both processes on cpu %d cannot make progress", cpu_a);
+  if (mode == M_SPIN && o.cpu_a == o.cpu_b && o.cpu_a >= 0)
+    die("spin with both processes on cpu %d cannot make progress", o.cpu_a);
 
   struct shared* sh = mmap(NULL, sizeof *sh, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
   if (sh == MAP_FAILED) die("mmap failed");
   memset(sh, 0, sizeof *sh);
   memset(scratch, 1, sizeof scratch);
   struct side me = {
-      .sh = sh, .mode = mode, .spin_iters = spin_iters, .deadline = now_ns() + (uint64_t)deadline_s * 1000000000ull};
-  const long total = warmup + iters;
+      .sh = sh, .mode = mode, .spin_iters = spin_iters, .deadline = now_ns() + (uint64_t)o.deadline_s * 1000000000ull};
+  const long total = o.warmup + o.iters;
 
   pid_t pid = fork();
   if (pid < 0) die("fork failed");
-  if (pid == 0) responder(&me, cpu_b, total, (size_t)payload);
+  if (pid == 0) responder(&me, o.cpu_b, total, (size_t)payload);
 
-  if (pin_to_cpu(cpu_a)) {
-    kill(pid, SIGKILL);
-    die("cannot pin to cpu %d", cpu_a);
-  }
-  uint64_t* samples = calloc((size_t)iters, sizeof *samples);
-  if (!samples) die("out of memory");
+  uint64_t* samples = start_measuring(pid, o.cpu_a, o.iters);
   int failed = 0;
   for (long i = 1; i <= total && !failed; i++) {
     uint64_t t0 = now_ns();
@@ -211,26 +190,18 @@ int main(int argc, char** argv) {
     failed = wait_peer(&me, &sh->b2a, (uint32_t)i);
     if (payload) memcpy(scratch, sh->b2a_data, (size_t)payload);
     uint64_t t1 = now_ns();
-    if (i > warmup) samples[i - warmup - 1] = t1 - t0;
+    if (i > o.warmup) samples[i - o.warmup - 1] = t1 - t0;
   }
-  if (failed) {
-    atomic_store(&sh->abort_flag, 1);
-    kill(pid, SIGKILL);
-  }
-  int status = 0;
-  waitpid(pid, &status, 0);
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
-    die("responder failed (%s)",
-        WIFEXITED(status) && WEXITSTATUS(status) == 4 ? "cannot pin it to its cpu" : "deadline or signal");
-  if (failed) die("%s: deadline of %ld s passed", mode_name, deadline_s);
+  reap_peer(pid, failed, &sh->abort_flag, "responder");
+  if (failed) die("%s: deadline of %ld s passed", mode_name, o.deadline_s);
 
-  struct rtt_stats st = rtt_stats_of(samples, (size_t)iters);
+  struct rtt_stats st = rtt_stats_of(samples, (size_t)o.iters);
   struct wait_counters b = sh->b_counters;
   uint64_t waits = me.c.waits + b.waits, sleeps = me.c.sleeps + b.sleeps;
   printf(
       "{\"probe\": \"shm_rtt\", \"mode\": \"%s\", \"cpus\": [%d, %d], \"payload\": %ld, "
       "\"warmup\": %ld, \"spin_iters\": %ld, \"ns_per_spin_iter\": %.2f, ",
-      mode_name, cpu_a, cpu_b, payload, warmup, mode == M_ADAPTIVE ? spin_iters : 0, ns_per_spin_iteration());
+      mode_name, o.cpu_a, o.cpu_b, payload, o.warmup, mode == M_ADAPTIVE ? spin_iters : 0, ns_per_spin_iteration());
   print_rtt_stats_json(&st);
   printf(
       ", \"waits\": %llu, \"sleeps\": %llu, \"sleep_share\": %.4f, \"wakes\": %llu, "

@@ -92,26 +92,12 @@ static int send_all(int fd, const char* buf, size_t n) {
 
 int main(int argc, char** argv) {
   alarm(PROBE_HARD_ALARM_S);
-  const char* kind_name = arg_str(argc, argv, "--kind", "unix");
-  int cpu_a, cpu_b;
-  arg_cpus(argc, argv, &cpu_a, &cpu_b);
-  long iters = arg_long(argc, argv, "--iters", 20000);
-  long warmup = arg_long(argc, argv, "--warmup", 2000);
+  static const char* const kind_names[] = {"unix", "udp", "tcp"};  // as enum kind
+  const struct rtt_args o = arg_rtt(argc, argv, "--kind", kind_names, 3);
+  const enum kind k = (enum kind)o.choice;
+  const char* kind_name = kind_names[k];
   long size = arg_long(argc, argv, "--size", 64);
-  long deadline_s = arg_long(argc, argv, "--deadline-s", 20);
-
-  enum kind k;
-  if (!strcmp(kind_name, "unix"))
-    k = K_UNIX;
-  else if (!strcmp(kind_name, "udp"))
-    k = K_UDP;
-  else if (!strcmp(kind_name, "tcp"))
-    k = K_TCP;
-  else
-    die("unknown --kind '%s' (unix, udp, tcp)", kind_name);
-  if (iters < 1 || iters > 10000000 || warmup < 0 || warmup > 1000000) die("bad --iters/--warmup");
   if (size < 1 || size > MAX_SIZE) die("--size must be 1..%d", MAX_SIZE);
-  if (deadline_s < 1 || deadline_s > PROBE_HARD_ALARM_S - 10) die("--deadline-s out of range");
 
   int fd[2];
   make_pair(k, fd);
@@ -119,14 +105,14 @@ int main(int argc, char** argv) {
   char* buf = malloc((size_t)size);
   if (!buf) die("out of memory");
   memset(buf, 7, (size_t)size);
-  const long total = warmup + iters;
-  const uint64_t deadline = now_ns() + (uint64_t)deadline_s * 1000000000ull;
+  const long total = o.warmup + o.iters;
+  const uint64_t deadline = now_ns() + (uint64_t)o.deadline_s * 1000000000ull;
 
   pid_t pid = fork();
   if (pid < 0) die("fork failed");
   if (pid == 0) { /* B: echo */
     alarm(PROBE_HARD_ALARM_S);
-    if (pin_to_cpu(cpu_b)) _exit(4);
+    if (pin_to_cpu(o.cpu_b)) _exit(4);
     close(fd[0]);
     for (long i = 0; i < total; i++)
       if (recv_all(fd[1], buf, (size_t)size, stream) || send_all(fd[1], buf, (size_t)size) || now_ns() > deadline)
@@ -135,12 +121,7 @@ int main(int argc, char** argv) {
   }
 
   close(fd[1]);
-  if (pin_to_cpu(cpu_a)) {
-    kill(pid, SIGKILL);
-    die("cannot pin to cpu %d", cpu_a);
-  }
-  uint64_t* samples = calloc((size_t)iters, sizeof *samples);
-  if (!samples) die("out of memory");
+  uint64_t* samples = start_measuring(pid, o.cpu_a, o.iters);
   int failed = 0;
   for (long i = 0; i < total; i++) {
     uint64_t t0 = now_ns();
@@ -149,7 +130,7 @@ int main(int argc, char** argv) {
       break;
     }
     uint64_t t1 = now_ns();
-    if (i >= warmup) samples[i - warmup] = t1 - t0;
+    if (i >= o.warmup) samples[i - o.warmup] = t1 - t0;
     if (t1 > deadline) {
       failed = 2;
       break;
@@ -158,14 +139,14 @@ int main(int argc, char** argv) {
   if (failed) kill(pid, SIGKILL);
   int status = 0;
   waitpid(pid, &status, 0);
-  if (WIFEXITED(status) && WEXITSTATUS(status) == 4) die("cannot pin the echo process to cpu %d", cpu_b);
+  if (WIFEXITED(status) && WEXITSTATUS(status) == 4) die("cannot pin the echo process to cpu %d", o.cpu_b);
   if (failed == 1) die("%s: send/receive failed or timed out (2 s)", kind_name);
-  if (failed == 2) die("%s: deadline of %ld s passed", kind_name, deadline_s);
+  if (failed == 2) die("%s: deadline of %ld s passed", kind_name, o.deadline_s);
   if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) die("echo process failed (status %d)", status);
 
-  struct rtt_stats st = rtt_stats_of(samples, (size_t)iters);
+  struct rtt_stats st = rtt_stats_of(samples, (size_t)o.iters);
   printf("{\"probe\": \"sock_rtt\", \"kind\": \"%s\", \"cpus\": [%d, %d], \"size\": %ld, \"warmup\": %ld, ", kind_name,
-         cpu_a, cpu_b, size, warmup);
+         o.cpu_a, o.cpu_b, size, o.warmup);
   print_rtt_stats_json(&st);
   printf("}\n");
   free(samples);

@@ -18,7 +18,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent.parent / "bench"))
 
-from benchlib import Row, median, spread_note  # noqa: E402  (bench/ is on sys.path under bench/run)
+from benchlib import Row, median, median_row  # noqa: E402  (bench/ is on sys.path under bench/run)
 
 TITLE = "ln record: 50 topics x 1 kHz x 64 B and 1 MiB images at 30 Hz: loss, CPU per message, write bandwidth"
 ORDER = 320
@@ -60,44 +60,31 @@ def run(ctx):
                 results.setdefault((scenario, recorder), []).append(r[-1])
     for scenario, group in GROUPS.items():
         ours, python = results[(scenario, "ln")], results[(scenario, "python")]
-        lost = [r["lost"] for r in ours]
-        yield Row(
-            group=group,
-            name="ln record",
-            metric="messages lost",
-            unit="msgs",
-            value=max(lost),
-            better="lower",
-            note="goal 0; worst of %d runs of %d messages each" % (len(ours), ours[0]["published"]),
-        )
-        yield Row(
-            group=group,
-            name=PYTHON_RECORDER,
-            metric="messages lost",
-            unit="msgs",
-            value=max(r["lost"] for r in python),
-            better="lower",
-            note="the reference recorder, same load",
-        )
-        values = [r["cpu_us_per_message"] for r in ours]
-        yield Row(
-            group=group,
-            name="ln record",
-            metric="recorder CPU per message",
-            unit="us",
-            value=median(values),
+        worst = "goal 0; worst of %d runs of %d messages each" % (len(ours), ours[0]["published"])
+        for name, runs, note in (
+            ("ln record", ours, worst),
+            (PYTHON_RECORDER, python, "the reference recorder, same load"),
+        ):
+            lost = max(r["lost"] for r in runs)
+            yield Row(
+                group=group, name=name, metric="messages lost", unit="msgs", value=lost, better="lower", note=note
+            )
+        yield median_row(
+            group,
+            "ln record",
+            "recorder CPU per message",
+            "us",
+            [r["cpu_us_per_message"] for r in ours],
             reference_name=PYTHON_RECORDER,
             reference_value=median(r["cpu_us_per_message"] for r in python),
-            note=spread_note(values),
         )
-        values = [r["write_mb_per_s"] for r in ours]
-        yield Row(
-            group=group,
-            name="ln record",
-            metric="write bandwidth",
-            unit="MB/s",
-            value=median(values),
+        yield median_row(
+            group,
+            "ln record",
+            "write bandwidth",
+            "MB/s",
+            [r["write_mb_per_s"] for r in ours],
+            ["I/O thread: CRC + write() per chunk"],
             reference_name="plain sequential write of the same bytes",
             reference_value=median(r["plain_write_mb_per_s"] for r in ours),
-            note="I/O thread: CRC + write() per chunk; " + spread_note(values),
         )

@@ -246,6 +246,18 @@ class Run:
         env = self.ln().env(self.env) if ln_env else self.env
         return self.start(name, [python or sys.executable, __file__, role, *map(str, args)], env)
 
+    def ln_role(self, name, role, *args):
+        """A role that talks LN: the LN system's environment and its peer interpreter."""
+        return self.role(name, role, *args, ln_env=True, python=self.ln().peer_python())
+
+    def ln_sink(self, topic, topics, timeout):
+        """The LN sink of `topics` topics from `topic` on (idle 2 s ends it), ready."""
+        sink = self.ln_role(
+            "sink", "ln-sink", "--topic", topic, "--topics", topics, "--timeout", timeout, "--idle", 2.0
+        )
+        self.events("sink", "ready", 60)
+        return sink
+
     def bridge(self, config_text, name="bridge"):
         config = self.work / (name + ".yaml")
         config.write_text(config_text)
@@ -350,48 +362,13 @@ def measure_flow(args, kind, rate, count, seconds, idle):
         run.events("sink", "ready", 60)
         bridge = meter = None
         delay = IDLE_WINDOW + 0.5
+        timing = _pace(count, rate, seconds, args.timeout, delay)
         if args.via == "bridge":
             bridge = run.bridge(bridge_config(topic, kind))
             run.events("sink", "matched", 60)  # the bridge's ROS publisher exists: no start-up losses
-            source = run.role(
-                "source",
-                "ln-source",
-                "--kind",
-                kind,
-                "--topic",
-                topic,
-                "--count",
-                count,
-                "--rate",
-                rate,
-                "--seconds",
-                seconds,
-                "--timeout",
-                args.timeout,
-                "--start-delay",
-                delay,
-                ln_env=True,
-                python=run.ln().peer_python(),
-            )
+            source = run.ln_role("source", "ln-source", "--kind", kind, "--topic", topic, *timing)
         else:
-            source = run.role(
-                "source",
-                "ros-source",
-                "--kind",
-                kind,
-                "--topic",
-                ros_topic,
-                "--count",
-                count,
-                "--rate",
-                rate,
-                "--seconds",
-                seconds,
-                "--timeout",
-                args.timeout,
-                "--start-delay",
-                delay,
-            )
+            source = run.role("source", "ros-source", "--kind", kind, "--topic", ros_topic, *timing)
         run.events("source", "ready", 60)
         if bridge:
             meter = CpuMeter(bridge.pid)
@@ -414,6 +391,38 @@ def measure_flow(args, kind, rate, count, seconds, idle):
         run.close()
 
 
+def _pace(count, rate, seconds, timeout, delay):
+    """A source's arguments: up to `count` messages at `rate` for `seconds`, after `delay`."""
+    return ["--count", count, "--rate", rate, "--seconds", seconds, "--timeout", timeout, "--start-delay", delay]
+
+
+def _count_flow(run, args, sink, source, bridge, source_cpu=False):
+    """Once the source is ready (the bridge has every topic): the bridge's idle CPU (and the
+    source's), then the flow; returns (counts and CPU shares, bridge CPU seconds beyond idle,
+    source CPU seconds beyond idle or 0). Messages are sent round robin over args.topics."""
+    run.events("source", "ready", 60)
+    meter = CpuMeter(bridge.pid)
+    source_meter = CpuMeter(source.pid) if source_cpu else None
+    meter.idle(IDLE_WINDOW, also=source_meter)
+    sent = run.events("source", "sent", args.timeout + 30)
+    cpu, wall, beyond = meter.flow()
+    source_beyond = source_meter.flow()[2] if source_meter else 0.0
+    received = run.events("sink", "received", args.timeout + 30)
+    per_topic = [len(range(t, sent["count"], args.topics)) for t in range(args.topics)]
+    lost = sum(max(0, n - got) for n, got in zip(per_topic, received["counts"]))
+    sink.wait(timeout=30)
+    source.wait(timeout=30)
+    report = dict(
+        sent=sent["count"],
+        rate=sent["count"] / max(1e-9, sent["seconds"]),
+        received=sum(received["counts"]),
+        lost=lost,
+        bridge_cpu_share=cpu / max(1e-9, wall),
+        bridge_idle_share=meter.idle_share,
+    )
+    return report, beyond, source_beyond
+
+
 def measure_ln_to_ros(args):
     """LN source on args.topics topics -> the measured bridge -> ROS 2 -> a second bridge
     (a compiled ROS sink fast enough for any rate; its node name is no bridge name of the
@@ -421,21 +430,7 @@ def measure_ln_to_ros(args):
     run = Run(args.ln)
     try:
         source_topic, sink_topic, ros_topic = "bench.s", "bench.r", "/bench/s"
-        sink = run.role(
-            "sink",
-            "ln-sink",
-            "--topic",
-            sink_topic,
-            "--topics",
-            args.topics,
-            "--timeout",
-            args.timeout,
-            "--idle",
-            2.0,
-            ln_env=True,
-            python=run.ln().peer_python(),
-        )
-        run.events("sink", "ready", 60)
+        sink = run.ln_sink(sink_topic, args.topics, args.timeout)
         entries = "".join(
             "  - {ln: %s, ros: %s, type: %s, direction: ros_to_ln, qos: {depth: 100, reliability: %s}}\n"
             % (ln_name, ros_name, KINDS["stamped"][0], args.reliability)
@@ -449,45 +444,17 @@ def measure_ln_to_ros(args):
         bridge = run.bridge(
             bridge_config(source_topic, "stamped", "ln_to_ros", args.topics, depth=100, reliability=args.reliability)
         )
-        source = run.role(
+        source = run.ln_role(
             "source",
             "ln-source",
             "--topic",
             source_topic,
             "--topics",
             args.topics,
-            "--count",
-            10**9,
-            "--rate",
-            args.rate,
-            "--seconds",
-            args.seconds,
-            "--timeout",
-            args.timeout,
-            "--start-delay",
-            IDLE_WINDOW + 2.0,
-            ln_env=True,
-            python=run.ln().peer_python(),
+            *_pace(10**9, args.rate, args.seconds, args.timeout, IDLE_WINDOW + 2.0),
         )
-        run.events("source", "ready", 60)  # the measured bridge subscribed every topic
-        meter = CpuMeter(bridge.pid)
-        meter.idle(IDLE_WINDOW)
-        sent = run.events("source", "sent", args.timeout + 30)
-        cpu, wall, beyond = meter.flow()
-        received = run.events("sink", "received", args.timeout + 30)
-        per_topic = [len(range(t, sent["count"], args.topics)) for t in range(args.topics)]
-        lost = sum(max(0, n - got) for n, got in zip(per_topic, received["counts"]))
-        sink.wait(timeout=30)
-        source.wait(timeout=30)
-        return dict(
-            sent=sent["count"],
-            rate=sent["count"] / max(1e-9, sent["seconds"]),
-            received=sum(received["counts"]),
-            lost=lost,
-            bridge_cpu_share=cpu / max(1e-9, wall),
-            bridge_idle_share=meter.idle_share,
-            cpu_us_per_msg=1e6 * beyond / max(1, sent["count"]),
-        )
+        report, beyond, _ = _count_flow(run, args, sink, source, bridge)
+        return dict(report, cpu_us_per_msg=1e6 * beyond / max(1, report["sent"]))
     finally:
         run.close()
 
@@ -497,21 +464,7 @@ def measure_ros_to_ln(args):
     run = Run(args.ln)
     try:
         topic, ros_topic = "bench.s", "/bench/s"
-        sink = run.role(
-            "sink",
-            "ln-sink",
-            "--topic",
-            topic,
-            "--topics",
-            args.topics,
-            "--timeout",
-            args.timeout,
-            "--idle",
-            2.0,
-            ln_env=True,
-            python=run.ln().peer_python(),
-        )
-        run.events("sink", "ready", 60)
+        sink = run.ln_sink(topic, args.topics, args.timeout)
         bridge = run.bridge(bridge_config(topic, "stamped", "ros_to_ln", args.topics, depth=100))
         source = run.role(
             "source",
@@ -522,37 +475,13 @@ def measure_ros_to_ln(args):
             args.topics,
             "--depth",
             100,
-            "--count",
-            10**9,
-            "--rate",
-            args.rate,
-            "--seconds",
-            args.seconds,
-            "--timeout",
-            args.timeout,
-            "--start-delay",
-            IDLE_WINDOW + 1.0,
+            *_pace(10**9, args.rate, args.seconds, args.timeout, IDLE_WINDOW + 1.0),
         )
-        run.events("source", "ready", 60)  # every topic matched by the bridge
-        meter, source_meter = CpuMeter(bridge.pid), CpuMeter(source.pid)
-        meter.idle(IDLE_WINDOW, also=source_meter)
-        sent = run.events("source", "sent", args.timeout + 30)
-        cpu, wall, beyond = meter.flow()
-        source_beyond = source_meter.flow()[2]
-        received = run.events("sink", "received", args.timeout + 30)
-        per_topic = [len(range(t, sent["count"], args.topics)) for t in range(args.topics)]  # round robin
-        lost = sum(max(0, n - got) for n, got in zip(per_topic, received["counts"]))
-        sink.wait(timeout=30)
-        source.wait(timeout=30)
+        report, beyond, source_beyond = _count_flow(run, args, sink, source, bridge, source_cpu=True)
         return dict(
-            sent=sent["count"],
-            rate=sent["count"] / max(1e-9, sent["seconds"]),
-            received=sum(received["counts"]),
-            lost=lost,
-            bridge_cpu_share=cpu / max(1e-9, wall),
-            bridge_idle_share=meter.idle_share,
-            cpu_us_per_msg=1e6 * beyond / max(1, sum(received["counts"])),
-            source_cpu_us_per_msg=1e6 * source_beyond / max(1, sent["count"]),
+            report,
+            cpu_us_per_msg=1e6 * beyond / max(1, report["received"]),
+            source_cpu_us_per_msg=1e6 * source_beyond / max(1, report["sent"]),
         )
     finally:
         run.close()
@@ -604,19 +533,23 @@ def main():
     if args.mode in roles:
         args.rate = 200.0 if args.rate is None else args.rate
         return roles[args.mode](args)
-    if args.mode == "latency":
-        report = measure_flow(args, "stamped", args.rate or 200.0, args.count, 0, 1.0)
-        lat = [v * 1e6 for v in report["latencies"][min(50, len(report["latencies"]) // 10) :]]  # skip warm-up
+    if args.mode in ("latency", "image-latency"):
+        # 64 B stamped messages in us, or 1 MiB images in ms; the first few are warm-up
+        kind, rate, scale, unit, warmup, quantiles = {
+            "latency": ("stamped", 200.0, 1e6, "us", 50, (0.9, 0.99)),
+            "image-latency": ("image", 20.0, 1e3, "ms", 5, (0.9,)),
+        }[args.mode]
+        report = measure_flow(args, kind, args.rate or rate, args.count, 0, 1.0)
+        lat = [v * scale for v in report["latencies"][min(warmup, len(report["latencies"]) // 10) :]]
         emit(
-            mode="latency",
+            mode=args.mode,
             via=args.via,
             ln=args.ln,
             n=len(lat),
             sent=report["sent"],
             received=report["count"],
-            median_us=statistics.median(lat),
-            p90_us=percentile(lat, 0.9),
-            p99_us=percentile(lat, 0.99),
+            **{f"median_{unit}": statistics.median(lat)},
+            **{f"p{round(q * 100)}_{unit}": percentile(lat, q) for q in quantiles},
         )
     elif args.mode == "image":
         report = measure_flow(args, "image", args.rate or 1000.0, 10**9, args.seconds or 5.0, 1.0)
@@ -632,19 +565,6 @@ def main():
             sender_rate=report["sent"] / max(1e-9, report["send_seconds"]),
             median_latency_ms=statistics.median(report["latencies"]) * 1e3 if report["latencies"] else None,
         )
-    elif args.mode == "image-latency":
-        report = measure_flow(args, "image", args.rate or 20.0, args.count, 0, 1.0)
-        lat = [v * 1e3 for v in report["latencies"][min(5, len(report["latencies"]) // 10) :]]  # skip warm-up
-        emit(
-            mode="image-latency",
-            via=args.via,
-            ln=args.ln,
-            n=len(lat),
-            sent=report["sent"],
-            received=report["count"],
-            median_ms=statistics.median(lat),
-            p90_ms=percentile(lat, 0.9),
-        )
     elif args.mode == "cpu":
         report = measure_flow(args, "stamped", args.rate or 1000.0, 10**9, args.seconds or 5.0, 1.0)
         emit(
@@ -656,25 +576,14 @@ def main():
             bridge_idle_share=report["bridge_idle_share"],
             cpu_us_per_msg=1e6 * report["bridge_cpu_beyond_idle"] / max(1, report["count"]),
         )
-    elif args.mode == "ln-to-ros":
-        emit(
-            mode="ln-to-ros",
-            ln=args.ln,
-            topics=args.topics,
-            reliability=args.reliability,
-            **measure_ln_to_ros(
-                argparse.Namespace(**dict(vars(args), rate=args.rate or 2000.0, seconds=args.seconds or 5.0))
-            ),
-        )
-    elif args.mode == "ros-to-ln":
-        emit(
-            mode="ros-to-ln",
-            ln=args.ln,
-            topics=args.topics,
-            **measure_ros_to_ln(
-                argparse.Namespace(**dict(vars(args), rate=args.rate or 2000.0, seconds=args.seconds or 5.0))
-            ),
-        )
+    else:  # ln-to-ros, ros-to-ln
+        flow = argparse.Namespace(**dict(vars(args), rate=args.rate or 2000.0, seconds=args.seconds or 5.0))
+        if args.mode == "ln-to-ros":
+            emit(
+                mode=args.mode, ln=args.ln, topics=args.topics, reliability=args.reliability, **measure_ln_to_ros(flow)
+            )
+        else:
+            emit(mode=args.mode, ln=args.ln, topics=args.topics, **measure_ros_to_ln(flow))
     return 0
 
 

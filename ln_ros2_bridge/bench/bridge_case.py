@@ -35,7 +35,7 @@ sys.path.insert(0, str(HERE.parents[1] / "tests" / "support"))
 
 import ln_testing  # noqa: E402
 import ros_testing  # noqa: E402
-from benchlib import Row, median, spread_note  # noqa: E402  (bench/ is on sys.path under bench/run)
+from benchlib import Row, median, median_row  # noqa: E402  (bench/ is on sys.path under bench/run)
 
 TITLE = "ln_ros2_bridge vs a direct ROS 2 hop and its targets: latency, 1 MiB images, CPU, ROS 2 -> LN"
 ORDER = 300
@@ -119,42 +119,22 @@ def run(ctx):
 
     for kind in systems:
         name = "%s -> bridge -> rclpy" % LABEL[kind]
-        group = "ROS 2 bridge: one-way latency 64 B @ 200 Hz"
-        for metric, field, note in (("median", "median_us", "target <= 1.2x; "), ("p90", "p90_us", "")):
-            v = values(("latency", kind), field)
-            yield Row(
-                group=group,
-                name=name,
-                metric=metric,
-                unit="us",
-                value=median(v),
-                reference_name="rclpy -> rclpy",
-                reference_value=median(values("latency direct", field)),
-                note=note + spread_note(v),
+
+        def vs_direct(group, metric, unit, test, field, *notes):
+            """The bridged figure against the direct rclpy -> rclpy hop of the same runs."""
+            direct = median(values(test + " direct", field))
+            v = values((test, kind), field)
+            return median_row(
+                group, name, metric, unit, v, notes, reference_name="rclpy -> rclpy", reference_value=direct
             )
+
+        group = "ROS 2 bridge: one-way latency 64 B @ 200 Hz"
+        for metric, field, note in (("median", "median_us", "target <= 1.2x"), ("p90", "p90_us", "")):
+            yield vs_direct(group, metric, "us", "latency", field, note)
         group = "ROS 2 bridge: 1 MiB images LN -> ROS 2"
-        v = values(("image", kind), "rate")
-        yield Row(
-            group=group,
-            name=name,
-            metric="delivered, 1000/s offered",
-            unit="msg/s",
-            value=median(v),
-            reference_name="rclpy -> rclpy",
-            reference_value=median(values("image direct", "rate")),
-            note="target >= 1.0x; " + spread_note(v),
-        )
-        v = values(("image-latency", kind), "median_ms")
-        yield Row(
-            group=group,
-            name=name,
-            metric="latency median at 20/s",
-            unit="ms",
-            value=median(v),
-            reference_name="rclpy -> rclpy",
-            reference_value=median(values("image-latency direct", "median_ms")),
-            note="target <= 1.0x; bridge: 32 MiB shared-memory segment; " + spread_note(v),
-        )
+        yield vs_direct(group, "delivered, 1000/s offered", "msg/s", "image", "rate", "target >= 1.0x")
+        memory = "bridge: 32 MiB shared-memory segment"
+        yield vs_direct(group, "latency median at 20/s", "ms", "image-latency", "median_ms", "target <= 1.0x", memory)
         group = "ROS 2 bridge: CPU per 64 B message, 10 kHz over 20 topics"
         publisher = median(values(("ros-to-ln 20", kind), "source_cpu_us_per_msg"))
         for key, what, reference in (
@@ -162,18 +142,17 @@ def run(ctx):
             ("ln-to-ros best effort", "%s -> bridge -> ROS 2, best effort" % LABEL[kind], ""),
             ("ros-to-ln 20", "rclpy -> bridge -> %s, reliable" % LABEL[kind], ""),
         ):
-            v = values((key, kind), "cpu_us_per_msg")
-            shares = values((key, kind), "bridge_cpu_share")
-            yield Row(
-                group=group,
-                name=what,
-                metric="bridge CPU beyond idle",
-                unit="us",
-                value=median(v),
+            share = median(values((key, kind), "bridge_cpu_share"))
+            idle = median(values((key, kind), "bridge_idle_share"))
+            yield median_row(
+                group,
+                what,
+                "bridge CPU beyond idle",
+                "us",
+                values((key, kind), "cpu_us_per_msg"),
+                ["target <= 10 us", "bridge %.0f %% of a core in all, idle %.1f %%" % (100 * share, 100 * idle)],
                 reference_name=reference,
                 reference_value=publisher if reference else None,
-                note="target <= 10 us; bridge %.0f %% of a core in all, idle %.1f %%; %s"
-                % (100 * median(shares), 100 * median(values((key, kind), "bridge_idle_share")), spread_note(v)),
             )
         group = "ROS 2 bridge: ROS 2 -> LN, reliable, nothing lost"
         for key, what in (("ros-to-ln 1", "2 kHz, 1 topic"), ("ros-to-ln 20", "10 kHz, 20 topics")):
@@ -188,13 +167,11 @@ def run(ctx):
                 better="lower",
                 note="target 0; worst of %d runs of %s messages" % (len(lost), "/".join(map(str, sent))),
             )
-            shares = values((key, kind), "bridge_cpu_share")
-            yield Row(
-                group=group,
-                name="rclpy -> bridge -> %s, %s" % (LABEL[kind], what),
-                metric="bridge CPU",
-                unit="%cpu",
-                value=100 * median(shares),
-                note="target < 50 %% of a core; %.1f us per message; %s"
-                % (median(values((key, kind), "cpu_us_per_msg")), spread_note([100 * s for s in shares])),
+            yield median_row(
+                group,
+                "rclpy -> bridge -> %s, %s" % (LABEL[kind], what),
+                "bridge CPU",
+                "%cpu",
+                [100 * s for s in values((key, kind), "bridge_cpu_share")],
+                ["target < 50 % of a core", "%.1f us per message" % median(values((key, kind), "cpu_us_per_msg"))],
             )

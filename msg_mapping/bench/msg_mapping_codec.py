@@ -108,43 +108,34 @@ def run(ctx):
             continue
         ln_bytes = details[(size, "ln_to_cdr")]["ln_bytes"]
         group = f"msg_mapping codec, Float64MultiArray {text} data (LN packet {ln_bytes} B)"
-        yield Row(
-            group=group,
-            name="LN -> CDR, msg_mapping ln_to_cdr",
-            metric="rate",
-            unit="msg/s",
-            value=rate((size, "ln_to_cdr")),
-            reference_name="rclpy serialize_message",
-            reference_value=rate((size, "serialize_message")),
-            note=spread_note([1 / t for t in results[(size, "ln_to_cdr")]]),
-        )
-        yield Row(
-            group=group,
-            name="CDR -> LN, msg_mapping cdr_to_ln",
-            metric="rate",
-            unit="msg/s",
-            value=rate((size, "cdr_to_ln")),
-            reference_name="rclpy deserialize_message",
-            reference_value=rate((size, "deserialize_message")),
-            note=spread_note([1 / t for t in results[(size, "cdr_to_ln")]]),
-        )
-        yield Row(
-            group=group,
-            name="LN -> CDR into preallocated buffer",
-            metric="bandwidth",
-            unit="GB/s",
-            value=ln_bytes * rate((size, "ln_to_cdr_into")) / 1e9,
-            reference_name="memcpy of the LN packet (ctypes.memmove)",
-            reference_value=ln_bytes * rate((size, "memmove")) / 1e9,
-        )
+        for name, method, reference, reference_method in (
+            ("LN -> CDR, msg_mapping ln_to_cdr", "ln_to_cdr", "rclpy serialize_message", "serialize_message"),
+            ("CDR -> LN, msg_mapping cdr_to_ln", "cdr_to_ln", "rclpy deserialize_message", "deserialize_message"),
+        ):
+            yield Row(
+                group=group,
+                name=name,
+                metric="rate",
+                unit="msg/s",
+                value=rate((size, method)),
+                reference_name=reference,
+                reference_value=rate((size, reference_method)),
+                note=spread_note([1 / t for t in results[(size, method)]]),
+            )
+        # LN -> CDR into a preallocated buffer against a copy of the packet, and at 1 MiB against native memcpy
+        memmove = ln_bytes * rate((size, "memmove")) / 1e9
+        references = [("bandwidth", "memcpy of the LN packet (ctypes.memmove)", memmove, "")]
         if size == 1048576 and memcpy:
+            native = "native memcpy 1 MiB (memcpy_bw probe, median trial)"
+            references.append(("bandwidth vs native", native, median(memcpy), spread_note(memcpy)))
+        for metric, reference, reference_value, note in references:
             yield Row(
                 group=group,
                 name="LN -> CDR into preallocated buffer",
-                metric="bandwidth vs native",
+                metric=metric,
                 unit="GB/s",
                 value=ln_bytes * rate((size, "ln_to_cdr_into")) / 1e9,
-                reference_name="native memcpy 1 MiB (memcpy_bw probe, median trial)",
-                reference_value=median(memcpy),
-                note=spread_note(memcpy),
+                reference_name=reference,
+                reference_value=reference_value,
+                note=note,
             )

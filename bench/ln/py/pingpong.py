@@ -16,16 +16,15 @@ pong copies the received packet's fields into its own packet and writes it.
 Output: one JSON line, like the C++ programs.
 """
 
-import argparse
+import contextlib
 import json
-import sys
 import time
 
 import links_and_nodes as ln
 import numpy as np
+from common import STOP, fail, main, rtt_stats
 
 HANDSHAKE = 0xFFFFFFF0
-STOP = 0xFFFFFFFF
 MD = {64: "lnbench/p64", 4096: "lnbench/p4k", 1048576: "lnbench/p1m"}
 
 
@@ -60,9 +59,12 @@ class Stamper:
         return ""
 
 
-def fail(msg, not_implemented=False):
-    print(json.dumps({"ok": False, "error": msg, "not_implemented": not_implemented}), flush=True)
-    sys.exit(2)
+def receive(inp, mode, timeout):
+    """The next packet of `inp` (None after `timeout`) as a context: lent in place by
+    port.borrow() in mode "borrow" until the block ends, else read (copied) into the port."""
+    if mode == "borrow":
+        return inp.borrow(timeout)
+    return contextlib.nullcontext(inp.read(timeout))
 
 
 def pong(clnt, a):
@@ -73,15 +75,7 @@ def pong(clnt, a):
     print(json.dumps({"ready": True}), flush=True)
     last = time.monotonic()
     for _ in range(100_000_000):
-        if a.mode == "borrow":
-            with inp.borrow(0.5) as p:
-                seq = None if p is None else p.seq
-                if p is not None and seq != STOP:
-                    out.packet.seq = seq
-                    out.packet.pad = p.pad
-                    out.write()
-        else:
-            p = inp.read(0.5)
+        with receive(inp, a.mode, 0.5) as p:  # a lent packet is written before the loan ends
             seq = None if p is None else p.seq
             if p is not None and seq != STOP:
                 out.packet.seq = seq
@@ -131,24 +125,14 @@ def ping(clnt, a):
         t0 = clock()
         out.write()
         for _ in range(1000):
-            if a.mode == "borrow":
-                with inp.borrow(2.0) as p:
-                    if p is None:
-                        fail(f"no echo of packet {seq} within 2 s")
-                    if p.seq != seq:
-                        stale += 1
-                        continue
-                    t1 = clock()
-                    bad = st.check(p, seq)  # in place, before the loan ends
-                break
-            p = inp.read(2.0)
-            if p is None:
-                fail(f"no echo of packet {seq} within 2 s")
-            if p.seq != seq:
-                stale += 1
-                continue
-            t1 = clock()
-            bad = st.check(p, seq)
+            with receive(inp, a.mode, 2.0) as p:
+                if p is None:
+                    fail(f"no echo of packet {seq} within 2 s")
+                if p.seq != seq:
+                    stale += 1
+                    continue
+                t1 = clock()
+                bad = st.check(p, seq)  # in place, before a loan ends
             break
         else:
             fail("1000 stale echoes in a row")
@@ -159,11 +143,6 @@ def ping(clnt, a):
     seconds = time.monotonic() - t_start
     out.packet.seq = STOP
     out.write()
-    v = np.sort(np.array(rtt))
-
-    def q(x):
-        return float(v[min(len(v) - 1, int(x * (len(v) - 1) + 0.5))])
-
     print(
         json.dumps(
             {
@@ -171,13 +150,7 @@ def ping(clnt, a):
                 "test": "py_pingpong",
                 "size": a.size,
                 "mode": a.mode,
-                "n": len(v),
-                "median_us": q(0.5),
-                "p90_us": q(0.9),
-                "p99_us": q(0.99),
-                "min_us": float(v[0]),
-                "max_us": float(v[-1]),
-                "mean_us": float(v.mean()),
+                **rtt_stats(np.sort(np.array(rtt))),
                 "stale_echoes": stale,
                 "handshake_s": handshake_s,
                 "seconds": seconds,
@@ -188,26 +161,11 @@ def ping(clnt, a):
     )
 
 
-def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("role", choices=["ping", "pong"])
+def arguments(ap):
     ap.add_argument("--size", type=int, default=64, choices=sorted(MD))
     ap.add_argument("--topic", default="lnbench.pyrtt")
-    ap.add_argument("--n", type=int, default=10000)
-    ap.add_argument("--warmup", type=int, default=200)
-    ap.add_argument("--idle", type=float, default=20)
-    ap.add_argument("--max-seconds", type=float, default=60)
     ap.add_argument("--mode", choices=["copy", "borrow"], default="copy")
-    a = ap.parse_args()
-    try:
-        clnt = ln.client("lnbench_py_" + a.role)
-        (pong if a.role == "pong" else ping)(clnt, a)
-    except SystemExit:
-        raise
-    except Exception as e:
-        msg = f"{type(e).__name__}: {e}"
-        fail(msg, "not yet implemented" in msg.lower() or "NOT_YET_IMPLEMENTED" in msg)
 
 
 if __name__ == "__main__":
-    main()
+    main("lnbench_py_", {"ping": ping, "pong": pong}, arguments)

@@ -7,19 +7,11 @@ The provider answers y = 2 x + seq from wait_and_handle_service_group_requests(N
 a call with seq 0xffffffff stops it. Output: one JSON line, like the C++ programs.
 """
 
-import argparse
 import json
-import sys
 import time
 
 import links_and_nodes as ln
-
-STOP = 0xFFFFFFFF
-
-
-def fail(msg, not_implemented=False):
-    print(json.dumps({"ok": False, "error": msg, "not_implemented": not_implemented}), flush=True)
-    sys.exit(2)
+from common import STOP, fail, main, rtt_stats
 
 
 def provide(clnt, a):
@@ -74,22 +66,12 @@ def call(clnt, a):
     svc.req.x = 0.0
     svc.call()
     rtt.sort()
-
-    def q(x):
-        return rtt[min(len(rtt) - 1, int(x * (len(rtt) - 1) + 0.5))]
-
     print(
         json.dumps(
             {
                 "ok": True,
                 "test": "py_srv_rtt",
-                "n": len(rtt),
-                "median_us": q(0.5),
-                "p90_us": q(0.9),
-                "p99_us": q(0.99),
-                "min_us": rtt[0],
-                "max_us": rtt[-1],
-                "mean_us": sum(rtt) / len(rtt),
+                **rtt_stats(rtt),
                 "seconds": time.monotonic() - t_start,
                 "ln_module": ln.__file__,
             }
@@ -98,24 +80,9 @@ def call(clnt, a):
     )
 
 
-def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("role", choices=["provide", "call"])
-    ap.add_argument("--name", default="lnbench.pysrv")
-    ap.add_argument("--n", type=int, default=10000)
-    ap.add_argument("--warmup", type=int, default=200)
-    ap.add_argument("--idle", type=float, default=20)
-    ap.add_argument("--max-seconds", type=float, default=60)
-    a = ap.parse_args()
-    try:
-        clnt = ln.client("lnbench_pysrv_" + a.role)
-        (provide if a.role == "provide" else call)(clnt, a)
-    except SystemExit:
-        raise
-    except Exception as e:
-        msg = f"{type(e).__name__}: {e}"
-        fail(msg, "not yet implemented" in msg.lower() or "NOT_YET_IMPLEMENTED" in msg)
-
-
 if __name__ == "__main__":
-    main()
+    main(
+        "lnbench_pysrv_",
+        {"provide": provide, "call": call},
+        lambda ap: ap.add_argument("--name", default="lnbench.pysrv"),
+    )
