@@ -34,6 +34,16 @@ int echo_bytes(Request& r) {
   return r.respond().code();
 }
 
+/// A svc_test/add request of a + b; its response's sum preset to `sum` (to see whether an answer
+/// was written).
+svc_test_add_t add_request(int a, int b, int sum = 0) {
+  svc_test_add_t d{};
+  d.req.a = a;
+  d.req.b = b;
+  d.resp.sum = sum;
+  return d;
+}
+
 TEST(CallState, TimeoutThenReconnect) {
   AddProvider p;  // nobody handles the group yet
   auto caller = p.caller();
@@ -75,9 +85,7 @@ TEST(CallState, AsyncCallWithNotificationFd) {
   GroupServer server(p.h.dispatcher, nullptr);
   auto caller = p.caller();
   for (int round = 0; round < 3; ++round) {
-    svc_test_add_t d{};
-    d.req.a = 40;
-    d.req.b = round;
+    svc_test_add_t d = add_request(40, round);
     AsyncCall* call = nullptr;
     ASSERT_EQ(caller->call_async(&d, call), 0) << caller->last_error();
     EXPECT_EQ(caller_request(to_handle(call)), call);
@@ -95,9 +103,7 @@ TEST(CallState, AsyncCallWithNotificationFd) {
 TEST(CallState, OneCallAtATimePerHandle) {
   AddProvider p;  // not handled: calls stay pending
   auto caller = p.caller();
-  svc_test_add_t d{};
-  d.req.a = 1;
-  d.resp.sum = -12345;
+  svc_test_add_t d = add_request(1, 0, -12345);
   AsyncCall* call = nullptr;
   ASSERT_EQ(caller->call_async(&d, call), 0);
   int retval = 0;
@@ -157,9 +163,7 @@ TEST(CallState, AbortAfterArrivalButBeforeLookingDropsTheResponse) {
   AddProvider p;
   GroupServer server(p.h.dispatcher, nullptr);
   auto caller = p.caller();
-  svc_test_add_t d{};
-  d.req.a = 5;
-  d.resp.sum = -1;
+  svc_test_add_t d = add_request(5, 0, -1);
   AsyncCall* call = nullptr;
   ASSERT_EQ(caller->call_async(&d, call), 0);
   pollfd fd{call->notification_fd(), POLLIN, 0};
