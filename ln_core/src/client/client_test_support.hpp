@@ -185,4 +185,14 @@ class ChildProcess {
   std::string buffer_;
 };
 
+/// A test with its own in-process manager (no topic maps from the environment) and C API clients
+/// of it.
+class OwnManagerTest : public ::testing::Test {
+ protected:
+  ln_client connect(const char* name) { return connect_to(manager_.address(), name); }
+
+  ScopedEnv no_topic_map_{"LN_MAP_TOPICS", std::nullopt};
+  InProcessManager manager_;
+};
+
 }  // namespace ln::clienttest

@@ -37,11 +37,10 @@ std::string file_bytes(const std::string& path) {
   return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
 }
 
-class LoggerTest : public ::testing::Test {
+class LoggerTest : public OwnManagerTest {
  protected:
   void SetUp() override { client_ = connect("logging"); }
   void TearDown() override { deinit_clients({&client_, &other_}); }
-  ln_client connect(const char* name) { return connect_to(manager_.address(), name); }
   ln_outport publish(const char* topic, ln_client client = nullptr) {
     ln_outport port = nullptr;
     client = client != nullptr ? client : client_;
@@ -124,8 +123,6 @@ class LoggerTest : public ::testing::Test {
     return first;
   }
 
-  ScopedEnv no_topic_map_{"LN_MAP_TOPICS", std::nullopt};
-  InProcessManager manager_;
   ln_client client_ = nullptr;
   ln_client other_ = nullptr;
 };

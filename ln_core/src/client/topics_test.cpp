@@ -36,14 +36,13 @@ P64 packet(uint32_t seq) {
   return p;
 }
 
-class TopicTest : public ::testing::Test {
+class TopicTest : public OwnManagerTest {
  protected:
   void SetUp() override {
     publisher_ = connect("publisher");
     subscriber_ = connect("subscriber");
   }
   void TearDown() override { deinit_clients({&publisher_, &subscriber_}); }
-  ln_client connect(const char* name) { return connect_to(manager_.address(), name); }
   ln_outport publish(const char* topic, unsigned buffers = 1, ln_client client = nullptr) {
     ln_outport port = nullptr;
     client = client != nullptr ? client : publisher_;
@@ -73,8 +72,6 @@ class TopicTest : public ::testing::Test {
     return 0;
   }
 
-  ScopedEnv no_topic_map_{"LN_MAP_TOPICS", std::nullopt};
-  InProcessManager manager_;
   ln_client publisher_ = nullptr;
   ln_client subscriber_ = nullptr;
 };
