@@ -11,9 +11,13 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <gtest/gtest.h>
+#include <ln/ln.h>
+
 #include <chrono>
 #include <cstring>
 #include <functional>
+#include <initializer_list>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -45,6 +49,33 @@ class InProcessManager : public test::InProcessManager {
  public:
   explicit InProcessManager(std::uint16_t port = 0, std::vector<std::string> md_dirs = {LN_TEST_MD_DIR})
       : test::InProcessManager(std::move(md_dirs), {}, port) {}
+};
+
+/// A C API client of the manager at `address` (nullptr, and a test failure, when it cannot connect).
+inline ln_client connect_to(const std::string& address, const char* name) {
+  ln_client client = nullptr;
+  EXPECT_EQ(ln_init_to_manager(&client, name, address.c_str()), 0) << name << ": " << address;
+  return client;
+}
+
+/// Deinitialises each client that is not nullptr (the end of a test's clients).
+inline void deinit_clients(std::initializer_list<ln_client*> clients) {
+  for (ln_client* c : clients)
+    if (*c != nullptr) ln_deinit(c);
+}
+
+/// A list of lines that handler threads add to and the test reads.
+struct LockedLines {
+  std::mutex mutex;
+  std::vector<std::string> lines;
+  void add(const std::string& line) {
+    std::lock_guard<std::mutex> lock(mutex);
+    lines.push_back(line);
+  }
+  std::vector<std::string> copy() {
+    std::lock_guard<std::mutex> lock(mutex);
+    return lines;
+  }
 };
 
 /// Sets (or, with nullopt, removes) an environment variable for a scope.
@@ -152,6 +183,16 @@ class ChildProcess {
   pid_t pid_ = -1;
   int output_ = -1;
   std::string buffer_;
+};
+
+/// A test with its own in-process manager (no topic maps from the environment) and C API clients
+/// of it.
+class OwnManagerTest : public ::testing::Test {
+ protected:
+  ln_client connect(const char* name) { return connect_to(manager_.address(), name); }
+
+  ScopedEnv no_topic_map_{"LN_MAP_TOPICS", std::nullopt};
+  InProcessManager manager_;
 };
 
 }  // namespace ln::clienttest

@@ -49,19 +49,7 @@ four_strings_t strings(const char* a, const char* b, const char* c, const char* 
 }
 
 // What a handler saw: one line per event, "event name md client".
-struct Seen {
-  std::mutex mutex;
-  std::vector<std::string> lines;
-  std::vector<int> set_data_results;
-  void add(const std::string& line) {
-    std::lock_guard<std::mutex> lock(mutex);
-    lines.push_back(line);
-  }
-  std::vector<std::string> copy() {
-    std::lock_guard<std::mutex> lock(mutex);
-    return lines;
-  }
-};
+using Seen = LockedLines;
 
 void record_resource_event(ln_client, ln_event_call call, void* user_data) {
   auto* seen = static_cast<Seen*>(user_data);
@@ -76,8 +64,7 @@ void record_resource_event(ln_client, ln_event_call call, void* user_data) {
 class EventsTest : public ::testing::Test {
  protected:
   ln_client connect_client(const char* name) {
-    ln_client client = nullptr;
-    EXPECT_EQ(ln_init_to_manager(&client, name, manager_.address().c_str()), 0);
+    ln_client client = connect_to(manager_.address(), name);
     clients_.push_back(client);
     return client;
   }

@@ -72,24 +72,26 @@ TEST(ClientName, ExactIgnoresOverrides) {
 }
 
 TEST(NameMapping, PatternForms) {
-  NameMapping whole;
-  whole.add({"^a.b$", "x"});
-  EXPECT_EQ(whole.apply("a.b"), "x");
-  EXPECT_EQ(whole.apply("a.b.c"), "a.b.c");
-
-  NameMapping prefix;
-  prefix.add({"^robot1.", "robot2."});
-  EXPECT_EQ(prefix.apply("robot1.joints"), "robot2.joints");
-  EXPECT_EQ(prefix.apply("my.robot1.joints"), "my.robot1.joints");
-
-  NameMapping suffix;
-  suffix.add({".state$", ".status"});
-  EXPECT_EQ(suffix.apply("arm.state"), "arm.status");
-  EXPECT_EQ(suffix.apply("arm.state.x"), "arm.state.x");
-
-  NameMapping anywhere;
-  anywhere.add({"sim", "real"});
-  EXPECT_EQ(anywhere.apply("a.sim.b.sim"), "a.real.b.sim");  // the first occurrence only
+  // One rule {search, replace} applied to `name`.
+  const struct {
+    const char* search;
+    const char* replace;
+    const char* name;
+    const char* mapped;
+  } cases[] = {
+      {"^a.b$", "x", "a.b", "x"},  // the whole name
+      {"^a.b$", "x", "a.b.c", "a.b.c"},
+      {"^robot1.", "robot2.", "robot1.joints", "robot2.joints"},  // a prefix
+      {"^robot1.", "robot2.", "my.robot1.joints", "my.robot1.joints"},
+      {".state$", ".status", "arm.state", "arm.status"},  // a suffix
+      {".state$", ".status", "arm.state.x", "arm.state.x"},
+      {"sim", "real", "a.sim.b.sim", "a.real.b.sim"},  // anywhere: the first occurrence only
+  };
+  for (const auto& c : cases) {
+    NameMapping mapping;
+    mapping.add({c.search, c.replace});
+    EXPECT_EQ(mapping.apply(c.name), c.mapped) << "'" << c.search << "' on '" << c.name << "'";
+  }
 }
 
 TEST(NameMapping, RulesApplyInOrderCumulatively) {

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <iterator>
 #include <random>
+#include <tuple>
 
 #include "client/failure.hpp"
 #include "testing/temp_dir.hpp"
@@ -53,6 +54,11 @@ std::vector<LoggerData::Topic> example_topics() {
   return {recorded, silent};
 }
 
+/// Every field of a topic, to compare topics whole.
+auto fields(const LoggerData::Topic& t) {
+  return std::tie(t.name, t.log_size, t.divisor, t.n_samples, t.sample_size, t.md_name, t.md, t.samples);
+}
+
 // The layout of ln/ln.h's logger data files, written here field by field.
 struct FileBuilder {
   std::string bytes;
@@ -80,14 +86,7 @@ TEST_F(LoggerDataTest, RoundTripsEveryField) {
   for (std::size_t i = 0; i < 2; ++i) {
     const LoggerData::Topic& a = data.contents(i);
     const LoggerData::Topic& b = loaded->contents(i);
-    EXPECT_EQ(a.name, b.name);
-    EXPECT_EQ(a.log_size, b.log_size);
-    EXPECT_EQ(a.divisor, b.divisor);
-    EXPECT_EQ(a.n_samples, b.n_samples);
-    EXPECT_EQ(a.sample_size, b.sample_size);
-    EXPECT_EQ(a.md_name, b.md_name);
-    EXPECT_EQ(a.md, b.md);
-    EXPECT_EQ(a.samples, b.samples);
+    EXPECT_EQ(fields(a), fields(b));
   }
   // The ln.h view points at the same contents.
   logger_topic* view = loaded->topic(0);

@@ -37,19 +37,10 @@ std::string file_bytes(const std::string& path) {
   return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
 }
 
-class LoggerTest : public ::testing::Test {
+class LoggerTest : public OwnManagerTest {
  protected:
   void SetUp() override { client_ = connect("logging"); }
-  void TearDown() override {
-    for (ln_client* c : {&client_, &other_}) {
-      if (*c != nullptr) ln_deinit(c);
-    }
-  }
-  ln_client connect(const char* name) {
-    ln_client client = nullptr;
-    EXPECT_EQ(ln_init_to_manager(&client, name, manager_.address().c_str()), 0);
-    return client;
-  }
+  void TearDown() override { deinit_clients({&client_, &other_}); }
   ln_outport publish(const char* topic, ln_client client = nullptr) {
     ln_outport port = nullptr;
     client = client != nullptr ? client : client_;
@@ -61,12 +52,17 @@ class LoggerTest : public ::testing::Test {
     EXPECT_EQ(ln_client_get_logger(client != nullptr ? client : client_, &handle, name), 0);
     return handle;
   }
-  /// A logger of `topic` that recorded packets 1..count (enabled, written, disabled).
-  ln_logger recorded(const char* name, const char* topic, ln_outport out, unsigned log_size, uint32_t count,
-                     unsigned divisor = 1) {
+  /// An enabled logger of `topic`.
+  ln_logger enabled(const char* name, const char* topic, unsigned log_size, unsigned divisor = 1) {
     ln_logger lg = logger(name);
     EXPECT_EQ(ln_logger_add_topic(lg, topic, log_size, divisor), 0);
     EXPECT_EQ(ln_logger_enable(lg), 0) << ln_get_error_message(client_);
+    return lg;
+  }
+  /// A logger of `topic` that recorded packets 1..count (enabled, written, disabled).
+  ln_logger recorded(const char* name, const char* topic, ln_outport out, unsigned log_size, uint32_t count,
+                     unsigned divisor = 1) {
+    ln_logger lg = enabled(name, topic, log_size, divisor);
     write(out, 1, count);
     EXPECT_EQ(ln_logger_disable(lg), 0);
     return lg;
@@ -127,8 +123,6 @@ class LoggerTest : public ::testing::Test {
     return first;
   }
 
-  ScopedEnv no_topic_map_{"LN_MAP_TOPICS", std::nullopt};
-  InProcessManager manager_;
   ln_client client_ = nullptr;
   ln_client other_ = nullptr;
 };
@@ -172,9 +166,7 @@ TEST_F(LoggerTest, RecordsTheNewestLogSizePacketsOfAPublishedTopic) {
 
 TEST_F(LoggerTest, ALoggerIsNoSubscriber) {
   ln_outport out = publish("lg.hidden");
-  ln_logger lg = logger("hidden");
-  ASSERT_EQ(ln_logger_add_topic(lg, "lg.hidden", 10, 1), 0);
-  ASSERT_EQ(ln_logger_enable(lg), 0);
+  ln_logger lg = enabled("hidden", "lg.hidden", 10);
   write(out, 1, 3);
   ln_topic_info* topics = nullptr;
   unsigned count = 0;
@@ -251,9 +243,7 @@ TEST_F(LoggerTest, ATopicPublishedLaterIsRecordedFromThenOn) {
 TEST_F(LoggerTest, TheRecordingOutlivesItsPublisherAndGoesOnWithTheNext) {
   other_ = connect("first_publisher");
   ln_outport first = publish("lg.outlive", other_);
-  ln_logger lg = logger("outlive");
-  ASSERT_EQ(ln_logger_add_topic(lg, "lg.outlive", 100, 1), 0);
-  ASSERT_EQ(ln_logger_enable(lg), 0);
+  ln_logger lg = enabled("outlive", "lg.outlive", 100);
   write(first, 1, 5, 0);
   ASSERT_EQ(ln_deinit(&other_), 0);  // closes the segment right after the writes
   EXPECT_EQ(seqs(download(lg)), (std::vector<uint32_t>{1, 2, 3, 4, 5}));
@@ -291,9 +281,7 @@ TEST_F(LoggerTest, LoggersOfOneTopicRecordIndependently) {
 
 TEST_F(LoggerTest, DownloadWhileEnabledGivesTheRecordingSoFar) {
   ln_outport out = publish("lg.live");
-  ln_logger lg = logger("live");
-  ASSERT_EQ(ln_logger_add_topic(lg, "lg.live", 100, 1), 0);
-  ASSERT_EQ(ln_logger_enable(lg), 0);
+  ln_logger lg = enabled("live", "lg.live", 100);
   write(out, 1, 3);
   EXPECT_EQ(seqs(download(lg)), (std::vector<uint32_t>{1, 2, 3}));
   write(out, 4, 2);
@@ -303,9 +291,7 @@ TEST_F(LoggerTest, DownloadWhileEnabledGivesTheRecordingSoFar) {
 
 TEST_F(LoggerTest, AOneKilohertzStreamIsRecordedCompletely) {
   ln_outport out = publish("lg.stream");
-  ln_logger lg = logger("stream");
-  ASSERT_EQ(ln_logger_add_topic(lg, "lg.stream", 1000, 1), 0);
-  ASSERT_EQ(ln_logger_enable(lg), 0);
+  ln_logger lg = enabled("stream", "lg.stream", 1000);
   write(out, 1, 600, 0.001);
   ASSERT_EQ(ln_logger_disable(lg), 0);
   const auto samples = download(lg);

@@ -9,6 +9,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstring>
+#include <initializer_list>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -66,16 +67,10 @@ typedef struct LN_PACKED {
 #include "ln/endpacked.h"
 
 // "<type> <service> <client>" per item; a gate can hold the logger's handler.
-struct LogBook {
-  std::mutex mutex;
+struct LogBook : LockedLines {  // lines: the items
   std::condition_variable changed;
-  std::vector<std::string> items;
   std::vector<std::string> data;
   bool hold = false;
-  std::vector<std::string> copy() {
-    std::lock_guard<std::mutex> lock(mutex);
-    return items;
-  }
 };
 
 int log_handler(ln_client, ln_service_request request, void* user_data) {
@@ -84,7 +79,7 @@ int log_handler(ln_client, ln_service_request request, void* user_data) {
   if (ln_service_request_set_data(request, &item, kLogSignature) != 0) return -1;
   std::unique_lock<std::mutex> lock(book->mutex);
   book->changed.wait(lock, [&] { return !book->hold; });
-  book->items.push_back(std::to_string(item.req.item_type) + " " +
+  book->lines.push_back(std::to_string(item.req.item_type) + " " +
                         std::string(item.req.service_name, item.req.service_name_len) + " " +
                         std::string(item.req.client_name, item.req.client_name_len));
   book->data.push_back(std::string(reinterpret_cast<char*>(item.req.data), item.req.data_len));
@@ -104,8 +99,7 @@ int echo_handler(ln_client, ln_service_request request, void*) {
 class ServiceLoggingTest : public ::testing::Test {
  protected:
   ln_client connect_client(const char* name) {
-    ln_client client = nullptr;
-    EXPECT_EQ(ln_init_to_manager(&client, name, manager_.address().c_str()), 0);
+    ln_client client = connect_to(manager_.address(), name);
     clients_.push_back(client);
     return client;
   }
@@ -120,11 +114,46 @@ class ServiceLoggingTest : public ::testing::Test {
   }
   // Every client's default group, served by a pool thread.
   void serve(ln_client client) { ASSERT_EQ(ln_handle_service_group_in_thread_pool(client, nullptr, "serve"), 0); }
+  // A client whose default group is served (serve()).
+  ln_client serving_client(const char* name) {
+    ln_client client = connect_client(name);
+    serve(client);
+    return client;
+  }
   static int call(ln_service service, const char* text) {
     echo_t data{};
     data.req.text = const_cast<char*>(text);
     data.req.text_len = static_cast<uint32_t>(std::strlen(text));
     return ln_service_call(service, &data);
+  }
+  // `logger` provides "svc.log", logging into book_, and registers it as the logger of "svc.*".
+  void become_logger(ln_client logger) {
+    provide(logger, "svc.log", "ln/log_service", kLogSignature, log_handler, &book_);
+    ASSERT_EQ(ln_register_as_service_logger(logger, "svc.log", "svc.*"), 0) << ln_get_error_message(logger);
+  }
+  void provide_echo(ln_client provider) {
+    provide(provider, "svc.echo", "test/echo", kEchoSignature, echo_handler, nullptr);
+  }
+  // `caller`'s handle of "svc.echo".
+  ln_service echo_of(ln_client caller) {
+    ln_service echo = nullptr;
+    EXPECT_EQ(ln_service_init(caller, &echo, "svc.echo", "test/echo", kEchoSignature), 0);
+    services_.push_back(echo);
+    return echo;
+  }
+  // Calls `echo` with `text` until book_ holds each of `items` (the notifications that make the
+  // sides log travel asynchronously), bounded by `limit`.
+  bool call_until_logged(ln_service echo, const char* text, std::initializer_list<const char*> items,
+                         std::chrono::seconds limit) {
+    return wait_until(
+        [&] {
+          call(echo, text);
+          const auto logged = book_.copy();
+          for (const char* item : items)
+            if (std::find(logged.begin(), logged.end(), item) == logged.end()) return false;
+          return true;
+        },
+        limit);
   }
   void TearDown() override {
     for (ln_service& service : services_) ln_service_deinit(&service);
@@ -143,45 +172,26 @@ class ServiceLoggingTest : public ::testing::Test {
 // LN 2.9's provider hangs in this order (a logger of a service it already
 // provides); here providers and callers that exist already learn of it.
 TEST_F(ServiceLoggingTest, ExistingProvidersAndCallersLogToANewLogger) {
-  ln_client provider = connect_client("provider");
+  ln_client provider = serving_client("provider");
   ln_client caller = connect_client("caller");
-  ln_client logger = connect_client("logger");
-  serve(provider);
-  serve(logger);
-  provide(provider, "svc.echo", "test/echo", kEchoSignature, echo_handler, nullptr);
-  ln_service echo = nullptr;
-  ASSERT_EQ(ln_service_init(caller, &echo, "svc.echo", "test/echo", kEchoSignature), 0);
-  services_.push_back(echo);
+  ln_client logger = serving_client("logger");
+  provide_echo(provider);
+  ln_service echo = echo_of(caller);
   ASSERT_EQ(call(echo, "before"), 0);
 
-  LogBook& book = book_;
-  provide(logger, "svc.log", "ln/log_service", kLogSignature, log_handler, &book);
-  ASSERT_EQ(ln_register_as_service_logger(logger, "svc.log", "svc.*"), 0) << ln_get_error_message(logger);
-  // The add_service_logger notifications travel asynchronously: call until
-  // both sides log (bounded).
-  ASSERT_TRUE(wait_until(
-      [&] {
-        call(echo, "after");
-        const auto items = book.copy();
-        return std::find(items.begin(), items.end(), "0 svc.echo caller") != items.end() &&
-               std::find(items.begin(), items.end(), "1 svc.echo provider") != items.end();
-      },
-      30s));
+  become_logger(logger);
+  // The add_service_logger notifications travel asynchronously: call until both sides log.
+  ASSERT_TRUE(call_until_logged(echo, "after", {"0 svc.echo caller", "1 svc.echo provider"}, 30s));
 }
 
 TEST_F(ServiceLoggingTest, ALoggerNeverHoldsUpTheCallsItLogs) {
-  ln_client logger = connect_client("logger");
-  ln_client provider = connect_client("provider");
+  ln_client logger = serving_client("logger");
+  ln_client provider = serving_client("provider");
   ln_client caller = connect_client("caller");
-  serve(logger);
-  serve(provider);
   LogBook& book = book_;
-  provide(logger, "svc.log", "ln/log_service", kLogSignature, log_handler, &book);
-  ASSERT_EQ(ln_register_as_service_logger(logger, "svc.log", "svc.*"), 0);
-  provide(provider, "svc.echo", "test/echo", kEchoSignature, echo_handler, nullptr);
-  ln_service echo = nullptr;
-  ASSERT_EQ(ln_service_init(caller, &echo, "svc.echo", "test/echo", kEchoSignature), 0);
-  services_.push_back(echo);
+  become_logger(logger);
+  provide_echo(provider);
+  ln_service echo = echo_of(caller);
   {
     std::lock_guard<std::mutex> lock(book.mutex);
     book.hold = true;  // the logger handles nothing until released
@@ -196,12 +206,12 @@ TEST_F(ServiceLoggingTest, ALoggerNeverHoldsUpTheCallsItLogs) {
   // LN 2.9's data: request = u32 size | u16 32 | u32 client id | u32 request id | flat;
   // response = u32 size | i32 0 | flat.
   std::lock_guard<std::mutex> lock(book.mutex);
-  for (std::size_t i = 0; i < book.items.size(); ++i) {
+  for (std::size_t i = 0; i < book.lines.size(); ++i) {
     const std::string& d = book.data[i];
     uint32_t size = 0;
     std::memcpy(&size, d.data(), 4);
     EXPECT_EQ(size, d.size());
-    if (book.items[i][0] == '0') {
+    if (book.lines[i][0] == '0') {
       EXPECT_EQ(d.size(), 14u + 5u);
       EXPECT_EQ(d.substr(4, 2), std::string("\x20\0", 2));
     } else {
@@ -223,29 +233,17 @@ TEST_F(ServiceLoggingTest, BadRegistrationsFailClearly) {
 }
 
 TEST_F(ServiceLoggingTest, LoggingResumesAfterAManagerRestart) {
-  ln_client logger = connect_client("logger");
-  ln_client provider = connect_client("provider");
-  serve(logger);
-  serve(provider);
-  LogBook& book = book_;
-  provide(logger, "svc.log", "ln/log_service", kLogSignature, log_handler, &book);
-  ASSERT_EQ(ln_register_as_service_logger(logger, "svc.log", "svc.*"), 0);
-  provide(provider, "svc.echo", "test/echo", kEchoSignature, echo_handler, nullptr);
+  ln_client logger = serving_client("logger");
+  ln_client provider = serving_client("provider");
+  become_logger(logger);
+  provide_echo(provider);
   manager_.restart();
   ln_client caller = nullptr;
   ASSERT_TRUE(wait_until([&] { return ln_init_to_manager(&caller, "caller", manager_.address().c_str()) == 0; }, 10s));
   clients_.push_back(caller);
-  ln_service echo = nullptr;
-  ASSERT_EQ(ln_service_init(caller, &echo, "svc.echo", "test/echo", kEchoSignature), 0);
-  services_.push_back(echo);
+  ln_service echo = echo_of(caller);
   // Once the provider and the logger are registered again, calls are logged again.
-  EXPECT_TRUE(wait_until(
-      [&] {
-        call(echo, "again");
-        const auto items = book.copy();
-        return std::find(items.begin(), items.end(), "1 svc.echo provider") != items.end();
-      },
-      10s));
+  EXPECT_TRUE(call_until_logged(echo, "again", {"1 svc.echo provider"}, 10s));
 }
 
 }  // namespace

@@ -36,22 +36,13 @@ P64 packet(uint32_t seq) {
   return p;
 }
 
-class TopicTest : public ::testing::Test {
+class TopicTest : public OwnManagerTest {
  protected:
   void SetUp() override {
     publisher_ = connect("publisher");
     subscriber_ = connect("subscriber");
   }
-  void TearDown() override {
-    for (ln_client* c : {&publisher_, &subscriber_}) {
-      if (*c != nullptr) ln_deinit(c);
-    }
-  }
-  ln_client connect(const char* name) {
-    ln_client client = nullptr;
-    EXPECT_EQ(ln_init_to_manager(&client, name, manager_.address().c_str()), 0);
-    return client;
-  }
+  void TearDown() override { deinit_clients({&publisher_, &subscriber_}); }
   ln_outport publish(const char* topic, unsigned buffers = 1, ln_client client = nullptr) {
     ln_outport port = nullptr;
     client = client != nullptr ? client : publisher_;
@@ -81,8 +72,6 @@ class TopicTest : public ::testing::Test {
     return 0;
   }
 
-  ScopedEnv no_topic_map_{"LN_MAP_TOPICS", std::nullopt};
-  InProcessManager manager_;
   ln_client publisher_ = nullptr;
   ln_client subscriber_ = nullptr;
 };
@@ -785,6 +774,15 @@ class RemoteTopicTest : public TopicTest {
     ScopedEnv elsewhere("LN_CORE_HOST_ID", std::string("another-host/1"));
     return connect("remote_subscriber");
   }
+  /// `remote`'s subscription of `topic` over TCP (`reliable` 1) or UDP (0), at most `rate` packets
+  /// per second (-1: all).
+  static ln_inport subscribe_remote(ln_client remote, const char* topic, int reliable, unsigned buffers,
+                                    double rate = -1, const char* definition = "test/p64") {
+    ln_inport in = nullptr;
+    EXPECT_EQ(ln_subscribe_with_buffers(remote, topic, definition, &in, rate, reliable, buffers), 0)
+        << ln_get_error_message(remote);
+    return in;
+  }
   void expect_in_order(ln_outport out, ln_inport in, uint32_t count) {
     P64 received{};
     // Packets sent before the publisher knew this subscriber are not delivered.
@@ -813,9 +811,8 @@ class RemoteTopicTest : public TopicTest {
 TEST_F(RemoteTopicTest, UdpAndTcpDeliverInOrder) {
   ln_client remote = remote_client();
   ln_outport out = publish("r.data", 1);
-  ln_inport over_udp = nullptr, over_tcp = nullptr;
-  ASSERT_EQ(ln_subscribe_with_buffers(remote, "r.data", "test/p64", &over_udp, -1, 0, 256), 0);
-  ASSERT_EQ(ln_subscribe_with_buffers(remote, "r.data", "test/p64", &over_tcp, -1, 1, 256), 0);
+  ln_inport over_udp = subscribe_remote(remote, "r.data", 0, 256);
+  ln_inport over_tcp = subscribe_remote(remote, "r.data", 1, 256);
   EXPECT_TRUE(wait_until([&] { return ln_has_publisher(over_udp) == 1 && ln_has_subscriber(out) == 2; }));
   expect_in_order(out, over_tcp, 200);
   expect_in_order(out, over_udp, 200);
@@ -828,8 +825,7 @@ TEST_F(RemoteTopicTest, UdpAndTcpDeliverInOrder) {
 TEST_F(RemoteTopicTest, MultiWaiterWakesForRemotePackets) {
   ln_client remote = remote_client();
   ln_outport out = publish("r.mw", 1);
-  ln_inport in = nullptr;
-  ASSERT_EQ(ln_subscribe_with_buffers(remote, "r.mw", "test/p64", &in, -1, 1, 4), 0);
+  ln_inport in = subscribe_remote(remote, "r.mw", 1, 4);
   ln_multi_waiter waiter = nullptr;
   ASSERT_EQ(ln_multi_waiter_init(remote, &waiter), 0);
   ASSERT_EQ(ln_multi_waiter_add_port(waiter, in), 0);
@@ -845,9 +841,8 @@ TEST_F(RemoteTopicTest, LargePacketsAreFragmentedAndReassembled) {
   ln_client remote = remote_client();
   ln_outport out = nullptr;
   ASSERT_EQ(ln_publish(publisher_, "r.big", "test/big", &out), 0);
-  ln_inport over_udp = nullptr, over_tcp = nullptr;
-  ASSERT_EQ(ln_subscribe_with_buffers(remote, "r.big", "test/big", &over_udp, -1, 0, 4), 0);
-  ASSERT_EQ(ln_subscribe_with_buffers(remote, "r.big", "test/big", &over_tcp, -1, 1, 4), 0);
+  ln_inport over_udp = subscribe_remote(remote, "r.big", 0, 4, -1, "test/big");
+  ln_inport over_tcp = subscribe_remote(remote, "r.big", 1, 4, -1, "test/big");
   std::vector<uint8_t> sent(1 << 20), received(1 << 20);
   for (size_t i = 0; i < sent.size(); ++i) sent[i] = static_cast<uint8_t>(i * 7);
   for (ln_inport in : {over_tcp, over_udp}) {
@@ -865,8 +860,7 @@ TEST_F(RemoteTopicTest, LargePacketsAreFragmentedAndReassembled) {
 TEST_F(RemoteTopicTest, RateLimitAppliesToRemoteSubscribers) {
   ln_client remote = remote_client();
   ln_outport out = publish("r.rate", 64);
-  ln_inport in = nullptr;
-  ASSERT_EQ(ln_subscribe_with_buffers(remote, "r.rate", "test/p64", &in, 10.0, 1, 64), 0);
+  ln_inport in = subscribe_remote(remote, "r.rate", 1, 64, 10.0);
   P64 received{};
   bool flowing = false;
   for (uint32_t i = 0; !flowing && i < 5000; ++i) {
@@ -892,8 +886,7 @@ TEST_F(RemoteTopicTest, RateLimitAppliesToRemoteSubscribers) {
 TEST_F(RemoteTopicTest, RemoteSubscriptionSurvivesManagerRestart) {
   ln_client remote = remote_client();
   ln_outport out = publish("r.restart", 1);
-  ln_inport in = nullptr;
-  ASSERT_EQ(ln_subscribe_with_buffers(remote, "r.restart", "test/p64", &in, -1, 1, 64), 0);
+  ln_inport in = subscribe_remote(remote, "r.restart", 1, 64);
   expect_in_order(out, in, 20);
   manager_.restart();
   EXPECT_TRUE(wait_until([&] { return ln_ping(remote, 1.0, nullptr) == 0 && ln_ping(publisher_, 1.0, nullptr) == 0; }));

@@ -8,6 +8,7 @@
 #include <sys/resource.h>
 
 #include <algorithm>
+#include <initializer_list>
 
 #include "manager/config.hpp"
 #include "manager/test_support.hpp"
@@ -29,6 +30,16 @@ class LncObjectsTest : public ::testing::Test {
     }
     return "(no error)";
   }
+
+  /// Reading `text` fails with an error that contains each of `parts`.
+  ::testing::AssertionResult fails_with(const std::string& text, std::initializer_list<const char*> parts) {
+    const std::string error = error_of(text);
+    for (const char* part : parts)
+      if (error.find(part) == std::string::npos)
+        return ::testing::AssertionFailure() << "the error '" << error << "' does not contain '" << part << "'";
+    return ::testing::AssertionSuccess();
+  }
+  ::testing::AssertionResult fails_with(const std::string& text, const char* part) { return fails_with(text, {part}); }
 
   std::size_t logged(const std::string& text) const {
     return static_cast<std::size_t>(std::count_if(
@@ -164,10 +175,8 @@ TEST_F(LncObjectsTest, ListModifiersAsLn29) {
   EXPECT_EQ(p.flags, (std::vector<std::string>{"no_pty", "start_in_shell"}));
   EXPECT_EQ(p.command, "/bin/true --more") << "values are stripped: a leading space needs quotes, as in LN 2.9";
   EXPECT_TRUE(p.depends_on.empty());
-  EXPECT_NE(error_of("process p\ncommand: x\nadd command: y\n").find("robot.lnc:3: 'add command': only list keys"),
-            std::string::npos);
-  EXPECT_NE(error_of("process p\ncommmand: /bin/true\n").find("robot.lnc:2: unknown key 'commmand' in process 'p'"),
-            std::string::npos);
+  EXPECT_TRUE(fails_with("process p\ncommand: x\nadd command: y\n", "robot.lnc:3: 'add command': only list keys"));
+  EXPECT_TRUE(fails_with("process p\ncommmand: /bin/true\n", "robot.lnc:2: unknown key 'commmand' in process 'p'"));
 }
 
 TEST_F(LncObjectsTest, TemplatesWithArgumentsDefaultsAndNesting) {
@@ -193,17 +202,13 @@ TEST_F(LncObjectsTest, TemplatesWithArgumentsDefaultsAndNesting) {
   const ProcessConfig& b = process(s, "b");
   EXPECT_EQ(b.command, "/usr/bin/python3 b.py --slow, really");
   EXPECT_EQ(b.flags, (std::vector<std::string>{"no_error_on_successful_stop", "no_pty"}));
-  EXPECT_NE(error_of("process a\nuse_template: missing()\n")
-                .find("robot.lnc:2: use_template: there is no template 'missing'"),
-            std::string::npos);
-  EXPECT_NE(
-      error_of("template t(x)\ncommand: %(x)\nprocess a\nuse_template: t(1, 2)\n").find("takes 1 argument(s), got 2"),
-      std::string::npos);
-  const std::string nested_error = error_of("template t()\nbogus_key: 1\nprocess a\nuse_template: t()\n");
-  EXPECT_NE(nested_error.find("robot.lnc:2: unknown key 'bogus_key'"), std::string::npos) << nested_error;
-  EXPECT_NE(nested_error.find("in template 't' used here"), std::string::npos) << nested_error;
-  EXPECT_NE(error_of("template t()\nuse_template: t()\nprocess a\nuse_template: t()\n").find("too deeply"),
-            std::string::npos);
+  EXPECT_TRUE(
+      fails_with("process a\nuse_template: missing()\n", "robot.lnc:2: use_template: there is no template 'missing'"));
+  EXPECT_TRUE(
+      fails_with("template t(x)\ncommand: %(x)\nprocess a\nuse_template: t(1, 2)\n", "takes 1 argument(s), got 2"));
+  EXPECT_TRUE(fails_with("template t()\nbogus_key: 1\nprocess a\nuse_template: t()\n",
+                         {"robot.lnc:2: unknown key 'bogus_key'", "in template 't' used here"}));
+  EXPECT_TRUE(fails_with("template t()\nuse_template: t()\nprocess a\nuse_template: t()\n", "too deeply"));
 }
 
 TEST_F(LncObjectsTest, DefaultTemplatesApplyUnlessAProcessOptsOut) {
@@ -243,9 +248,8 @@ TEST_F(LncObjectsTest, NamePrefixesScopeNamesAndEndWithTheirFile) {
   EXPECT_EQ(names(ctrl.depends_on), (std::vector<std::string>{"robot/arm/driver"})) << "the nearest scope first";
   EXPECT_NO_THROW(process(s, "robot/driver")) << "the include's prefix ended with it";
   EXPECT_EQ(names(process(s, "top").depends_on), (std::vector<std::string>{"robot/arm/ctrl"}));
-  EXPECT_NE(error_of("process x\ncommand: /bin/true\nprocess x\ncommand: /bin/true\n")
-                .find("robot.lnc:3: 'x' is defined twice"),
-            std::string::npos);
+  EXPECT_TRUE(fails_with("process x\ncommand: /bin/true\nprocess x\ncommand: /bin/true\n",
+                         "robot.lnc:3: 'x' is defined twice"));
 }
 
 TEST_F(LncObjectsTest, DependenciesResolveNamesGlobsAndProviders) {
@@ -269,25 +273,20 @@ TEST_F(LncObjectsTest, DependenciesResolveNamesGlobsAndProviders) {
   EXPECT_EQ(names(viewer.depends_on_restart), (std::vector<std::string>{"sim"}));
   EXPECT_EQ(viewer.start_before, (std::vector<std::string>{"cam_right"}));
   EXPECT_EQ(process(s, "hardware").provides, (std::vector<std::pair<std::string, double>>{{"robot.state", 1.0}}));
-  EXPECT_NE(error_of("process a\ncommand: /bin/true\ndepends_on: nobody\n")
-                .find("robot.lnc:3: process 'a': depends_on: there is no process, state or provider 'nobody'"),
-            std::string::npos);
-  EXPECT_NE(error_of("process a\ncommand: /bin/true\ndepends_on: !b\nprocess b\ncommand: /bin/true\n")
-                .find("only a state can be required DOWN"),
-            std::string::npos);
-  EXPECT_NE(error_of("state s\ncheck: true\nprocess a\ncommand: /bin/true\nstart_before: s\n").find("is a state"),
-            std::string::npos);
+  EXPECT_TRUE(fails_with("process a\ncommand: /bin/true\ndepends_on: nobody\n",
+                         "robot.lnc:3: process 'a': depends_on: there is no process, state or provider 'nobody'"));
+  EXPECT_TRUE(fails_with("process a\ncommand: /bin/true\ndepends_on: !b\nprocess b\ncommand: /bin/true\n",
+                         "only a state can be required DOWN"));
+  EXPECT_TRUE(fails_with("state s\ncheck: true\nprocess a\ncommand: /bin/true\nstart_before: s\n", "is a state"));
 }
 
 TEST_F(LncObjectsTest, DependencyCyclesAreRefused) {
-  const std::string error = error_of(
-      "process a\ncommand: /bin/true\ndepends_on: b\n"
-      "process b\ncommand: /bin/true\ndepends_on_restart: c\n"
-      "process c\ncommand: /bin/true\ndepends_on: a\n");
-  EXPECT_NE(error.find("a dependency cycle"), std::string::npos) << error;
-  EXPECT_NE(error.find("a -> b -> c -> a"), std::string::npos) << error;
-  EXPECT_NE(error_of("process a\ncommand: /bin/true\ndepends_on: a\n").find("is this process itself"),
-            std::string::npos);
+  EXPECT_TRUE(
+      fails_with("process a\ncommand: /bin/true\ndepends_on: b\n"
+                 "process b\ncommand: /bin/true\ndepends_on_restart: c\n"
+                 "process c\ncommand: /bin/true\ndepends_on: a\n",
+                 {"a dependency cycle", "a -> b -> c -> a"}));
+  EXPECT_TRUE(fails_with("process a\ncommand: /bin/true\ndepends_on: a\n", "is this process itself"));
 }
 
 TEST_F(LncObjectsTest, GroupsExpandGlobsNestedGroupsAndExclusions) {
@@ -304,8 +303,7 @@ TEST_F(LncObjectsTest, GroupsExpandGlobsNestedGroupsAndExclusions) {
   EXPECT_EQ(group(s, "all").members, (std::vector<std::string>{"arm/ctrl", "arm/driver", "base", "net"}))
       << "a nested group's exclusions count, and a group in itself adds nothing";
   EXPECT_TRUE(group(s, "maybe").members.empty());
-  EXPECT_NE(error_of("group g\nmembers: nothing\n").find("robot.lnc:2: group 'g': members: nothing matches 'nothing'"),
-            std::string::npos);
+  EXPECT_TRUE(fails_with("group g\nmembers: nothing\n", "robot.lnc:2: group 'g': members: nothing matches 'nothing'"));
 }
 
 TEST_F(LncObjectsTest, AutoGroupsFromNamePrefixes) {
@@ -341,22 +339,23 @@ TEST_F(LncObjectsTest, StatesAndTheirKeys) {
 }
 
 TEST_F(LncObjectsTest, BadValuesNameTheKeyAndLine) {
-  auto error = [&](const std::string& key_line) {
-    return error_of("process p\ncommand: /bin/true\n" + key_line + "\n");
+  // A bad value for a process key: {the key line, a part of the error}.
+  const std::pair<const char*, const char*> cases[] = {
+      {"term_signal: SIGNOPE", "robot.lnc:3: process 'p': term_signal: 'SIGNOPE' is not a signal"},
+      {"term_timeout: soon", "term_timeout: 'soon' is not a number of seconds"},
+      {"ready_time: -1", "not a number of seconds"},
+      {"priority: 200", "priority: '200' is not an integer from 0 to 99"},
+      {"policy: SCHED_FAST", "is not a scheduling policy"},
+      {"affinity: first", "not a list of CPU numbers"},
+      {"ready_regex: (?=x)", "not a regular expression ln_core can match"},
+      {"environment: NOEQUALS", "'NOEQUALS' is not NAME=VALUE"},
+      {"map_topic: a -> b", "expected 'SEARCH => REPLACE'"},
+      {"output_logfile_size_limit: huge", "not a size"},
+      {"change_user_to: root", "change_user_to: is not supported"},
+      {"set_resource_limits: SPEED=1", "not a resource limit"},
   };
-  EXPECT_NE(error("term_signal: SIGNOPE").find("robot.lnc:3: process 'p': term_signal: 'SIGNOPE' is not a signal"),
-            std::string::npos);
-  EXPECT_NE(error("term_timeout: soon").find("term_timeout: 'soon' is not a number of seconds"), std::string::npos);
-  EXPECT_NE(error("ready_time: -1").find("not a number of seconds"), std::string::npos);
-  EXPECT_NE(error("priority: 200").find("priority: '200' is not an integer from 0 to 99"), std::string::npos);
-  EXPECT_NE(error("policy: SCHED_FAST").find("is not a scheduling policy"), std::string::npos);
-  EXPECT_NE(error("affinity: first").find("not a list of CPU numbers"), std::string::npos);
-  EXPECT_NE(error("ready_regex: (?=x)").find("not a regular expression ln_core can match"), std::string::npos);
-  EXPECT_NE(error("environment: NOEQUALS").find("'NOEQUALS' is not NAME=VALUE"), std::string::npos);
-  EXPECT_NE(error("map_topic: a -> b").find("expected 'SEARCH => REPLACE'"), std::string::npos);
-  EXPECT_NE(error("output_logfile_size_limit: huge").find("not a size"), std::string::npos);
-  EXPECT_NE(error("change_user_to: root").find("change_user_to: is not supported"), std::string::npos);
-  EXPECT_NE(error("set_resource_limits: SPEED=1").find("not a resource limit"), std::string::npos);
+  for (const auto& [key_line, part] : cases)
+    EXPECT_TRUE(fails_with(std::string("process p\ncommand: /bin/true\n") + key_line + "\n", part));
 }
 
 TEST_F(LncObjectsTest, RemoteNodesLoadButAreMarked) {
@@ -383,10 +382,9 @@ TEST_F(LncObjectsTest, IncludeGlobPipeIncludeAndRequiresVersion) {
   std::vector<std::string> got;
   for (const auto& p : s.processes) got.push_back(p.name);
   EXPECT_EQ(got, (std::vector<std::string>{"a", "b", "piped"}));
-  EXPECT_NE(error_of("include_glob: nothing/*.lnc\n").find("robot.lnc:1: include_glob: no file matches"),
-            std::string::npos);
-  EXPECT_NE(error_of("pipe_include: exit 4\n").find("failed with exit status 4"), std::string::npos);
-  EXPECT_NE(error_of("requires_version: 3.0.1\n").find("requires an ln_manager of version 3.0.1"), std::string::npos);
+  EXPECT_TRUE(fails_with("include_glob: nothing/*.lnc\n", "robot.lnc:1: include_glob: no file matches"));
+  EXPECT_TRUE(fails_with("pipe_include: exit 4\n", "failed with exit status 4"));
+  EXPECT_TRUE(fails_with("requires_version: 3.0.1\n", "requires an ln_manager of version 3.0.1"));
 }
 
 }  // namespace

@@ -34,15 +34,8 @@ std::string describe(const Message& event) {
   return out;
 }
 
-class ResourceEventTest : public ::testing::Test {
+class ResourceEventTest : public ManagerWithClientsTest {
  protected:
-  std::unique_ptr<TestClient> client(const std::string& name) {
-    auto c = std::make_unique<TestClient>(manager.port());
-    const Message response = c->hello(name);
-    EXPECT_FALSE(response.is_error()) << response.error_text();
-    return c;
-  }
-
   static Message connect(TestClient& c, const std::vector<std::string>& patterns,
                          const std::string& name = std::string(kResourceEventName),
                          const std::string& signature = kSignature) {
@@ -69,10 +62,6 @@ class ResourceEventTest : public ::testing::Test {
       if (!until_quiet && seen.back().rfind("initial_sync_done", 0) == 0) return seen;
     }
   }
-
-  TempDir dir;
-  const bool definitions_written = (write_test_definitions(dir), true);
-  RunningManager manager{dir};
 };
 
 TEST_F(ResourceEventTest, InitialSyncThenChangesAsTheyHappen) {

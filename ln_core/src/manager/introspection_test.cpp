@@ -12,15 +12,8 @@ namespace {
 
 using protocol::StringList;
 
-class IntrospectionTest : public ::testing::Test {
+class IntrospectionTest : public ManagerWithClientsTest {
  protected:
-  std::unique_ptr<TestClient> client(const std::string& name) {
-    auto c = std::make_unique<TestClient>(manager.port());
-    const Message response = c->hello(name);
-    EXPECT_FALSE(response.is_error()) << response.error_text();
-    return c;
-  }
-
   static std::int64_t publish(TestClient& c, const std::string& topic) {
     const Message r = c.call(
         "publish", [&](Message& m) { m.set("topic", topic).set("message_definition", "mt/point").set("buffers", 1); });
@@ -54,10 +47,6 @@ class IntrospectionTest : public ::testing::Test {
     ADD_FAILURE() << "topic '" << topic << "' is not listed";
     return {"", -1};
   }
-
-  TempDir dir;
-  const bool definitions_written = (write_test_definitions(dir), true);  // before the manager starts
-  RunningManager manager{dir};
 };
 
 double seconds_between(Clock::time_point from, Clock::time_point to) {

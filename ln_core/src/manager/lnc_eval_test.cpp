@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <initializer_list>
 #include <map>
+#include <utility>
 
 namespace ln::manager {
 namespace {
@@ -20,6 +22,11 @@ class EvaluatorTest : public ::testing::Test {
     return "(no error)";
   }
 
+  // Each {text, result}: evaluating text gives result.
+  void expect_evaluations(std::initializer_list<std::pair<const char*, const char*>> cases) {
+    for (const auto& [text, result] : cases) EXPECT_EQ(eval(text), result) << text;
+  }
+
   std::map<std::string, std::string> defines{
       {"robot", "rollin"}, {"rollin_name", "justin"}, {"empty", ""}, {"path", "/a/b/c.txt"}, {"spaced", "a b"}};
   Evaluator evaluator{[this](const std::string& name) -> std::optional<std::string> {
@@ -31,35 +38,39 @@ class EvaluatorTest : public ::testing::Test {
 };
 
 TEST_F(EvaluatorTest, DefinesNestAndEscapes) {
-  EXPECT_EQ(eval("plain text (with parens) 100%"), "plain text (with parens) 100%");
-  EXPECT_EQ(eval("%(robot)"), "rollin");
-  EXPECT_EQ(eval("%(%(robot)_name)-%(robot)"), "justin-rollin");
-  EXPECT_EQ(eval("x%(empty)y"), "xy");
-  EXPECT_EQ(eval("\\(not a group\\)"), "(not a group)");
+  expect_evaluations({
+      {"plain text (with parens) 100%", "plain text (with parens) 100%"},
+      {"%(robot)", "rollin"},
+      {"%(%(robot)_name)-%(robot)", "justin-rollin"},
+      {"x%(empty)y", "xy"},
+      {"\\(not a group\\)", "(not a group)"},
+  });
   EXPECT_EQ(error_of("%(nope)"), "there is no define 'nope'");
   EXPECT_NE(error_of("%(robot").find("without its closing ')'"), std::string::npos);
 }
 
 TEST_F(EvaluatorTest, PathAndStringFunctions) {
-  EXPECT_EQ(eval("%(dirname %(path))"), "/a/b");
-  EXPECT_EQ(eval("%(basename %(path))"), "c.txt");
-  EXPECT_EQ(eval("%(dirname c.txt)"), "");
-  EXPECT_EQ(eval("%(dirname /)"), "/");
-  EXPECT_EQ(eval("%(strip   padded   )"), "padded");
-  EXPECT_EQ(eval("%(length \"%(robot)\")"), "6");
-  EXPECT_EQ(eval("%(subst \"o\", \"0\", \"%(robot)\")"), "r0llin");
-  EXPECT_EQ(eval("%(substring \"abcdef\", \"2\")"), "cdef");
-  EXPECT_EQ(eval("%(substring \"abcdef\", \"1\", \"3\")"), "bcd");
-  EXPECT_EQ(eval("%(substring \"abcdef\", \"-2\")"), "ef");
-  EXPECT_EQ(eval("%(findstring \"ll\", \"rollin\")"), "ll");
-  EXPECT_EQ(eval("%(findstring \"xx\", \"rollin\")"), "");
-  EXPECT_EQ(eval("%(ifeq \"%(robot)\", \"rollin\", \"yes\", \"no\")"), "yes");
-  EXPECT_EQ(eval("%(ifeq \"a\", \"b\", \"yes\", \"no\")"), "no");
-  EXPECT_EQ(eval("%(ifndef \"robot\", \"other\")"), "rollin");
-  EXPECT_EQ(eval("%(ifndef \"unset_define\", \"other\")"), "other");
-  EXPECT_EQ(eval("%(ifexists \"/\", \"there\", \"missing\")"), "there");
-  EXPECT_EQ(eval("%(ifexists \"/no/such/path\", \"there\", \"missing\")"), "missing");
-  EXPECT_EQ(eval("%(realpath /usr/../usr)"), "/usr");
+  expect_evaluations({
+      {"%(dirname %(path))", "/a/b"},
+      {"%(basename %(path))", "c.txt"},
+      {"%(dirname c.txt)", ""},
+      {"%(dirname /)", "/"},
+      {"%(strip   padded   )", "padded"},
+      {"%(length \"%(robot)\")", "6"},
+      {"%(subst \"o\", \"0\", \"%(robot)\")", "r0llin"},
+      {"%(substring \"abcdef\", \"2\")", "cdef"},
+      {"%(substring \"abcdef\", \"1\", \"3\")", "bcd"},
+      {"%(substring \"abcdef\", \"-2\")", "ef"},
+      {"%(findstring \"ll\", \"rollin\")", "ll"},
+      {"%(findstring \"xx\", \"rollin\")", ""},
+      {"%(ifeq \"%(robot)\", \"rollin\", \"yes\", \"no\")", "yes"},
+      {"%(ifeq \"a\", \"b\", \"yes\", \"no\")", "no"},
+      {"%(ifndef \"robot\", \"other\")", "rollin"},
+      {"%(ifndef \"unset_define\", \"other\")", "other"},
+      {"%(ifexists \"/\", \"there\", \"missing\")", "there"},
+      {"%(ifexists \"/no/such/path\", \"there\", \"missing\")", "missing"},
+      {"%(realpath /usr/../usr)", "/usr"},
+  });
   EXPECT_NE(error_of("%(subst \"a\", \"b\")").find("takes \"SEARCH\", \"REPLACE\", \"TEXT\""), std::string::npos);
   EXPECT_NE(error_of("%(substring \"abc\", \"x\")").find("not an integer"), std::string::npos);
 }
@@ -75,23 +86,29 @@ TEST_F(EvaluatorTest, QuotedArgumentsKeepCommasAndParens) {
 TEST_F(EvaluatorTest, EnvironmentPortAndInterfaces) {
   ::setenv("LN_EVAL_TEST_VAR", "value", 1);
   ::unsetenv("LN_EVAL_TEST_UNSET");
-  EXPECT_EQ(eval("%(env LN_EVAL_TEST_VAR)"), "value");
-  EXPECT_EQ(eval("%(env \"LN_EVAL_TEST_UNSET\", \"fallback\")"), "fallback");
-  EXPECT_EQ(eval("%(env LN_EVAL_TEST_UNSET, fallback)"), "fallback");
+  expect_evaluations({
+      {"%(env LN_EVAL_TEST_VAR)", "value"},
+      {"%(env \"LN_EVAL_TEST_UNSET\", \"fallback\")", "fallback"},
+      {"%(env LN_EVAL_TEST_UNSET, fallback)", "fallback"},
+  });
   EXPECT_EQ(error_of("%(env LN_EVAL_TEST_UNSET)"), "the environment variable 'LN_EVAL_TEST_UNSET' is not set");
   // LN's formula, and the quoted-list form joined by spaces as LN 2.9 does
   EXPECT_EQ(eval("%(get_port_from_string ab)"), std::to_string(1024 + (97 + 98) % 64511));
   EXPECT_EQ(eval("%(get_port_from_string \"a\", \"b\")"), std::to_string(port_from_string("a b")));
-  EXPECT_EQ(eval("%(ifip lo)"), "127.0.0.1");
-  EXPECT_EQ(eval("%(get_host_ifip \"localhost\", \"lo\")"), "127.0.0.1");
+  expect_evaluations({
+      {"%(ifip lo)", "127.0.0.1"},
+      {"%(get_host_ifip \"localhost\", \"lo\")", "127.0.0.1"},
+  });
   EXPECT_NE(error_of("%(get_host_ifip \"robot\", \"lo\")").find("'robot' is another host"), std::string::npos);
   EXPECT_EQ(eval("%(get_host_ip_reachable_from_host \"here\", \"localhost\")"), "127.0.0.1");
   EXPECT_NE(error_of("%(ifip no_such_interface0)").find("no interface"), std::string::npos);
 }
 
 TEST_F(EvaluatorTest, ShellRunsCommandsAndReportsFailures) {
-  EXPECT_EQ(eval("%(shell echo %(robot))"), "rollin");
-  EXPECT_EQ(eval("%(shell \"printf 'a\\nb\\n\\n'\")"), "a\nb");
+  expect_evaluations({
+      {"%(shell echo %(robot))", "rollin"},
+      {"%(shell \"printf 'a\\nb\\n\\n'\")", "a\nb"},
+  });
   EXPECT_NE(error_of("%(shell exit 3)").find("failed with exit status 3"), std::string::npos);
   EXPECT_NE(error_of("%(shell echo oops >&2)").find("oops"), std::string::npos);
   evaluator.set_shell_timeout(0.2);

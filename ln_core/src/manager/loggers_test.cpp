@@ -13,15 +13,8 @@ namespace {
 
 using protocol::StringList;
 
-class LoggerProtocolTest : public ::testing::Test {
+class LoggerProtocolTest : public ManagerWithClientsTest {
  protected:
-  std::unique_ptr<TestClient> client(const std::string& name) {
-    auto c = std::make_unique<TestClient>(manager.port());
-    const Message response = c->hello(name);
-    EXPECT_FALSE(response.is_error()) << response.error_text();
-    return c;
-  }
-
   static Message enable(TestClient& c, const std::string& name, StringList topics, StringList sizes,
                         StringList divisors) {
     return c.call("logger_enable", [&](Message& m) {
@@ -29,10 +22,6 @@ class LoggerProtocolTest : public ::testing::Test {
       m.set("only_ts", false);
     });
   }
-
-  TempDir dir;
-  const bool definitions_written = (write_test_definitions(dir), true);
-  RunningManager manager{dir};
 };
 
 TEST_F(LoggerProtocolTest, ATapIsListedToThePublisherButNotCountedAsSubscriber) {

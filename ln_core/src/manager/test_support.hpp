@@ -4,6 +4,7 @@
 #pragma once
 
 #include <arpa/inet.h>
+#include <gtest/gtest.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
 #include <poll.h>
@@ -16,6 +17,7 @@
 #include <deque>
 #include <fstream>
 #include <functional>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <stdexcept>
@@ -207,6 +209,22 @@ class RunningManager : public ln::test::InProcessManager {
           options.generated_definition_dir = dir.path() + "/gen";
           if (adjust) adjust(options);
         }) {}
+};
+
+/// A test with its own manager on the test definitions (write_test_definitions) in `dir`.
+class ManagerWithClientsTest : public ::testing::Test {
+ protected:
+  /// A new connection to the manager that said hello as `name`.
+  std::unique_ptr<TestClient> client(const std::string& name) {
+    auto c = std::make_unique<TestClient>(manager.port());
+    const Message response = c->hello(name);
+    EXPECT_FALSE(response.is_error()) << response.error_text();
+    return c;
+  }
+
+  TempDir dir;
+  const bool definitions_written = (write_test_definitions(dir), true);  // before the manager starts
+  RunningManager manager{dir};
 };
 
 }  // namespace ln::manager::testing

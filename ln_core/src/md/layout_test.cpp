@@ -29,8 +29,10 @@ TEST(Layout, PackedHostStructsCountPointersAndNestedStructs) {
 
 TEST(Layout, LocatesMembersLikeLn) {
   DefinitionTree tree;
-  tree.write("m/vec", "double xyz[3]\n");
-  tree.write("m/pose", "define vec as \"vec\"\nuint32_t id\nvec position\nvec axes[3]\nfloat q[4]\n");
+  tree.write_all({
+      {"m/vec", "double xyz[3]\n"},
+      {"m/pose", "define vec as \"vec\"\nuint32_t id\nvec position\nvec axes[3]\nfloat q[4]\n"},
+  });
   Library library(SearchPath::exactly({tree.root()}));
   const Definition& pose = library.load("m/pose");
   EXPECT_EQ(packet_size(pose), 4u + 24 + 72 + 16);

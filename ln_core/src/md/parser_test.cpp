@@ -37,9 +37,11 @@ TEST(Parser, ReadsEveryPrimitiveTypeAndKeepsAliasSpellings) {
 
 TEST(Parser, HashesTheWayLn29Does) {
   DefinitionTree tree;
-  tree.write("counter/count_message", "double time\nuint32_t num_counts\n");
-  tree.write("geo/pt", "float x\nfloat y\n");
-  tree.write("geo/svc", "service\nrequest\ndefine pt as \"pt\"\ndouble* values\nresponse\nint n\n");
+  tree.write_all({
+      {"counter/count_message", "double time\nuint32_t num_counts\n"},
+      {"geo/pt", "float x\nfloat y\n"},
+      {"geo/svc", "service\nrequest\ndefine pt as \"pt\"\ndouble* values\nresponse\nint n\n"},
+  });
   Library library(SearchPath::exactly({tree.root()}));
   // sha256(repr(([['double', 'time', 1], ['uint32_t', 'num_counts', 1]], [], [])))
   EXPECT_EQ(library.load("counter/count_message").hash,
@@ -51,9 +53,11 @@ TEST(Parser, HashesTheWayLn29Does) {
 
 TEST(Parser, SplitsServicesAndEventsIntoSections) {
   DefinitionTree tree;
-  tree.write("s/svc", "# leading comment\n\nservice\ndouble early\nresponse\nint32_t code\nrequest\ndouble late\n");
-  tree.write("s/ev", "event\nconnect\nuint8_t filter\ncall\ndouble value\n");
-  tree.write("s/plain_with_markers", "request x\n");
+  tree.write_all({
+      {"s/svc", "# leading comment\n\nservice\ndouble early\nresponse\nint32_t code\nrequest\ndouble late\n"},
+      {"s/ev", "event\nconnect\nuint8_t filter\ncall\ndouble value\n"},
+      {"s/plain_with_markers", "request x\n"},
+  });
   Library library(SearchPath::exactly({tree.root()}));
   const Definition& svc = library.load("s/svc");
   EXPECT_EQ(svc.kind, Kind::Service);
@@ -72,13 +76,15 @@ TEST(Parser, SplitsServicesAndEventsIntoSections) {
 
 TEST(Parser, PlacesLengthFieldsExactlyAsLn29) {
   DefinitionTree tree;
-  tree.write("d/inserted", "service\nrequest\nuint8_t a\nchar* text\n");
-  tree.write("d/after", "service\nrequest\nuint8_t* data\nint data_len\n");
-  tree.write("d/right_before", "service\nrequest\nuint32_t data_len\nuint8_t* data\n");
-  // LN removes the declared length, then inserts it at the pointer's old
-  // index: declared two fields early, it lands right after the pointer.
-  tree.write("d/two_before", "service\nrequest\nuint32_t data_len\nuint8_t a\nuint8_t* data\n");
-  tree.write("d/plain_dynamic", "uint8_t* bytes\n");
+  tree.write_all({
+      {"d/inserted", "service\nrequest\nuint8_t a\nchar* text\n"},
+      {"d/after", "service\nrequest\nuint8_t* data\nint data_len\n"},
+      {"d/right_before", "service\nrequest\nuint32_t data_len\nuint8_t* data\n"},
+      // LN removes the declared length, then inserts it at the pointer's old
+      // index: declared two fields early, it lands right after the pointer.
+      {"d/two_before", "service\nrequest\nuint32_t data_len\nuint8_t a\nuint8_t* data\n"},
+      {"d/plain_dynamic", "uint8_t* bytes\n"},
+  });
   Library library(SearchPath::exactly({tree.root()}));
 
   const Definition& inserted = library.load("d/inserted");
@@ -116,12 +122,14 @@ TEST(Parser, IgnoresCommentsBlanksCarriageReturnsAndTabs) {
 
 TEST(Parser, ResolvesDefinesNextToTheFileFirstThenOnTheSearchPath) {
   DefinitionTree tree;
-  tree.write("a/b/value", "double v\n");
-  tree.write("value", "uint8_t shadowed\n");
-  tree.write("other/point", "float x\nfloat y\n");
-  tree.write("a/b/holder",
-             "define value_t as \"value\"\ndefine point as \"other/point\"\n"
-             "value_t single\npoint corners[4]\npoint* path\n");
+  tree.write_all({
+      {"a/b/value", "double v\n"},
+      {"value", "uint8_t shadowed\n"},
+      {"other/point", "float x\nfloat y\n"},
+      {"a/b/holder",
+       "define value_t as \"value\"\ndefine point as \"other/point\"\n"
+       "value_t single\npoint corners[4]\npoint* path\n"},
+  });
   Library library(SearchPath::exactly({tree.root()}));
   const Definition& holder = library.load("a/b/holder");
   ASSERT_EQ(holder.defines.size(), 2u);
@@ -134,12 +142,14 @@ TEST(Parser, ResolvesDefinesNextToTheFileFirstThenOnTheSearchPath) {
 
 TEST(Parser, AcceptsADefineRepeatedForTheSameDefinition) {
   DefinitionTree tree;
-  tree.write("s/item", "double x\n");
-  tree.write("s/svc",
-             "service\nrequest\ndefine item_t as \"item\"\nitem_t a\n"
-             "response\ndefine item_t as \"s/item\"\nitem_t b\n");
-  tree.write("s/other", "float y\n");
-  tree.write("s/clash", "define t as \"item\"\nt a\ndefine t as \"other\"\nt b\n");
+  tree.write_all({
+      {"s/item", "double x\n"},
+      {"s/svc",
+       "service\nrequest\ndefine item_t as \"item\"\nitem_t a\n"
+       "response\ndefine item_t as \"s/item\"\nitem_t b\n"},
+      {"s/other", "float y\n"},
+      {"s/clash", "define t as \"item\"\nt a\ndefine t as \"other\"\nt b\n"},
+  });
   Library library(SearchPath::exactly({tree.root()}));
   const Definition& svc = library.load("s/svc");
   ASSERT_EQ(svc.defines.size(), 1u);
@@ -152,12 +162,14 @@ TEST(Parser, AcceptsADefineRepeatedForTheSameDefinition) {
 
 TEST(Parser, AllowsRecursionOnlyThroughPointers) {
   DefinitionTree tree;
-  tree.write("r/node", "define node_t as \"node\"\nint32_t value\nnode_t* children\n");
-  tree.write("r/ping", "define pong_t as \"pong\"\npong_t* other\n");
-  tree.write("r/pong", "define ping_t as \"ping\"\nping_t* other\n");
-  tree.write("r/self_by_value", "define me as \"self_by_value\"\nme inner\n");
-  tree.write("r/a", "define b_t as \"b\"\nb_t inner\n");
-  tree.write("r/b", "define a_t as \"a\"\na_t inner\n");
+  tree.write_all({
+      {"r/node", "define node_t as \"node\"\nint32_t value\nnode_t* children\n"},
+      {"r/ping", "define pong_t as \"pong\"\npong_t* other\n"},
+      {"r/pong", "define ping_t as \"ping\"\nping_t* other\n"},
+      {"r/self_by_value", "define me as \"self_by_value\"\nme inner\n"},
+      {"r/a", "define b_t as \"b\"\nb_t inner\n"},
+      {"r/b", "define a_t as \"a\"\na_t inner\n"},
+  });
   Library library(SearchPath::exactly({tree.root()}));
   const Definition& node = library.load("r/node");
   EXPECT_EQ(node.fields[2].sub, &node);
@@ -231,8 +243,10 @@ TEST(Library, ReportsMissingDefinitionsWithTheSearchedDirectories) {
 
 TEST(Library, KeepsNothingOfAFailedLoad) {
   DefinitionTree tree;
-  tree.write("f/outer", "define inner_t as \"inner\"\ninner_t x\n");
-  tree.write("f/inner", "double good\nbroken\n");
+  tree.write_all({
+      {"f/outer", "define inner_t as \"inner\"\ninner_t x\n"},
+      {"f/inner", "double good\nbroken\n"},
+  });
   Library library(SearchPath::exactly({tree.root()}));
   EXPECT_THROW(library.load("f/outer"), Error);
   tree.write("f/inner", "double good\n");

@@ -11,8 +11,10 @@ using testing::DefinitionTree;
 // The expected texts are what LN 2.9's manager answered for the same files.
 TEST(PythonDictText, PlainDefinitionKeepsSpellingsAndCounts) {
   DefinitionTree tree;
-  tree.write("lg/pt", "double x\nuint8_t flag\n");
-  tree.write("lg/n", "# nested\ndefine pt_t as \"lg/pt\"\npt_t p[2]\nint i\nchar label[4]\nfloat f # comment\n");
+  tree.write_all({
+      {"lg/pt", "double x\nuint8_t flag\n"},
+      {"lg/n", "# nested\ndefine pt_t as \"lg/pt\"\npt_t p[2]\nint i\nchar label[4]\nfloat f # comment\n"},
+  });
   Library library(SearchPath::exactly({tree.root()}));
   EXPECT_EQ(python_dict_text(library.load("lg/n")),
             "{'fields': [['pt_t', 'p', 2], ['int', 'i', 1], ['char', 'label', 4], ['float', 'f', 1]], "
@@ -21,13 +23,14 @@ TEST(PythonDictText, PlainDefinitionKeepsSpellingsAndCounts) {
 
 TEST(PythonDictText, NestedDefinesComeDepthFirstInDefineOrder) {
   DefinitionTree tree;
-  tree.write("lg/pt", "double x\nuint8_t flag\n");
-  tree.write("lg/v", "uint8_t a\ndouble b[2]\nint16_t c\n");
-  tree.write("lg/sub/outer",
-             "define inner_t as \"lg/pt\"\ndefine third as \"lg/v\"\ninner_t in[2]\nthird v\nuint16_t k\n");
-  tree.write("lg/nest",
-             "define outer_t as \"lg/sub/outer\"\ndefine pt_t as \"lg/pt\"\nouter_t o\npt_t q\n"
-             "float32_t g[2]\n");
+  tree.write_all({
+      {"lg/pt", "double x\nuint8_t flag\n"},
+      {"lg/v", "uint8_t a\ndouble b[2]\nint16_t c\n"},
+      {"lg/sub/outer", "define inner_t as \"lg/pt\"\ndefine third as \"lg/v\"\ninner_t in[2]\nthird v\nuint16_t k\n"},
+      {"lg/nest",
+       "define outer_t as \"lg/sub/outer\"\ndefine pt_t as \"lg/pt\"\nouter_t o\npt_t q\n"
+       "float32_t g[2]\n"},
+  });
   Library library(SearchPath::exactly({tree.root()}));
   EXPECT_EQ(python_dict_text(library.load("lg/nest")),
             "{'fields': [['outer_t', 'o', 1], ['pt_t', 'q', 1], ['float32_t', 'g', 2]], 'resp_fields': [], "

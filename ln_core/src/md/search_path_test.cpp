@@ -11,9 +11,11 @@ using testing::DefinitionTree;
 
 TEST(SearchPath, FirstDirectoryWinsAndMissingDirectoriesAreDropped) {
   DefinitionTree tree;
-  tree.write("one/x/def", "double a\n");
-  tree.write("two/x/def", "double b\n");
-  tree.write("two/x/only_two", "double c\n");
+  tree.write_all({
+      {"one/x/def", "double a\n"},
+      {"two/x/def", "double b\n"},
+      {"two/x/only_two", "double c\n"},
+  });
   const SearchPath path = SearchPath::exactly({tree.root() + "/one", tree.root() + "/absent", tree.root() + "/two"});
   EXPECT_EQ(path.dirs(), (std::vector<std::string>{tree.root() + "/one", tree.root() + "/two"}));
   EXPECT_EQ(*path.find("x/def"), tree.root() + "/one/x/def");
@@ -23,9 +25,11 @@ TEST(SearchPath, FirstDirectoryWinsAndMissingDirectoriesAreDropped) {
 
 TEST(SearchPath, ExpandsMdConfFilesTransitively) {
   DefinitionTree tree;
-  tree.write("base/md.conf", "# more definitions\n../extra\n\n");
-  tree.write("extra/md.conf", tree.root() + "/deeper\n");
-  tree.write("deeper/p/def", "double a\n");
+  tree.write_all({
+      {"base/md.conf", "# more definitions\n../extra\n\n"},
+      {"extra/md.conf", tree.root() + "/deeper\n"},
+      {"deeper/p/def", "double a\n"},
+  });
   const SearchPath path = SearchPath::exactly({tree.root() + "/base"});
   ASSERT_EQ(path.dirs().size(), 3u);
   EXPECT_EQ(path.dirs()[1], tree.root() + "/extra");
@@ -34,9 +38,11 @@ TEST(SearchPath, ExpandsMdConfFilesTransitively) {
 
 TEST(SearchPath, StandardOrderPutsExplicitDirsFirstAndAppendsTheEnvironment) {
   DefinitionTree tree;
-  tree.write("explicit/x", "double a\n");
-  tree.write("from_env/x", "double b\n");
-  tree.write("from_env/y", "double c\n");
+  tree.write_all({
+      {"explicit/x", "double a\n"},
+      {"from_env/x", "double b\n"},
+      {"from_env/y", "double c\n"},
+  });
   ::setenv("LN_MESSAGE_DEFINITION_DIRS", (tree.root() + "/from_env:").c_str(), 1);
   const SearchPath path = SearchPath::standard({tree.root() + "/explicit"});
   ::unsetenv("LN_MESSAGE_DEFINITION_DIRS");

@@ -1,7 +1,9 @@
 // A throw-away directory tree of message-definition files for unit tests.
 #pragma once
 
+#include <initializer_list>
 #include <string>
+#include <utility>
 
 #include "ln/md/message_definition.hpp"
 #include "testing/temp_dir.hpp"
@@ -12,6 +14,10 @@ class DefinitionTree : public ln::test::TempDir {
  public:
   DefinitionTree() : TempDir("ln_md_test") {}
   const std::string& root() const { return path(); }
+  /// Writes each {name, text}: the definition file `name` below root().
+  void write_all(std::initializer_list<std::pair<std::string, std::string>> files) const {
+    for (const auto& [name, text] : files) write(name, text);
+  }
 };
 
 /// Loads `name` from `tree` and returns the Error it throws ("" if none).

@@ -19,23 +19,11 @@
 namespace ln::services {
 namespace {
 
-using testing::Flag;
-using testing::GroupServer;
-using testing::HandlerBox;
-using testing::Harness;
-using testing::signature;
+using namespace testing;  // test_harness.hpp
 
 using Clock = std::chrono::steady_clock;
 
 double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
-
-int add_numbers(Request& r) {
-  svc_test_add_t d;
-  Status s = r.set_data(&d, svc_test_add_signature);
-  if (!s.ok()) return s.code();
-  d.resp.sum = d.req.a + d.req.b;
-  return r.respond().code();
-}
 
 int echo_bytes(Request& r) {
   svc_test_echo_t d;
@@ -46,30 +34,21 @@ int echo_bytes(Request& r) {
   return r.respond().code();
 }
 
-int call_add(ServiceCaller& caller, int a, int b, double timeout = 10, int* sum = nullptr) {
+/// A svc_test/add request of a + b; its response's sum preset to `sum` (to see whether an answer
+/// was written).
+svc_test_add_t add_request(int a, int b, int sum = 0) {
   svc_test_add_t d{};
   d.req.a = a;
   d.req.b = b;
-  const int rc = caller.call(&d, timeout);
-  if (sum) *sum = d.resp.sum;
-  return rc;
+  d.resp.sum = sum;
+  return d;
 }
-
-struct AddProvider {
-  Harness h;
-  HandlerBox add{add_numbers};
-  AddProvider() {
-    EXPECT_TRUE(
-        h.dispatcher.add_provider(1, "add", signature(svc_test_add_signature), &HandlerBox::call, &add, nullptr).ok());
-  }
-  std::unique_ptr<ServiceCaller> caller() { return h.caller(1, signature(svc_test_add_signature)); }
-};
 
 TEST(CallState, TimeoutThenReconnect) {
   AddProvider p;  // nobody handles the group yet
   auto caller = p.caller();
   const auto start = Clock::now();
-  EXPECT_EQ(call_add(*caller, 1, 2, 0.2), -LNE_SVC_TIMEOUT);
+  EXPECT_EQ(call_add(*caller, 1, 2, nullptr, 0.2), -LNE_SVC_TIMEOUT);
   const double took = seconds_since(start);
   EXPECT_GE(took, 0.19);
   EXPECT_LT(took, 5);
@@ -77,7 +56,7 @@ TEST(CallState, TimeoutThenReconnect) {
 
   GroupServer server(p.h.dispatcher, nullptr);
   int sum = 0;
-  EXPECT_EQ(call_add(*caller, 1, 2, 10, &sum), 0) << caller->last_error();
+  EXPECT_EQ(call_add(*caller, 1, 2, &sum, 10), 0) << caller->last_error();
   EXPECT_EQ(sum, 3);
   EXPECT_EQ(p.h.connects.get(), 2);  // the timed-out connection was given up
 }
@@ -94,7 +73,7 @@ TEST(CallState, AbortFromAnotherThread) {
       },
       p.h.reactor);
   EXPECT_EQ(caller->abort(), -LNE_SVC_REQ_NOT_RUNNING);
-  auto call = std::async(std::launch::async, [&] { return call_add(*caller, 1, 2, 0); });  // no time limit
+  auto call = std::async(std::launch::async, [&] { return call_add(*caller, 1, 2, nullptr, 0); });  // no time limit
   ASSERT_TRUE(connected.wait_for_at_least(1));
   EXPECT_EQ(caller->abort(), 0);
   ASSERT_EQ(call.wait_for(std::chrono::seconds(10)), std::future_status::ready);
@@ -106,9 +85,7 @@ TEST(CallState, AsyncCallWithNotificationFd) {
   GroupServer server(p.h.dispatcher, nullptr);
   auto caller = p.caller();
   for (int round = 0; round < 3; ++round) {
-    svc_test_add_t d{};
-    d.req.a = 40;
-    d.req.b = round;
+    svc_test_add_t d = add_request(40, round);
     AsyncCall* call = nullptr;
     ASSERT_EQ(caller->call_async(&d, call), 0) << caller->last_error();
     EXPECT_EQ(caller_request(to_handle(call)), call);
@@ -126,9 +103,7 @@ TEST(CallState, AsyncCallWithNotificationFd) {
 TEST(CallState, OneCallAtATimePerHandle) {
   AddProvider p;  // not handled: calls stay pending
   auto caller = p.caller();
-  svc_test_add_t d{};
-  d.req.a = 1;
-  d.resp.sum = -12345;
+  svc_test_add_t d = add_request(1, 0, -12345);
   AsyncCall* call = nullptr;
   ASSERT_EQ(caller->call_async(&d, call), 0);
   int retval = 0;
@@ -176,7 +151,7 @@ TEST(CallState, BlockingCallsOnOneHandleAreSerialised) {
     threads.emplace_back([&, t] {
       for (int i = 0; i < 50; ++i) {
         int sum = 0;
-        if (call_add(*caller, t * 1000, i, 10, &sum) == 0 && sum == t * 1000 + i) ++good;
+        if (call_add(*caller, t * 1000, i, &sum, 10) == 0 && sum == t * 1000 + i) ++good;
       }
     });
   for (auto& t : threads) t.join();
@@ -188,9 +163,7 @@ TEST(CallState, AbortAfterArrivalButBeforeLookingDropsTheResponse) {
   AddProvider p;
   GroupServer server(p.h.dispatcher, nullptr);
   auto caller = p.caller();
-  svc_test_add_t d{};
-  d.req.a = 5;
-  d.resp.sum = -1;
+  svc_test_add_t d = add_request(5, 0, -1);
   AsyncCall* call = nullptr;
   ASSERT_EQ(caller->call_async(&d, call), 0);
   pollfd fd{call->notification_fd(), POLLIN, 0};
@@ -228,7 +201,7 @@ TEST(CallState, ProviderRestartIsTransparentToTheNextCall) {
   ASSERT_OK(
       p.h.dispatcher.add_provider(1, "add", signature(svc_test_add_signature), &HandlerBox::call, &p.add, nullptr));
   int sum = 0;
-  EXPECT_EQ(call_add(*caller, 2, 2, 10, &sum), 0) << caller->last_error();
+  EXPECT_EQ(call_add(*caller, 2, 2, &sum, 10), 0) << caller->last_error();
   EXPECT_EQ(sum, 4);
   EXPECT_EQ(p.h.connects.get(), 2);
 }
@@ -277,7 +250,7 @@ TEST(CallState, ProviderKilledMidCall) {
     if (::poll(&p, 1, 10000) == 1) ::kill(child, SIGKILL);
   });
   const auto start = Clock::now();
-  EXPECT_EQ(call_add(caller, 1, 2, 30), -LNE_SVC_RECV_RESP);
+  EXPECT_EQ(call_add(caller, 1, 2, nullptr, 30), -LNE_SVC_RECV_RESP);
   EXPECT_LT(seconds_since(start), 10);
   EXPECT_NE(caller.last_error().find("closed the connection"), std::string::npos) << caller.last_error();
   killer.join();

@@ -20,29 +20,7 @@
 namespace ln::services {
 namespace {
 
-using testing::Flag;
-using testing::GroupServer;
-using testing::HandlerBox;
-using testing::Harness;
-using testing::signature;
-
-int add_numbers(Request& r) {
-  svc_test_add_t d;
-  Status s = r.set_data(&d, svc_test_add_signature);
-  if (!s.ok()) return s.code();
-  d.resp.sum = d.req.a + d.req.b;
-  s = r.respond();
-  return s.ok() ? 0 : s.code();
-}
-
-int call_add(ServiceCaller& caller, int a, int b, int* sum = nullptr, double timeout = 10) {
-  svc_test_add_t d{};
-  d.req.a = a;
-  d.req.b = b;
-  const int rc = caller.call(&d, timeout);
-  if (sum) *sum = d.resp.sum;
-  return rc;
-}
+using namespace testing;  // test_harness.hpp
 
 // Counts handlers running at once.
 struct Concurrency {
@@ -101,11 +79,10 @@ void call_from_threads(Harness& h, std::uint32_t id, int threads, int n_each, st
 }
 
 TEST(Dispatch, CallsAreHandledByWaitAndHandle) {
-  Harness h;
-  HandlerBox add{add_numbers};
-  ASSERT_OK(h.dispatcher.add_provider(1, "add", signature(svc_test_add_signature), &HandlerBox::call, &add, nullptr));
+  AddProvider p;
+  Harness& h = p.h;
   GroupServer server(h.dispatcher, nullptr);
-  auto caller = h.caller(1, signature(svc_test_add_signature));
+  auto caller = p.caller();
   for (int i = 0; i < 100; ++i) {
     int sum = 0;
     ASSERT_EQ(call_add(*caller, i, 1000, &sum), 0) << caller->last_error();
@@ -333,11 +310,10 @@ bool closed_by_peer(int fd, double seconds) {
 }
 
 TEST(Dispatch, GarbageOnOneConnectionDoesNotDisturbOthers) {
-  Harness h;
-  HandlerBox add{add_numbers};
-  ASSERT_OK(h.dispatcher.add_provider(1, "add", signature(svc_test_add_signature), &HandlerBox::call, &add, nullptr));
+  AddProvider p;
+  Harness& h = p.h;
   GroupServer server(h.dispatcher, nullptr);
-  auto caller = h.caller(1, signature(svc_test_add_signature));
+  auto caller = p.caller();
   ASSERT_EQ(call_add(*caller, 1, 1), 0);
 
   const int garbage = raw_connection(h, 1);
@@ -370,11 +346,10 @@ bool peer_hung_up(int fd, double seconds) {
 TEST(Dispatch, ACallerThatDoesNotReadLosesOnlyItsOwnConnection) {
   Limits limits;
   limits.response_timeout_ms = 300;
-  Harness h(limits);
-  HandlerBox add{add_numbers};
-  ASSERT_OK(h.dispatcher.add_provider(1, "add", signature(svc_test_add_signature), &HandlerBox::call, &add, nullptr));
+  AddProvider p(limits);
+  Harness& h = p.h;
   GroupServer server(h.dispatcher, nullptr);
-  auto caller = h.caller(1, signature(svc_test_add_signature));
+  auto caller = p.caller();
   ASSERT_EQ(call_add(*caller, 1, 1), 0);
 
   // Requests as long as the socket takes them; the answers are never read.
@@ -608,9 +583,8 @@ TEST(Dispatch, RemoveProviderWaitsForRunningHandlers) {
 }
 
 TEST(Dispatch, ConnectionObserverAndProviderFd) {
-  Harness h;
-  HandlerBox add{add_numbers};
-  ASSERT_OK(h.dispatcher.add_provider(1, "add", signature(svc_test_add_signature), &HandlerBox::call, &add, nullptr));
+  AddProvider provider;
+  Harness& h = provider.h;
   struct Seen {
     Flag connected, disconnected;
     std::atomic<std::thread::id> thread{};

@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <cstring>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "services/marshal.hpp"
@@ -150,16 +151,10 @@ TEST(GeneratedStructs, EverythingRoundTrip) {
     Arena arena;
     ASSERT_TRUE(unflatten(layout.request(), wire.data(), wire.size(), &out, {}, arena).ok());
     const auto& o = out.req;
-    EXPECT_EQ(o.a, r.a);
-    EXPECT_EQ(o.b, r.b);
-    EXPECT_EQ(o.c, r.c);
-    EXPECT_EQ(o.d, r.d);
-    EXPECT_EQ(o.e, r.e);
-    EXPECT_EQ(o.f, r.f);
-    EXPECT_EQ(o.g, r.g);
-    EXPECT_EQ(o.h, r.h);
-    EXPECT_EQ(o.i, r.i);
-    EXPECT_EQ(o.j, r.j);
+    const auto scalars = [](const auto& x) {  // by value: the struct is packed
+      return std::make_tuple(x.a, x.b, x.c, x.d, x.e, x.f, x.g, x.h, x.i, x.j);
+    };
+    EXPECT_EQ(scalars(o), scalars(r));
     EXPECT_EQ(o.k, 'Z');
     EXPECT_EQ(o.matrix[15], 22.5);
     EXPECT_EQ(o.origin.z, 2.5);

@@ -19,6 +19,7 @@
 #include "services/dispatch.hpp"
 
 #include "ln/ln.h"
+#include "services_test_messages.h"
 
 namespace ln::services::testing {
 
@@ -38,6 +39,25 @@ inline std::shared_ptr<const ServiceSignature> signature(const char* text) {
   const Status status = ServiceSignature::compile_shared(text, s);
   EXPECT_TRUE(status.ok()) << status.detail();
   return s;
+}
+
+/// The svc_test/add handler: answers a + b.
+inline int add_numbers(Request& r) {
+  svc_test_add_t d;
+  const Status s = r.set_data(&d, svc_test_add_signature);
+  if (!s.ok()) return s.code();
+  d.resp.sum = d.req.a + d.req.b;
+  return r.respond().code();
+}
+
+/// Calls svc/test_add with `a` and `b` through `caller`; the answer's sum into *sum when given.
+inline int call_add(ServiceCaller& caller, int a, int b, int* sum = nullptr, double timeout = 10) {
+  svc_test_add_t d{};
+  d.req.a = a;
+  d.req.b = b;
+  const int rc = caller.call(&d, timeout);
+  if (sum) *sum = d.resp.sum;
+  return rc;
 }
 
 /// A handler written as a lambda.
@@ -133,6 +153,17 @@ class GroupServer {
   std::atomic<bool> stop_{false};
   Flag done_;
   std::thread thread_;
+};
+
+/// A harness whose dispatcher provides svc_test/add (add_numbers) as service 1, in the
+/// default group (nobody handles it until a GroupServer does).
+struct AddProvider {
+  Harness h;
+  HandlerBox add{add_numbers};
+  explicit AddProvider(Limits limits = {}) : h(limits) {
+    EXPECT_OK(h.dispatcher.add_provider(1, "add", signature(svc_test_add_signature), &HandlerBox::call, &add, nullptr));
+  }
+  std::unique_ptr<ServiceCaller> caller() { return h.caller(1, signature(svc_test_add_signature)); }
 };
 
 }  // namespace ln::services::testing

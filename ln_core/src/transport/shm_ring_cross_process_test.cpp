@@ -14,8 +14,7 @@ TEST(ShmRingCrossProcess, DescriptorPassingOverSocketpair) {
   SocketPair sockets;
   ShmWriter writer = ShmWriter::create(config(128, 4));
   Child subscriber([&] {
-    ReaderOptions options;
-    options.buffers = 4;
+    ReaderOptions options = with_buffers(4);
     ShmReader reader = ShmReader::attach(receive_fd(sockets.child.get()), options);
     send_byte(sockets.child.get(), 'a');
     std::vector<std::byte> buffer(128);
@@ -28,7 +27,7 @@ TEST(ShmRingCrossProcess, DescriptorPassingOverSocketpair) {
   });
   send_fd(sockets.parent.get(), writer.fd());
   ASSERT_EQ(receive_byte(sockets.parent.get(), 10s), 'a');
-  for (std::uint64_t s = 1; s <= 3; ++s) ASSERT_EQ(writer.write(packet(128, s).data(), 128), WriteStatus::ok);
+  write_packets(writer, 1, 3, 128);
   EXPECT_EQ(subscriber.wait(), 0);
 }
 
@@ -119,8 +118,7 @@ HammerResult hammer(std::uint32_t message_size, std::uint32_t history, std::uint
     return 0;  // the destructor closes the segment
   });
 
-  ReaderOptions options;
-  options.buffers = history;
+  ReaderOptions options = with_buffers(history);
   options.on_lag = LagPolicy::keep_latest_window;
   options.optimistic_copies = optimistic_copies;
   ShmReader reader = ShmReader::attach(receive_fd(sockets.parent.get()), options);
@@ -210,13 +208,13 @@ TEST(ShmRingCrossProcess, DeadBorrowerTokenIsReclaimed) {
   EXPECT_EQ(reader.borrow(sample), ReadStatus::borrow_limit);  // the only token is held by a live reader
   send_byte(sockets.parent.get(), 'k');
   EXPECT_EQ(subscriber.wait(), -2);
-  for (std::uint64_t s = 3; s <= 20; ++s) ASSERT_EQ(writer.write(packet(64, s).data(), 64), WriteStatus::ok);
+  write_packets(writer, 3, 20);
   ASSERT_EQ(reader.borrow(sample), ReadStatus::ok);  // token taken over from the dead reader
   EXPECT_EQ(sample.info().sequence, 20u);
   EXPECT_EQ(std::memcmp(sample.data(), packet(64, 20).data(), 64), 0);
   sample.release();
   // The stale pin was cleared: the writer has all its spares again.
-  for (std::uint64_t s = 21; s <= 40; ++s) ASSERT_EQ(writer.write(packet(64, s).data(), 64), WriteStatus::ok);
+  write_packets(writer, 21, 40);
 }
 
 }  // namespace

@@ -39,12 +39,11 @@ TEST(ShmRingBorrow, BorrowedSlotIsNeverOverwritten) {
 
 TEST(ShmRingBorrow, LimitsPerReaderAndPerSegment) {
   ShmWriter writer = ShmWriter::create(config(64, 4, 3));
-  ReaderOptions options;
-  options.buffers = 4;
+  ReaderOptions options = with_buffers(4);
   options.max_borrows = 2;
   ShmReader first = ShmReader::attach(writer.fd(), options);
   ShmReader second = ShmReader::attach(writer.fd(), options);
-  for (std::uint64_t s = 1; s <= 4; ++s) ASSERT_EQ(writer.write(packet(64, s).data(), 64), WriteStatus::ok);
+  write_packets(writer, 1, 4);
 
   BorrowedSample a, b, c, d, e;
   ASSERT_EQ(first.borrow(a), ReadStatus::ok);
@@ -60,7 +59,7 @@ TEST(ShmRingBorrow, LimitsPerReaderAndPerSegment) {
   EXPECT_EQ(d.info().sequence, 2u);
 
   // The writer keeps going with 3 slots pinned.
-  for (std::uint64_t s = 5; s <= 50; ++s) ASSERT_EQ(writer.write(packet(64, s).data(), 64), WriteStatus::ok);
+  write_packets(writer, 5, 50);
   EXPECT_EQ(std::memcmp(b.data(), packet(64, 2).data(), 64), 0);
   EXPECT_EQ(std::memcmp(c.data(), packet(64, 1).data(), 64), 0);
 
@@ -74,11 +73,10 @@ TEST(ShmRingBorrow, LimitsPerReaderAndPerSegment) {
 
 TEST(ShmRingBorrow, PinnedCopiesUseATokenOnlyWhileCopying) {
   ShmWriter writer = ShmWriter::create(config(64, 4, 1));
-  ReaderOptions options;
-  options.buffers = 4;
+  ReaderOptions options = with_buffers(4);
   options.optimistic_copies = 0;
   ShmReader reader = ShmReader::attach(writer.fd(), options);
-  for (std::uint64_t s = 1; s <= 3; ++s) ASSERT_EQ(writer.write(packet(64, s).data(), 64), WriteStatus::ok);
+  write_packets(writer, 1, 3);
   std::vector<std::byte> buffer(64);
   SampleInfo info;
   ASSERT_EQ(reader.read(buffer.data(), buffer.size(), info), ReadStatus::ok);
@@ -269,9 +267,7 @@ TEST(ShmRingBlocking, PublisherDeathEndsBlockingRead) {
 // only when a read first has to wait.
 TEST(ShmRingBlocking, SharedWaitDeadline) {
   ShmWriter writer = ShmWriter::create(config(64, 4));
-  ReaderOptions options;
-  options.buffers = 4;
-  ShmReader reader = ShmReader::attach(writer.fd(), options);
+  ShmReader reader = ShmReader::attach(writer.fd(), with_buffers(4));
   std::vector<std::byte> buffer(64);
   SampleInfo info;
   WaitDeadline deadline(50ms);
@@ -348,8 +344,7 @@ TEST(ShmRingBlocking, SameCpuStreamingPublisherMakesTheReaderBackOff) {
       if (Clock::now() >= end) return 3;
     }
   });
-  ReaderOptions options;
-  options.buffers = 256;
+  ReaderOptions options = with_buffers(256);
   ShmReader reader = ShmReader::attach(receive_fd(sockets.parent.get()), options);
   send_byte(sockets.parent.get(), 'a');
   std::vector<std::byte> buffer(64);
@@ -470,6 +465,8 @@ struct StallingWriterAndReader {
   ShmReader reader;
   std::vector<std::byte> buffer = std::vector<std::byte>(kSize, std::byte{0x5a});
   SampleInfo info;
+  std::optional<UnblockAfter> bound;  // declared before `reading`: the read ends before the bound goes
+  std::future<ReadStatus> reading;
 
   StallingWriterAndReader(int writer_cpu, int reader_cpu_)
       : reader_cpu(reader_cpu_),
@@ -479,16 +476,23 @@ struct StallingWriterAndReader {
 
   // Starts a read into `buffer` on the reader's CPU, then lets the writer write.
   std::future<ReadStatus> read_while_writing(std::chrono::nanoseconds timeout) {
-    std::promise<void> reading;
-    std::future<void> started = reading.get_future();
-    std::future<ReadStatus> result = std::async(std::launch::async, [this, timeout, &reading] {
+    std::promise<void> reader_started;
+    std::future<void> started = reader_started.get_future();
+    std::future<ReadStatus> result = std::async(std::launch::async, [this, timeout, &reader_started] {
       PinnedThread pinned(reader_cpu);
-      reading.set_value();
+      reader_started.set_value();
       return reader.read(buffer.data(), kSize, info, timeout);
     });
     started.wait();
     send_byte(parent_socket(), 'r');
     return result;
+  }
+  // read_while_writing(timeout) into `reading`, then waits until the writer stalls mid-packet:
+  // true when it did. A read without deadline is bounded (UnblockAfter, 30 s).
+  bool read_until_stalled(std::chrono::nanoseconds timeout) {
+    if (timeout == kWaitForever) bound.emplace(reader, 30s);
+    reading = read_while_writing(timeout);
+    return receive_byte(parent_socket(), 10s) == 'S';
   }
   bool untouched() const {
     return std::all_of(buffer.begin(), buffer.end(), [](std::byte b) { return b == std::byte{0x5a}; });
@@ -509,9 +513,8 @@ TEST(ShmRingStream, TimedReadLeavesTheBufferUntouchedWhileAWriteIsStalled) {
   const auto [writer_cpu, reader_cpu] = two_allowed_cpus();
   if (writer_cpu < 0) GTEST_SKIP() << "needs two CPUs";
   StallingWriterAndReader setup(writer_cpu, reader_cpu);
-  std::future<ReadStatus> reading = setup.read_while_writing(300ms);
-  ASSERT_EQ(receive_byte(setup.parent_socket(), 10s), 'S');  // it did stall mid-packet
-  EXPECT_EQ(reading.get(), ReadStatus::timeout);
+  ASSERT_TRUE(setup.read_until_stalled(300ms));  // it did stall mid-packet
+  EXPECT_EQ(setup.reading.get(), ReadStatus::timeout);
   EXPECT_TRUE(setup.untouched());
   EXPECT_EQ(setup.reader.stats().streamed_copies, 0u);
   send_byte(setup.parent_socket(), 'c');
@@ -525,9 +528,7 @@ TEST(ShmRingStream, StalledWriterIsLeftToTheOrdinaryWait) {
   const auto [writer_cpu, reader_cpu] = two_allowed_cpus();
   if (writer_cpu < 0) GTEST_SKIP() << "needs two CPUs";
   StallingWriterAndReader setup(writer_cpu, reader_cpu);
-  UnblockAfter bound(setup.reader, 30s);
-  std::future<ReadStatus> reading = setup.read_while_writing(kWaitForever);
-  ASSERT_EQ(receive_byte(setup.parent_socket(), 10s), 'S');
+  ASSERT_TRUE(setup.read_until_stalled(kWaitForever));
   // Until the reader sleeps again (it gave up following), the writer stays stalled.
   EXPECT_TRUE(wait_until(
       [&] {
@@ -535,9 +536,9 @@ TEST(ShmRingStream, StalledWriterIsLeftToTheOrdinaryWait) {
         return receive_byte(setup.parent_socket(), 10s) == '1';
       },
       10s));
-  EXPECT_NE(reading.wait_for(0ms), std::future_status::ready);
+  EXPECT_NE(setup.reading.wait_for(0ms), std::future_status::ready);
   send_byte(setup.parent_socket(), 'c');
-  ASSERT_EQ(reading.get(), ReadStatus::ok);
+  ASSERT_EQ(setup.reading.get(), ReadStatus::ok);
   const ReaderStats stats = setup.reader.stats();
   // It followed and gave up, unless it was still asleep from before the write when asked.
   EXPECT_EQ(stats.abandoned_streams + stats.streamed_copies, 1u);
@@ -552,11 +553,9 @@ TEST(ShmRingStream, WriterDyingMidPacketEndsTheRead) {
   const auto [writer_cpu, reader_cpu] = two_allowed_cpus();
   if (writer_cpu < 0) GTEST_SKIP() << "needs two CPUs";
   StallingWriterAndReader setup(writer_cpu, reader_cpu);
-  UnblockAfter bound(setup.reader, 10s);
-  std::future<ReadStatus> reading = setup.read_while_writing(kWaitForever);
-  ASSERT_EQ(receive_byte(setup.parent_socket(), 10s), 'S');
+  ASSERT_TRUE(setup.read_until_stalled(kWaitForever));
   ASSERT_EQ(::kill(setup.publisher.pid(), SIGKILL), 0);
-  EXPECT_EQ(reading.get(), ReadStatus::publisher_gone);
+  EXPECT_EQ(setup.reading.get(), ReadStatus::publisher_gone);
   EXPECT_EQ(setup.publisher.wait(), -2);
 }
 

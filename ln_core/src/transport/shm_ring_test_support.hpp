@@ -176,6 +176,31 @@ inline RingConfig config(std::uint32_t message_size, std::uint32_t history = 1, 
   return result;
 }
 
+// A reader's options with `buffers` buffers, the rest as by default.
+inline ReaderOptions with_buffers(std::uint32_t buffers) {
+  ReaderOptions options;
+  options.buffers = buffers;
+  return options;
+}
+
+// Writes packet(size, s) for s = first..last.
+inline void write_packets(ShmWriter& writer, std::uint64_t first, std::uint64_t last, std::size_t size = 64) {
+  for (std::uint64_t s = first; s <= last; ++s)
+    ASSERT_EQ(writer.write(packet(size, s).data(), size), WriteStatus::ok) << "packet " << s;
+}
+
+// Reads packets first..last from `reader` (none waiting): each in order, none lost, each whole.
+inline void expect_packets(ShmReader& reader, std::uint64_t first, std::uint64_t last, std::size_t size = 64) {
+  std::vector<std::byte> buffer(size);
+  SampleInfo info;
+  for (std::uint64_t s = first; s <= last; ++s) {
+    ASSERT_EQ(reader.read(buffer.data(), buffer.size(), info), ReadStatus::ok) << "packet " << s;
+    EXPECT_EQ(info.sequence, s);
+    EXPECT_EQ(info.lost, 0u);
+    EXPECT_EQ(buffer, packet(size, s));
+  }
+}
+
 // Pins the calling thread to one CPU for its lifetime.
 class PinnedThread {
  public:

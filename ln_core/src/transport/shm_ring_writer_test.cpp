@@ -131,9 +131,7 @@ TEST(ShmRingSemantics, SingleBufferDeliversOnlyTheNewest) {
 TEST(ShmRingSemantics, NoLatchedValueForLateSubscribers) {
   ShmWriter writer = ShmWriter::create(config(64, 4));
   ASSERT_EQ(writer.write(packet(64, 1).data(), 64), WriteStatus::ok);
-  ReaderOptions options;
-  options.buffers = 4;
-  ShmReader reader = ShmReader::attach(writer.fd(), options);
+  ShmReader reader = ShmReader::attach(writer.fd(), with_buffers(4));
   std::vector<std::byte> buffer(64);
   SampleInfo info;
   EXPECT_FALSE(reader.has_new_data());
@@ -156,7 +154,7 @@ TEST(ShmRingSemantics, BuffersDeliverInOrderAndSkipToNewestWhenLagging) {
 
   std::vector<std::byte> buffer(64);
   SampleInfo info;
-  for (std::uint64_t s = 1; s <= 8; ++s) ASSERT_EQ(writer.write(packet(64, s).data(), 64), WriteStatus::ok);
+  write_packets(writer, 1, 8);
   for (std::uint64_t s = 1; s <= 8; ++s) {  // lagging by exactly `buffers` loses nothing
     ASSERT_EQ(newest.read(buffer.data(), buffer.size(), info), ReadStatus::ok);
     EXPECT_EQ(info.sequence, s);
@@ -166,7 +164,7 @@ TEST(ShmRingSemantics, BuffersDeliverInOrderAndSkipToNewestWhenLagging) {
     EXPECT_EQ(info.sequence, s);
   }
 
-  for (std::uint64_t s = 9; s <= 28; ++s) ASSERT_EQ(writer.write(packet(64, s).data(), 64), WriteStatus::ok);
+  write_packets(writer, 9, 28);
   ASSERT_EQ(newest.read(buffer.data(), buffer.size(), info), ReadStatus::ok);
   EXPECT_EQ(info.sequence, 28u);  // LN: skip to the newest
   EXPECT_EQ(info.lost, 19u);
@@ -175,30 +173,23 @@ TEST(ShmRingSemantics, BuffersDeliverInOrderAndSkipToNewestWhenLagging) {
   ASSERT_EQ(window.read(buffer.data(), buffer.size(), info), ReadStatus::ok);
   EXPECT_EQ(info.sequence, 21u);  // KEEP_LAST(8): the oldest of the newest 8
   EXPECT_EQ(info.lost, 12u);
-  for (std::uint64_t s = 22; s <= 28; ++s) {
-    ASSERT_EQ(window.read(buffer.data(), buffer.size(), info), ReadStatus::ok);
-    EXPECT_EQ(info.sequence, s);
-    EXPECT_EQ(info.lost, 0u);
-    EXPECT_EQ(buffer, packet(64, s));
-  }
+  expect_packets(window, 22, 28);
 }
 
 TEST(ShmRingSemantics, ReaderBuffersSmallerThanHistoryAndNewestMode) {
   ShmWriter writer = ShmWriter::create(config(64, 16));
-  ReaderOptions options;
-  options.buffers = 4;
-  ShmReader reader = ShmReader::attach(writer.fd(), options);
+  ShmReader reader = ShmReader::attach(writer.fd(), with_buffers(4));
   std::vector<std::byte> buffer(64);
   SampleInfo info;
-  for (std::uint64_t s = 1; s <= 4; ++s) ASSERT_EQ(writer.write(packet(64, s).data(), 64), WriteStatus::ok);
+  write_packets(writer, 1, 4);
   ASSERT_EQ(reader.read(buffer.data(), buffer.size(), info), ReadStatus::ok);
   EXPECT_EQ(info.sequence, 1u);
-  for (std::uint64_t s = 5; s <= 6; ++s) ASSERT_EQ(writer.write(packet(64, s).data(), 64), WriteStatus::ok);
+  write_packets(writer, 5, 6);
   // unread 2..6 = 5 > 4 buffers: skip to newest
   ASSERT_EQ(reader.read(buffer.data(), buffer.size(), info), ReadStatus::ok);
   EXPECT_EQ(info.sequence, 6u);
   EXPECT_EQ(info.lost, 4u);
-  for (std::uint64_t s = 7; s <= 9; ++s) ASSERT_EQ(writer.write(packet(64, s).data(), 64), WriteStatus::ok);
+  write_packets(writer, 7, 9);
   ASSERT_EQ(reader.read(buffer.data(), buffer.size(), info, kNoWait, ReadMode::newest), ReadStatus::ok);
   EXPECT_EQ(info.sequence, 9u);
   EXPECT_EQ(info.lost, 2u);
@@ -206,9 +197,7 @@ TEST(ShmRingSemantics, ReaderBuffersSmallerThanHistoryAndNewestMode) {
 
 TEST(ShmRingSemantics, WriteErrorsLoansAndShortPackets) {
   ShmWriter writer = ShmWriter::create(config(64, 4));
-  ReaderOptions options;
-  options.buffers = 4;
-  ShmReader reader = ShmReader::attach(writer.fd(), options);
+  ShmReader reader = ShmReader::attach(writer.fd(), with_buffers(4));
   std::vector<std::byte> big(65);
   EXPECT_EQ(writer.write(big.data(), big.size()), WriteStatus::packet_too_large);
   EXPECT_EQ(writer.commit(10), WriteStatus::no_loan);
@@ -254,9 +243,7 @@ TEST(ShmRingSemantics, WriteErrorsLoansAndShortPackets) {
 
 TEST(ShmRingSemantics, CloseDrainsThenReportsPublisherGone) {
   ShmWriter writer = ShmWriter::create(config(64, 4));
-  ReaderOptions options;
-  options.buffers = 4;
-  ShmReader reader = ShmReader::attach(writer.fd(), options);
+  ShmReader reader = ShmReader::attach(writer.fd(), with_buffers(4));
   ASSERT_EQ(writer.write(packet(64, 1).data(), 64), WriteStatus::ok);
   ASSERT_EQ(writer.write(packet(64, 2).data(), 64), WriteStatus::ok);
   EXPECT_TRUE(reader.publisher_alive());
@@ -273,12 +260,11 @@ TEST(ShmRingSemantics, CloseDrainsThenReportsPublisherGone) {
 
 TEST(ShmRingSemantics, SwitchingToABiggerSegmentLosesNothing) {
   ShmWriter old_writer = ShmWriter::create(config(64, 2));
-  ReaderOptions options;
-  options.buffers = 2;
+  ReaderOptions options = with_buffers(2);
   ShmReader old_reader = ShmReader::attach(old_writer.fd(), options);
   std::vector<std::byte> buffer(64);
   SampleInfo info;
-  for (std::uint64_t s = 1; s <= 3; ++s) ASSERT_EQ(old_writer.write(packet(64, s).data(), 64), WriteStatus::ok);
+  write_packets(old_writer, 1, 3);
   ASSERT_EQ(old_reader.read(buffer.data(), buffer.size(), info), ReadStatus::ok);
   EXPECT_EQ(info.sequence, 3u);  // lagged 3 > 2: skipped to the newest
 
@@ -298,12 +284,7 @@ TEST(ShmRingSemantics, SwitchingToABiggerSegmentLosesNothing) {
   resume.resume_after = old_reader.last_sequence();
   ShmReader new_reader = ShmReader::attach(new_writer.fd(), resume);
   ASSERT_EQ(new_writer.write(packet(64, 6).data(), 64), WriteStatus::ok);
-  for (std::uint64_t s = 5; s <= 6; ++s) {
-    ASSERT_EQ(new_reader.read(buffer.data(), buffer.size(), info), ReadStatus::ok);
-    EXPECT_EQ(info.sequence, s);
-    EXPECT_EQ(info.lost, 0u);
-    EXPECT_EQ(buffer, packet(64, s));
-  }
+  expect_packets(new_reader, 5, 6);
 }
 
 // write_as(): a relayed stream keeps its writer's numbers; numbers it jumps
@@ -311,8 +292,7 @@ TEST(ShmRingSemantics, SwitchingToABiggerSegmentLosesNothing) {
 TEST(ShmRingSemantics, WriteAsJumpsCountAsLost) {
   ShmWriter writer = ShmWriter::create(config(64, 8));
   auto reader = [&](std::uint32_t buffers, LagPolicy on_lag) {
-    ReaderOptions options;
-    options.buffers = buffers;
+    ReaderOptions options = with_buffers(buffers);
     options.on_lag = on_lag;
     return ShmReader::attach(writer.fd(), options);
   };
@@ -397,8 +377,7 @@ TEST(ShmRingSemantics, WriteAsFromAStartingPoint) {
   RingConfig start = config(64, 4);
   start.first_sequence = 101;  // the stream's packets up to 100 are not this ring's
   ShmWriter writer = ShmWriter::create(start);
-  ReaderOptions options;
-  options.buffers = 4;
+  ReaderOptions options = with_buffers(4);
   options.resume_after = 100;
   ShmReader reader = ShmReader::attach(writer.fd(), options);
   ReaderOptions late = options;
@@ -418,9 +397,7 @@ TEST(ShmRingSemantics, WriteAsFromAStartingPoint) {
 
 TEST(ShmRingSemantics, CorruptSharedStateGivesErrorsNotCrashes) {
   ShmWriter writer = ShmWriter::create(config(64, 2));
-  ReaderOptions options;
-  options.buffers = 2;
-  ShmReader reader = ShmReader::attach(writer.fd(), options);
+  ShmReader reader = ShmReader::attach(writer.fd(), with_buffers(2));
   ASSERT_EQ(writer.write(packet(64, 1).data(), 64), WriteStatus::ok);
 
   // A second mapping of the same segment plays the part of a buggy peer.
@@ -463,8 +440,7 @@ TEST(ShmRingSemantics, WriteProtectedReadersCannotWriteThePublishersPart) {
   // and the packet is unchanged for everyone else.
   Child child([&] {
     ::signal(SIGSEGV, [](int) { ::_exit(42); });
-    ReaderOptions options;
-    options.buffers = 2;
+    ReaderOptions options = with_buffers(2);
     options.resume_after = 0;
     options.write_protect = true;
     ShmReader reader = ShmReader::attach(writer.fd(), options);

@@ -20,9 +20,7 @@
 namespace ln::fuzz {
 namespace {
 
-using manager::testing::RunningManager;
-using manager::testing::TempDir;
-using manager::testing::TestClient;
+using namespace manager::testing;  // the manager's test support: TempDir, RunningManager, TestClient
 using protocol::Message;
 
 void collect_files(const std::string& dir, std::vector<std::string>& texts) {

@@ -14,9 +14,7 @@
 namespace ln::fuzz {
 namespace {
 
-using manager::testing::RunningManager;
-using manager::testing::TempDir;
-using manager::testing::TestClient;
+using namespace manager::testing;  // the manager's test support: TempDir, RunningManager, TestClient
 using protocol::Message;
 namespace method = protocol::method;
 
@@ -104,7 +102,7 @@ Message mutate_field(Message m, Mutator& mutator) {
 
 TEST(FuzzManagerFrames, TheManagerSurvivesAndServes) {
   TempDir dir;
-  manager::testing::write_test_definitions(dir);
+  write_test_definitions(dir);
   RunningManager running(dir);
   Mutator mutator(seed());
   const std::vector<Message> requests = valid_requests();

@@ -34,6 +34,71 @@ extern char** environ;
 namespace {
 
 using namespace ln::servicetest;
+namespace method = ln::protocol::method;
+using ln::protocol::Message;
+
+/// A request with the dynamic fields filled (pointers into the arguments, which outlive the call).
+svc_test_t dynamic_request(std::string& text, std::vector<uint8_t>& blob, svc_item_t* items, uint32_t items_len) {
+  svc_test_t data;
+  std::memset(&data, 0, sizeof data);
+  data.req.text_len = static_cast<uint32_t>(text.size());
+  data.req.text = text.data();
+  data.req.blob_len = static_cast<uint32_t>(blob.size());
+  data.req.blob = blob.data();
+  data.req.items_len = items_len;
+  data.req.items = items;
+  return data;
+}
+
+/// An item pointing into `label` and `values` (which outlive the call).
+svc_item_t item(int32_t id, std::string& label, std::vector<double>& values) {
+  svc_item_t result;
+  result.id = id;
+  result.label_len = static_cast<uint32_t>(label.size());
+  result.label = label.data();
+  result.values_len = static_cast<uint32_t>(values.size());
+  result.values = values.empty() ? nullptr : values.data();
+  return result;
+}
+
+/// The provider echoed text and blob of the request.
+void expect_text_and_blob_echoed(const svc_test_t& data, const std::string& text, const std::vector<uint8_t>& blob) {
+  EXPECT_EQ(std::string(data.resp.text, data.resp.text_len), text);
+  ASSERT_EQ(data.resp.blob_len, blob.size());
+  EXPECT_EQ(std::memcmp(data.resp.blob, blob.data(), blob.size()), 0);
+}
+
+/// Makes one CONCURRENCY call (the provider answers after `delay_ms` with how many calls it handled
+/// at once) on each handle, each in its own thread, and hands each result and answer to `on_answer`.
+template <class OnAnswer>
+void call_concurrently(const std::vector<ln_service>& handles, unsigned delay_ms, OnAnswer on_answer) {
+  std::vector<std::thread> threads;
+  for (ln_service svc : handles) {
+    threads.emplace_back([&, svc] {
+      svc_test_t data;
+      std::memset(&data, 0, sizeof data);
+      data.req.mode = CONCURRENCY;
+      data.req.delay_ms = delay_ms;
+      const int result = ln_service_call(svc, &data);
+      on_answer(result, data);
+    });
+  }
+  for (auto& t : threads) t.join();
+}
+
+/// `slow_call` makes a 10 s call; the provider is killed while it handles it: the call fails,
+/// long before the 10 s answer would have come (even on a loaded machine).
+template <class SlowCall>
+void expect_call_fails_when_provider_killed(ChildProcess& child, SlowCall slow_call) {
+  std::atomic<int> result{1};
+  const auto start = Clock::now();
+  std::thread calling([&] { result = slow_call(); });
+  EXPECT_NE(child.wait_for_line("slow"), "");  // the provider handles the call
+  child.kill(SIGKILL);
+  calling.join();
+  EXPECT_LT(result.load(), 0);
+  EXPECT_LT(Clock::now() - start, 9s);
+}
 
 TEST_F(ServiceProcessTest, SyncCallWithDynamicFieldsAnd16MB) {
   auto child = provider();
@@ -41,28 +106,12 @@ TEST_F(ServiceProcessTest, SyncCallWithDynamicFieldsAnd16MB) {
   std::string text = "hello, provider";
   std::vector<uint8_t> blob(16u << 20);
   for (size_t i = 0; i < blob.size(); ++i) blob[i] = static_cast<uint8_t>(i * 7);
-  std::vector<double> values = {1.5, -2.5, 3.25};
+  std::vector<double> values = {1.5, -2.5, 3.25}, no_values;
   std::string labels[2] = {"first", "second item"};
-  svc_item_t items[2];
-  for (int i = 0; i < 2; ++i) {
-    items[i].id = 10 + i;
-    items[i].label_len = static_cast<uint32_t>(labels[i].size());
-    items[i].label = labels[i].data();
-    items[i].values_len = i == 0 ? 3 : 0;
-    items[i].values = i == 0 ? values.data() : nullptr;
-  }
-  svc_test_t data;
-  std::memset(&data, 0, sizeof data);
-  data.req.text_len = static_cast<uint32_t>(text.size());
-  data.req.text = text.data();
-  data.req.blob_len = static_cast<uint32_t>(blob.size());
-  data.req.blob = blob.data();
-  data.req.items_len = 2;
-  data.req.items = items;
+  svc_item_t items[2] = {item(10, labels[0], values), item(11, labels[1], no_values)};
+  svc_test_t data = dynamic_request(text, blob, items, 2);
   ASSERT_EQ(ln_service_call(svc, &data), 0) << ln_get_error_message(client_);
-  EXPECT_EQ(std::string(data.resp.text, data.resp.text_len), text);
-  ASSERT_EQ(data.resp.blob_len, blob.size());
-  EXPECT_EQ(std::memcmp(data.resp.blob, blob.data(), blob.size()), 0);
+  expect_text_and_blob_echoed(data, text, blob);
   ASSERT_EQ(data.resp.items_len, 2u);
   EXPECT_EQ(data.resp.items[1].id, 11);
   EXPECT_EQ(std::string(data.resp.items[1].label, data.resp.items[1].label_len), "second item");
@@ -168,20 +217,12 @@ TEST_F(ServiceProcessTest, ThreadPoolServesEightCallersConcurrently) {
   for (ln_service svc : handles) ASSERT_EQ(call(svc, ECHO), 0);  // connect first
   std::atomic<uint32_t> most{0};
   std::atomic<int> failures{0};
-  std::vector<std::thread> threads;
-  for (ln_service svc : handles) {
-    threads.emplace_back([&, svc] {
-      svc_test_t data;
-      std::memset(&data, 0, sizeof data);
-      data.req.mode = CONCURRENCY;
-      data.req.delay_ms = 300;
-      if (ln_service_call(svc, &data) != 0) ++failures;
-      uint32_t seen = most.load();
-      while (data.resp.count > seen && !most.compare_exchange_weak(seen, data.resp.count)) {
-      }
-    });
-  }
-  for (auto& t : threads) t.join();
+  call_concurrently(handles, 300, [&](int result, const svc_test_t& data) {
+    if (result != 0) ++failures;
+    uint32_t seen = most.load();
+    while (data.resp.count > seen && !most.compare_exchange_weak(seen, data.resp.count)) {
+    }
+  });
   EXPECT_EQ(failures.load(), 0);
   EXPECT_GE(most.load(), 4u);  // handled at the same time (a count, not a time: machines get loaded)
 }
@@ -191,18 +232,10 @@ TEST_F(ServiceProcessTest, GroupHandledByOneThreadIsSerialized) {
   std::vector<ln_service> handles;
   for (int i = 0; i < 4; ++i) handles.push_back(caller());
   std::atomic<uint32_t> most{0};
-  std::vector<std::thread> threads;
-  for (ln_service svc : handles) {
-    threads.emplace_back([&, svc] {
-      svc_test_t data;
-      std::memset(&data, 0, sizeof data);
-      data.req.mode = CONCURRENCY;
-      data.req.delay_ms = 30;
-      EXPECT_EQ(ln_service_call(svc, &data), 0);
-      if (data.resp.count > most.load()) most = data.resp.count;
-    });
-  }
-  for (auto& t : threads) t.join();
+  call_concurrently(handles, 30, [&](int result, const svc_test_t& data) {
+    EXPECT_EQ(result, 0);
+    if (data.resp.count > most.load()) most = data.resp.count;
+  });
   EXPECT_EQ(most.load(), 1u);
 }
 
@@ -210,14 +243,7 @@ TEST_F(ServiceProcessTest, ProviderKilledMidCall) {
   auto child = provider();
   ln_service svc = caller();
   ASSERT_EQ(call(svc, ECHO), 0);
-  std::atomic<int> result{1};
-  const auto start = Clock::now();
-  std::thread calling([&] { result = call(svc, SLOW, 10000); });
-  EXPECT_NE(child->wait_for_line("slow"), "");  // the provider handles the call
-  child->kill(SIGKILL);
-  calling.join();
-  EXPECT_LT(result.load(), 0);
-  EXPECT_LT(Clock::now() - start, 9s);  // before the 10 s answer would have come, even on a loaded machine
+  expect_call_fails_when_provider_killed(*child, [&] { return call(svc, SLOW, 10000); });
 }
 
 TEST_F(ServiceProcessTest, UnknownServiceAndWrongSignature) {
@@ -284,7 +310,7 @@ TEST_F(ServiceProcessTest, ProviderReRegistersAfterManagerRestart) {
 
 // ---- a raw connection to the provider, sending garbage
 
-ln::protocol::Message exchange(int fd, const ln::protocol::Message& message) {
+Message exchange(int fd, const Message& message) {
   const std::string frame = ln::protocol::encode(message);
   EXPECT_EQ(::send(fd, frame.data(), frame.size(), MSG_NOSIGNAL), static_cast<ssize_t>(frame.size()));
   ln::protocol::FrameReader reader;
@@ -309,20 +335,26 @@ int connect_unix(const std::string& name) {
   return fd;
 }
 
-TEST_F(ServiceProcessTest, ProviderSurvivesGarbage) {
-  namespace method = ln::protocol::method;
-  using ln::protocol::Message;
-  auto child = provider();
-  const int manager = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+/// Connects to the manager on `port` as `program_name` and looks up "svc"; the manager
+/// connection stays open in *manager (the caller closes it).
+Message look_up_svc(uint16_t port, const char* program_name, int* manager) {
+  *manager = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
   sockaddr_in address{};
   address.sin_family = AF_INET;
-  address.sin_port = htons(manager_.port());
+  address.sin_port = htons(port);
   address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ASSERT_EQ(::connect(manager, reinterpret_cast<sockaddr*>(&address), sizeof address), 0);
-  exchange(manager, Message::request(1, method::hello).set("program_name", "garbage"));
-  const Message found = exchange(
-      manager,
+  if (::connect(*manager, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0)
+    throw std::runtime_error("cannot connect to the manager");
+  exchange(*manager, Message::request(1, method::hello).set("program_name", program_name));
+  return exchange(
+      *manager,
       Message::request(2, method::lookup_service).set("name", "svc").set("interface", "").set("signature", ""));
+}
+
+TEST_F(ServiceProcessTest, ProviderSurvivesGarbage) {
+  auto child = provider();
+  int manager = -1;
+  const Message found = look_up_svc(manager_.port(), "garbage", &manager);
   const std::string socket_name = found.get_string("peer_socket");
   // Junk straight into the peer server, then junk after a good handshake.
   for (int round = 0; round < 2; ++round) {
@@ -379,19 +411,9 @@ TEST_F(ServiceProcessTest, RoundTripNumbers) {
 }
 
 TEST_F(ServiceProcessTest, TcpPeerServerServesCallsButRefusesSharedMemory) {
-  namespace method = ln::protocol::method;
-  using ln::protocol::Message;
   auto child = provider();
-  const int manager = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_port = htons(manager_.port());
-  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ASSERT_EQ(::connect(manager, reinterpret_cast<sockaddr*>(&address), sizeof address), 0);
-  exchange(manager, Message::request(1, method::hello).set("program_name", "tcp_probe"));
-  const Message found = exchange(
-      manager,
-      Message::request(2, method::lookup_service).set("name", "svc").set("interface", "").set("signature", ""));
+  int manager = -1;
+  const Message found = look_up_svc(manager_.port(), "tcp_probe", &manager);
   ::close(manager);
   // The provider reaches the manager over loopback, so that is where its TCP peer server listens.
   const std::string peer = found.get_string("peer_address");
@@ -479,24 +501,10 @@ TEST_F(RemoteServiceProcessTest, DynamicFieldsAnd1MBOverTcp) {
   for (size_t i = 0; i < blob.size(); ++i) blob[i] = static_cast<uint8_t>(i * 13 + 1);
   std::vector<double> values = {0.5, -1.25};
   std::string label = "remote item";
-  svc_item_t item;
-  item.id = 42;
-  item.label_len = static_cast<uint32_t>(label.size());
-  item.label = label.data();
-  item.values_len = 2;
-  item.values = values.data();
-  svc_test_t data;
-  std::memset(&data, 0, sizeof data);
-  data.req.text_len = static_cast<uint32_t>(text.size());
-  data.req.text = text.data();
-  data.req.blob_len = static_cast<uint32_t>(blob.size());
-  data.req.blob = blob.data();
-  data.req.items_len = 1;
-  data.req.items = &item;
+  svc_item_t one = item(42, label, values);
+  svc_test_t data = dynamic_request(text, blob, &one, 1);
   ASSERT_EQ(ln_service_call(svc, &data), 0) << ln_get_error_message(client_);
-  EXPECT_EQ(std::string(data.resp.text, data.resp.text_len), text);
-  ASSERT_EQ(data.resp.blob_len, blob.size());
-  EXPECT_EQ(std::memcmp(data.resp.blob, blob.data(), blob.size()), 0);
+  expect_text_and_blob_echoed(data, text, blob);
   ASSERT_EQ(data.resp.items_len, 1u);
   EXPECT_EQ(data.resp.items[0].id, 42);
   EXPECT_EQ(std::string(data.resp.items[0].label, data.resp.items[0].label_len), label);
@@ -535,14 +543,7 @@ TEST_F(RemoteServiceProcessTest, ProviderKilledMidCallOverTcp) {
   const int tcp_before = established_tcp_sockets_of_this_process();
   ASSERT_EQ(call(svc, ECHO), 0) << ln_get_error_message(client_);
   EXPECT_EQ(established_tcp_sockets_of_this_process(), tcp_before + 1);
-  std::atomic<int> result{1};
-  const auto start = Clock::now();
-  std::thread calling([&] { result = call(svc, SLOW, 10000); });
-  EXPECT_NE(child->wait_for_line("slow"), "");  // the provider handles the call
-  child->kill(SIGKILL);
-  calling.join();
-  EXPECT_LT(result.load(), 0);
-  EXPECT_LT(Clock::now() - start, 9s);  // before the 10 s answer would have come, even on a loaded machine
+  expect_call_fails_when_provider_killed(*child, [&] { return call(svc, SLOW, 10000); });
 }
 
 // ------------------------------------- across two network namespaces (veth)
