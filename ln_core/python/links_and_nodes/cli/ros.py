@@ -32,18 +32,11 @@ def register(groups, common):
         metavar="KIND",
     )
 
+    commands = []
+
     def command(sub, name, run, **kwargs):
-        p = add_command(sub, name, common, run, **kwargs)
-        # A new participant learns the others' nodes in 2-3 s (DDS discovery plus ROS's
-        # ros_discovery_info); without ros2cli's daemon every command is such a newcomer.
-        p.add_argument(
-            "--spin-time",
-            type=_positive_float,
-            default=3.0,
-            metavar="SECONDS",
-            help="how long to let discovery find the others before answering (default 3)",
-        )
-        return p
+        commands.append(add_command(sub, name, common, run, **kwargs))
+        return commands[-1]
 
     def subcommands(kind, what):
         return command_group(kinds, kind, "ROS %s" % what, "%s of the ROS graph." % what.capitalize())
@@ -106,6 +99,17 @@ def register(groups, common):
         help="give up after this long, waiting for the server included (default 10)",
     )
     add_max_array(p)
+
+    for p in commands:
+        # A new participant learns the others' nodes in 2-3 s (DDS discovery plus ROS's
+        # ros_discovery_info); without ros2cli's daemon every command is such a newcomer.
+        p.add_argument(
+            "--spin-time",
+            type=_positive_float,
+            default=3.0,
+            metavar="SECONDS",
+            help="how long to let discovery find the others before answering (default 3)",
+        )
 
 
 # ------------------------------------------------------------------ the node
