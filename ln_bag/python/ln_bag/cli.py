@@ -6,6 +6,7 @@ import math
 
 from links_and_nodes.cli.common import positive_float as _positive_float
 from links_and_nodes.cli.common import positive_int as _positive_int
+from links_and_nodes.cli.parsers import add_command, command_group
 
 
 def _seconds(text):
@@ -30,9 +31,11 @@ def _lazy(module, function="run"):
 
 
 def register(groups, common):
-    p = groups.add_parser(
+    p = add_command(
+        groups,
         "record",
-        parents=[common],
+        common,
+        _lazy("record"),
         help="record topics into an MCAP file (ROS 2 tools read it)",
         description="Records LN topics into an MCAP file: one channel per topic, named as the bridge names it "
         "(a.b.c -> /a/b/c), messages in CDR with the ROS 2 type msg_mapping maps the definition to, "
@@ -67,11 +70,12 @@ def register(groups, common):
         "channels SERVICE/_request and SERVICE/_response, through the manager's service logging",
     )
     p.add_argument("--overwrite", action="store_true", help="replace an existing FILE")
-    p.set_defaults(run=_lazy("record"))
 
-    p = groups.add_parser(
+    p = add_command(
+        groups,
         "play",
-        parents=[common],
+        common,
+        _lazy("play"),
         help="publish a recording into LN topics",
         description="Publishes the messages of an MCAP recording on LN topics with their original timing: "
         "recordings of 'ln record' as they were, and ROS 2 bags (MCAP) whose types have LN "
@@ -115,27 +119,28 @@ def register(groups, common):
         "in a string or sequence field, e.g. sensor_msgs/msg/Image.data=6220800 (default 64 "
         "elements, 255 bytes)",
     )
-    p.set_defaults(run=_lazy("play"))
 
-    group = groups.add_parser(
+    sub = command_group(
+        groups,
         "bag",
-        help="inspect and convert recordings",
-        description="Recordings (MCAP files, rosbag2 bag directories, LN 2.9 files).",
+        "inspect and convert recordings",
+        "Recordings (MCAP files, rosbag2 bag directories, LN 2.9 files).",
     )
-    group.set_defaults(group_parser=group)
-    sub = group.add_subparsers(dest="command", metavar="SUBCOMMAND")
-    p = sub.add_parser(
+    p = add_command(
+        sub,
         "info",
-        parents=[common],
+        common,
+        _lazy("info"),
         help="topics, types, counts, rates and duration of a recording",
         description="What a recording holds, as 'ros2 bag info' shows it: file, size, duration, "
         "start and end, messages, and per topic its type, count, rate and LN definition.",
     )
     p.add_argument("file", metavar="FILE")
-    p.set_defaults(run=_lazy("info"))
-    p = sub.add_parser(
+    p = add_command(
+        sub,
         "convert",
-        parents=[common],
+        common,
+        _lazy("convert"),
         help="convert LN 2.9 recorder/logger files (or an MCAP file) to MCAP",
         description="Writes an indexed MCAP file from: LN 2.9's lnrecorder files (.pcap, also compressed, or "
         "an lnrdb directory), LN 2.9 logger files (manager_save: .pcap, .pickle, .mat), or an MCAP "
@@ -160,4 +165,3 @@ def register(groups, common):
     )
     p.add_argument("--rosbag2", action="store_true", help="OUT is a rosbag2 bag directory to create")
     p.add_argument("--overwrite", action="store_true", help="replace an existing OUT")
-    p.set_defaults(run=_lazy("convert"))

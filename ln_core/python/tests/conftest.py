@@ -11,6 +11,7 @@ links_and_nodes itself must be importable (PYTHONPATH=<build>/python).
 
 import contextlib
 import importlib.util
+import math
 import os
 import shutil
 import subprocess
@@ -18,6 +19,7 @@ import sys
 import time
 import uuid
 
+import links_and_nodes as ln
 import pytest
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -110,6 +112,36 @@ def run_python(manager, script, *args, timeout=30, **env):
     return subprocess.run(
         [sys.executable, script, *args], env=manager.env(**env), capture_output=True, text=True, timeout=timeout
     )
+
+
+class AreaProvider(ln.service_provider):
+    """LN quickstart's area services through the wrapped API: PREFIX.compute_circle_area
+    (error_code 1, "negative radius" for a radius below 0) and PREFIX.triangle, served
+    by a method of another name (method=) that always raises "no triangles today"."""
+
+    print_ready = False
+
+    def __init__(self, clnt, prefix):
+        ln.service_provider.__init__(self, clnt, prefix)
+        self.wrap_service_provider("compute_circle_area", "area_service/circle_area")
+        self.wrap_service_provider("triangle", "area_service/triangle_area", method=self.tri)
+
+    def compute_circle_area(self, radius):
+        if radius < 0:
+            return {"area": math.nan, "error_code": 1, "error_message": "negative radius"}
+        return {"area": math.pi * radius**2, "error_code": 0, "error_message": ""}
+
+    def tri(self, base, height):
+        raise ValueError("no triangles today")
+
+
+class AreaCalls(ln.services_wrapper):
+    """The caller's side of AreaProvider (triangle's height defaults to 2)."""
+
+    def __init__(self, clnt, prefix):
+        ln.services_wrapper.__init__(self, clnt, prefix)
+        self.wrap_service("compute_circle_area", "area_service/circle_area")
+        self.wrap_service("triangle", "area_service/triangle_area", default_arguments={"height": 2.0})
 
 
 def which_compiler():

@@ -17,32 +17,28 @@ from conftest import MSGDEFS, Manager
 QUICKSTART = os.path.join(os.path.dirname(os.path.abspath(__file__)), "quickstart")
 
 
+def start(env, *command):
+    """A quickstart program started in QUICKSTART, its output piped."""
+    return subprocess.Popen(
+        list(command), cwd=QUICKSTART, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+
+
+def run(env, *command):
+    """A quickstart program run to its end (at most 60 s), its output captured."""
+    return subprocess.run(list(command), cwd=QUICKSTART, env=env, capture_output=True, text=True, timeout=60)
+
+
 def run_counter(python, env):
-    sub = subprocess.Popen(
-        [python, "counter_subscriber.py", "5"],
-        cwd=QUICKSTART,
-        env=env,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    pub = subprocess.run(
-        [python, "counter_publisher.py", "5"], cwd=QUICKSTART, env=env, capture_output=True, text=True, timeout=60
-    )
+    sub = start(env, python, "counter_subscriber.py", "5")
+    pub = run(env, python, "counter_publisher.py", "5")
     sub_out, sub_err = sub.communicate(timeout=60)
     assert pub.returncode == 0 and sub.returncode == 0, pub.stderr + sub_err
     return pub.stdout + sub_out
 
 
 def run_area(python, env):
-    provider = subprocess.Popen(
-        [python, "-u", "area_provider_wrapped.py"],
-        cwd=QUICKSTART,
-        env=env,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    provider = start(env, python, "-u", "area_provider_wrapped.py")
     try:
         first = provider.stdout.readline().strip()
         if first != "ready":
@@ -50,9 +46,7 @@ def run_area(python, env):
             error = provider.stderr.read()
             raise AssertionError("provider failed: %s" % error)
         # "ready": its services are registered (in its constructor), the client may call
-        client = subprocess.run(
-            [python, "area_client_wrapped.py"], cwd=QUICKSTART, env=env, capture_output=True, text=True, timeout=60
-        )
+        client = run(env, python, "area_client_wrapped.py")
     finally:
         provider.send_signal(signal.SIGINT)
         try:

@@ -6,7 +6,7 @@ import math
 import links_and_nodes as ln
 import numpy as np
 import pytest
-from conftest import MSGDEFS
+from conftest import MSGDEFS, AreaCalls, AreaProvider
 from links_and_nodes import _ln, _services
 from links_and_nodes._packets import Compiler
 
@@ -146,32 +146,10 @@ def test_register_needs_a_handler(fake):
         fake.get_service_provider("x", "pytest/small_srv").do_register()
 
 
-class Areas(ln.service_provider):
-    def __init__(self, clnt):
-        ln.service_provider.__init__(self, clnt, "area")
-        self.wrap_service_provider("compute_circle_area", "area_service/circle_area")
-        self.wrap_service_provider("triangle", "area_service/triangle_area", method=self.tri)
-
-    def compute_circle_area(self, radius):
-        if radius < 0:
-            return {"area": math.nan, "error_code": 1, "error_message": "negative radius"}
-        return {"area": math.pi * radius**2, "error_code": 0, "error_message": ""}
-
-    def tri(self, base, height):
-        raise ValueError("no triangles")
-
-
-class Calls(ln.services_wrapper):
-    def __init__(self, clnt):
-        ln.services_wrapper.__init__(self, clnt, "area")
-        self.wrap_service("compute_circle_area", "area_service/circle_area")
-        self.wrap_service("triangle", "area_service/triangle_area", default_arguments={"height": 2.0})
-
-
 def test_wrapped_api_names_values_and_errors(fake):
-    Areas(fake)
+    AreaProvider(fake, "area")
     assert set(PROVIDERS) == {"area.compute_circle_area", "area.triangle"}
-    calls = Calls(fake)
+    calls = AreaCalls(fake, "area")
     result = calls.compute_circle_area(1.0)
     assert result == {"area": math.pi, "error_code": 0}
     with pytest.raises(ln.ServiceErrorResponse) as info:

@@ -1,6 +1,5 @@
 """Services: callers, providers, errors, async calls, the wrapped API."""
 
-import math
 import signal
 import subprocess
 import sys
@@ -12,6 +11,7 @@ import links_and_nodes as ln
 import ln_testing  # tests/support, on sys.path through conftest.py
 import numpy as np
 import pytest
+from conftest import AreaCalls, AreaProvider
 
 
 class Provider:
@@ -257,34 +257,10 @@ def test_ctrl_c_interrupts_a_blocking_call(manager, serve, tmp_path, unique):
 # ------------------------------------------------------------- wrapped API
 
 
-class Areas(ln.service_provider):
-    print_ready = False
-
-    def __init__(self, clnt, prefix):
-        ln.service_provider.__init__(self, clnt, prefix)
-        self.wrap_service_provider("compute_circle_area", "area_service/circle_area")
-        self.wrap_service_provider("compute_triangle_area", "area_service/triangle_area")
-
-    def compute_circle_area(self, radius):
-        if radius < 0:
-            return {"area": math.nan, "error_code": 1, "error_message": "negative radius"}
-        return {"area": math.pi * radius**2, "error_code": 0, "error_message": ""}
-
-    def compute_triangle_area(self, base, height):
-        raise ValueError("no triangles today")
-
-
-class AreaCalls(ln.services_wrapper):
-    def __init__(self, clnt, prefix):
-        ln.services_wrapper.__init__(self, clnt, prefix)
-        self.wrap_service("compute_circle_area", "area_service/circle_area")
-        self.wrap_service("compute_triangle_area", "area_service/triangle_area", default_arguments={"height": 1.0})
-
-
 def test_wrapped_api(clnt, unique):
     prefix = "area." + unique
     provider_client = ln.client("wrapped_provider")
-    areas = Areas(provider_client, prefix)
+    areas = AreaProvider(provider_client, prefix)
     thread = threading.Thread(target=areas.handle_service_group_requests, daemon=True)
     thread.start()
     try:
@@ -295,7 +271,7 @@ def test_wrapped_api(clnt, unique):
             calls.compute_circle_area(radius=-1.0)
         assert info.value.response["error_code"] == 1
         with pytest.raises(ln.ServiceErrorResponse, match="no triangles today"):
-            calls.compute_triangle_area(3.0)
+            calls.triangle(3.0)
         with pytest.raises(TypeError, match="radius"):
             calls.compute_circle_area()
         with pytest.raises(AttributeError, match="diameter"):

@@ -108,8 +108,9 @@ def test_refusals(clnt, unique):
         clnt.subscribe(topic, 5)
 
 
-def test_unblock_ends_a_blocking_read(clnt, unique):
-    sub = clnt.subscribe("pytest.unblock.%s" % unique, "counter/count_message")
+def blocked_reader(sub):
+    """A thread that is asleep in sub.read(True) (waited for), and the list of
+    the LNErrors that end its read."""
     errors = []
 
     def reader():
@@ -121,6 +122,12 @@ def test_unblock_ends_a_blocking_read(clnt, unique):
     thread = threading.Thread(target=reader)
     thread.start()
     ln_testing.wait_asleep(thread.native_id, 10, "the reader blocked in read(True)")
+    return thread, errors
+
+
+def test_unblock_ends_a_blocking_read(clnt, unique):
+    sub = clnt.subscribe("pytest.unblock.%s" % unique, "counter/count_message")
+    thread, errors = blocked_reader(sub)
     sub.unblock()
     thread.join(5)
     assert not thread.is_alive()
@@ -245,22 +252,11 @@ def test_environment_names_the_client(manager):
 
 def test_close_ends_reads_blocked_in_other_threads(manager, unique):
     c = ln.client("pytest_close")
-    sub = c.subscribe("pytest.close.%s" % unique, "counter/count_message")
-    errors = []
-
-    def reader():
-        try:
-            sub.read(True)
-        except ln.LNError as error:
-            errors.append(error.code)
-
-    thread = threading.Thread(target=reader)
-    thread.start()
-    ln_testing.wait_asleep(thread.native_id, 10, "the reader blocked in read(True)")
+    thread, errors = blocked_reader(c.subscribe("pytest.close.%s" % unique, "counter/count_message"))
     c.close()
     thread.join(10)
     assert not thread.is_alive()
-    assert errors and errors[0] in (ln.LNE_PORT_UNBLOCKED, ln.LNE_CLIENT_NOT_INITIALIZED)
+    assert errors and errors[0].code in (ln.LNE_PORT_UNBLOCKED, ln.LNE_CLIENT_NOT_INITIALIZED)
     c.close()  # twice is fine
 
 

@@ -1,26 +1,27 @@
 """ln client list"""
 
-from .common import as_dict, introspect
+from .common import introspect, show_items
+from .parsers import add_command, command_group
 
 CLIENT_FIELDS = ("name", "id", "pid", "host", "host_id", "published", "subscribed", "services")
 
 
 def register(groups, common):
-    group = groups.add_parser(
+    sub = command_group(
+        groups,
         "client",
-        help="list the clients of the manager",
-        description="Clients (programs) registered with the running ln_manager.",
+        "list the clients of the manager",
+        "Clients (programs) registered with the running ln_manager.",
     )
-    group.set_defaults(group_parser=group)
-    sub = group.add_subparsers(dest="command", metavar="SUBCOMMAND")
-    p = sub.add_parser(
+    add_command(
+        sub,
         "list",
-        parents=[common],
+        common,
+        cmd_list,
         help="clients with pid, host, their topics and services",
         description="Every client but this command itself: name, pid, host, the topics it "
         "publishes and subscribes and the services it provides.",
     )
-    p.set_defaults(run=cmd_list)
 
 
 def other_clients(session):
@@ -30,14 +31,12 @@ def other_clients(session):
 
 
 def cmd_list(session):
-    clients = other_clients(session)
-    out = session.out
-    if session.json:
-        out.json([as_dict(c, CLIENT_FIELDS) for c in clients])
-        return
-    out.table(
+    show_items(
+        session,
+        other_clients(session),
+        CLIENT_FIELDS,
         ("CLIENT", "PID", "HOST", "PUBLISHES", "SUBSCRIBES", "SERVICES"),
-        [(c.name, c.pid, c.host, list(c.published), list(c.subscribed), list(c.services)) for c in clients],
+        lambda c: (c.name, c.pid, c.host, list(c.published), list(c.subscribed), list(c.services)),
         numeric=(1,),
         empty="no clients",
     )

@@ -115,6 +115,11 @@ def introspect(session, method):
     return request()
 
 
+def by_name(session, method):
+    """The answer of introspect(session, method), sorted by name."""
+    return sorted(introspect(session, method), key=lambda item: item.name)
+
+
 def as_dict(obj, names):
     return {name: getattr(obj, name) for name in names}
 
@@ -146,3 +151,56 @@ def positive_float(text):
     if not value > 0 or math.isinf(value):
         raise argparse.ArgumentTypeError("must be a positive number, got %s" % text)
     return value
+
+
+def parse_field_values(texts):
+    """values.parse_fields() of 'field: value' arguments; CliError on bad syntax."""
+    from . import values
+
+    try:
+        return values.parse_fields(texts)
+    except values.ValueSyntaxError as error:
+        raise CliError(
+            "malformed field values %s" % error,
+            "write 'field: value, list: [1, 2], sub: {x: 1}'; quote text with spaces",
+        ) from None
+
+
+def no_message(topic, how_long, seconds, info_command):
+    """The error of a command that waited in vain for a message on `topic`."""
+    return CliError("no message on %s %s %g s" % (topic, how_long, seconds), "is it published? see '%s'" % info_command)
+
+
+def print_response(out, response, max_array):
+    """A service's response (plain data) as 'ln service call' and 'ln ros service call' print it."""
+    if out.json_mode:
+        out.json(response)
+    elif response:
+        out.record(response, max_array)
+    else:
+        out.line(out.paint("(empty response)", "dim"))
+
+
+def show_table(session, data, headers, rows, **options):
+    """A list command's answer: `data` as JSON (--json), or the table of `rows`
+    (options: those of Output.table)."""
+    if session.json:
+        session.out.json(data)
+    else:
+        session.out.table(headers, rows, **options)
+
+
+def show_items(session, items, fields, headers, row, **options):
+    """A list command's answer on manager objects: their `fields` as JSON
+    (--json), or a table with the row(item) of each."""
+    show_table(session, [as_dict(i, fields) for i in items], headers, [row(i) for i in items], **options)
+
+
+def show_info(session, info, pairs):
+    """An info command's answer: `info` as JSON (--json), or the (label, value)
+    pairs. True when it printed the pairs, for a command that adds more lines."""
+    if session.json:
+        session.out.json(info)
+        return False
+    session.out.fields(pairs)
+    return True

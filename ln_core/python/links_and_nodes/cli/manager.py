@@ -1,19 +1,15 @@
 """ln manager status"""
 
-from .common import as_dict, introspect
+from .common import as_dict, introspect, show_info
 from .output import human_duration
+from .parsers import add_command, command_group
 
 STATUS_FIELDS = ("version", "pid", "address", "uptime", "clients", "topics", "services", "message_definition_dirs")
 
 
 def register(groups, common):
-    group = groups.add_parser(
-        "manager", help="the state of the ln_manager", description="The running ln_manager itself."
-    )
-    group.set_defaults(group_parser=group)
-    sub = group.add_subparsers(dest="command", metavar="SUBCOMMAND")
-    p = sub.add_parser("status", parents=[common], help="version, pid, address, uptime, counts, definition dirs")
-    p.set_defaults(run=cmd_status)
+    sub = command_group(groups, "manager", "the state of the ln_manager", "The running ln_manager itself.")
+    add_command(sub, "status", common, cmd_status, help="version, pid, address, uptime, counts, definition dirs")
 
 
 def cmd_status(session):
@@ -21,10 +17,9 @@ def cmd_status(session):
     out = session.out
     info = as_dict(status, STATUS_FIELDS)
     info["message_definition_dirs"] = list(status.message_definition_dirs)
-    if session.json:
-        out.json(info)
-        return
-    out.fields(
+    if not show_info(
+        session,
+        info,
         [
             ("address", status.address),
             ("version", status.version),
@@ -33,8 +28,9 @@ def cmd_status(session):
             ("clients", "%d (this command included)" % status.clients),
             ("topics", status.topics),
             ("services", status.services),
-        ]
-    )
+        ],
+    ):
+        return
     out.line(out.paint("message definition dirs:", "bold"))
     for directory in info["message_definition_dirs"] or ["(none)"]:
         out.line("  " + directory)

@@ -6,7 +6,8 @@ import shutil
 import struct
 import subprocess
 
-from .common import CliError, introspect, lnerror_text
+from .common import CliError, introspect, lnerror_text, show_table
+from .parsers import add_command, command_group
 
 POINTER_SIZE = struct.calcsize("P")
 KIND_NAMES = {"plain": "message", "service": "service", "event": "event"}
@@ -36,31 +37,30 @@ GENERATE_COMMAND = ("md", "generate")
 
 
 def register(groups, common):
-    group = groups.add_parser(
+    sub = command_group(
+        groups,
         "md",
-        help="show, find and generate message definitions",
-        description="Message definitions: through the ln_manager when one is reachable, "
+        "show, find and generate message definitions",
+        "Message definitions: through the ln_manager when one is reachable, "
         "else (or with --md-dir) on the local search path: --md-dir, the "
         "built-in dirs, ~/ln_message_definitions, $LN_MESSAGE_DEFINITION_DIRS.",
     )
-    group.set_defaults(group_parser=group)
-    sub = group.add_subparsers(dest="command", metavar="SUBCOMMAND")
 
-    p = sub.add_parser("show", parents=[common], help="definition, size, layout with offsets, signature, hash")
+    p = add_command(sub, "show", common, cmd_show, help="definition, size, layout with offsets, signature, hash")
     p.add_argument("name", metavar="MD").completer = "mds"
     _add_md_dir(p)
-    p.set_defaults(run=cmd_show)
 
-    p = sub.add_parser(
+    p = add_command(
+        sub,
         "find",
-        parents=[common],
+        common,
+        cmd_find,
         help="definitions whose name matches PATTERN",
         description="Lists the definitions on the search path whose name contains PATTERN "
         "(case-insensitive), or matches it when it has wildcards (*, ?, [...]).",
     )
     p.add_argument("pattern", metavar="PATTERN", nargs="?", default="")
     _add_md_dir(p)
-    p.set_defaults(run=cmd_find)
 
     p = sub.add_parser(
         "generate",
@@ -292,7 +292,6 @@ def matches(name, pattern):
 
 
 def cmd_find(session):
-    out = session.out
     dirs = search_dirs(session)
     pattern = session.args.pattern
     hits = [
@@ -305,10 +304,7 @@ def cmd_find(session):
             "no message definition matches '%s'" % pattern,
             "searched %d director%s; see 'ln manager status'" % (len(dirs), "y" if len(dirs) == 1 else "ies"),
         )
-    if session.json:
-        out.json(hits)
-        return
-    out.table(("DEFINITION", "KIND", "FILE"), [(h["name"], h["kind"], h["path"]) for h in hits])
+    show_table(session, hits, ("DEFINITION", "KIND", "FILE"), [(h["name"], h["kind"], h["path"]) for h in hits])
 
 
 # -------------------------------------------------------------- generate

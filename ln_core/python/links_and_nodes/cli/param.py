@@ -2,35 +2,35 @@
 (parameter blocks, LN 2.9's or ln_core's), as LN 2.9's manager shows them
 in its parameters tab."""
 
-from .common import CliError, lnerror_text
+from .common import CliError, lnerror_text, show_info, show_table
 from .output import format_number, format_scalar
+from .parsers import add_command, command_group
 
 PROVIDER_PREFIX = "ln.parameters.query_dict."
 
 
 def register(groups, common):
-    group = groups.add_parser(
+    sub = command_group(
+        groups,
         "param",
-        help="list, read and override parameters",
-        description="Parameters that clients provide (parameter blocks). Names are full "
+        "list, read and override parameters",
+        "Parameters that clients provide (parameter blocks). Names are full "
         "names ('controller.gain'); LN_PARAMETER_PREFIX is not applied.",
     )
-    group.set_defaults(group_parser=group)
-    sub = group.add_subparsers(dest="command", metavar="SUBCOMMAND")
 
-    p = sub.add_parser("list", parents=[common], help="parameters with their value, override and provider")
+    p = add_command(sub, "list", common, cmd_list, help="parameters with their value, override and provider")
     p.add_argument(
         "prefix", nargs="?", default="", metavar="PREFIX", help="only the parameters below this group (default: all)"
     )
-    p.set_defaults(run=cmd_list)
 
-    p = sub.add_parser("get", parents=[common], help="a parameter: value in effect, input, override, description")
+    p = add_command(sub, "get", common, cmd_get, help="a parameter: value in effect, input, override, description")
     p.add_argument("name", metavar="PARAMETER").completer = "parameters"
-    p.set_defaults(run=cmd_get)
 
-    p = sub.add_parser(
+    p = add_command(
+        sub,
         "set",
-        parents=[common],
+        common,
+        cmd_set,
         help="override a parameter",
         description="Overrides PARAMETER with VALUE, written as in Python: 2.5, true, "
         "[1, 2, 3], [[1, 0], [0, 1]]. Waits until the provider's next update "
@@ -40,12 +40,10 @@ def register(groups, common):
     p.add_argument("name", metavar="PARAMETER").completer = "parameters"
     p.add_argument("value", metavar="VALUE")
     p.add_argument("--no-wait", action="store_true", help="return without waiting for the provider's update")
-    p.set_defaults(run=cmd_set)
 
-    p = sub.add_parser("reset", parents=[common], help="end the override of a parameter")
+    p = add_command(sub, "reset", common, cmd_reset, help="end the override of a parameter")
     p.add_argument("name", metavar="PARAMETER").completer = "parameters"
     p.add_argument("--no-wait", action="store_true", help="return without waiting for the provider's update")
-    p.set_defaults(run=cmd_reset)
 
 
 def parameters(clnt, prefix=""):
@@ -102,11 +100,9 @@ def find(session, name):
 
 def cmd_list(session):
     found = parameters(session.client(), session.args.prefix)
-    out = session.out
-    if session.json:
-        out.json([record(name, value) for name, value in found.items()])
-        return
-    out.table(
+    show_table(
+        session,
+        [record(name, value) for name, value in found.items()],
         ("PARAMETER", "VALUE", "OVERRIDE", "PROVIDER", "DESCRIPTION"),
         [
             (
@@ -125,11 +121,9 @@ def cmd_list(session):
 def cmd_get(session):
     name = session.args.name
     info = record(name, find(session, name))
-    out = session.out
-    if session.json:
-        out.json(info)
-        return
-    out.fields(
+    show_info(
+        session,
+        info,
         [
             ("parameter", name),
             ("value", text(info["value"])),
@@ -137,7 +131,7 @@ def cmd_get(session):
             ("override", "yes" if info["override_enabled"] else "no"),
             ("provider", info["provider"]),
             ("description", info["description"] or None),
-        ]
+        ],
     )
 
 

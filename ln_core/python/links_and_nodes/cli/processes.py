@@ -6,6 +6,7 @@ import time
 
 from .common import CliError, as_dict, describe_error
 from .output import human_duration
+from .parsers import add_command, command_group
 
 INFO_FIELDS = (
     "name",
@@ -41,18 +42,22 @@ def register(groups, common):
             ("restart", "stop and start processes again, and wait until they are ready"),
         ),
     )
-    p = sub.add_parser(
+    p = add_command(
+        sub,
         "info",
-        parents=[common],
+        common,
+        cmd_info,
         help="one process in detail, with its last output lines",
         description="Everything the manager knows about one process, and its last output lines.",
     )
     p.add_argument("name", help="process name").completer = "processes"
     p.add_argument("-n", "--lines", type=int, default=10, metavar="N", help="output lines to show (default 10)")
-    p.set_defaults(run=cmd_info, kind="process")
-    p = sub.add_parser(
+    p.set_defaults(kind="process")
+    p = add_command(
+        sub,
         "output",
-        parents=[common],
+        common,
+        cmd_output,
         help="what a process printed; -f follows it",
         description="The output lines the manager kept of a process (or state); with -f, "
         "new lines as they come, until Ctrl-C or --duration.",
@@ -61,7 +66,6 @@ def register(groups, common):
     p.add_argument("-n", "--lines", type=int, metavar="N", help="only the last N lines")
     p.add_argument("-f", "--follow", action="store_true", help="keep printing new lines")
     p.add_argument("--duration", type=float, metavar="S", help="with -f: stop following after S seconds")
-    p.set_defaults(run=cmd_output)
     _group(
         groups,
         common,
@@ -96,19 +100,17 @@ def register(groups, common):
 
 def _group(groups, common, kind, completer, help_text, description, list_help, actions):
     """`ln KIND list` and `ln KIND ACTION NAME...` for each of `actions`; the subparsers."""
-    group = groups.add_parser(kind, help=help_text, description=description)
-    group.set_defaults(group_parser=group)
-    sub = group.add_subparsers(dest="command", metavar="SUBCOMMAND")
-    p = sub.add_parser("list", parents=[common], help=list_help)
-    p.set_defaults(run=cmd_list, kind=kind)
+    sub = command_group(groups, kind, help_text, description)
+    p = add_command(sub, "list", common, cmd_list, help=list_help)
+    p.set_defaults(kind=kind)
     for action, text in actions:
-        p = sub.add_parser(action, parents=[common], help=text, description=text[0].upper() + text[1:] + ".")
+        p = add_command(sub, action, common, cmd_control, help=text, description=text[0].upper() + text[1:] + ".")
         p.add_argument("names", nargs="+", metavar="NAME", help="%s name" % kind).completer = completer
         if kind == "process" and action != "stop":
             p.add_argument("--alt", metavar="ALT_COMMAND", help="start with this alt_command of the process")
         p.add_argument("--no-wait", action="store_true", help="return once the manager accepted the request")
         p.add_argument("--timeout", type=float, default=60.0, metavar="S", help="wait at most S seconds (default 60)")
-        p.set_defaults(run=cmd_control, action=action, kind=kind)
+        p.set_defaults(action=action, kind=kind)
     return sub
 
 

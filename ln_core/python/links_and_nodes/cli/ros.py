@@ -15,55 +15,44 @@ import os
 import time
 
 from . import values as V
-from .common import CliError
+from .common import CliError, no_message, parse_field_values, print_response, show_info, show_table
 from .common import positive_float as _positive_float
-from .common import positive_int as _positive_int
-from .topic import RateMeter, _ms, add_report_options
+from .parsers import add_command, add_count_options, add_max_array, command_group
+from .topic import RateMeter, add_report_options, add_timeout_option, every_period, rate_line, show_report
 
 
 def register(groups, common):
-    group = groups.add_parser(
+    kinds = command_group(
+        groups,
         "ros",
-        help="the ROS 2 graph: nodes, topics, services (needs rclpy)",
-        description="Inspect and use the ROS 2 side (ROS 2 Jazzy's rclpy; the PyPI "
+        "the ROS 2 graph: nodes, topics, services (needs rclpy)",
+        "Inspect and use the ROS 2 side (ROS 2 Jazzy's rclpy; the PyPI "
         "ROS 2 has no 'ros2' command). Uses $ROS_DOMAIN_ID.",
+        dest="ros_kind",
+        metavar="KIND",
     )
-    group.set_defaults(group_parser=group)
-    kinds = group.add_subparsers(dest="ros_kind", metavar="KIND")
 
-    def graph_options(p):
-        # A new participant learns the others' nodes in 2-3 s (DDS discovery plus ROS's
-        # ros_discovery_info); without ros2cli's daemon every command is such a newcomer.
-        p.add_argument(
-            "--spin-time",
-            type=_positive_float,
-            default=3.0,
-            metavar="SECONDS",
-            help="how long to let discovery find the others before answering (default 3)",
-        )
+    commands = []
+
+    def command(sub, name, run, **kwargs):
+        commands.append(add_command(sub, name, common, run, **kwargs))
+        return commands[-1]
 
     def subcommands(kind, what):
-        parser = kinds.add_parser(kind, help="ROS %s" % what, description="%s of the ROS graph." % what.capitalize())
-        parser.set_defaults(group_parser=parser)
-        return parser.add_subparsers(dest="command", metavar="SUBCOMMAND")
+        return command_group(kinds, kind, "ROS %s" % what, "%s of the ROS graph." % what.capitalize())
 
     sub = subcommands("node", "nodes")
-    p = sub.add_parser("list", parents=[common], help="nodes of the ROS graph (hidden ones with --all)")
+    p = command(sub, "list", cmd_node_list, help="nodes of the ROS graph (hidden ones with --all)")
     p.add_argument("--all", "-a", action="store_true", help="also hidden nodes (names starting with '_')")
-    graph_options(p)
-    p.set_defaults(run=cmd_node_list)
 
     sub = subcommands("topic", "topics")
-    p = sub.add_parser("list", parents=[common], help="topics with type, publishers and subscribers")
-    graph_options(p)
-    p.set_defaults(run=cmd_topic_list)
-    p = sub.add_parser("info", parents=[common], help="one topic: type, publishers and subscribers with QoS")
+    command(sub, "list", cmd_topic_list, help="topics with type, publishers and subscribers")
+    p = command(sub, "info", cmd_topic_info, help="one topic: type, publishers and subscribers with QoS")
     p.add_argument("name", metavar="TOPIC")
-    graph_options(p)
-    p.set_defaults(run=cmd_topic_info)
-    p = sub.add_parser(
+    p = command(
+        sub,
         "echo",
-        parents=[common],
+        cmd_topic_echo,
         help="print the messages of a topic",
         description="Subscribes to TOPIC (QoS: best available, so it matches reliable and "
         "best-effort, volatile and transient-local publishers) and prints each "
@@ -71,23 +60,13 @@ def register(groups, common):
     )
     p.add_argument("name", metavar="TOPIC")
     p.add_argument("--type", "-t", metavar="TYPE", help="pkg/msg/Type (default: the topic's, from the graph)")
-    p.add_argument("--once", action="store_true", help="print one message and exit (same as --count 1)")
-    p.add_argument("--count", "-n", type=_positive_int, metavar="N", help="exit after N messages")
-    p.add_argument(
-        "--timeout", type=_positive_float, metavar="SECONDS", help="fail if no message arrives for this long"
-    )
-    p.add_argument(
-        "--max-array",
-        type=int,
-        default=32,
-        metavar="N",
-        help="show at most N values of an array (default 32; 0: all; not for --json)",
-    )
-    graph_options(p)
-    p.set_defaults(run=cmd_topic_echo)
-    p = sub.add_parser(
+    add_count_options(p, "print")
+    add_timeout_option(p)
+    add_max_array(p)
+    p = command(
+        sub,
         "hz",
-        parents=[common],
+        cmd_topic_hz,
         help="measure the rate of a topic",
         description="Subscribes to TOPIC and prints its rate and the intervals between "
         "messages every --period seconds, over the last --window messages.",
@@ -95,17 +74,14 @@ def register(groups, common):
     p.add_argument("name", metavar="TOPIC")
     p.add_argument("--type", "-t", metavar="TYPE", help="pkg/msg/Type (default: the topic's, from the graph)")
     add_report_options(p)
-    graph_options(p)
-    p.set_defaults(run=cmd_topic_hz)
 
     sub = subcommands("service", "services")
-    p = sub.add_parser("list", parents=[common], help="services with their types and servers")
+    p = command(sub, "list", cmd_service_list, help="services with their types and servers")
     p.add_argument("--all", "-a", action="store_true", help="also every node's parameter and type-description services")
-    graph_options(p)
-    p.set_defaults(run=cmd_service_list)
-    p = sub.add_parser(
+    p = command(
+        sub,
         "call",
-        parents=[common],
+        cmd_service_call,
         help="call a service and print the response",
         description="Calls SERVICE with a request given as 'field: value' pairs (YAML flow "
         "style, as for 'ln service call'; fields not given keep their defaults) "
@@ -122,15 +98,18 @@ def register(groups, common):
         metavar="SECONDS",
         help="give up after this long, waiting for the server included (default 10)",
     )
-    p.add_argument(
-        "--max-array",
-        type=int,
-        default=32,
-        metavar="N",
-        help="show at most N values of an array (default 32; 0: all; not for --json)",
-    )
-    graph_options(p)
-    p.set_defaults(run=cmd_service_call)
+    add_max_array(p)
+
+    for p in commands:
+        # A new participant learns the others' nodes in 2-3 s (DDS discovery plus ROS's
+        # ros_discovery_info); without ros2cli's daemon every command is such a newcomer.
+        p.add_argument(
+            "--spin-time",
+            type=_positive_float,
+            default=3.0,
+            metavar="SECONDS",
+            help="how long to let discovery find the others before answering (default 3)",
+        )
 
 
 # ------------------------------------------------------------------ the node
@@ -393,10 +372,7 @@ def cmd_node_list(session):
         for name, ns in graph.named(graph.node.get_node_names_and_namespaces, lambda entry: entry[0])
     )
     nodes = [n for n in nodes if not graph.own(n) and (session.args.all or not n.rsplit("/", 1)[-1].startswith("_"))]
-    if session.json:
-        session.out.json(nodes)
-        return
-    session.out.table(("NODE",), [(n,) for n in nodes], empty="no nodes")
+    show_table(session, nodes, ("NODE",), [(n,) for n in nodes], empty="no nodes")
 
 
 def _endpoints(fetch, name, graph):
@@ -425,10 +401,9 @@ def cmd_topic_list(session):
         publishers = _endpoints(graph.node.get_publishers_info_by_topic, name, graph)
         subscribers = _endpoints(graph.node.get_subscriptions_info_by_topic, name, graph)
         rows.append({"name": name, "types": types, "publishers": len(publishers), "subscribers": len(subscribers)})
-    if session.json:
-        session.out.json(rows)
-        return
-    session.out.table(
+    show_table(
+        session,
+        rows,
         ("TOPIC", "TYPE", "PUBS", "SUBS"),
         [(r["name"], ", ".join(r["types"]), r["publishers"], r["subscribers"]) for r in rows],
         numeric=(2, 3),
@@ -450,17 +425,17 @@ def cmd_topic_info(session):
         "subscribers": _endpoints(graph.node.get_subscriptions_info_by_topic, name, graph),
     }
     out = session.out
-    if session.json:
-        out.json(info)
-        return
-    out.fields(
+    if not show_info(
+        session,
+        info,
         [
             ("topic", name),
             ("type", ", ".join(types)),
             ("publishers", len(info["publishers"])),
             ("subscribers", len(info["subscribers"])),
-        ]
-    )
+        ],
+    ):
+        return
     for role in ("publishers", "subscribers"):
         if info[role]:
             out.line(out.paint(role + ":", "bold"))
@@ -494,10 +469,7 @@ def cmd_topic_echo(session):
         graph.executor.spin_once(timeout_sec=0.1)
         if not received:
             if args.timeout and time.monotonic() - waited_since > args.timeout:
-                raise CliError(
-                    "no message on ROS topic '%s' for %g s" % (name, args.timeout),
-                    "is it published? see 'ln ros topic info %s'" % name,
-                )
+                raise no_message("ROS topic '%s'" % name, "for", args.timeout, "ln ros topic info %s" % name)
             continue
         waited_since = time.monotonic()
         while received and (limit is None or shown < limit):
@@ -519,43 +491,18 @@ def cmd_topic_hz(session):
         meter.add(time.monotonic(), meter.total, 0)  # ROS has no sequence numbers here: one per arrival
 
     graph, name, _ = _subscribe(session, on_message)
-    start = time.monotonic()
-    next_report = start + (args.duration or args.period)
-    reports = 0
-    while True:
-        now = time.monotonic()
-        if now >= next_report:
-            report = meter.report()
-            if args.duration and meter.total == 0:
-                raise CliError(
-                    "no message on ROS topic '%s' within %g s" % (name, args.duration),
-                    "is it published? see 'ln ros topic info %s'" % name,
-                )
-            if report is not None:
-                report.pop("lost", None)
-                report["topic"] = name
-            if out.json_mode:
-                out.json(report or {"topic": name, "rate": 0.0, "received": 0}, compact=True)
-            elif report is None:
-                out.line("no new messages")
-            else:
-                out.line(
-                    "rate: %s  min: %s  max: %s  jitter: %s  window: %d"
-                    % (
-                        out.paint("%.3f Hz" % report["rate"], "bold"),
-                        _ms(report["min"]),
-                        _ms(report["max"]),
-                        _ms(report["jitter"]),
-                        report["window"],
-                    )
-                )
-            out.flush()
-            reports += 1
-            if args.duration or (args.count and reports >= args.count):
-                return
-            next_report += args.period
-            continue
-        graph.executor.spin_once(timeout_sec=max(0.0, min(0.1, next_report - now)))
+
+    def spin(seconds):
+        graph.executor.spin_once(timeout_sec=min(0.1, seconds))
+
+    def report():
+        report = meter.report()
+        if report is not None:
+            report.pop("lost", None)
+            report["topic"] = name
+        show_report(out, report, {"topic": name, "rate": 0.0, "received": 0}, lambda r: rate_line(out, r))
+
+    every_period(session, meter, spin, report, "ROS topic '%s'" % name, "ln ros topic info %s" % name)
 
 
 def cmd_service_list(session):
@@ -576,10 +523,9 @@ def cmd_service_list(session):
         if not session.args.all and name.endswith(_NODE_SERVICES):
             continue
         rows.append({"name": name, "types": types, "servers": sorted(servers.get(name, []))})
-    if session.json:
-        session.out.json(rows)
-        return
-    session.out.table(
+    show_table(
+        session,
+        rows,
         ("SERVICE", "TYPE", "SERVERS"),
         [(r["name"], ", ".join(r["types"]), r["servers"]) for r in rows],
         empty="no services",
@@ -594,14 +540,7 @@ def cmd_service_call(session):
     type_name = graph.topic_type(name, args.type, kind="srv", wait=args.timeout)
     cls = import_type(type_name)
     request = cls.Request()
-    try:
-        parsed = V.parse_fields(args.values)
-    except V.ValueSyntaxError as error:
-        raise CliError(
-            "malformed field values %s" % error,
-            "write 'field: value, list: [1, 2], sub: {x: 1}'; quote text with spaces",
-        ) from None
-    assign(request, parsed, type_name + "_Request")
+    assign(request, parse_field_values(args.values), type_name + "_Request")
     client = graph.node.create_client(cls, name)
     while not client.service_is_ready():
         if time.monotonic() - start >= args.timeout:
@@ -618,12 +557,7 @@ def cmd_service_call(session):
     if future.exception() is not None:
         raise CliError("ROS service '%s' failed: %s" % (name, future.exception()))
     response = to_plain(future.result())
-    if out.json_mode:
-        out.json(response)
-    elif response:
-        out.record(response, args.max_array)
-    else:
-        out.line(out.paint("(empty response)", "dim"))
+    print_response(out, response, args.max_array)
     # std_srvs-style responses report failure in the answer itself
     if response.get("success") is False:
         out.flush()

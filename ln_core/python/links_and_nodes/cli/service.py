@@ -3,30 +3,25 @@
 import re
 
 from . import values as V
-from .common import CliError, as_dict, find_by_name, introspect, lnerror_text
+from .common import CliError, as_dict, by_name, find_by_name, lnerror_text, print_response, show_info, show_items
 from .md import field_lines
+from .parsers import add_command, add_max_array, command_group
 from .topic import _positive_float, fill
 
 SERVICE_FIELDS = ("name", "interface", "signature", "provider", "group")
 
 
 def register(groups, common):
-    group = groups.add_parser(
-        "service", help="list, inspect and call services", description="Services of the running ln_manager."
-    )
-    group.set_defaults(group_parser=group)
-    sub = group.add_subparsers(dest="command", metavar="SUBCOMMAND")
-
-    p = sub.add_parser("list", parents=[common], help="services with interface, provider and group")
-    p.set_defaults(run=cmd_list)
-
-    p = sub.add_parser("info", parents=[common], help="one service: interface, signature, request and response")
+    sub = command_group(groups, "service", "list, inspect and call services", "Services of the running ln_manager.")
+    add_command(sub, "list", common, cmd_list, help="services with interface, provider and group")
+    p = add_command(sub, "info", common, cmd_info, help="one service: interface, signature, request and response")
     p.add_argument("name", metavar="SERVICE").completer = "services"
-    p.set_defaults(run=cmd_info)
 
-    p = sub.add_parser(
+    p = add_command(
+        sub,
         "call",
-        parents=[common],
+        common,
+        cmd_call,
         help="call a service and print the response",
         description="Calls SERVICE with a request given as 'field: value' pairs (YAML flow "
         "style, as for 'ln topic pub'; fields not given are 0 or empty) and prints "
@@ -41,52 +36,39 @@ def register(groups, common):
         metavar="SECONDS",
         help="give up after this long (default: wait for the response)",
     )
-    p.add_argument(
-        "--max-array",
-        type=int,
-        default=32,
-        metavar="N",
-        help="show at most N values of an array (default 32; 0: all; not for --json)",
-    )
-    p.set_defaults(run=cmd_call)
-
-
-def service_table(session):
-    return sorted(introspect(session, "list_services"), key=lambda s: s.name)
+    add_max_array(p)
 
 
 def cmd_list(session):
-    services = service_table(session)
-    out = session.out
-    if session.json:
-        out.json([as_dict(s, SERVICE_FIELDS) for s in services])
-        return
-    out.table(
+    show_items(
+        session,
+        by_name(session, "list_services"),
+        SERVICE_FIELDS,
         ("SERVICE", "INTERFACE", "PROVIDER", "GROUP"),
-        [(s.name, s.interface, s.provider or "-", s.group or "-") for s in services],
+        lambda s: (s.name, s.interface, s.provider or "-", s.group or "-"),
         empty="no services",
     )
 
 
 def cmd_info(session):
-    service = find_by_name(service_table(session), session.args.name, "service", "ln service list")
+    service = find_by_name(by_name(session, "list_services"), session.args.name, "service", "ln service list")
     model = session.client()._model(service.interface.split("|")[0])
     info = as_dict(service, SERVICE_FIELDS)
     info["request"] = field_lines(model["fields"])
     info["response"] = field_lines(model["response_fields"])
     out = session.out
-    if session.json:
-        out.json(info)
-        return
-    out.fields(
+    if not show_info(
+        session,
+        info,
         [
             ("service", service.name),
             ("interface", service.interface),
             ("provider", service.provider or None),
             ("group", service.group or None),
             ("signature", service.signature),
-        ]
-    )
+        ],
+    ):
+        return
     for section in ("request", "response"):
         out.line(out.paint(section + ":", "bold"))
         for text in info[section] or ["(empty)"]:
@@ -113,12 +95,7 @@ def cmd_call(session):
         text = re.sub(r"^call of service '[^']*' failed: ", "", lnerror_text(error))
         raise CliError("service '%s' failed: %s" % (args.name, text)) from None
     response = V.to_plain(svc.resp)
-    if out.json_mode:
-        out.json(response)
-    elif response:
-        out.record(response, args.max_array)
-    else:
-        out.line(out.paint("(empty response)", "dim"))
+    print_response(out, response, args.max_array)
     # LN's convention (services_wrapper raises ServiceErrorResponse): a
     # non-empty error_message is a failure, though the call itself worked
     error_message = response.get("error_message")

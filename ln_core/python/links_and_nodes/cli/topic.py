@@ -6,64 +6,66 @@ import time
 from collections import deque
 
 from . import values as V
-from .common import CliError, as_dict, find_by_name, introspect, lnerror_text
+from .common import (
+    CliError,
+    as_dict,
+    by_name,
+    find_by_name,
+    introspect,
+    lnerror_text,
+    no_message,
+    parse_field_values,
+    show_info,
+    show_items,
+)
 from .common import positive_float as _positive_float
 from .common import positive_int as _positive_int
 from .output import human_bytes, human_rate
+from .parsers import add_command, add_count_options, add_max_array, command_group
 
 TOPIC_FIELDS = ("name", "message_definition", "hash", "message_size", "publisher", "subscribers", "packets", "rate")
 
 
 def register(groups, common):
-    group = groups.add_parser(
-        "topic", help="list, inspect, echo, measure and publish topics", description="Topics of the running ln_manager."
+    sub = command_group(
+        groups, "topic", "list, inspect, echo, measure and publish topics", "Topics of the running ln_manager."
     )
-    group.set_defaults(group_parser=group)
-    sub = group.add_subparsers(dest="command", metavar="SUBCOMMAND")
-
-    p = sub.add_parser(
+    add_command(
+        sub,
         "list",
-        parents=[common],
+        common,
+        cmd_list,
         help="topics with definition, publisher, subscribers, rate",
         description="Every topic the manager knows: its message definition, publisher, number "
         "of subscribers and rate (packets/s, measured by the manager).",
     )
-    p.set_defaults(run=cmd_list)
-
-    p = sub.add_parser("info", parents=[common], help="one topic in detail")
+    p = add_command(sub, "info", common, cmd_info, help="one topic in detail")
     p.add_argument("name", metavar="TOPIC").completer = "topics"
-    p.set_defaults(run=cmd_info)
 
-    p = sub.add_parser(
+    p = add_command(
+        sub,
         "echo",
-        parents=[common],
+        common,
+        cmd_echo,
         help="print the messages of a topic",
         description="Subscribes to TOPIC and prints each message (YAML-like; --json: one JSON "
         "object per line; --csv: a header line, then one line per message).",
     )
     p.add_argument("name", metavar="TOPIC").completer = "topics"
     _add_read_options(p)
-    p.add_argument("--once", action="store_true", help="print one message and exit (same as --count 1)")
-    p.add_argument("--count", "-n", type=_positive_int, metavar="N", help="exit after N messages")
+    add_count_options(p, "print")
     p.add_argument("--field", "-f", metavar="PATH", help="print only this field, e.g. pose.position[2]")
     p.add_argument("--csv", action="store_true", help="comma-separated values, one line per message")
-    p.add_argument(
-        "--timeout", type=_positive_float, metavar="SECONDS", help="fail if no message arrives for this long"
-    )
-    p.add_argument(
-        "--max-array",
-        type=int,
-        default=32,
-        metavar="N",
-        help="show at most N values of an array (default 32; 0: all; not for --json/--csv)",
-    )
+    add_timeout_option(p)
+    add_max_array(p, "--json/--csv")
     p.add_argument("--rate", type=_positive_float, metavar="HZ", help="at most this many messages per second")
-    p.set_defaults(run=cmd_echo)
 
     for name, run, what in (("hz", cmd_hz, "the rate and jitter"), ("bw", cmd_bw, "the bandwidth")):
-        p = sub.add_parser(
+        p = add_command(
+            sub,
             name,
-            parents=[common],
+            common,
+            run,
             help="measure %s of a topic" % what,
             description="Subscribes to TOPIC and prints %s every --period seconds, over the "
             "last --window messages (lost packets are counted too)." % what,
@@ -71,11 +73,12 @@ def register(groups, common):
         p.add_argument("name", metavar="TOPIC").completer = "topics"
         _add_read_options(p)
         add_report_options(p)
-        p.set_defaults(run=run)
 
-    p = sub.add_parser(
+    p = add_command(
+        sub,
         "pub",
-        parents=[common],
+        common,
+        cmd_pub,
         help="publish messages on a topic",
         description="Publishes a message on TOPIC, given as 'field: value' pairs (YAML flow "
         "style: 'time: 1.5, vec: [1, 2, 3], origin: {x: 1}', or a path as the key: "
@@ -92,8 +95,7 @@ def register(groups, common):
     p.add_argument(
         "--rate", "-r", type=_positive_float, default=1.0, metavar="HZ", help="messages per second (default 1)"
     )
-    p.add_argument("--once", action="store_true", help="publish one message and exit (same as --count 1)")
-    p.add_argument("--count", "-n", type=_positive_int, metavar="N", help="exit after N messages")
+    add_count_options(p, "publish")
     p.add_argument(
         "--wait",
         type=float,
@@ -101,7 +103,13 @@ def register(groups, common):
         metavar="SECONDS",
         help="with --once/--count: wait this long for a subscriber first (default 2)",
     )
-    p.set_defaults(run=cmd_pub)
+
+
+def add_timeout_option(p):
+    """--timeout of the commands that print the messages of a topic (echo)."""
+    p.add_argument(
+        "--timeout", type=_positive_float, metavar="SECONDS", help="fail if no message arrives for this long"
+    )
 
 
 def add_report_options(p):
@@ -137,36 +145,28 @@ def _add_read_options(p):
 # --------------------------------------------------------------- list/info
 
 
-def topic_table(session):
-    return sorted(introspect(session, "list_topics"), key=lambda t: t.name)
-
-
 def cmd_list(session):
-    topics = topic_table(session)
-    out = session.out
-    if session.json:
-        out.json([as_dict(t, TOPIC_FIELDS) for t in topics])
-        return
-    out.table(
+    show_items(
+        session,
+        by_name(session, "list_topics"),
+        TOPIC_FIELDS,
         ("TOPIC", "DEFINITION", "PUBLISHER", "SUBS", "RATE"),
-        [(t.name, t.message_definition, t.publisher or "-", t.subscribers, human_rate(t.rate)) for t in topics],
+        lambda t: (t.name, t.message_definition, t.publisher or "-", t.subscribers, human_rate(t.rate)),
         numeric=(3, 4),
         empty="no topics",
     )
 
 
 def cmd_info(session):
-    topic = find_by_name(topic_table(session), session.args.name, "topic", "ln topic list")
+    topic = find_by_name(by_name(session, "list_topics"), session.args.name, "topic", "ln topic list")
     clients = introspect(session, "list_clients")
     own = session.client().name
     subscribers = sorted(c.name for c in clients if topic.name in c.subscribed and c.name != own)
     info = as_dict(topic, TOPIC_FIELDS)
     info["subscriber_names"] = subscribers
-    out = session.out
-    if session.json:
-        out.json(info)
-        return
-    out.fields(
+    show_info(
+        session,
+        info,
         [
             ("topic", topic.name),
             ("definition", topic.message_definition),
@@ -176,7 +176,7 @@ def cmd_info(session):
             ("subscribers", "%d%s" % (topic.subscribers, ": " + ", ".join(subscribers) if subscribers else "")),
             ("rate", human_rate(topic.rate)),
             ("packets", topic.packets),
-        ]
+        ],
     )
 
 
@@ -229,10 +229,7 @@ def cmd_echo(session):
         packet = port.read(0.2)
         if packet is None:
             if args.timeout and time.monotonic() - waited_since > args.timeout:
-                raise CliError(
-                    "no message on topic '%s' for %g s" % (args.name, args.timeout),
-                    "is it published? see 'ln topic info %s'" % args.name,
-                )
+                raise no_message("topic '%s'" % args.name, "for", args.timeout, "ln topic info %s" % args.name)
             continue
         waited_since = time.monotonic()
         plain = V.select(packet, steps) if steps else V.to_plain(packet)
@@ -302,84 +299,93 @@ def _ms(seconds):
     return "-" if seconds is None else "%.3f ms" % (seconds * 1e3)
 
 
-def _measure(session, show):
-    """Reads the topic and calls show(report) every period (hz and bw)."""
-    args, out = session.args, session.out
-    port, md_name = subscribe(session)
-    meter = RateMeter(args.window)
-    size = port.packet._size
-    start = time.monotonic()
-    end = start + args.duration if args.duration else None
-    next_report = start + (args.duration if args.duration else args.period)
+def every_period(session, meter, wait, report, topic, info_command):
+    """The loop of hz and bw: wait(seconds) feeds `meter` until a report is due,
+    then report() prints one; every --period, or once after --duration, and
+    --count times at most. `topic`, `info_command`: for the error when
+    --duration passed without a message."""
+    args = session.args
+    next_report = time.monotonic() + (args.duration or args.period)
     reports = 0
     while True:
-        now = time.monotonic()
-        if now >= next_report:
-            report = meter.report()
-            if end is not None and meter.total == 0:
-                raise CliError(
-                    "no message on topic '%s' within %g s" % (args.name, args.duration),
-                    "is it published? see 'ln topic info %s'" % args.name,
-                )
-            if report is not None:
-                report.update(topic=args.name, message_size=size, bandwidth=report["rate"] * size)
-            show(report)
-            out.flush()
-            reports += 1
-            if end is not None or (args.count and reports >= args.count):
-                return
-            next_report += args.period
+        remaining = next_report - time.monotonic()
+        if remaining > 0:
+            wait(remaining)
             continue
-        packet = port.read(min(0.2, max(0.0, next_report - now)))
+        if args.duration and meter.total == 0:
+            raise no_message(topic, "within", args.duration, info_command)
+        report()
+        session.out.flush()
+        reports += 1
+        if args.duration or (args.count and reports >= args.count):
+            return
+        next_report += args.period
+
+
+def show_report(out, report, empty, text):
+    """One report of hz or bw: `empty` (JSON) or 'no new messages' before there
+    are two messages, else the report as JSON or as the line text(report)."""
+    if out.json_mode:
+        out.json(report or empty, compact=True)
+    elif report is None:
+        out.line("no new messages")
+    else:
+        out.line(text(report))
+
+
+def rate_line(out, report):
+    """The line of 'hz': rate, interval statistics, window (and lost, where the report has it)."""
+    text = "rate: %s  min: %s  max: %s  jitter: %s  window: %d" % (
+        out.paint("%.3f Hz" % report["rate"], "bold"),
+        _ms(report["min"]),
+        _ms(report["max"]),
+        _ms(report["jitter"]),
+        report["window"],
+    )
+    return text + ("  lost: %d" % report["lost"] if "lost" in report else "")
+
+
+def _measure(session, show):
+    """Reads the topic and calls show(report) every period (hz and bw)."""
+    args = session.args
+    port, _ = subscribe(session)
+    meter = RateMeter(args.window)
+    size = port.packet._size
+
+    def read(seconds):
+        packet = port.read(min(0.2, seconds))
         if packet is not None:
             sequence, lost, _ = port.sample_info  # lost: skipped since the previous read
             meter.add(time.monotonic(), sequence, lost)
 
+    def report():
+        report = meter.report()
+        if report is not None:
+            report.update(topic=args.name, message_size=size, bandwidth=report["rate"] * size)
+        show(report)
+
+    every_period(session, meter, read, report, "topic '%s'" % args.name, "ln topic info %s" % args.name)
+
 
 def cmd_hz(session):
     out = session.out
-
-    def show(report):
-        if out.json_mode:
-            out.json(report or {"topic": session.args.name, "rate": 0.0, "received": 0}, compact=True)
-        elif report is None:
-            out.line("no new messages")
-        else:
-            out.line(
-                "rate: %s  min: %s  max: %s  jitter: %s  window: %d  lost: %d"
-                % (
-                    out.paint("%.3f Hz" % report["rate"], "bold"),
-                    _ms(report["min"]),
-                    _ms(report["max"]),
-                    _ms(report["jitter"]),
-                    report["window"],
-                    report["lost"],
-                )
-            )
-
-    _measure(session, show)
+    empty = {"topic": session.args.name, "rate": 0.0, "received": 0}
+    _measure(session, lambda report: show_report(out, report, empty, lambda r: rate_line(out, r)))
 
 
 def cmd_bw(session):
     out = session.out
+    empty = {"topic": session.args.name, "bandwidth": 0.0, "received": 0}
 
-    def show(report):
-        if out.json_mode:
-            out.json(report or {"topic": session.args.name, "bandwidth": 0.0, "received": 0}, compact=True)
-        elif report is None:
-            out.line("no new messages")
-        else:
-            out.line(
-                "bandwidth: %s  (%s messages at %.3f Hz)  window: %d"
-                % (
-                    out.paint(human_bytes(report["bandwidth"], per_second=True), "bold"),
-                    human_bytes(report["message_size"]),
-                    report["rate"],
-                    report["window"],
-                )
-            )
+    def text(report):
+        return "bandwidth: %s  (%s messages at %.3f Hz)  window: %d" % (
+            out.paint(human_bytes(report["bandwidth"], per_second=True), "bold"),
+            human_bytes(report["message_size"]),
+            report["rate"],
+            report["window"],
+        )
 
-    _measure(session, show)
+    _measure(session, lambda report: show_report(out, report, empty, text))
 
 
 # ----------------------------------------------------------------- publish
@@ -400,13 +406,9 @@ def packet_from_values(clnt, md_name, texts, what):
 
 def fill(part, texts, md_name):
     """Assigns 'field: value' texts to a packet part; CliError on bad input."""
+    fields = parse_field_values(texts)
     try:
-        V.assign_fields(part, V.parse_fields(texts))
-    except V.ValueSyntaxError as error:
-        raise CliError(
-            "malformed field values %s" % error,
-            "write 'field: value, list: [1, 2], sub: {x: 1}'; quote text with spaces",
-        ) from None
+        V.assign_fields(part, fields)
     except (AttributeError, TypeError, ValueError) as error:
         raise CliError(str(error), "see 'ln md show %s'" % md_name) from None
 

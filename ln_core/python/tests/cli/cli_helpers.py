@@ -121,6 +121,15 @@ class Providers:
         svc.do_register(group)
         return svc
 
+    @classmethod
+    def serving(cls, name, *services):
+        """A client `name` providing each (service, interface, handler), its thread started."""
+        providers = cls(name)
+        for service in services:
+            providers.provide(*service)
+        providers.start()
+        return providers
+
     def start(self):
         self._thread = threading.Thread(target=self._run, daemon=True)
         self._thread.start()
@@ -134,6 +143,12 @@ class Providers:
         if self._thread is not None:
             self._thread.join(5)
         self.client.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.stop()
 
 
 @pytest.fixture

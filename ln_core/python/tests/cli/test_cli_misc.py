@@ -23,17 +23,18 @@ needs_launcher = pytest.mark.skipif(not LAUNCHER, reason="LN_CORE_LN (the genera
 def live(manager):
     unique = uuid.uuid4().hex[:8]
     system = types.SimpleNamespace(topic="cli.misc.%s" % unique, service="cli.misc_svc.%s" % unique)
-    system.publisher = ln.client("cli_misc_publisher")
-    system.port = system.publisher.publish(system.topic, "counter/count_message")
-    system.subscriber = ln.client("cli_misc_subscriber")
-    system.sub_port = system.subscriber.subscribe(system.topic, "counter/count_message")
-    system.providers = Providers("cli_misc_provider")
-    system.providers.provide(system.service, "pytest/sleep", lambda request, req, resp: request.respond() or 0)
-    system.providers.start()
-    yield system
-    system.providers.stop()
-    system.subscriber.close()
-    system.publisher.close()
+
+    def respond(request, req, resp):
+        return request.respond() or 0
+
+    with (
+        ln.client("cli_misc_publisher") as system.publisher,
+        ln.client("cli_misc_subscriber") as system.subscriber,
+        Providers.serving("cli_misc_provider", (system.service, "pytest/sleep", respond)) as system.providers,
+    ):
+        system.port = system.publisher.publish(system.topic, "counter/count_message")
+        system.sub_port = system.subscriber.subscribe(system.topic, "counter/count_message")
+        yield system
 
 
 # ---------------------------------------------------------------- clients

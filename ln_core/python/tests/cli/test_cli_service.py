@@ -35,24 +35,21 @@ def echo(request, req, resp):
 def live(manager):
     unique = uuid.uuid4().hex[:8]
     system = types.SimpleNamespace(area="cli.area." + unique, echo="cli.echo." + unique, slow="cli.slow." + unique)
-    system.providers = Providers("cli_provider")
-    system.providers.provide(system.area, "area_service/circle_area", circle_area)
-    system.providers.provide(system.echo, "pytest/echo", echo)
-    system.providers.start()
     # a provider that never answers, in a client of its own
     system.release = threading.Event()
-    system.slow_provider = Providers("cli_slow_provider")
 
     def never_answers(request, req, resp):
         system.release.wait(10)
         return 0
 
-    system.slow_provider.provide(system.slow, "pytest/sleep", never_answers)
-    system.slow_provider.start()
-    yield system
-    system.release.set()
-    system.slow_provider.stop()
-    system.providers.stop()
+    with (
+        Providers.serving(
+            "cli_provider", (system.area, "area_service/circle_area", circle_area), (system.echo, "pytest/echo", echo)
+        ) as system.providers,
+        Providers.serving("cli_slow_provider", (system.slow, "pytest/sleep", never_answers)) as system.slow_provider,
+    ):
+        yield system
+        system.release.set()
 
 
 def test_list(manager, live):
