@@ -161,10 +161,10 @@ def GLibMainloop(context=None, loop=None):
 
 def _glib_mainloop_class():
     try:
-        import gi
+        import gi  # type: ignore[import-not-found]  # optional: PyGObject
 
         gi.require_version("GLib", "2.0")
-        from gi.repository import GLib
+        from gi.repository import GLib  # type: ignore[import-not-found]
     except (ImportError, ValueError) as error:
         raise ImportError("GLibMainloop needs PyGObject (the 'gi' package with GLib 2.0): %s" % error) from None
 

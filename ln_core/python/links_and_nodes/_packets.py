@@ -22,6 +22,8 @@ order, little endian, a dynamic field as a u32 count followed by its
 elements, ``x_len`` not travelling on its own.
 """
 
+from __future__ import annotations
+
 import ast
 import math
 import os
@@ -642,8 +644,8 @@ class Part:
 
     __slots__ = ("_buf", "_off", "_cache", "_dyn", "_name")
     _fields = ()
-    _field_types = {}
-    _field_ctor_names = {}
+    _field_types: dict[str, str] = {}
+    _field_ctor_names: dict[str, str] = {}
     _type_name = ""
     _size = 0
     _fixed = True
@@ -703,7 +705,7 @@ class Part:
             and bytes(self._flat()) == bytes(other._flat())
         )
 
-    __hash__ = None
+    __hash__ = None  # type: ignore[assignment]  # mutable: equal by value, so not hashable
 
     def __copy__(self):
         new = type(self)(name=self._name)
