@@ -232,9 +232,8 @@ class parameters_proxy(_Hooks):
         self._update_on_write = update_on_write
         self._queued_overrides: OrderedDict[tuple[str, str], _ParameterValue | None] = OrderedDict()
         self.is_subscribed = False
-        self._subscribed: list[
-            tuple[port_wrapper, list[str], _ValueDict]
-        ] = []  # (port, path in the packet, value dict)
+        # (port, path in the packet, value dict)
+        self._subscribed: list[tuple[port_wrapper, list[str], _ValueDict]] = []
         self._topic_ports: dict[str, port_wrapper] = {} if parent is None else parent._topic_ports
         self.lock = threading.RLock()
         self._in_on_update = False
