@@ -784,12 +784,12 @@ class Part:
     def _flat(self):
         """The flat (wire) form as a bytes-like object."""
         if self._fixed:
-            # mypy is right here: a borrowed packet's buffer is a Loan, which has no
-            # len(), so == and copy of a borrowed packet raise TypeError (not fixed:
-            # this change adds types only)
-            if self._off == 0 and len(self._buf) == self._size:  # type: ignore[arg-type]
-                return self._buf
-            return bytes(memoryview(self._buf)[self._off : self._off + self._size])
+            if isinstance(self._buf, bytearray):
+                if self._off == 0 and len(self._buf) == self._size:
+                    return self._buf
+                return bytes(memoryview(self._buf)[self._off : self._off + self._size])
+            # A borrowed packet's Loan: a byte view of it (a Loan has no len() and no slicing).
+            return memoryview(self._buf).cast("B")[self._off : self._off + self._size]
         out: list[bytes] = []
         self._encode_into(out)
         return b"".join(out)

@@ -23,6 +23,7 @@ from ._packets import ln29_definition
 
 if TYPE_CHECKING:
     from ._client import client
+    from ._packets import Part
 
 log = logging.getLogger("links_and_nodes")
 
@@ -92,8 +93,8 @@ class service_wrapper:
         self.defines = self.definition["defines"]
         self._req_fields = self.definition["fields"]
         self._resp_fields = self.definition["resp_fields"]
-        self._req_class = clnt._compiler.part_class(model, "fields", "::request", service=True)
-        self._resp_class = clnt._compiler.part_class(model, "response_fields", "::response", service=True)
+        self._req_class: type[Part] = clnt._compiler.part_class(model, "fields", "::request", service=True)
+        self._resp_class: type[Part] = clnt._compiler.part_class(model, "response_fields", "::response", service=True)
         # Messages whose fields are created at run time from the definition.
         self.req: Any = self._req_class(name=name + ".req")
         self.resp: Any = self._resp_class(name=name + ".resp")

@@ -262,7 +262,7 @@ class wrapped_service_provider:
             if pre is not None:
                 name, value = pre(self, value, name)
             elif isinstance(value, Part):
-                value = value.string if _is_ln_string(value) else value.dict()  # type: ignore[attr-defined]  # ln/string parts have a run-time field "string"
+                value = value.string if _is_ln_string(value) else value.dict()
             elif isinstance(value, list) and value and isinstance(value[0], Part):
                 value = [item.string if _is_ln_string(item) else item for item in value]
             kwargs[name] = value
