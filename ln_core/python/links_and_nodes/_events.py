@@ -11,10 +11,17 @@ pool), one event at a time.
                                  event_pattern="topic_*", name_pattern="*", md_pattern="*", client_pattern="*")
 """
 
+from __future__ import annotations
+
 import weakref
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, Any
 
 from . import _ln
 from ._errors import LNE_INVALID_SIGNATURE, LNError
+
+if TYPE_CHECKING:
+    from ._client import client
 
 
 class event_connection_wrapper:
@@ -27,7 +34,14 @@ class event_connection_wrapper:
     is this object). ln_core adds ``id`` and ``disconnect()``.
     """
 
-    def __init__(self, clnt, name, interface, callback, connect_args):
+    def __init__(
+        self,
+        clnt: client,
+        name: str,
+        interface: str,
+        callback: Callable[[Any], object],
+        connect_args: Mapping[str, Any],
+    ) -> None:
         if interface:
             definition, _ = clnt.get_service_signature(interface)
         else:
@@ -54,20 +68,23 @@ class event_connection_wrapper:
                 )
             setattr(connect, field, value)
         call_class = clnt._compiler.part_class(model, "response_fields", "::call")
-        self.event_data = type(call_class.__name__, (call_class,), {"__slots__": ("connection",)})(name=name + ".call")
+        # A message whose fields are created at run time from the definition.
+        self.event_data: Any = type(call_class.__name__, (call_class,), {"__slots__": ("connection",)})(
+            name=name + ".call"
+        )
         self.event_data.connection = self
         self.connect_data = bytes(connect._flat())
-        self._native = _ln.EventConnection(
+        self._native: _ln.EventConnection | None = _ln.EventConnection(
             clnt._native, name, self.connect_signature, self.connect_data, _deliverer(weakref.ref(self))
         )
         clnt._event_connections.add(self)
 
     @property
-    def id(self):
+    def id(self) -> int:
         """ln_core: the connection's id (unique per client)."""
         return self._native.id if self._native is not None else 0
 
-    def disconnect(self):
+    def disconnect(self) -> None:
         """ln_core: no event reaches the callback afterwards."""
         native, self._native = self._native, None
         if native is not None:
@@ -78,7 +95,7 @@ class event_connection_wrapper:
         self.event_data._decode(data)
         self.callback(self.event_data)
 
-    def __str__(self):
+    def __str__(self) -> str:
         return "<ln.event_connection %s>" % self.name
 
     __repr__ = __str__

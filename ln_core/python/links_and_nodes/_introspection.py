@@ -2,6 +2,8 @@
 services and itself (client.list_topics() & co.). Every result is an
 immutable NamedTuple; ``._asdict()`` gives a JSON-ready dict."""
 
+from __future__ import annotations
+
 from typing import NamedTuple
 
 from . import _ln
@@ -116,29 +118,29 @@ class process_output(NamedTuple):
     dropped: int
 
 
-def list_topics(native):
+def list_topics(native: _ln.Client) -> list[topic_info]:
     return [topic_info(**row) for row in _ln.list_topics(native)]
 
 
-def list_clients(native):
+def list_clients(native: _ln.Client) -> list[client_info]:
     return [client_info(**row) for row in _ln.list_clients(native)]
 
 
-def list_services(native):
+def list_services(native: _ln.Client) -> list[service_info]:
     return [service_info(**row) for row in _ln.list_services(native)]
 
 
-def get_manager_status(native):
+def get_manager_status(native: _ln.Client) -> manager_status:
     return manager_status(**_ln.manager_status(native))
 
 
-def list_processes(native):
+def list_processes(native: _ln.Client) -> list[process_info]:
     return [process_info(**row) for row in _ln.list_processes(native)]
 
 
-def control_process(native, name, action, alt_command=None):
+def control_process(native: _ln.Client, name: str, action: str, alt_command: str | None = None) -> None:
     _ln.control_process(native, name, action, alt_command or "")
 
 
-def get_process_output(native, name, after=0):
+def get_process_output(native: _ln.Client, name: str, after: int = 0) -> process_output:
     return process_output(**_ln.process_output(native, name, int(after)))

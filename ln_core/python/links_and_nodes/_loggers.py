@@ -10,13 +10,33 @@ decoded with the definition the data carries (LN 2.9's Python dict notation),
 so files from LN 2.9 decode without a manager.
 """
 
+from __future__ import annotations
+
 import ast
 import struct
+from collections.abc import Callable, Iterable, Mapping, MutableMapping
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from . import _ln
 from ._packets import Compiler
+
+if TYPE_CHECKING:
+    import os
+    from typing import TypeVar
+
+    from ._packets import Part
+
+    _UserDict = TypeVar("_UserDict", bound=MutableMapping[str, Any])
+
+    class _LoggedPacket(Part):
+        """A packet class of a recorded topic: its fields plus the sample header."""
+
+        log_ts: float
+        src_ts: float
+        packet_counter: int
+
 
 _HEADER = struct.Struct("=ddI")
 _compiler = Compiler()  # packet classes of loaded data (no client needed)
@@ -25,17 +45,19 @@ _compiler = Compiler()  # packet classes of loaded data (no client needed)
 class attr_dict(dict):
     """A dict whose keys are also attributes (LN 2.9's ln_wrappers.attr_dict)."""
 
-    def __getattr__(self, name):
+    def __getattr__(self, name: str) -> Any:
         try:
             return self[name]
         except KeyError:
             raise AttributeError(name) from None
 
-    def __setattr__(self, name, value):
+    def __setattr__(self, name: str, value: Any) -> None:
         self[name] = value
 
 
-def do_stack_fields(data, prefix, out_name=None, transpose=True):
+def do_stack_fields(
+    data: MutableMapping[str, Any], prefix: str, out_name: str | None = None, transpose: bool = True
+) -> None:
     """Joins the per-field arrays of every entry of `data` whose key starts
     with `prefix` into one entry `out_name` (default: the prefix) of stacked
     arrays, as LN 2.9's helper of the same name."""
@@ -77,14 +99,17 @@ class logger_sample_header:
 
     __slots__ = ("log_ts", "src_ts", "packet_counter")
     _fields = ()
+    log_ts: float
+    src_ts: float
+    packet_counter: int
 
-    def keys(self):
+    def keys(self) -> list[str]:
         return []
 
-    def items(self):
+    def items(self) -> list[tuple[str, Any]]:
         return []
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return "<logger sample log_ts=%r src_ts=%r packet_counter=%r>" % (self.log_ts, self.src_ts, self.packet_counter)
 
 
@@ -92,27 +117,35 @@ class logger_topic_:
     """ln.h's logger_topic of one recorded topic (read-only)."""
 
     __slots__ = ("name", "log_size", "divisor", "n_samples", "sample_size", "md_name", "md", "_samples")
+    name: str
+    log_size: int
+    divisor: int
+    n_samples: int
+    sample_size: int
+    md_name: str
+    md: str
+    _samples: bytes
 
-    def __init__(self, fields):
+    def __init__(self, fields: Mapping[str, Any]) -> None:
         for key in self.__slots__[:-1]:
             setattr(self, key, fields[key])
         self._samples = fields["samples"]
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return "<logger_topic_ %r: %d samples of %d bytes>" % (self.name, self.n_samples, self.sample_size)
 
 
 class topic_cursor:
     """Access to one recorded topic (LN 2.9's _ln.topic_cursor)."""
 
-    def __init__(self, topic):
+    def __init__(self, topic: logger_topic_) -> None:
         self.name = topic.name
         self._topic = topic
 
-    def get_topic(self):
+    def get_topic(self) -> logger_topic_:
         return self._topic
 
-    def get_sample(self, idx, target_buffer):
+    def get_sample(self, idx: int, target_buffer: bytearray) -> None:
         """Copies sample `idx` (header and packet) into a bytearray."""
         if not isinstance(target_buffer, bytearray):
             raise ValueError("provided data is not a bytearray-object!")
@@ -126,11 +159,11 @@ class topic_cursor:
 class topic_cursor_wrapper:
     """One recorded topic: len() samples, get_sample(i) the i-th (oldest first)."""
 
-    def __init__(self, c):
+    def __init__(self, c: topic_cursor) -> None:
         self.name = c.name
         self.c = c
         self.topic = c.get_topic()
-        self._packet_class = None
+        self._packet_class: type[_LoggedPacket] | None = None
         if self.topic.md and self.topic.sample_size > _HEADER.size:
             model = _ln.model_from_sources(self.topic.md_name, _sources(self.topic.md_name, self.topic.md))
             part = _compiler.part_class(model)
@@ -141,14 +174,15 @@ class topic_cursor_wrapper:
                 )
             self._packet_class = type(part.__name__, (part,), {"__slots__": ("log_ts", "src_ts", "packet_counter")})
         # As in LN 2.9: None when the topic was never seen published.
-        self.packet = self._new_packet() if self.topic.md else None
+        self.packet: _LoggedPacket | logger_sample_header | None = self._new_packet() if self.topic.md else None
 
-    def _new_packet(self):
+    def _new_packet(self) -> _LoggedPacket | logger_sample_header:
         return self._packet_class() if self._packet_class is not None else logger_sample_header()
 
-    def get_sample(self, idx):
+    def get_sample(self, idx: int) -> _LoggedPacket | logger_sample_header:
         """Sample `idx` as a new packet with log_ts, src_ts and packet_counter."""
         topic = self.topic
+        packet: _LoggedPacket | logger_sample_header
         if idx < 0 or idx >= topic.n_samples:
             raise IndexError("index %s is out of range" % idx)
         start = idx * topic.sample_size
@@ -159,10 +193,10 @@ class topic_cursor_wrapper:
         packet.log_ts, packet.src_ts, packet.packet_counter = _HEADER.unpack_from(topic._samples, start)
         return packet
 
-    def __len__(self):
+    def __len__(self) -> int:
         return self.topic.n_samples
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return "<topic_cursor_wrapper %r: %d samples>" % (self.name, len(self))
 
 
@@ -216,39 +250,41 @@ def _shapes(columns, prefix, out):
 class logger_data_wrapper:
     """Downloaded or loaded logger data: .topics maps names to topic_cursor_wrapper."""
 
-    def __init__(self, data):
+    def __init__(self, data: _ln.LoggerData) -> None:
         self.data = data
-        self.topics = {}
+        self.topics: dict[str, topic_cursor_wrapper] = {}
         for fields in data.topics():
             cursor = topic_cursor(logger_topic_(fields))
             self.topics[cursor.name] = topic_cursor_wrapper(cursor)
 
-    def save(self, fn):
+    def save(self, fn: str) -> None:
         """Writes the data in LN 2.9's file format (logger_data.load reads it)."""
         self.data.save(fn)
 
-    def get_dict(self, do_print=False, do_transform_topic_name=False, use_attr_dict=False):
+    def get_dict(
+        self, do_print: bool = False, do_transform_topic_name: bool = False, use_attr_dict: bool = False
+    ) -> dict[str, Any]:
         return self.unpack_into(
             dict(), do_print=do_print, do_transform_topic_name=do_transform_topic_name, use_attr_dict=use_attr_dict
         )
 
     def unpack_into(
         self,
-        user_dict,
-        src_ts_name="_packet_source_ts",
-        stack_fields=None,
-        do_print=True,
-        do_transform_topic_name=False,
-        use_attr_dict=True,
-    ):
+        user_dict: _UserDict,
+        src_ts_name: str = "_packet_source_ts",
+        stack_fields: Iterable[str | tuple[str, str]] | None = None,
+        do_print: bool = True,
+        do_transform_topic_name: bool = False,
+        use_attr_dict: bool = True,
+    ) -> _UserDict:
         """Per topic a dict of numpy arrays, one row per sample: the packet
         fields (nested parts as nested dicts, arrays of parts as lists of
         them) and `src_ts_name`, _packet_counter, _packet_log_ts. With
         do_transform_topic_name the topics are keyed by identifiers
         ("a.b" -> "a_b"). LN 2.9 stores _packet_log_ts as integers; here it
         keeps its fraction."""
-        dict_type = attr_dict if use_attr_dict else dict
-        shapes = []
+        dict_type: Callable[[], dict[str, Any]] = attr_dict if use_attr_dict else dict
+        shapes: list[tuple[str, tuple[int, ...]]] = []
         for topic, cursor in self.topics.items():
             n = len(cursor)
             if do_transform_topic_name:
@@ -288,7 +324,7 @@ class logger_data:
     """LN 2.9's _ln.logger_data: logger_data.load(filename)."""
 
     @staticmethod
-    def load(filename):
+    def load(filename: str | os.PathLike[str]) -> logger_data_wrapper:
         """Logger data from a file written by save() (also LN 2.9's)."""
         return logger_data_wrapper(_ln.LoggerData.load(str(filename)))
 
@@ -296,36 +332,36 @@ class logger_data:
 class logger:
     """A topic logger of a client (client.get_logger(name)); the manager records."""
 
-    def __init__(self, native):
+    def __init__(self, native: _ln.Logger) -> None:
         self._native = native
         self.name = native.name
 
-    def add_topic(self, topic_name, log_size, divisor=1):
+    def add_topic(self, topic_name: str, log_size: int, divisor: int = 1) -> None:
         """Records `log_size` samples of the topic (a ring), every `divisor`-th packet."""
         self._native.add_topic(topic_name, int(log_size), int(divisor))
 
-    def clear_topics(self):
+    def clear_topics(self) -> None:
         self._native.clear_topics()
 
-    def set_only_ts(self, only_ts):
+    def set_only_ts(self, only_ts: bool) -> None:
         self._native.set_only_ts(bool(only_ts))
 
-    def enable(self):
+    def enable(self) -> None:
         self._native.enable()
 
-    def disable(self):
+    def disable(self) -> None:
         self._native.disable()
 
-    def download(self):
+    def download(self) -> logger_data_wrapper:
         return logger_data_wrapper(self._native.download())
 
-    def direct_download(self):
+    def direct_download(self) -> logger_data_wrapper:
         """As in LN 2.9: disables the logger, then downloads."""
         return logger_data_wrapper(self._native.direct_download())
 
-    def manager_save(self, filename, format="auto"):
+    def manager_save(self, filename: str | os.PathLike[str], format: str = "auto") -> None:
         """The manager writes the recording to a file on its host: raw, pcap, mat, mat4, mcap or auto."""
         self._native.manager_save(str(filename), format)
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return "<links_and_nodes.logger %r>" % self.name

@@ -22,6 +22,8 @@ order, little endian, a dynamic field as a u32 count followed by its
 elements, ``x_len`` not travelling on its own.
 """
 
+from __future__ import annotations
+
 import ast
 import math
 import os
@@ -29,14 +31,22 @@ import pickle
 import re
 import struct
 import sys
+from collections.abc import Callable, Iterator, Mapping
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    import builtins
+    from typing import Self
+
+    from typing_extensions import Buffer
 
 if sys.byteorder != "little":  # pragma: no cover
     raise ImportError("links_and_nodes on ln_core supports little-endian hosts only")
 
 # c_name -> (struct code, numpy dtype)
-PRIMITIVES = {
+PRIMITIVES: dict[str, tuple[str, np.dtype[Any]]] = {
     "float": ("f", np.dtype("<f4")),
     "double": ("d", np.dtype("<f8")),
     "char": ("B", np.dtype("u1")),
@@ -636,58 +646,72 @@ class _Length:
 
 # ------------------------------------------------------------------- parts
 
+if TYPE_CHECKING:
+    # what the Compiler puts in a part class for a field
+    _Field = _Scalar | _Array | _CharArray | _Sub | _SubArray | _DynNumeric | _DynText | _DynSub | _PyObject | _Length
+    # a field kept beside the buffer (it travels as a count and its items)
+    _DynField = _DynNumeric | _DynText | _DynSub | _PyObject
+    # a step of the flat form: a run of buffer bytes [start, end) or a field
+    _PlanStep = tuple[int, int] | _Sub | _SubArray | _DynField
+
 
 class Part:
     """One message (or sub-type) instance; fields are attributes."""
 
     __slots__ = ("_buf", "_off", "_cache", "_dyn", "_name")
-    _fields = ()
-    _field_types = {}
-    _field_ctor_names = {}
+    _fields: tuple[str, ...] = ()
+    _field_types: dict[str, str] = {}
+    _field_ctor_names: dict[str, str] = {}
     _type_name = ""
     _size = 0
     _fixed = True
-    _plan = ()
+    _plan: tuple[_PlanStep, ...] = ()
     _min_flat = 0
 
-    def __init__(self, buf=None, off=0, name=None):
+    def __init__(self, buf: Buffer | None = None, off: int = 0, name: str | None = None) -> None:
         self._buf = bytearray(self._size) if buf is None else buf
         self._off = off
-        self._cache = {}
-        self._dyn = {}
+        self._cache: builtins.dict[str, Any] = {}  # field -> its numpy view, part or list of parts
+        self._dyn: builtins.dict[str, Any] = {}  # dynamic field -> its value
         self._name = self._type_name if name is None else name
 
     # LN 2.9 compatible helpers ------------------------------------------
-    def keys(self):
+    if TYPE_CHECKING:
+        # The fields are attributes each part class gets from its message
+        # definition (see Compiler): checkers cannot know them.
+        def __getattr__(self, name: str) -> Any: ...
+        def __setattr__(self, name: str, value: Any) -> None: ...
+
+    def keys(self) -> list[str]:
         return list(self._fields)
 
-    def items(self):
+    def items(self) -> list[tuple[str, Any]]:
         return [(k, getattr(self, k)) for k in self._fields]
 
     iteritems = items
 
-    def __iter__(self):
+    def __iter__(self) -> Iterator[tuple[str, Any]]:
         return iter(self.items())
 
-    def get_field_types(self):
+    def get_field_types(self) -> builtins.dict[str, str]:
         return dict(self._field_types)
 
-    def get_field_ctors(self):
+    def get_field_ctors(self) -> builtins.dict[str, Callable[..., Part]]:
         """{dynamic sub-type field: its item constructor (new_<type>_packet)}."""
         return {field: getattr(self, ctor) for field, ctor in self._field_ctor_names.items()}
 
-    def dict(self, detect_ln_string=False):
-        out = {}
+    def dict(self, detect_ln_string: bool = False) -> builtins.dict[str, Any]:
+        out: builtins.dict[str, Any] = {}
         for key in self._fields:
             out[key] = _plain(getattr(self, key), detect_ln_string)
         return out
 
     get_dict = dict
 
-    def utf8_decode_char_fields(self, do_decode):
+    def utf8_decode_char_fields(self, do_decode: bool) -> None:
         """Accepted for LN 2.9 compatibility; text is always decoded."""
 
-    def __str__(self):
+    def __str__(self) -> str:
         if self._type_name != self._name:
             head = "%s %s" % (self._type_name, self._name)
         else:
@@ -696,24 +720,24 @@ class Part:
 
     __repr__ = __str__
 
-    def __eq__(self, other):
+    def __eq__(self, other: object) -> bool:
         return (
             isinstance(other, Part)
             and other._type_name == self._type_name
             and bytes(self._flat()) == bytes(other._flat())
         )
 
-    __hash__ = None
+    __hash__ = None  # type: ignore[assignment]  # mutable: equal by value, so not hashable
 
-    def __copy__(self):
+    def __copy__(self) -> Self:
         new = type(self)(name=self._name)
         new._assign(self, self._name)
         return new
 
-    def __deepcopy__(self, memo):
+    def __deepcopy__(self, memo: builtins.dict[int, Any]) -> Self:
         return self.__copy__()
 
-    def copy(self):
+    def copy(self) -> Self:
         return self.__copy__()
 
     # assignment of a whole part ------------------------------------------
@@ -760,10 +784,13 @@ class Part:
     def _flat(self):
         """The flat (wire) form as a bytes-like object."""
         if self._fixed:
-            if self._off == 0 and len(self._buf) == self._size:
-                return self._buf
-            return bytes(memoryview(self._buf)[self._off : self._off + self._size])
-        out = []
+            if isinstance(self._buf, bytearray):
+                if self._off == 0 and len(self._buf) == self._size:
+                    return self._buf
+                return bytes(memoryview(self._buf)[self._off : self._off + self._size])
+            # A borrowed packet's Loan: a byte view of it (a Loan has no len() and no slicing).
+            return memoryview(self._buf).cast("B")[self._off : self._off + self._size]
+        out: list[bytes] = []
         self._encode_into(out)
         return b"".join(out)
 
@@ -778,8 +805,8 @@ class Part:
             elif isinstance(step, _SubArray):
                 for part in step.__get__(self):
                     part._encode_into(out)
-            else:
-                step.encode(self, out)
+            else:  # a dynamic field (`type(step) is tuple` does not narrow the union)
+                step.encode(self, out)  # type: ignore[union-attr]
 
     def _decode(self, data):
         """Fills this part from its flat form (the whole of `data`)."""
@@ -807,8 +834,8 @@ class Part:
             elif isinstance(step, _SubArray):
                 for part in step.__get__(self):
                     pos = part._decode_from(data, pos)
-            else:
-                pos = step.decode(self, data, pos)
+            else:  # a dynamic field (`type(step) is tuple` does not narrow the union)
+                pos = step.decode(self, data, pos)  # type: ignore[union-attr]
         return pos
 
 
@@ -838,10 +865,12 @@ class Compiler:
     2.9's service code does: a `char c` reads as a one-character str, and a
     floating-point scalar also takes None and numeric text."""
 
-    def __init__(self):
-        self._classes = {}
+    def __init__(self) -> None:
+        self._classes: dict[tuple[str, str, str, bool], type[Part]] = {}
 
-    def part_class(self, model, section="fields", suffix="", service=False):
+    def part_class(
+        self, model: Mapping[str, Any], section: str = "fields", suffix: str = "", service: bool = False
+    ) -> type[Part]:
         """The class for `model`'s `section` ("fields" or "response_fields")."""
         key = (model["name"], model["hash"], section, service)
         cls = self._classes.get(key)
@@ -863,8 +892,9 @@ class Compiler:
         namespace = {"__slots__": (), "_type_name": type_name, "_ident": _identifier(type_name)}
         names, types = [], {}
         length_names = {f[0] + "_len" for f in fields if f[4]}
+        plan: list[_PlanStep]
         plan, run_start, offset, fixed, min_flat = [], None, 0, True, 0
-        pending_lengths = {}
+        pending_lengths: dict[str, _DynField] = {}
         field_ctors = {}  # dynamic sub-type field -> name of its item constructor
 
         def close_run():
@@ -873,6 +903,7 @@ class Compiler:
                 plan.append((run_start, offset))
             run_start = None
 
+        desc: _Field
         for name, spelling, prim, sub, dynamic, count, element in fields:
             names.append(name)
             types[name] = (spelling + "*") if dynamic else spelling
@@ -954,7 +985,7 @@ class Compiler:
         return type(_identifier(type_name), (Part,), namespace)
 
 
-def ctor_name(field_type):
+def ctor_name(field_type: str) -> str:
     """LN's name of the constructor method for items of a dynamic sub-type field."""
     return "new_%s_packet" % re.sub(r"(^[0-9])|(\W+)", "_", field_type)
 
@@ -969,7 +1000,7 @@ def _make_ctor(cls, field_name):
     return ctor
 
 
-def ln29_definition(model):
+def ln29_definition(model: Mapping[str, Any]) -> dict[str, Any]:
     """The definition dict LN 2.9's manager hands to Python clients:
     fields as [type, name, count], resp_fields, defines by local type name."""
     defs = model.get("defs", {})
@@ -983,7 +1014,7 @@ def ln29_definition(model):
                 defines[spelling] = convert(defs[sub]["fields"], defines)
         return out
 
-    defines = {}
+    defines: dict[str, list[list[Any]] | None] = {}
     result = {"fields": convert(model["fields"], defines), "resp_fields": convert(model["response_fields"], defines)}
     result["defines"] = defines
     return result

@@ -20,17 +20,39 @@ here keeps the values as numpy-packed bytes in the native bridge.
         out = block.update()                         # out.gain: value in effect
 """
 
+from __future__ import annotations
+
 import ast
 import os
 import pprint
 import threading
 import warnings
 from collections import OrderedDict
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from . import _ln
 from ._errors import LNE_REQUEST_FAILED, LNE_UNKNOWN_PARAMETER, LNError
+
+if TYPE_CHECKING:
+    import builtins
+    from collections.abc import Callable, Hashable, ItemsView, Iterator, KeysView, Mapping, Sequence
+    from types import TracebackType
+    from typing import Literal, Self, TypeAlias
+
+    from _typeshed import SupportsItems
+    from numpy.typing import DTypeLike
+
+    from ._client import client, port_wrapper
+    from ._services import service_wrapper
+
+    #: one number or bool of a parameter value
+    _Scalar: TypeAlias = "bool | int | float | np.generic"
+    #: what a parameter takes: a scalar, a vector or a matrix (array or nested sequences)
+    _ParameterValue: TypeAlias = "_Scalar | np.ndarray | Sequence[_Scalar] | Sequence[Sequence[_Scalar]]"
+    #: what the client side knows of one parameter (input, output, override_enabled, ...)
+    _ValueDict: TypeAlias = "dict[str, Any]"
 
 __all__ = ["ParameterBlock", "ParameterOutputs", "ParameterSignal", "parameters_proxy"]
 
@@ -64,7 +86,7 @@ _LITERAL_NAMES = {
 }
 
 
-def _literal(node):
+def _literal(node: ast.AST) -> Any:
     """The value of one node of a parameter answer; only literals, lists,
     dict(...) and array(...) - nothing is evaluated."""
     if isinstance(node, ast.Constant) and isinstance(node.value, (int, float, str, bool, type(None))):
@@ -79,7 +101,8 @@ def _literal(node):
         items = [_literal(e) for e in node.elts]
         return items if isinstance(node, ast.List) else tuple(items)
     elif isinstance(node, ast.Dict):
-        return OrderedDict((_literal(k), _literal(v)) for k, v in zip(node.keys, node.values))
+        # a None key ({**x}) fails in ast.dump(): TypeError, a bad answer
+        return OrderedDict((_literal(k), _literal(v)) for k, v in zip(node.keys, node.values))  # type: ignore[arg-type]
     elif isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
         args = [_literal(a) for a in node.args]
         kwargs = {k.arg: _literal(k.value) for k in node.keywords}
@@ -90,7 +113,7 @@ def _literal(node):
     raise ValueError("unexpected %s in a parameter answer" % ast.dump(node)[:80])
 
 
-def parse_parameter_text(text):
+def parse_parameter_text(text: str) -> Any:
     """A query_dict answer (or any parameter value text) as Python values."""
     try:
         return _literal(ast.parse(text.strip(), mode="eval").body)
@@ -98,7 +121,7 @@ def parse_parameter_text(text):
         raise LNError("cannot read the parameter answer %r: %s" % (text[:200], e), LNE_REQUEST_FAILED, 0) from e
 
 
-def _format_element(value):
+def _format_element(value: _Scalar) -> str:
     if isinstance(value, (bool, np.bool_)):
         return "True" if value else "False"
     if isinstance(value, (np.integer, int)):
@@ -106,7 +129,7 @@ def _format_element(value):
     return repr(float(value))
 
 
-def format_parameter_value(value):
+def format_parameter_value(value: _ParameterValue) -> str:
     """A value as override text for a provider: a number, True/False, or
     array([...]) with nested lists for matrices (exact for every value)."""
     if isinstance(value, (list, tuple, np.ndarray)):
@@ -114,7 +137,7 @@ def format_parameter_value(value):
         if array.dtype.kind not in "biuf":
             raise TypeError("a parameter value is a number, a bool or an array of them, not %r" % (value,))
 
-        def nested(a):
+        def nested(a: np.ndarray) -> str:
             if a.ndim == 0:
                 return _format_element(a.item())
             return "[" + ", ".join(nested(x) for x in a) + "]"
@@ -135,10 +158,15 @@ class _Hooks:
     call_hook(where, *args) calls fn(self, *args) (fn(arg, self, *args) with
     arg); a hook that returns a false value is removed."""
 
-    def _init_hooks(self):
+    #: {where: {from_who: (fn, arg)}}, made by _init_hooks()
+    hooks: dict[str, dict[Hashable, tuple[Callable[..., object], object]]]
+
+    def _init_hooks(self) -> None:
         object.__setattr__(self, "hooks", {})
 
-    def add_hook(self, where, to_what, from_who=None, arg=None):
+    def add_hook(
+        self, where: str, to_what: Callable[..., object], from_who: Hashable | None = None, arg: object = None
+    ) -> Self:
         hooks = self.hooks.setdefault(where, {})
         if from_who is None:
             n = len(hooks)
@@ -148,11 +176,11 @@ class _Hooks:
         hooks[from_who] = (to_what, arg)
         return self
 
-    def remove_hooks_to(self, from_who):
+    def remove_hooks_to(self, from_who: Hashable) -> None:
         for hooks in self.hooks.values():
             hooks.pop(from_who, None)
 
-    def call_hook(self, where, *args):
+    def call_hook(self, where: str, *args: object) -> bool:
         hooks = self.hooks.get(where)
         if not hooks:
             return False
@@ -173,48 +201,53 @@ class parameters_proxy(_Hooks):
     effect as of the last refresh; assignment overrides (None ends the
     override); subgroups ("a.b.c") are proxies too."""
 
+    # set with object.__setattr__ (attribute access finds parameters)
+    _parameters: OrderedDict[str, _ValueDict]
+    _sub_blocks: OrderedDict[str, parameters_proxy]
+
     def __init__(
         self,
-        clnt,
-        parameters_name,
-        allow_empty=False,
-        update_on_write=True,
-        do_parameter_scan=True,
-        record_call_stacks=False,
-        parent=None,
-        debug=False,
-        use_parameter_prefix=True,
-    ):
+        clnt: client,
+        parameters_name: str,
+        allow_empty: bool = False,
+        update_on_write: bool = True,
+        do_parameter_scan: bool = True,
+        record_call_stacks: bool = False,
+        parent: parameters_proxy | None = None,
+        debug: bool = False,
+        use_parameter_prefix: bool = True,
+    ) -> None:
         object.__setattr__(self, "_parameters", OrderedDict())
         object.__setattr__(self, "_sub_blocks", OrderedDict())
         self._init_hooks()
         self.clnt = clnt
         self.allow_empty = allow_empty
         self.record_call_stacks = record_call_stacks
-        self._debug = debug if parent is None else parent._debug
+        self._debug: bool = debug if parent is None else parent._debug
         # Services are shared by a proxy and its subgroups.
-        self._services = {} if parent is None else parent._services
+        self._services: dict[str, service_wrapper] = {} if parent is None else parent._services
         prefix = os.getenv("LN_PARAMETER_PREFIX", "") if use_parameter_prefix else ""
         name = prefix + parameters_name
         self.parameters_name = name[:-1] if name.endswith(".") else name
         self._update_on_write = update_on_write
-        self._queued_overrides = OrderedDict()
+        self._queued_overrides: OrderedDict[tuple[str, str], _ParameterValue | None] = OrderedDict()
         self.is_subscribed = False
-        self._subscribed = []  # (port, path in the packet, value dict)
-        self._topic_ports = {} if parent is None else parent._topic_ports
+        # (port, path in the packet, value dict)
+        self._subscribed: list[tuple[port_wrapper, list[str], _ValueDict]] = []
+        self._topic_ports: dict[str, port_wrapper] = {} if parent is None else parent._topic_ports
         self.lock = threading.RLock()
         self._in_on_update = False
         if do_parameter_scan:
             self._parameter_scan()
 
     # -- internals
-    def _service(self, name, interface):
+    def _service(self, name: str, interface: str) -> service_wrapper:
         svc = self._services.get(name)
         if svc is None:
             svc = self._services[name] = self.clnt.get_service(name, interface)
         return svc
 
-    def _query(self, service_name):
+    def _query(self, service_name: str) -> dict[str, _ValueDict]:
         svc = self._service(service_name, QUERY_INTERFACE)
         svc.req.pattern = "%s*" % self.parameters_name
         svc()
@@ -223,7 +256,7 @@ class parameters_proxy(_Hooks):
             raise LNError("%s answered no dict" % service_name, LNE_REQUEST_FAILED, 0)
         return answer
 
-    def _parameter_scan(self):
+    def _parameter_scan(self) -> None:
         with self.lock:
             found = self.clnt.find_services_with_interface(QUERY_INTERFACE)
             services = [s for s in found.split("\n") if s.strip()]
@@ -259,7 +292,8 @@ class parameters_proxy(_Hooks):
                     "no parameters matching %r found" % (self.parameters_name + "*"), LNE_UNKNOWN_PARAMETER, 0
                 )
 
-    def _lookup(self, short_name):
+    def _lookup(self, short_name: str) -> _ValueDict | None:
+        proxy: parameters_proxy | None
         proxy = self
         *groups, last = short_name.split(".")
         for group in groups:
@@ -268,7 +302,7 @@ class parameters_proxy(_Hooks):
                 return None
         return proxy._parameters.get(last)
 
-    def _add_parameter(self, short_name, value):
+    def _add_parameter(self, short_name: str, value: _ValueDict) -> None:
         if "." not in short_name:
             self._parameters[short_name] = value
             return
@@ -286,21 +320,21 @@ class parameters_proxy(_Hooks):
             )
         block._add_parameter(rest, value)
 
-    def _all_parameters(self):
+    def _all_parameters(self) -> Iterator[tuple[parameters_proxy, str, _ValueDict]]:
         """(proxy, short name, value) of this group and every subgroup."""
         for short_name, value in self._parameters.items():
             yield self, short_name, value
         for block in self._sub_blocks.values():
             yield from block._all_parameters()
 
-    def _take_queued_overrides(self):
+    def _take_queued_overrides(self) -> list[tuple[tuple[str, str], _ParameterValue | None]]:
         queued = list(self._queued_overrides.items())
         self._queued_overrides.clear()
         for block in self._sub_blocks.values():
             queued.extend(block._take_queued_overrides())
         return queued
 
-    def _call_on_update(self):
+    def _call_on_update(self) -> bool:
         if self._in_on_update:
             return False
         try:
@@ -311,7 +345,7 @@ class parameters_proxy(_Hooks):
         return False
 
     # -- public API (LN 2.9)
-    def refresh(self, short_name=None, wait_step=False, rescan=False):
+    def refresh(self, short_name: str | None = None, wait_step: bool = False, rescan: bool = False) -> None:
         """Sends queued overrides, then reads the current values."""
         with self.lock:
             if rescan:
@@ -340,14 +374,16 @@ class parameters_proxy(_Hooks):
                     value.update(fresh)
             self._call_on_update()
 
-    def set_override(self, pname, override_value, update_on_write=True, wait_step=False):
+    def set_override(
+        self, pname: str, override_value: _ParameterValue | None, update_on_write: bool = True, wait_step: bool = False
+    ) -> None:
         """Overrides `pname` (a name of this group); None ends the override."""
         value = self._parameters[pname]
         self._queued_overrides[(value["service"], value["full_name"])] = override_value
         if self._update_on_write and update_on_write:
             self.refresh(wait_step=wait_step)
 
-    def get_output(self, pname, value=None, refresh=True):
+    def get_output(self, pname: str, value: _ValueDict | None = None, refresh: bool = True) -> Any:
         """The value in effect: the override while there is one."""
         if refresh:
             self.refresh()
@@ -355,7 +391,7 @@ class parameters_proxy(_Hooks):
             value = self._parameters[pname]
         return value["output"] if value["override_enabled"] else value["input"]
 
-    def get_input(self, pname, value=None, refresh=True):
+    def get_input(self, pname: str, value: _ValueDict | None = None, refresh: bool = True) -> Any:
         """The provider's own value."""
         if refresh:
             self.refresh()
@@ -363,13 +399,13 @@ class parameters_proxy(_Hooks):
             value = self._parameters[pname]
         return value["input"]
 
-    def subscribe(self, rate=10):
+    def subscribe(self, rate: float = 10) -> set[port_wrapper]:
         """Subscribes to the topics the providers publish these parameters on
         (ln/parameters/request_parameter_topic; they publish for 10 s, then
         while subscribed); read() then takes the values from there. Returns
         the ports."""
         with self.lock:
-            wanted = OrderedDict()
+            wanted: OrderedDict[str, list[str]] = OrderedDict()
             for _, _, value in self._all_parameters():
                 wanted.setdefault(value["service"], []).append(value["full_name"])
             topics = {}
@@ -390,7 +426,7 @@ class parameters_proxy(_Hooks):
             self.is_subscribed = True
             return set(port for port, _, _ in self._subscribed)
 
-    def read(self, blocking=True, mainloop=None):
+    def read(self, blocking: bool | float | str = True, mainloop: object = None) -> None:
         """Waits for the next packet of every subscribed topic (blocking:
         True, False, a timeout, or a parameter name: only its topic), then
         updates the values from them."""
@@ -424,7 +460,7 @@ class parameters_proxy(_Hooks):
                 value["override_enabled"] = bool(fresh["override_enabled"])
             self._call_on_update()
 
-    def get_dict(self, refresh=True, full=False):
+    def get_dict(self, refresh: bool = True, full: bool = False) -> dict[str, Any]:
         """{name: value in effect} (full: {name: {input, output,
         override_enabled, description}}), subgroups as nested dicts."""
         if refresh:
@@ -436,20 +472,20 @@ class parameters_proxy(_Hooks):
             d[bname] = block.get_dict(refresh=False, full=full)
         return d
 
-    def get_signal_full_dict(self, signal_name, value=None):
+    def get_signal_full_dict(self, signal_name: str, value: _ValueDict | None = None) -> dict[str, Any]:
         if value is None:
             value = self._parameters[signal_name]
         d = {key: value[key] for key in ("input", "output", "override_enabled")}
         d["description"] = value.get("description", "")
         return d
 
-    def __getitem__(self, name):
+    def __getitem__(self, name: str) -> _ValueDict:
         return self._parameters[name]
 
-    def __contains__(self, name):
+    def __contains__(self, name: object) -> bool:
         return name in self._parameters
 
-    def __getattr__(self, name):
+    def __getattr__(self, name: str) -> Any:
         parameters = self.__dict__.get("_parameters", {})
         if name in parameters:
             return self.get_output(name, parameters[name], refresh=False)
@@ -458,19 +494,19 @@ class parameters_proxy(_Hooks):
             return block
         raise AttributeError(name)
 
-    def __setattr__(self, name, new_value):
+    def __setattr__(self, name: str, new_value: Any) -> None:
         if name in self.__dict__.get("_parameters", {}):
             self.set_override(name, new_value)
         else:
             object.__setattr__(self, name, new_value)
 
-    def __dir__(self):
+    def __dir__(self) -> list[str]:
         return list(super().__dir__()) + list(self._parameters) + list(self._sub_blocks)
 
-    def __str__(self):
+    def __str__(self) -> str:
         return "<ln_parameters_proxy %r\n%s>" % (self.parameters_name, pprint.pformat(self.get_dict()))
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return "<ln_parameters_proxy@%#x %r\n%s>" % (id(self), self.parameters_name, pprint.pformat(self.get_dict()))
 
 
@@ -521,7 +557,7 @@ _TYPE_IDS = {
 }
 
 
-def _normalize_dtype(dtype):
+def _normalize_dtype(dtype: DTypeLike) -> np.dtype[Any]:
     if isinstance(dtype, str):
         dtype = _DTYPE_ALIASES.get(dtype, dtype)
     try:
@@ -533,7 +569,7 @@ def _normalize_dtype(dtype):
     return dtype
 
 
-def _infer_dtype(value):
+def _infer_dtype(value: _ParameterValue) -> np.dtype[Any]:
     if isinstance(value, (bool, np.bool_)):
         return np.dtype(np.bool_)
     if isinstance(value, (float, np.floating)):
@@ -551,7 +587,7 @@ def _infer_dtype(value):
     raise TypeError("cannot infer a parameter dtype from %r (%s)" % (value, dtype))
 
 
-def _normalize_shape(value, shape):
+def _normalize_shape(value: _ParameterValue, shape: int | np.integer | Sequence[int] | None) -> tuple[int, ...]:
     if shape is None:
         shape = np.asarray(value).shape
     elif isinstance(shape, (int, np.integer)):
@@ -564,7 +600,7 @@ def _normalize_shape(value, shape):
     return shape
 
 
-def _checked_array(value, dtype, shape, name):
+def _checked_array(value: _ParameterValue, dtype: np.dtype[Any], shape: tuple[int, ...], name: str) -> np.ndarray:
     """`value` as a C-contiguous array of `dtype` and `shape`; integers must
     be integral and fit."""
     raw = np.asarray(value)
@@ -587,7 +623,7 @@ def _checked_array(value, dtype, shape, name):
     return np.ascontiguousarray(array)
 
 
-def _unpack(data, dtype, shape):
+def _unpack(data: bytes, dtype: np.dtype[Any], shape: tuple[int, ...]) -> Any:
     array = np.frombuffer(data, dtype=dtype)
     if shape == ():
         return array[0].item()
@@ -597,19 +633,23 @@ def _unpack(data, dtype, shape):
 class _Named:
     """[name], `in`, keys(), items() and iteration over the dict _named()."""
 
-    def __getitem__(self, name):
+    if TYPE_CHECKING:
+
+        def _named(self) -> Mapping[str, Any]: ...
+
+    def __getitem__(self, name: str) -> Any:
         return self._named()[name]
 
-    def __contains__(self, name):
+    def __contains__(self, name: object) -> bool:
         return name in self._named()
 
-    def keys(self):
+    def keys(self) -> KeysView[str]:
         return self._named().keys()
 
-    def items(self):
+    def items(self) -> ItemsView[str, Any]:
         return self._named().items()
 
-    def __iter__(self):
+    def __iter__(self) -> Iterator[str]:
         return iter(self._named())
 
 
@@ -617,25 +657,25 @@ class ParameterOutputs(_Named):
     """The values in effect after ParameterBlock.update(): by attribute,
     item or as a dict."""
 
-    def __init__(self, values):
+    def __init__(self, values: Mapping[str, Any]) -> None:
         self._values = values
 
-    def _named(self):
+    def _named(self) -> Mapping[str, Any]:
         return self._values
 
-    def __getattr__(self, name):
+    def __getattr__(self, name: str) -> Any:
         try:
             return self.__dict__["_values"][name]
         except KeyError:
             raise AttributeError(name) from None
 
-    def get(self, name, default=None):
+    def get(self, name: str, default: Any = None) -> Any:
         return self._values.get(name, default)
 
-    def dict(self):
+    def dict(self) -> builtins.dict[str, Any]:
         return dict(self._values)
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return "ParameterOutputs(%r)" % (self._values,)
 
 
@@ -643,7 +683,17 @@ class ParameterSignal:
     """One parameter of a ParameterBlock: .input is the program's value
     (settable), .output the value in effect after the last update()."""
 
-    def __init__(self, block, index, name, description, dtype, shape, has_output, value):
+    def __init__(
+        self,
+        block: ParameterBlock,
+        index: int,
+        name: str,
+        description: str,
+        dtype: np.dtype[Any],
+        shape: tuple[int, ...],
+        has_output: bool,
+        value: Any,
+    ) -> None:
         self._block = block
         self._index = index
         self.name = name
@@ -654,19 +704,19 @@ class ParameterSignal:
         self._input = value
 
     @property
-    def input(self):
+    def input(self) -> Any:
         with self._block.lock:
             return self._input
 
     @input.setter
-    def input(self, value):
+    def input(self, value: _ParameterValue) -> None:
         self._block._set_input(self, value)
 
     @property
-    def output(self):
+    def output(self) -> Any:
         return self._block._output(self)
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return "<ln.ParameterSignal %r dtype=%s shape=%r>" % (self.name, self.dtype, self.shape)
 
 
@@ -676,28 +726,44 @@ class ParameterBlock(_Named):
     update() once per loop iteration: it publishes the inputs and returns
     the values in effect (overrides included)."""
 
-    def __init__(self, clnt, parameter_group_name, always_publish=False, topic_name=""):
+    if TYPE_CHECKING:
+        # add() makes each parameter with an identifier name an attribute
+        def __getattr__(self, name: str) -> ParameterSignal: ...
+
+    def __init__(
+        self, clnt: client, parameter_group_name: str, always_publish: bool = False, topic_name: str = ""
+    ) -> None:
         self.clnt = clnt
         self.parameter_group_name = parameter_group_name
         self.always_publish = always_publish
         self.topic_name = topic_name
         self.lock = threading.RLock()
         self._bridge = _ln.ParameterBlockBridge(clnt._native, parameter_group_name, bool(always_publish), topic_name)
-        self._signals = OrderedDict()
+        self._signals: OrderedDict[str, ParameterSignal] = OrderedDict()
         self._registered = False
         self._in_update = False
 
-    def __enter__(self):
+    def __enter__(self) -> Self:
         return self
 
-    def __exit__(self, exc_type, exc_value, tb):
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc_value: BaseException | None, tb: TracebackType | None
+    ) -> Literal[False]:
         if exc_type is None and not self._registered:
             self.register()
         return False
 
     def add(
-        self, name, value, description="", dtype=None, shape=None, output=True, before_update=None, after_update=None
-    ):
+        self,
+        name: str,
+        value: _ParameterValue,
+        description: str | None = "",
+        dtype: DTypeLike | None = None,
+        shape: int | np.integer | Sequence[int] | None = None,
+        output: bool = True,
+        before_update: Callable[[Any], object] | None = None,
+        after_update: Callable[[Any], object] | None = None,
+    ) -> ParameterSignal:
         """Adds a parameter with initial value `value` (dtype and shape from
         it unless given). before_update(new_value) -> bool may refuse an
         override (runs in a library thread); after_update(value) runs in
@@ -742,11 +808,17 @@ class ParameterBlock(_Named):
             return signal
 
     @staticmethod
-    def _wrap(callback, dtype, shape, name, refuse_on_error):
+    def _wrap(
+        callback: Callable[[Any], object] | None,
+        dtype: np.dtype[Any],
+        shape: tuple[int, ...],
+        name: str,
+        refuse_on_error: bool,
+    ) -> Callable[[bytes], bool | None] | None:
         if callback is None:
             return None
 
-        def from_bytes(data):
+        def from_bytes(data: bytes) -> bool | None:
             try:
                 result = callback(_unpack(data, dtype, shape))
             except Exception as e:  # the library gets a plain answer, the program a warning
@@ -756,7 +828,7 @@ class ParameterBlock(_Named):
 
         return from_bytes
 
-    def register(self):
+    def register(self) -> Self:
         """Makes the parameters visible to other clients (once)."""
         with self.lock:
             if self._registered:
@@ -766,13 +838,15 @@ class ParameterBlock(_Named):
             self._registered = True
             return self
 
-    def _sync_inputs(self):
+    def _sync_inputs(self) -> None:
         # Arrays may have been changed in place (block.vec.input[0] = 5).
         for signal in self._signals.values():
             array = _checked_array(signal._input, signal.dtype, signal.shape, signal.name)
             self._bridge.set_input(signal._index, array.tobytes())
 
-    def update(self, mapping=None, **inputs):
+    def update(
+        self, mapping: SupportsItems[str, _ParameterValue] | None = None, **inputs: _ParameterValue
+    ) -> ParameterOutputs:
         """Sets the inputs given (a mapping and/or keywords), publishes all
         inputs, applies overrides; returns ParameterOutputs."""
         with self.lock:
@@ -796,7 +870,7 @@ class ParameterBlock(_Named):
                 self._in_update = False
             return ParameterOutputs(OrderedDict((s.name, self._output(s)) for s in self._signals.values()))
 
-    def _set_input(self, signal, value):
+    def _set_input(self, signal: ParameterSignal, value: _ParameterValue) -> None:
         with self.lock:
             array = _checked_array(value, signal.dtype, signal.shape, signal.name)
             self._bridge.set_input(signal._index, array.tobytes())
@@ -805,14 +879,14 @@ class ParameterBlock(_Named):
             else:
                 signal._input[...] = array
 
-    def _output(self, signal):
+    def _output(self, signal: ParameterSignal) -> Any:
         with self.lock:
             return _unpack(self._bridge.output(signal._index), signal.dtype, signal.shape)
 
-    def _named(self):
+    def _named(self) -> Mapping[str, ParameterSignal]:
         return self._signals
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return "<ln.ParameterBlock %r signals=%r registered=%r>" % (
             self.parameter_group_name,
             list(self._signals),

@@ -1,9 +1,13 @@
 """Service callers and providers (LN 2.9's service_wrapper)."""
 
+from __future__ import annotations
+
 import logging
 import threading
 import traceback
 import warnings
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, SupportsInt
 
 from . import _ln
 from ._errors import (
@@ -17,6 +21,10 @@ from ._errors import (
 from ._mainloop import MainloopInterface, default_glib_mainloop, wait_until
 from ._packets import ln29_definition
 
+if TYPE_CHECKING:
+    from ._client import client
+    from ._packets import Part
+
 log = logging.getLogger("links_and_nodes")
 
 #: Handler return value: the response follows later (request.respond() from anywhere).
@@ -28,24 +36,24 @@ class request_wrapper:
 
     __slots__ = ("service", "request", "name")
 
-    def __init__(self, service, request):
+    def __init__(self, service: service_wrapper, request: _ln.Request) -> None:
         self.service = service
         self.request = request
         self.name = service.name
 
-    def respond(self):
+    def respond(self) -> None:
         """Sends the service's `resp` as the response (once)."""
         self.request.respond(self.service.resp._flat())
 
-    def respond_error(self, error_code, message=""):
+    def respond_error(self, error_code: SupportsInt, message: object = "") -> None:
         """ln_core: fails the call with an error code (> 0 the application's)
         and a message the caller sees in its LNError."""
         self.request.respond_error(int(error_code), str(message))
 
-    def is_aborted(self):
+    def is_aborted(self) -> bool:
         return self.request.is_aborted()
 
-    def abort(self):
+    def abort(self) -> None:
         self.request.respond_error(-39, "aborted by the provider")
 
 
@@ -54,7 +62,19 @@ class service_wrapper:
     attributes. Callers fill `req` (or pass fields as keyword arguments) and
     call(); providers set a handler and register."""
 
-    def __init__(self, clnt, name, interface, definition, signature, is_provider=False, mainloop=None):
+    # Set by mainloop_on_async_finish(): (loop, source id) of the finish watch.
+    _finish_watch: tuple[MainloopInterface, Any] | None
+
+    def __init__(
+        self,
+        clnt: client,
+        name: str,
+        interface: str,
+        definition: str,
+        signature: str,
+        is_provider: bool = False,
+        mainloop: MainloopInterface | None = None,
+    ) -> None:
         if mainloop is not None and not isinstance(mainloop, MainloopInterface):
             raise TypeError(
                 "mainloop must be a links_and_nodes.MainloopInterface (e.g. ln.SelectMainloop() or "
@@ -73,18 +93,19 @@ class service_wrapper:
         self.defines = self.definition["defines"]
         self._req_fields = self.definition["fields"]
         self._resp_fields = self.definition["resp_fields"]
-        self._req_class = clnt._compiler.part_class(model, "fields", "::request", service=True)
-        self._resp_class = clnt._compiler.part_class(model, "response_fields", "::response", service=True)
-        self.req = self._req_class(name=name + ".req")
-        self.resp = self._resp_class(name=name + ".resp")
+        self._req_class: type[Part] = clnt._compiler.part_class(model, "fields", "::request", service=True)
+        self._resp_class: type[Part] = clnt._compiler.part_class(model, "response_fields", "::response", service=True)
+        # Messages whose fields are created at run time from the definition.
+        self.req: Any = self._req_class(name=name + ".req")
+        self.resp: Any = self._resp_class(name=name + ".resp")
         self._native = _ln.Service(clnt._native, name, interface, signature)
-        self.cb = None
-        self.async_req = None
-        self._async_done = None
+        self.cb: tuple[Callable[..., SupportsInt | None], tuple[Any, ...]] | None = None
+        self.async_req: service_wrapper | None = None
+        self._async_done: bool | BaseException | None = None
         self._mainloop = mainloop
-        self._loop_sources = []  # (loop, source id) of do_register_with_mainloop
+        self._loop_sources: list[tuple[MainloopInterface, Any]] = []  # (loop, source id) of do_register_with_mainloop
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return "<links_and_nodes.service %r (%s)%s>" % (
             self.name,
             self.interface,
@@ -92,7 +113,7 @@ class service_wrapper:
         )
 
     # -- calling ----------------------------------------------------------
-    def __call__(self, *args, **kwargs):
+    def __call__(self, *args: Any, **kwargs: Any) -> service_wrapper:
         if not (args or kwargs):  # the request is in `req` already: the shortest path
             with self.lock:
                 return self._call(0.0)
@@ -127,7 +148,7 @@ class service_wrapper:
                 )
             setattr(req, key, value)
 
-    def call(self, *args, **kwargs):
+    def call(self, *args: Any, **kwargs: Any) -> service_wrapper:
         """Blocking call: fields as keyword arguments (or set on `req`); returns
         self with `resp` filled. Raises LNError on failure. A service got with
         mainloop= runs its loop meanwhile (call_via_mainloop())."""
@@ -138,18 +159,18 @@ class service_wrapper:
                 return self._call(0.0)
         return self(*args, **kwargs)
 
-    def call_with_timeout(self, *args, **kwargs):
+    def call_with_timeout(self, *args: Any, **kwargs: Any) -> service_wrapper:
         """call() giving up after `timeout` seconds (keyword; 0: no limit)."""
         timeout = kwargs.pop("timeout", 0)
         if self._mainloop is not None:
             return self.call_via_mainloop(*args, _timeout=timeout, **kwargs)
         return self(*args, _timeout=timeout, **kwargs)
 
-    def abort(self):
+    def abort(self) -> None:
         """Aborts a call() running in another thread."""
         self._native.abort()
 
-    def call_async(self, *args, **kwargs):
+    def call_async(self, *args: Any, **kwargs: Any) -> service_wrapper:
         """Starts a call and returns at once; poll finished()."""
         kwargs["is_async"] = True
         return self(*args, **kwargs)
@@ -162,7 +183,7 @@ class service_wrapper:
         self._async_done = None
         return self
 
-    def finished(self, timeout=0):
+    def finished(self, timeout: float = 0) -> bool:
         """True once the asynchronous call finished (then `resp` is filled);
         raises LNError if it failed."""
         if self.async_req is None:
@@ -182,19 +203,19 @@ class service_wrapper:
         self._async_done = True
         return True
 
-    def abort_async(self):
+    def abort_async(self) -> None:
         if self.async_req is None:
             raise LNError("error, there is no async request pending!", LNE_SVC_REQ_NOT_RUNNING, 0)
         self._native.abort_async()
         self.async_req = None
 
-    def get_finished_notification_fd(self):
+    def get_finished_notification_fd(self) -> int:
         """A descriptor that becomes readable when the running asynchronous
         call finished (LN 2.9 has it on `async_req`, which is this object)."""
         return self._native.async_notification_fd()
 
     # -- main loops (LN 2.9's mainloop= integration) ------------------------
-    def call_via_mainloop(self, *args, **kwargs):
+    def call_via_mainloop(self, *args: Any, **kwargs: Any) -> service_wrapper:
         """call(), running the main loop (`_mainloop`, default the service's)
         until the response is there; `_timeout` (or `timeout`) in seconds,
         0 or None: no limit. A call of the same service from a callback of
@@ -211,7 +232,7 @@ class service_wrapper:
         try:
             wait_until(loop, lambda: self.async_req is None or self._async_done is not None)
             self.call_async(*args, **kwargs)
-            finished = []
+            finished: list[bool] = []
             self.mainloop_on_async_finish(loop, finished.append, True)
             if not wait_until(loop, lambda: finished, timeout or None):
                 self._remove_finish_watch()
@@ -223,7 +244,9 @@ class service_wrapper:
         finally:
             self.lock.release()
 
-    def mainloop_on_async_finish(self, loop, handler, *args, **kwargs):
+    def mainloop_on_async_finish(
+        self, loop: MainloopInterface, handler: Callable[..., object], *args: Any, **kwargs: Any
+    ) -> None:
         """Calls handler(*args, **kwargs) from `loop` once the running
         asynchronous call finished (`resp` filled, or finished() raises)."""
         if self.async_req is None:
@@ -256,31 +279,31 @@ class service_wrapper:
             watch[0].source_remove(watch[1])
             self._finish_watch = None
 
-    def call_gobject(self, *args, **kwargs):
+    def call_gobject(self, *args: Any, **kwargs: Any) -> service_wrapper:
         """Deprecated in LN 2.9 (PyGTK): call_via_mainloop() on GLib's default context."""
         warnings.warn("call_gobject() is deprecated: use call_via_mainloop()", DeprecationWarning, stacklevel=2)
         return self.call_via_mainloop(*args, _mainloop=default_glib_mainloop(), **kwargs)
 
-    def gobject_on_async_finish(self, handler, *args, **kwargs):
+    def gobject_on_async_finish(self, handler: Callable[..., object], *args: Any, **kwargs: Any) -> None:
         """Deprecated in LN 2.9 (PyGTK): mainloop_on_async_finish() on GLib's default context."""
         warnings.warn(
             "gobject_on_async_finish() is deprecated: use mainloop_on_async_finish()", DeprecationWarning, stacklevel=2
         )
         return self.mainloop_on_async_finish(default_glib_mainloop(), handler, *args, **kwargs)
 
-    def call_future(self, *args, **kwargs):
+    def call_future(self, *args: Any, **kwargs: Any) -> ServiceFuture:
         """ln_core: starts an asynchronous call and returns a ServiceFuture."""
         self.call_async(*args, **kwargs)
         return ServiceFuture(self)
 
     # -- providing --------------------------------------------------------
-    def set_handler(self, cb, *cb_args):
+    def set_handler(self, cb: Callable[..., SupportsInt | None], *cb_args: Any) -> None:
         """cb(request, req, resp, *cb_args) -> int, called for each request:
         fill `resp`, call request.respond(), return 0 (or an error code > 0)."""
         self.cb = cb, cb_args
         self._native.set_handler(self._handler, self.req._buf if self.req._fixed else None)
 
-    def do_register(self, group_name=None):
+    def do_register(self, group_name: str | None = None) -> None:
         """Registers the provider (in a service group; None: the default
         group). With a main loop (mainloop=), the loop handles the group."""
         if self._mainloop is not None:
@@ -289,7 +312,7 @@ class service_wrapper:
             raise LNError("service %r: set_handler() before do_register()" % self.name, 35, 0)
         self._native.register(group_name)
 
-    def do_register_with_mainloop(self, loop, group_name=None):
+    def do_register_with_mainloop(self, loop: MainloopInterface, group_name: str | None = None) -> None:
         """Registers the provider and lets `loop` handle its group's requests
         (as wait_and_handle_service_group_requests(group_name, 0) would)."""
         if not isinstance(loop, MainloopInterface):
@@ -307,7 +330,7 @@ class service_wrapper:
 
         self._loop_sources.append((loop, loop.fd_add(self.get_fd(), "in", on_work)))
 
-    def do_register_gobject(self, group_name=None):
+    def do_register_gobject(self, group_name: str | None = None) -> None:
         """Deprecated in LN 2.9 (PyGTK): do_register_with_mainloop() on GLib's default context."""
         warnings.warn(
             "do_register_gobject() is deprecated: use do_register_with_mainloop()", DeprecationWarning, stacklevel=2
@@ -324,10 +347,10 @@ class service_wrapper:
         self._remove_finish_watch()
         self._native.release()
 
-    def get_fd(self):
+    def get_fd(self) -> int:
         return self._native.get_fd()
 
-    def utf8_decode_char_fields(self, do_decode):
+    def utf8_decode_char_fields(self, do_decode: bool) -> None:
         """Accepted for LN 2.9 compatibility; text is always decoded."""
 
     def _handler(self, native_request, prefilled=False):
@@ -340,9 +363,9 @@ class service_wrapper:
                 native_request.respond_error(-29, "cannot unpack the request: %s" % error)
                 return 0
         try:
-            ret = self.cb[0](request, self.req, self.resp, *self.cb[1])
+            ret = self.cb[0](request, self.req, self.resp, *self.cb[1])  # type: ignore[index]  # set_handler() set cb
         except Exception as error:
-            log.error("error in service handler %s of %s:\n%s", self.cb[0], self.name, traceback.format_exc())
+            log.error("error in service handler %s of %s:\n%s", self.cb[0], self.name, traceback.format_exc())  # type: ignore[index]  # set_handler() set cb
             if not native_request.responded:
                 native_request.respond_error(-LNE_SVC_HANDLER_EXC, "%s: %s" % (type(error).__name__, error))
                 return 0
@@ -351,7 +374,7 @@ class service_wrapper:
             return 0
         return int(ret)
 
-    def respond(self, request):
+    def respond(self, request: request_wrapper | _ln.Request) -> None:
         req = request.request if isinstance(request, request_wrapper) else request
         req.respond(self.resp._flat())
 
@@ -359,16 +382,16 @@ class service_wrapper:
 class ServiceFuture:
     """ln_core: an asynchronous service call (service_wrapper.call_future())."""
 
-    def __init__(self, svc):
+    def __init__(self, svc: service_wrapper) -> None:
         self._svc = svc
 
-    def done(self):
+    def done(self) -> bool:
         try:
             return self._svc.finished()
         except LNError:
             return True
 
-    def result(self, timeout=None):
+    def result(self, timeout: float | None = None) -> Any:
         """Waits (at most `timeout` seconds, None: no limit) and returns the
         service's `resp`; raises LNError if the call failed, TimeoutError if
         it is still running."""
@@ -376,13 +399,13 @@ class ServiceFuture:
             raise TimeoutError("service %r: no response within %s s" % (self._svc.name, timeout))
         return self._svc.resp
 
-    def exception(self, timeout=None):
+    def exception(self, timeout: float | None = None) -> LNError | None:
         try:
             self.result(timeout)
         except LNError as error:
             return error
         return None
 
-    def cancel(self):
+    def cancel(self) -> bool:
         self._svc.abort_async()
         return True

@@ -10,13 +10,26 @@
   dict) fills the response.
 """
 
+from __future__ import annotations
+
 import logging
 import pprint
 import threading
 import traceback
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
 from ._mainloop import MainloopInterface
 from ._packets import Part, _is_ln_string
+
+if TYPE_CHECKING:
+    from typing import TypeAlias
+
+    from ._client import client
+    from ._services import request_wrapper
+
+    #: A service_wrapper method name ("call", "call_gobject"), a main loop, or ("call_via_mainloop", loop).
+    _CallMethod: TypeAlias = str | MainloopInterface | tuple[str, MainloopInterface] | list[Any]
 
 log = logging.getLogger("links_and_nodes")
 
@@ -65,7 +78,7 @@ class ServiceErrorResponse(Exception):
     """A wrapped service call whose response signalled an error (a non-empty
     error indicator field such as error_message). `response` is the dict."""
 
-    def __init__(self, error_indicator_fields, response):
+    def __init__(self, error_indicator_fields: Iterable[str], response: Mapping[str, Any]) -> None:
         self.response = response
         rest = dict(response)
         text = ", ".join("%s: %s" % (field, rest.pop(field, None)) for field in error_indicator_fields)
@@ -79,16 +92,16 @@ class wrapped_service:
 
     def __init__(
         self,
-        clnt,
-        service_name,
-        interface,
-        default_arguments=None,
-        preprocessors=None,
-        postprocessors=None,
-        postprocessor=None,
-        call_method="call",
-        throw_on_these_error_indicators=None,
-    ):
+        clnt: client,
+        service_name: str,
+        interface: str,
+        default_arguments: Mapping[str, Any] | None = None,
+        preprocessors: Mapping[str, Callable[[Any], Any]] | None = None,
+        postprocessors: Mapping[str, Callable[[Any], Any]] | None = None,
+        postprocessor: Callable[[dict[str, Any]], Any] | None = None,
+        call_method: _CallMethod = "call",
+        throw_on_these_error_indicators: Sequence[str] | None = None,
+    ) -> None:
         if isinstance(call_method, MainloopInterface):
             mainloop = call_method
         elif isinstance(call_method, (tuple, list)) and call_method and call_method[0] == "call_via_mainloop":
@@ -102,13 +115,16 @@ class wrapped_service:
         self.preprocessors = preprocessors or {}
         self.postprocessors = postprocessors or {}
         self.postprocessor = postprocessor
-        self.call = self.svc.call_via_mainloop if mainloop is not None else getattr(self.svc, call_method)
+        self.call: Callable[..., Any] = (
+            # a method name here: the other kinds of call_method give a mainloop
+            self.svc.call_via_mainloop if mainloop is not None else getattr(self.svc, call_method)  # type: ignore[arg-type]
+        )
         self.throw_on_these_error_indicators = (
             ["error_message"] if throw_on_these_error_indicators is None else throw_on_these_error_indicators
         )
         self.lock = threading.RLock()
 
-    def __call__(self, *args, **kwargs):
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:
         """Calls the service with the request fields (positional in definition
         order, or by name; `_timeout` in seconds) and returns the response."""
         timeout = kwargs.pop("_timeout", 0)
@@ -166,24 +182,24 @@ class wrapped_service:
 class services_wrapper:
     """Base class for service callers: wrap_service() adds a method per service."""
 
-    def __init__(self, clnt, service_prefix="", mainloop=None):
+    def __init__(self, clnt: client, service_prefix: str = "", mainloop: MainloopInterface | None = None) -> None:
         self.clnt = clnt
         self.service_prefix = service_prefix
-        self.services = {}
-        self.default_call_method = "call" if mainloop is None else mainloop
+        self.services: dict[str, wrapped_service] = {}
+        self.default_call_method: _CallMethod = "call" if mainloop is None else mainloop
 
     def wrap_service(
         self,
-        postfix,
-        interface,
-        default_arguments=None,
-        preprocessors=None,
-        postprocessors=None,
-        postprocessor=None,
-        method_name=None,
-        call_method=None,
-        throw_on_these_error_indicators=None,
-    ):
+        postfix: str,
+        interface: str,
+        default_arguments: Mapping[str, Any] | None = None,
+        preprocessors: Mapping[str, Callable[[Any], Any]] | None = None,
+        postprocessors: Mapping[str, Callable[[Any], Any]] | None = None,
+        postprocessor: Callable[[dict[str, Any]], Any] | None = None,
+        method_name: str | None = None,
+        call_method: _CallMethod | None = None,
+        throw_on_these_error_indicators: Sequence[str] | None = None,
+    ) -> wrapped_service:
         """Adds self.<method_name> (default: postfix with '.' -> '_') calling
         the service "<prefix>.<postfix>" with interface `interface`."""
         service_name = self.service_prefix + "." + postfix if self.service_prefix else postfix
@@ -208,18 +224,18 @@ class wrapped_service_provider:
 
     def __init__(
         self,
-        provider,
-        service_name,
-        interface,
-        method,
-        preprocessors=None,
-        postprocessor=None,
-        cleanup=None,
-        group_name=None,
-        register_method="do_register",
-        pass_request=False,
-        utf8_decode_char_fields=True,
-    ):
+        provider: service_provider,
+        service_name: str,
+        interface: str,
+        method: Callable[..., Any],
+        preprocessors: Mapping[str, Callable[[wrapped_service_provider, Any, str], tuple[str, Any]]] | None = None,
+        postprocessor: Callable[[wrapped_service_provider, Part, Any], object] | None = None,
+        cleanup: Callable[[wrapped_service_provider, Part], object] | None = None,
+        group_name: str | None = None,
+        register_method: str | MainloopInterface = "do_register",
+        pass_request: bool = False,
+        utf8_decode_char_fields: bool = True,
+    ) -> None:
         self.provider = provider
         self.clnt = provider.clnt
         self.svc = self.clnt.get_service_provider(service_name, interface)
@@ -238,8 +254,8 @@ class wrapped_service_provider:
         else:
             getattr(self.svc, register_method)(group_name)
 
-    def handler(self, request, req, resp):
-        kwargs = {"request": request} if self.pass_request else {}
+    def handler(self, request: request_wrapper, req: Part, resp: Part) -> int:
+        kwargs: dict[str, Any] = {"request": request} if self.pass_request else {}
         for name in self.req_fields:
             value = getattr(req, name)
             pre = self.preprocessors.get(name)
@@ -306,27 +322,33 @@ class service_provider:
     #: LN 2.9 prints "ready" when handle_service_group_requests() starts.
     print_ready = True
 
-    def __init__(self, clnt, service_prefix="", default_register_method="do_register", mainloop=None):
+    def __init__(
+        self,
+        clnt: client,
+        service_prefix: str = "",
+        default_register_method: str | MainloopInterface = "do_register",
+        mainloop: MainloopInterface | None = None,
+    ) -> None:
         self.clnt = clnt
         self.service_prefix = service_prefix
-        self.services = {}
+        self.services: dict[str, wrapped_service_provider] = {}
         self.default_register_method = default_register_method if mainloop is None else mainloop
         self.keep_running = True
 
     def wrap_service_provider(
         self,
-        postfix,
-        interface,
-        preprocessors=None,
-        postprocessor=None,
-        cleanup=None,
-        method=None,
-        method_name=None,
-        group_name=None,
-        register_method=None,
-        pass_request=False,
-        utf8_decode_char_fields=True,
-    ):
+        postfix: str,
+        interface: str,
+        preprocessors: Mapping[str, Callable[[wrapped_service_provider, Any, str], tuple[str, Any]]] | None = None,
+        postprocessor: Callable[[wrapped_service_provider, Part, Any], object] | None = None,
+        cleanup: Callable[[wrapped_service_provider, Part], object] | None = None,
+        method: Callable[..., Any] | None = None,
+        method_name: str | None = None,
+        group_name: str | None = None,
+        register_method: str | MainloopInterface | None = None,
+        pass_request: bool = False,
+        utf8_decode_char_fields: bool = True,
+    ) -> wrapped_service_provider:
         """Serves "<prefix>.<postfix>" (interface `interface`) by self.<method_name>
         (default: postfix with '.' -> '_') or by `method`."""
         service_name = self.service_prefix + "." + postfix if self.service_prefix else postfix
@@ -352,7 +374,7 @@ class service_provider:
         )
         return svc
 
-    def handle_service_group_requests(self, group_name=None):
+    def handle_service_group_requests(self, group_name: str | None = None) -> None:
         """Serves requests of the group until self.keep_running is False
         (prints "ready" first, as LN 2.9 does)."""
         if self.print_ready:

@@ -1,5 +1,6 @@
 """Topics through ln_core's manager and libln."""
 
+import copy
 import signal
 import subprocess
 import sys
@@ -181,6 +182,18 @@ def test_borrow_is_zero_copy_and_read_only(clnt, unique):
         assert pkt is not None
     with sub.borrow(False) as pkt:
         assert pkt is None
+
+
+def test_a_borrowed_packet_compares_and_copies_like_a_read_one(clnt, unique):
+    pub, sub = pair(clnt, "counter/count_message", unique)
+    pub.packet.num_counts = 41
+    pub.write()
+    read = sub.read(2.0)
+    pub.write()
+    with sub.borrow(2.0) as pkt:
+        assert pkt == read and read == pkt
+        kept = copy.copy(pkt)
+    assert kept == read and kept.num_counts == 41  # the copy outlives the loan
 
 
 def test_read_into_numpy_has_no_extra_copy(clnt, unique):
