@@ -344,6 +344,14 @@ def _capacity_check(v):
     return None if 1 <= v <= MAX_CAPACITY else "must be 1..%d" % MAX_CAPACITY
 
 
+def _claim_names(r, seen, kind, entry):
+    """Refuses an entry whose LN or ROS name an earlier entry of this kind bridges already."""
+    for key in ((kind + "-ln", entry.ln), (kind + "-ros", entry.ros)):
+        if key in seen:
+            r.fail("%s is bridged twice (also by %s)" % (key[1], seen[key]))
+        seen[key] = r.where
+
+
 def _names_and_types(r, config, what, kind):
     """(ln, ros, ln_type, ros_type) of a topic or service entry: 'ln' is required, 'ros' defaults to
     the name automatic mode would give it."""
@@ -521,10 +529,7 @@ def parse_config(data, source="<config>"):
                 "direction %s needs 'type' (the LN definition) or 'ros_type': an LN topic can only be "
                 "published with a known definition" % entry.direction
             )
-        for key in (("topic-ln", entry.ln), ("topic-ros", entry.ros)):
-            if key in seen:
-                r.fail("%s is bridged twice (also by %s)" % (key[1], seen[key]))
-            seen[key] = r.where
+        _claim_names(r, seen, "topic", entry)
         config.topics.append(entry)
 
     for i, raw in enumerate(top.get("services", list, []) or []):
@@ -541,10 +546,7 @@ def parse_config(data, source="<config>"):
         r.done()
         if entry.direction == "ros_to_ln" and not (entry.ln_type or entry.ros_type):
             r.fail("direction ros_to_ln needs 'type' (the LN service definition) or 'ros_type'")
-        for key in (("service-ln", entry.ln), ("service-ros", entry.ros)):
-            if key in seen:
-                r.fail("%s is bridged twice (also by %s)" % (key[1], seen[key]))
-            seen[key] = r.where
+        _claim_names(r, seen, "service", entry)
         config.services.append(entry)
 
     top.done()

@@ -510,22 +510,14 @@ def probe_items(info: dict) -> list[ProbeItem]:
         t = s["c_type"]
         prefix = s["member_prefix"]
         sub = prefix.rstrip(".")
-        if sub:
-            size_expr = f"sizeof(((({t}*)0)->{sub}))"
-            size_what = f"sizeof({t}.{sub})"
-        else:
-            size_expr = f"sizeof({t})"
-            size_what = size_expr
+        size_expr = f"sizeof(((({t}*)0)->{sub}))" if sub else f"sizeof({t})"
+        size_what = f"sizeof({t}.{sub})" if sub else size_expr
         items.append(ProbeItem(name, f"{s['section']}: {size_what}", size_expr, s["size"]))
         section_total[t] = section_total.get(t, 0) + s["size"]
         for f in s["fields"]:
             member = prefix + f["name"]
-            if sub:
-                off = f"(offsetof({t}, {member}) - offsetof({t}, {sub}))"
-                off_what = f"offsetof({t}, {member}) - offsetof({t}, {sub})"
-            else:
-                off = f"offsetof({t}, {member})"
-                off_what = off
+            off_what = f"offsetof({t}, {member})" + (f" - offsetof({t}, {sub})" if sub else "")
+            off = f"({off_what})" if sub else off_what
             items.append(ProbeItem(name, f"{s['section']}: {off_what}", off, f["offset"]))
             items.append(
                 ProbeItem(name, f"{s['section']}: sizeof({t}.{member})", f"sizeof(((({t}*)0)->{member}))", f["size"])

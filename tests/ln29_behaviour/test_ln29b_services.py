@@ -61,6 +61,13 @@ def assert_same(transcripts):
     assert ours == ref, "LN 2.9:\n  " + "\n  ".join(ref) + "\nln_core:\n  " + "\n  ".join(ours)
 
 
+def same_for_both(lnbt, scenario):
+    """The transcripts of `scenario` for both systems, checked to be the same."""
+    transcripts = transcripts_for(lnbt, scenario)
+    assert_same(transcripts)
+    return transcripts
+
+
 # (id, name the caller uses, LN options, environment); every case should
 # reach "lnbt.map.real" (reply "olleh") or show how it misses it.
 CALLER_MAPPING_CASES = [
@@ -95,8 +102,7 @@ def test_service_name_mapping_on_the_calling_side(lnbt):
             provider.finish(10)
         return lines
 
-    transcripts = transcripts_for(lnbt, scenario)
-    assert_same(transcripts)
+    transcripts = same_for_both(lnbt, scenario)
     assert transcripts["ln29"][0] == "plain: reply olleh"
 
 
@@ -145,8 +151,7 @@ def test_service_name_mapping_on_the_providing_side(lnbt):
                 provider.finish(10)
         return lines
 
-    transcripts = transcripts_for(lnbt, scenario)
-    assert_same(transcripts)
+    transcripts = same_for_both(lnbt, scenario)
     assert transcripts["ln29"][0] == "lnbt.prov.one: reply cba"
 
 
@@ -168,8 +173,7 @@ def test_signatures_and_services_by_interface(lnbt):
                 provider.finish(10)
         return lines
 
-    transcripts = transcripts_for(lnbt, scenario)
-    assert_same(transcripts)
+    transcripts = same_for_both(lnbt, scenario)
     assert "find lnbt/echo 2 [lnbt.intro.a|lnbt.intro.b]" in transcripts["ln29"]
 
 

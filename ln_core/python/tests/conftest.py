@@ -146,3 +146,20 @@ class AreaCalls(ln.services_wrapper):
 
 def which_compiler():
     return shutil.which("g++") or shutil.which("c++")
+
+
+def build_cpp_programs(compiler, lib, include_dirs, names, out):
+    """Compiles tests/cpp/<name>.cpp for each of `names` into `out`, linked to libln at `lib`;
+    {name: executable}."""
+    built = {}
+    for name in names:
+        exe = str(out / name)
+        command = [compiler, "-std=c++17", "-O1"]
+        for directory in include_dirs:
+            command += ["-I", str(directory)]
+        command += [os.path.join(HERE, "cpp", name + ".cpp"), "-o", exe, lib]
+        command += ["-Wl,-rpath," + os.path.dirname(os.path.realpath(lib)), "-lpthread"]
+        result = subprocess.run(command, capture_output=True, text=True)
+        assert result.returncode == 0, "building %s failed:\n%s" % (name, result.stderr)
+        built[name] = exe
+    return built

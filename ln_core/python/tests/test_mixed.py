@@ -9,7 +9,7 @@ import time
 import links_and_nodes as ln
 import numpy as np
 import pytest
-from conftest import LN_CORE, MSGDEFS, which_compiler
+from conftest import LN_CORE, MSGDEFS, build_cpp_programs, which_compiler
 
 CPP = os.path.join(os.path.dirname(os.path.abspath(__file__)), "cpp")
 PROGRAMS = ("topic_sub", "topic_pub", "echo_provider", "echo_caller")
@@ -44,33 +44,7 @@ def programs(tmp_path_factory):
         check=True,
         capture_output=True,
     )
-    libdir = os.path.dirname(os.path.realpath(lib))
-    built = {}
-    for name in PROGRAMS:
-        exe = str(out / name)
-        result = subprocess.run(
-            [
-                compiler,
-                "-std=c++17",
-                "-O1",
-                "-I",
-                str(out),
-                "-I",
-                include,
-                os.path.join(CPP, name + ".cpp"),
-                "-o",
-                exe,
-                lib,
-                "-Wl,-rpath," + libdir,
-                "-lpthread",
-            ],
-            capture_output=True,
-            text=True,
-        )
-        if result.returncode != 0:
-            pytest.fail("building %s failed:\n%s" % (name, result.stderr))
-        built[name] = exe
-    return built
+    return build_cpp_programs(compiler, lib, [out, include], PROGRAMS, out)
 
 
 def test_python_publisher_cpp_subscriber(manager, clnt, programs, unique):

@@ -11,7 +11,7 @@ import time
 import links_and_nodes as ln
 import numpy as np
 import pytest
-from conftest import LN_CORE, which_compiler
+from conftest import LN_CORE, build_cpp_programs, which_compiler
 
 CPP = os.path.join(os.path.dirname(os.path.abspath(__file__)), "cpp")
 
@@ -279,29 +279,7 @@ def cpp(tmp_path_factory):
     if not (lib and os.path.exists(lib) and compiler):
         pytest.skip("needs libln (LN_CORE_LIB) and g++")
     out = tmp_path_factory.mktemp("param_cpp")
-    built = {}
-    for name in ("param_provider", "param_client"):
-        exe = str(out / name)
-        result = subprocess.run(
-            [
-                compiler,
-                "-std=c++17",
-                "-O1",
-                "-I",
-                include,
-                os.path.join(CPP, name + ".cpp"),
-                "-o",
-                exe,
-                lib,
-                "-Wl,-rpath," + os.path.dirname(os.path.realpath(lib)),
-                "-lpthread",
-            ],
-            capture_output=True,
-            text=True,
-        )
-        assert result.returncode == 0, "building %s failed:\n%s" % (name, result.stderr)
-        built[name] = exe
-    return built
+    return build_cpp_programs(compiler, lib, [include], ("param_provider", "param_client"), out)
 
 
 def test_cpp_provider_python_client(manager, caller, cpp, unique):
