@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <utility>
+
 #include "msg_mapping/naming.hpp"
 #include "msg_mapping/ros_model.hpp"
 
@@ -7,12 +9,10 @@ namespace msg_mapping {
 namespace {
 
 TEST(Naming, CamelToSnakeMatchesRosidl) {
-  EXPECT_EQ(camel_to_snake("HTTPServer"), "http_server");
-  EXPECT_EQ(camel_to_snake("TreeInfo2"), "tree_info2");
-  EXPECT_EQ(camel_to_snake("numCounts"), "num_counts");
-  EXPECT_EQ(camel_to_snake("ABC"), "abc");
-  EXPECT_EQ(camel_to_snake("PointCloud2"), "point_cloud2");
-  EXPECT_EQ(camel_to_snake("Pose2DStamped"), "pose2_d_stamped");
+  const std::pair<const char*, const char*> cases[] = {
+      {"HTTPServer", "http_server"},   {"TreeInfo2", "tree_info2"},         {"numCounts", "num_counts"}, {"ABC", "abc"},
+      {"PointCloud2", "point_cloud2"}, {"Pose2DStamped", "pose2_d_stamped"}};
+  for (const auto& [camel, snake] : cases) EXPECT_EQ(camel_to_snake(camel), snake) << camel;
 }
 
 TEST(Naming, PackageAndTypeFromLnName) {
@@ -63,11 +63,12 @@ TEST(Naming, FieldNames) {
   EXPECT_EQ(ros_field_name_for("numCounts", &why), "num_counts");
   EXPECT_EQ(ros_field_name_for("plain", &why), "plain");
   EXPECT_TRUE(why.empty());
-  EXPECT_EQ(ros_field_name_for("_private"), "private_field");
-  EXPECT_EQ(ros_field_name_for("a__b_"), "a_b");
-  EXPECT_EQ(ros_field_name_for("_1"), "field_1");
-  EXPECT_EQ(ros_field_name_for("True"), "true_field");
-  EXPECT_EQ(ros_field_name_for("int8"), "int8_field");
+  const std::pair<const char*, const char*> renamed[] = {{"_private", "private_field"},
+                                                         {"a__b_", "a_b"},
+                                                         {"_1", "field_1"},
+                                                         {"True", "true_field"},
+                                                         {"int8", "int8_field"}};
+  for (const auto& [ln_name, ros_name] : renamed) EXPECT_EQ(ros_field_name_for(ln_name), ros_name) << ln_name;
   EXPECT_EQ(ln_field_name_for("default"), "default_field");
   EXPECT_EQ(ln_field_name_for("data"), "data");
 }
