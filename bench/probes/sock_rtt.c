@@ -92,6 +92,7 @@ static int send_all(int fd, const char* buf, size_t n) {
 
 int main(int argc, char** argv) {
   alarm(PROBE_HARD_ALARM_S);
+  signal(SIGPIPE, SIG_IGN); /* an echo that ended early (say, it could not pin itself): EPIPE, then its reason */
   static const char* const kind_names[] = {"unix", "udp", "tcp"};  // as enum kind
   const struct rtt_args o = arg_rtt(argc, argv, "--kind", kind_names, 3);
   const enum kind k = (enum kind)o.choice;
