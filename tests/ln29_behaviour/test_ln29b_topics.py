@@ -32,39 +32,41 @@ def counters(program) -> list[int]:
     return [int(line.split()[1]) for line in program.lines if line.startswith("counter ")]
 
 
-def pub_sub(lnbt, system, name, sub_options, pub_count, pub_period, timeout=support.PROGRAM_TIMEOUT):
-    """Starts the subscriber and, once it subscribed, the publisher, which
-    waits for has_subscriber() and then writes probe packets until the
-    subscriber printed "ready" (it received one: see lnbt_publisher.cpp for
-    why has_subscriber() alone is not enough); then the counters 1..pub_count
-    follow. Waits for both; returns them."""
-    env = lnbt.client_env(system)
-    subscriber = support.Program([system.programs["lnbt_subscriber"], name, *map(str, sub_options)], env)
-    publisher = None
+def start_when_ready(system, env, subscriber, name, count, period) -> support.Program:
+    """Starts lnbt_publisher for `subscriber` (which printed "subscribed"): it
+    waits for has_subscriber(), then writes probe packets until the
+    subscriber printed "ready" (it received one while has_publisher() was
+    true: see lnbt_publisher.cpp for why has_subscriber() alone is not
+    enough), then it is told to go and writes the counters 1..count."""
+    publisher = support.Program(
+        [system.programs["lnbt_publisher"], name, count, period, "--wait-subscriber", 10, "--probe", 10],
+        env,
+        stdin_pipe=True,
+    )
     try:
-        assert subscriber.wait_for_line("subscribed", 10) is not None, subscriber.describe()
-        publisher = support.Program(
-            [
-                system.programs["lnbt_publisher"],
-                name,
-                str(pub_count),
-                str(pub_period),
-                "--wait-subscriber",
-                "10",
-                "--probe",
-                "10",
-            ],
-            env,
-            stdin_pipe=True,
-        )
         assert subscriber.wait_for_line("ready", 10) is not None, subscriber.describe() + publisher.describe()
         publisher.tell("go")
-        publisher.finish(timeout)
-        subscriber.finish(timeout)
+    except BaseException:
+        publisher.kill()
+        raise
+    return publisher
+
+
+def pub_sub(lnbt, system, name, sub_options, pub_count, pub_period, timeout=support.PROGRAM_TIMEOUT):
+    """Starts the subscriber and, once it subscribed and is ready, the
+    publisher (start_when_ready); waits for both. Returns both programs."""
+    env = lnbt.client_env(system)
+    subscriber = support.Program([system.programs["lnbt_subscriber"], name, *map(str, sub_options)], env)
+    try:
+        assert subscriber.wait_for_line("subscribed", 10) is not None, subscriber.describe()
+        publisher = start_when_ready(system, env, subscriber, name, pub_count, pub_period)
+        try:
+            publisher.finish(timeout)
+            subscriber.finish(timeout)
+        finally:
+            publisher.kill()
     finally:
         subscriber.kill()
-        if publisher:
-            publisher.kill()
     return publisher, subscriber
 
 
@@ -388,22 +390,7 @@ def test_has_publisher_after_publisher_is_killed(lnbt):
         publisher = None
         try:
             assert subscriber.wait_for_line("subscribed", 10) is not None, subscriber.describe()
-            publisher = support.Program(
-                [
-                    system.programs["lnbt_publisher"],
-                    name,
-                    "100000",
-                    "0.01",
-                    "--wait-subscriber",
-                    "10",
-                    "--probe",
-                    "10",
-                ],
-                env,
-                stdin_pipe=True,
-            )
-            assert subscriber.wait_for_line("ready", 10) is not None, subscriber.describe() + publisher.describe()
-            publisher.tell("go")
+            publisher = start_when_ready(system, env, subscriber, name, 100000, 0.01)
             assert subscriber.wait_for_line("has_publisher_before_watch", 15) is not None, subscriber.describe()
             publisher.kill()
             subscriber.finish(15)
