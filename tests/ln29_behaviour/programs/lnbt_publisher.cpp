@@ -20,7 +20,9 @@
 // came before the publisher the segment's name (delayed_init_inport), which
 // its library maps in its own thread; a reader starts at the newest packet,
 // so what is written before it mapped the segment never reaches it. Only a
-// packet that arrived proves the subscriber is there.
+// packet that arrived proves the subscriber is there. Likewise ln_core's
+// manager records a topic for a logger only once it tapped the publisher's
+// segment, after publish (test_ln29b_loggers.py).
 #include <ln/ln.h>
 #include <poll.h>
 #include <unistd.h>
