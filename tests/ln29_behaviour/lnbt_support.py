@@ -229,6 +229,11 @@ class Program:
             if line.startswith(prefix):
                 return line
 
+    def tell(self, line: str) -> None:
+        """Writes `line` to the program's stdin (started with stdin_pipe=True)."""
+        self.proc.stdin.write(line.encode() + b"\n")
+        self.proc.stdin.flush()
+
     def finish(self, timeout: float = PROGRAM_TIMEOUT) -> int:
         """Closes stdin, waits at most `timeout` s, kills it after that."""
         if self.proc.stdin:

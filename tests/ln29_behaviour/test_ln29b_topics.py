@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import contextlib
 import itertools
-import time
 
 import lnbt_support as support
 import pytest
@@ -33,34 +32,47 @@ def counters(program) -> list[int]:
     return [int(line.split()[1]) for line in program.lines if line.startswith("counter ")]
 
 
-def pub_sub(
-    lnbt,
-    system,
-    name,
-    sub_options,
-    pub_count,
-    pub_period,
-    pub_options=(),
-    start_gap=0.3,
-    timeout=support.PROGRAM_TIMEOUT,
-):
-    """Starts the subscriber, waits until it subscribed (plus `start_gap` s),
-    runs the publisher, then waits for the subscriber. Returns both programs."""
+def start_when_ready(system, env, subscriber, name, count, period) -> support.Program:
+    """Starts lnbt_publisher for `subscriber` (which printed "subscribed"): it
+    waits for has_subscriber(), then writes probe packets until the
+    subscriber printed "ready" (it received one while has_publisher() was
+    true: see lnbt_publisher.cpp for why has_subscriber() alone is not
+    enough), then it is told to go and writes the counters 1..count."""
+    publisher = support.Program(
+        [system.programs["lnbt_publisher"], name, count, period, "--wait-subscriber", 10, "--probe", 10],
+        env,
+        stdin_pipe=True,
+    )
+    try:
+        assert subscriber.wait_for_line("ready", 10) is not None, subscriber.describe() + publisher.describe()
+        publisher.tell("go")
+    except BaseException:
+        publisher.kill()
+        raise
+    return publisher
+
+
+def pub_sub(lnbt, system, name, sub_options, pub_count, pub_period, timeout=support.PROGRAM_TIMEOUT):
+    """Starts the subscriber and, once it subscribed and is ready, the
+    publisher (start_when_ready); waits for both. Returns both programs."""
     env = lnbt.client_env(system)
     subscriber = support.Program([system.programs["lnbt_subscriber"], name, *map(str, sub_options)], env)
     try:
         assert subscriber.wait_for_line("subscribed", 10) is not None, subscriber.describe()
-        if start_gap:
-            time.sleep(start_gap)
-        publisher = support.run(
-            [system.programs["lnbt_publisher"], name, str(pub_count), str(pub_period), *map(str, pub_options)],
-            env,
-            timeout=timeout,
-        )
-        subscriber.finish(timeout)
+        publisher = start_when_ready(system, env, subscriber, name, pub_count, pub_period)
+        try:
+            publisher.finish(timeout)
+            subscriber.finish(timeout)
+        finally:
+            publisher.kill()
     finally:
         subscriber.kill()
     return publisher, subscriber
+
+
+def received(subscriber) -> list[str]:
+    """The subscriber's lines without timing and the probe handshake."""
+    return [line for line in subscriber.lines if not line.startswith(("elapsed", "ready"))]
 
 
 @contextlib.contextmanager
@@ -172,10 +184,9 @@ def test_same_output(lnbt):
             ["--buffers", 64, "--count", 50],
             50,
             0.01,
-            ["--wait-subscriber", 5, "--settle", 0.3],
         )
         assert publisher.returncode == 0 and subscriber.returncode == 0, publisher.describe() + subscriber.describe()
-        outputs[system.label] = (publisher.lines, [l for l in subscriber.lines if not l.startswith("elapsed")])
+        outputs[system.label] = (publisher.lines, received(subscriber))
     ref = outputs["ln29"]
     assert ref[0] == ["publishing", "subscriber seen", "published 50"]
     assert ref[1][:2] == ["has_publisher_at_start 0", "subscribed"]
@@ -195,7 +206,6 @@ def test_buffers_1_slow_reader_sees_only_the_newest(lnbt):
             ["--buffers", 1, "--sleep", 0.1, "--duration", 1.0],
             300,
             0.005,
-            ["--wait-subscriber", 5, "--settle", 0.3],
         )
         seen = counters(subscriber)
         assert len(seen) >= 6, f"{system}\n{subscriber.describe()}"
@@ -221,7 +231,6 @@ def test_buffers_after_a_stall(lnbt, buffers):
             ["--buffers", buffers, "--stall-after", 3, "--stall", 0.3, "--count", 14],
             300,
             0.005,
-            ["--wait-subscriber", 5, "--settle", 0.3],
         )
         seen = counters(subscriber)
         assert len(seen) == 14, f"{system}\n{subscriber.describe()}"
@@ -251,7 +260,6 @@ def test_rate_decimation(lnbt):
             ["--rate", 10, "--buffers", 1, "--duration", 2.0],
             500,
             0.005,
-            ["--wait-subscriber", 5, "--settle", 0.3],
         )
         seen = counters(subscriber)
         assert 15 <= len(seen) <= 26, f"{system}: {len(seen)} packets in 2 s at rate=10: {seen}"
@@ -341,10 +349,8 @@ def test_subscribe_before_publish_and_has_publisher(lnbt):
             ["--buffers", 64, "--count", 20, "--watch-publisher", 5],
             20,
             0.01,
-            ["--wait-subscriber", 5, "--settle", 0.3],
-            start_gap=1.0,
         )
-        outputs[system.label] = [l for l in subscriber.lines if not l.startswith("elapsed")]
+        outputs[system.label] = received(subscriber)
     ref = outputs["ln29"]
     assert ref[:2] == ["has_publisher_at_start 0", "subscribed"]
     assert ref[-3:] == ["received 20", "has_publisher_before_watch 1", "publisher_gone"], ref
@@ -384,19 +390,7 @@ def test_has_publisher_after_publisher_is_killed(lnbt):
         publisher = None
         try:
             assert subscriber.wait_for_line("subscribed", 10) is not None, subscriber.describe()
-            publisher = support.Program(
-                [
-                    system.programs["lnbt_publisher"],
-                    name,
-                    "100000",
-                    "0.01",
-                    "--wait-subscriber",
-                    "5",
-                    "--settle",
-                    "0.3",
-                ],
-                env,
-            )
+            publisher = start_when_ready(system, env, subscriber, name, 100000, 0.01)
             assert subscriber.wait_for_line("has_publisher_before_watch", 15) is not None, subscriber.describe()
             publisher.kill()
             subscriber.finish(15)
@@ -404,7 +398,7 @@ def test_has_publisher_after_publisher_is_killed(lnbt):
             subscriber.kill()
             if publisher:
                 publisher.kill()
-        outputs[system.label] = [l for l in subscriber.lines if not l.startswith(("elapsed", "counter"))]
+        outputs[system.label] = [l for l in received(subscriber) if not l.startswith("counter")]
     assert outputs["ln29"] == [
         "has_publisher_at_start 0",
         "subscribed",

@@ -8,7 +8,12 @@
 //   later TOPIC         enable before the topic is published, then publish and
 //                       write 150 packets every 10 ms
 //   until_eof TOPIC     enable, print "enabled", wait until stdin closes
-//                       (another program publishes meanwhile), then download
+//                       (another program publishes meanwhile), then download;
+//                       meanwhile download every 20 ms and print "recording"
+//                       once a sample came (ln_core: the manager taps the
+//                       publisher's segment only after it published, so the
+//                       test lets the publisher probe until then; LN 2.9's
+//                       download while enabled has no samples: never printed)
 //   save TOPIC DIR      two topics (TOPIC.a lnbt/counter, TOPIC.b lnbt/other)
 //                       with explicit timestamps; manager_save as raw (TOPIC.a
 //                       alone), pcap, auto, pickle and an unknown format
@@ -104,14 +109,25 @@ ln_logger logger_of(ln_client clnt, const char* name) {
   return logger;
 }
 
-void wait_for_eof() {
+void wait_for_eof(ln_logger logger) {
   std::printf("enabled\n");
   std::fflush(stdout);
+  bool recording = false;
+  const double deadline = ln_get_monotonic_time() + 60;
   char buffer[64];
-  for (;;) {
+  while (ln_get_monotonic_time() < deadline) {
     pollfd in{0, POLLIN, 0};
-    if (::poll(&in, 1, 60000) <= 0) return;
-    if (::read(0, buffer, sizeof buffer) <= 0) return;
+    const int ready = ::poll(&in, 1, 20);
+    if (ready < 0 || (ready > 0 && ::read(0, buffer, sizeof buffer) <= 0)) return;
+    if (recording) continue;
+    ln_logger_data data = nullptr;
+    logger_topic* topic = nullptr;
+    if (ln_logger_download(logger, &data) == 0 && ln_logger_data_get_topic(data, 0, &topic) == 0 &&
+        topic->n_samples > 0) {
+      std::printf("recording\n");
+      std::fflush(stdout);
+      recording = true;
+    }
   }
 }
 
@@ -180,7 +196,7 @@ void until_eof(ln_client clnt, const std::string& topic) {
   ln_logger logger = logger_of(clnt, "until_eof");
   report("add_topic", ln_logger_add_topic(logger, topic.c_str(), 100, 1));
   report("enable", ln_logger_enable(logger));
-  wait_for_eof();
+  wait_for_eof(logger);
   report("disable", ln_logger_disable(logger));
   download(logger);
 }

@@ -4,12 +4,28 @@
 //
 // usage: lnbt_publisher [LN options] TOPIC COUNT PERIOD_S [options]
 //   --wait-subscriber S   first wait (at most S s) until has_subscriber()
-//   --settle S            then sleep S s before the first write
+//   --probe S             then write probe packets (counter 0) every 5 ms
+//                         until a line arrives on stdin, at most S s: the
+//                         test sends it once the subscriber printed "ready"
+//                         (it received a probe, so it reads this stream)
 //   --buffers N           publish with N buffers (default 1)
 //   --linger S            stay published S s after the last write
 // Packet i (1..COUNT): counter = i, check = i * 2654435761, value = i * 0.5.
-// Prints "publishing", "subscriber seen" or "no subscriber", "published N".
+// Prints "publishing", "subscriber seen" or "no subscriber", "published N",
+// and "no go" (exit status 4) when --probe got no line in time.
+//
+// Why probe: has_subscriber() turning true does not mean that the subscriber
+// reads the segment yet. LN 2.9's manager tells the publisher about a
+// subscriber on a 250 ms timer and, independently, sends a subscriber that
+// came before the publisher the segment's name (delayed_init_inport), which
+// its library maps in its own thread; a reader starts at the newest packet,
+// so what is written before it mapped the segment never reaches it. Only a
+// packet that arrived proves the subscriber is there. Likewise ln_core's
+// manager records a topic for a logger only once it tapped the publisher's
+// segment, after publish (test_ln29b_loggers.py).
 #include <ln/ln.h>
+#include <poll.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <cstdlib>
@@ -29,14 +45,14 @@ int main(int argc, char** argv) {
     const std::string topic = args[1];
     const unsigned long count = std::strtoul(args[2].c_str(), nullptr, 10);
     const double period = std::strtod(args[3].c_str(), nullptr);
-    double wait_subscriber = 0, settle = 0, linger = 0;
+    double wait_subscriber = 0, probe = 0, linger = 0;
     unsigned buffers = 1;
     for (std::size_t i = 4; i + 1 < args.size(); i += 2) {
       const double value = std::strtod(args[i + 1].c_str(), nullptr);
       if (args[i] == "--wait-subscriber")
         wait_subscriber = value;
-      else if (args[i] == "--settle")
-        settle = value;
+      else if (args[i] == "--probe")
+        probe = value;
       else if (args[i] == "--buffers")
         buffers = static_cast<unsigned>(value);
       else if (args[i] == "--linger")
@@ -55,9 +71,30 @@ int main(int argc, char** argv) {
       std::printf(port->has_subscriber() ? "subscriber seen\n" : "no subscriber\n");
       std::fflush(stdout);
     }
-    if (settle > 0) ln_sleep_seconds(settle);
-
     lnbt_counter_t packet;
+    if (probe > 0) {
+      packet.counter = 0;
+      packet.check = 0;
+      packet.value = 0;
+      const double deadline = ln_get_monotonic_time() + probe;
+      bool go = false;
+      while (!go && ln_get_monotonic_time() < deadline) {
+        port->write(&packet);
+        pollfd in{0, POLLIN, 0};
+        if (::poll(&in, 1, 5) > 0) {
+          char buffer[64];
+          go = ::read(0, buffer, sizeof buffer) > 0;
+          if (!go) break;  // stdin closed: nobody will say go
+        }
+      }
+      if (!go) {
+        std::printf("no go\n");
+        std::fflush(stdout);
+        clnt.unpublish(port);
+        return 4;
+      }
+    }
+
     const double start = ln_get_monotonic_time();
     for (unsigned long i = 1; i <= count; ++i) {
       packet.counter = static_cast<uint32_t>(i);

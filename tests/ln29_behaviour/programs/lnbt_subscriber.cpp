@@ -13,6 +13,9 @@
 //   --stall S             ... then read without sleeping
 //   --watch-publisher S   at the end, wait at most S s for has_publisher()
 //                         to become false
+// A packet with counter 0 is lnbt_publisher's probe: the first one that comes
+// while has_publisher() is true prints "ready" (this subscriber reads the
+// stream and knows its publisher); probes are neither counted nor printed.
 // Output: "has_publisher_at_start 0|1", then per packet
 // "counter C value V check ok|BAD", then "received N", "elapsed T" (the time
 // from the first to the last packet), and with --watch-publisher
@@ -73,11 +76,22 @@ int main(int argc, char** argv) {
     unsigned long received = 0;
     double first = 0, last = 0;
     double deadline = ln_get_monotonic_time() + first_timeout;
+    bool ready = false;
     while (count == 0 || received < count) {
       const double now = ln_get_monotonic_time();
       if (now >= deadline) break;
       if (sleep_per_read > 0) ln_sleep_seconds(sleep_per_read);
       if (!port->read(&packet, 0.05)) continue;
+      if (packet.counter == 0) {
+        // LN 2.9 tells a subscriber that came first of the publisher 250 ms
+        // after it mapped the segment: data can come before has_publisher().
+        if (!ready && port->has_publisher()) {
+          std::printf("ready\n");
+          std::fflush(stdout);
+          ready = true;
+        }
+        continue;
+      }
       const double at = ln_get_monotonic_time();
       if (received == 0) {
         first = at;
