@@ -317,6 +317,7 @@ def build(system: System, out_dir: Path, env: dict[str, str]) -> System | Missin
             "-w",
             f"-I{out_dir}",
             f"-I{system.include_dir}",
+            f"-I{REPO_ROOT / 'ln_core' / 'src'}",  # (last) for testing/wait.hpp
             str(PROGRAMS_DIR / f"{name}.cpp"),
             "-o",
             str(target),

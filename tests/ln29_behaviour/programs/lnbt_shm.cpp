@@ -34,6 +34,7 @@
 #include <thread>
 
 #include "lnbt_errors.h"
+#include "testing/wait.hpp"  // ln_core/src/testing: waiting for a thread to block
 
 namespace {
 
@@ -137,15 +138,20 @@ void script(const std::string& name, unsigned version) {
   read("read_committed");
   STEP("read_timeout", read_from_shm_source_timeout(source, &ts, &counter, data, 16, 0.1));
   std::printf("\n");
+  // The other threads act once this one waits in the call (sleeps in the kernel).
+  const pid_t reading_thread = ln::test::current_thread_id();
+  const auto once_blocked = [reading_thread] {
+    ln::test::wait_until([reading_thread] { return ln::test::thread_sleeps(reading_thread); });
+  };
   std::thread late_writer([&] {
-    ln_sleep_seconds(0.1);
+    once_blocked();
     write_to_shm_target(target, 8.5, const_cast<char*>("from a thread..."), 16);
   });
   STEP("blocking_read", read_from_shm_source(source, &ts, &counter, data, 16, 1));
   show_packet(ts, counter, data, 16);
   late_writer.join();
   std::thread unblocker([&] {
-    ln_sleep_seconds(0.1);
+    once_blocked();
     unblock_shm_source(source);
   });
   STEP("blocking_read_unblocked", read_from_shm_source(source, &ts, &counter, data, 16, 1));
@@ -158,7 +164,7 @@ void script(const std::string& name, unsigned version) {
   std::printf(" counter %u\n", counter);
   read("read_after_block_only");
   std::thread unblocker2([&] {
-    ln_sleep_seconds(0.1);
+    once_blocked();
     unblock_shm_source(source);
   });
   STEP("block_only_unblocked", block_only_on_shm_source(source, &counter, 5.0));
