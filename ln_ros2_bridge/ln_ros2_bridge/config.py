@@ -352,16 +352,22 @@ def _claim_names(r, seen, kind, entry):
         seen[key] = r.where
 
 
-def _names_and_types(r, config, what, kind):
-    """(ln, ros, ln_type, ros_type) of a topic or service entry: 'ln' is required, 'ros' defaults to
-    the name automatic mode would give it."""
+def _common_fields(r, config, what, kind, directions):
+    """The fields topic and service entries share: 'ln' (required), 'ros' (default: the name
+    automatic mode would give it), 'direction', and the types."""
     ln_name = r.get("ln", str, check=_ln_name_problem)
     if ln_name is None:
         r.fail("needs 'ln' (the LN %s name)" % what)
     r.where = "%s %s" % (what, ln_name)
     ln_type, ros_type = _types_of(r, kind)
     derived = ln_to_ros_name(ln_name, AutoSettings(ros_namespace=config.auto.ros_namespace, remap=config.auto.remap))
-    return ln_name, r.get("ros", str, derived, check=_ros_name_check), ln_type, ros_type
+    return {
+        "ln": ln_name,
+        "ros": r.get("ros", str, derived, check=_ros_name_check),
+        "direction": r.get("direction", str, "ln_to_ros", directions),
+        "ln_type": ln_type,
+        "ros_type": ros_type,
+    }
 
 
 def _types_of(r, kind):
@@ -512,14 +518,10 @@ def parse_config(data, source="<config>"):
     seen = {}
     for i, raw in enumerate(top.get("topics", list, []) or []):
         r = _Reader(raw, "topics[%d]" % i, source)
-        ln_name, ros_name, ln_type, ros_type = _names_and_types(r, config, "topic", "msg")
-        _merge_capacities(r, ros_type, config, owners)
+        common = _common_fields(r, config, "topic", "msg", DIRECTIONS_TOPIC)
+        _merge_capacities(r, common["ros_type"], config, owners)
         entry = TopicEntry(
-            ln=ln_name,
-            ros=ros_name,
-            direction=r.get("direction", str, "ln_to_ros", DIRECTIONS_TOPIC),
-            ln_type=ln_type,
-            ros_type=ros_type,
+            **common,
             qos=_qos_value(r, "qos", config.qos),
             ln_port=_ln_port(r.sub("ln_port"), config.ln_port),
         )
@@ -534,13 +536,8 @@ def parse_config(data, source="<config>"):
 
     for i, raw in enumerate(top.get("services", list, []) or []):
         r = _Reader(raw, "services[%d]" % i, source)
-        ln_name, ros_name, ln_type, ros_type = _names_and_types(r, config, "service", "srv")
         entry = ServiceEntry(
-            ln=ln_name,
-            ros=ros_name,
-            direction=r.get("direction", str, "ln_to_ros", DIRECTIONS_SERVICE),
-            ln_type=ln_type,
-            ros_type=ros_type,
+            **_common_fields(r, config, "service", "srv", DIRECTIONS_SERVICE),
             timeout=r.get("timeout", float, config.service_timeout, check=_positive),
         )
         r.done()

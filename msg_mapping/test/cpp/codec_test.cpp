@@ -11,6 +11,12 @@ namespace {
 using test::bytes_of;
 using test::hex;
 
+// LN -> CDR gives `cdr`, and CDR -> LN gives `flat` back.
+void expect_both_ways(const Codec& codec, const std::vector<std::uint8_t>& flat, const std::vector<std::uint8_t>& cdr) {
+  EXPECT_EQ(codec.ln_to_cdr(bytes_of(flat)), cdr);
+  EXPECT_EQ(codec.cdr_to_ln(bytes_of(cdr)), flat);
+}
+
 std::string error_of(const std::function<void()>& f) {
   try {
     f();
@@ -24,9 +30,8 @@ TEST(Codec, WorkedExampleFromTheWireNotes) {
   test::LnFixture ln({{"t/worked", "uint8_t a\ndouble b\nchar* s\n"}});
   const Codec codec = ln.codec("t/worked");
   const auto flat = hex("05 | 000000000000f03f | 02000000 6869");
-  const auto cdr = codec.ln_to_cdr(bytes_of(flat));
-  EXPECT_EQ(cdr, hex("00010000 | 05 | 00000000000000 | 000000000000f03f | 03000000 | 686900"));
-  EXPECT_EQ(codec.cdr_to_ln(bytes_of(cdr)), flat);
+  const auto cdr = hex("00010000 | 05 | 00000000000000 | 000000000000f03f | 03000000 | 686900");
+  expect_both_ways(codec, flat, cdr);
   EXPECT_EQ(codec.cdr_size(bytes_of(flat)), 27u);
   EXPECT_EQ(codec.ln_size(bytes_of(cdr)), flat.size());
 }
@@ -68,9 +73,7 @@ TEST(Codec, EmptyNumberSequencesAreNotAlignedButCounted) {
   const Codec codec = ln.codec("t/seq");
   const auto flat = hex("00000000 07");
   // Fast CDR writes no alignment for the empty double block; its size estimate does (trailing zeros).
-  const auto cdr = codec.ln_to_cdr(bytes_of(flat));
-  EXPECT_EQ(cdr, hex("00010000 00000000 07 00000000"));
-  EXPECT_EQ(codec.cdr_to_ln(bytes_of(cdr)), flat);
+  expect_both_ways(codec, flat, hex("00010000 00000000 07 00000000"));
   const auto one = hex("01000000 000000000000f03f 07");
   EXPECT_EQ(codec.ln_to_cdr(bytes_of(one)), hex("00010000 01000000 00000000 000000000000f03f 07"));
 }
@@ -82,9 +85,7 @@ TEST(Codec, RecursiveTypesTravelAsLnFlatBytes) {
   const Codec codec(*i.first);
   // w=1, kids=[{w=2, kids=[]}]
   const auto flat = hex("0100 01000000 0200 00000000");
-  const auto cdr = codec.ln_to_cdr(bytes_of(flat));
-  EXPECT_EQ(cdr, hex("00010000 0100 0000 0a000000 01000000 0200 00000000"));
-  EXPECT_EQ(codec.cdr_to_ln(bytes_of(cdr)), flat);
+  expect_both_ways(codec, flat, hex("00010000 0100 0000 0a000000 01000000 0200 00000000"));
   // leaf: empty kids -> empty uint8[]
   EXPECT_EQ(codec.ln_to_cdr(bytes_of(hex("0900 00000000"))), hex("00010000 0900 0000 00000000"));
   // opaque bytes that are not one LN sequence are rejected

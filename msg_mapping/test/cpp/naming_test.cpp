@@ -17,19 +17,18 @@ TEST(Naming, CamelToSnakeMatchesRosidl) {
 
 TEST(Naming, PackageAndTypeFromLnName) {
   const NamingOptions options;
-  RosTypeName n = ros_type_name_for("ln/file_services2/tree_info2", options);
-  EXPECT_EQ(n.package, "ln_ln_msgs");
-  EXPECT_EQ(n.type, "FileServices2TreeInfo2");
-  n = ros_type_name_for("two_doubles", options);
-  EXPECT_EQ(n.package, "ln_msgs");
-  EXPECT_EQ(n.type, "TwoDoubles");
-  n = ros_type_name_for("MyRobot/arm-state.v2", options);
-  EXPECT_EQ(n.package, "my_robot_ln_msgs");
-  EXPECT_EQ(n.type, "ArmStateV2");
-  n = ros_type_name_for("3d/9lives", options);
-  EXPECT_EQ(n.package, "ln_3d_ln_msgs");
-  EXPECT_EQ(n.type, "Ln9lives");
-  n = ros_type_name_for("x/none", options);
+  const struct {
+    const char *ln_name, *package, *type;
+  } cases[] = {{"ln/file_services2/tree_info2", "ln_ln_msgs", "FileServices2TreeInfo2"},
+               {"two_doubles", "ln_msgs", "TwoDoubles"},
+               {"MyRobot/arm-state.v2", "my_robot_ln_msgs", "ArmStateV2"},
+               {"3d/9lives", "ln_3d_ln_msgs", "Ln9lives"}};
+  for (const auto& c : cases) {
+    const RosTypeName name = ros_type_name_for(c.ln_name, options);
+    EXPECT_EQ(name.package, c.package) << c.ln_name;
+    EXPECT_EQ(name.type, c.type) << c.ln_name;
+  }
+  RosTypeName n = ros_type_name_for("x/none", options);
   EXPECT_EQ(n.type,
             "None"
             "Msg");  // Python keyword
