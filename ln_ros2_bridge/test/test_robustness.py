@@ -1,6 +1,7 @@
 """Robustness: bad configuration, unknown types, the LN manager restarting,
 LN and ROS peers coming and going -- the bridge reports, recovers, never dies."""
 
+import os
 import subprocess
 import sys
 
@@ -77,6 +78,34 @@ def test_good_configuration_checks(tmp_path):
         timeout=60,
     )
     assert result.returncode == 0 and "is valid" in result.stdout, result
+
+
+FASTDDS_CHILD = """
+import rclpy
+from std_msgs.msg import String
+
+rclpy.init()
+node = rclpy.create_node("profile_check")
+publisher = node.create_publisher(String, "/profile_check", 10)
+publisher.publish(String(data="x"))
+node.destroy_node()
+rclpy.shutdown()
+print("participant, writer and sample made")
+"""
+
+
+def test_the_bridges_fastdds_profile_loads_without_errors():
+    """Fast DDS drops a whole profile file over one unknown element (printing an XMLPARSER
+    error and going on with its defaults), so a typo would silently cost the bridge its
+    32 MiB segment and its writer timing."""
+    from ln_ros2_bridge.main import FASTDDS_PROFILE
+
+    env = dict(os.environ, RMW_IMPLEMENTATION="rmw_fastrtps_cpp", FASTRTPS_DEFAULT_PROFILES_FILE=FASTDDS_PROFILE)
+    env.pop("FASTDDS_DEFAULT_PROFILES_FILE", None)
+    result = subprocess.run([sys.executable, "-c", FASTDDS_CHILD], capture_output=True, text=True, timeout=60, env=env)
+    assert result.returncode == 0 and "sample made" in result.stdout, result
+    output = result.stdout + result.stderr  # (Fast DDS logs its errors on standard output)
+    assert "XMLPARSER" not in output and "Error" not in output, output
 
 
 def test_unknown_type_is_reported_and_skipped(ln, start_bridge, ln_peer, ros):
