@@ -544,11 +544,16 @@ struct ProcessControl::Impl {
       if (const Process* d = find_process(name); d && d->phase == Process::Phase::Running && d->ready) return true;
       if (const State* s = find_state(name); s && state_satisfies(*s, dependency.down, since)) return true;
     }
+    std::string ended;  // what ran for this request and ended without error, so does not run
     for (const auto& name : dependency.candidates) {
       if (Process* d = find_process(name)) {
         if (d->goal == Goal::Up || d->phase != Process::Phase::Stopped) return false;  // on its way
         if (passive) continue;  // it does not come back by itself
         if (d->failed && d->failed_at >= since) continue;
+        if (!d->failed && d->stopped_at >= since) {
+          if (ended.empty()) ended = "dependency '" + name + "' ended (" + d->last_exit + ")";
+          continue;
+        }
         log(LogLevel::Info, "starting dependency '" + name + "'");
         want_up(*d);
         mark_changed();
@@ -564,6 +569,10 @@ struct ProcessControl::Impl {
     }
     const std::string& first = dependency.candidates.front();
     const std::string failure = failure_of(first);
+    if (failure.empty() && !ended.empty()) {
+      problem = ended;
+      return false;
+    }
     problem = "dependency '" + first + "' " + (failure.empty() ? std::string("does not run") : "failed: " + failure);
     return false;
   }
@@ -800,6 +809,7 @@ struct ProcessControl::Impl {
     if (no_error) {
       log(LogLevel::Info, what + " ended: " + how);
       note(p, "ended (" + how + ")");
+      if (p.goal == Goal::Up) p.goal = Goal::None;  // it ended before it was ready: done, not started again
       for (const auto& d : p.config.start_on_successful_stop)
         request_dependency(d, "start_on_successful_stop of '" + p.config.name + "'");
     } else {

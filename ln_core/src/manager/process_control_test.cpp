@@ -434,6 +434,29 @@ TEST_F(ProcessControlTest, GroupsStartBeforeAndSuccessfulStops) {
   wait_state("helper", "stopped");
 }
 
+// A job that ends well before its ready line (or ready_time) is done: it is
+// not started again, neither for its own start request nor for a dependent,
+// which fails with the reason instead.
+TEST_F(ProcessControlTest, AJobThatEndsWellBeforeItIsReadyIsNotStartedAgain) {
+  start(
+      "process job\ncommand: /bin/sh -c 'echo run >> %(DIR)/runs'\nready_regex: ^never\n"
+      "flags: no_error_on_successful_stop\n"
+      "process after\ncommand: /bin/sleep 1000\ndepends_on: job\n");
+  control("job", "start");
+  const Row job = wait_state("job", "stopped");
+  EXPECT_EQ(job.last_exit, "exit status 0");
+  EXPECT_EQ(job.error, "");
+  auto runs = [&] {
+    const std::string text = file("runs");
+    return std::count(text.begin(), text.end(), '\n');
+  };
+  EXPECT_EQ(runs(), 1);
+  control("after", "start");
+  EXPECT_NE(wait_state("after", "failed").error.find("dependency 'job' ended (exit status 0)"), std::string::npos);
+  EXPECT_EQ(row("job").requested, "");
+  EXPECT_EQ(runs(), 2) << "started once more for 'after', then not again";
+}
+
 TEST_F(ProcessControlTest, NiceAffinityAndResourceLimitsApply) {
   start(
       "process tuned\n"
