@@ -225,7 +225,7 @@ int print_check(const ManagerOptions& options) {
     for (const auto& [name, command] : p.alt_commands)
       std::printf("  alt_command %s: %s\n", name.c_str(), command.c_str());
     for (const auto& entry : process_environment(p, context)) std::printf("  env %s\n", entry.c_str());
-    if (!p.change_directory.empty()) std::printf("  directory: %s\n", p.change_directory.c_str());
+    std::printf("  directory: %s\n", process_directory(p).c_str());
     if (!p.depends_on.empty()) std::printf("  depends_on: %s\n", joined(p.depends_on).c_str());
     if (!p.depends_on_restart.empty()) std::printf("  depends_on_restart: %s\n", joined(p.depends_on_restart).c_str());
     if (!p.flags.empty()) {

@@ -650,7 +650,7 @@ struct ProcessControl::Impl {
     if (!problem.empty()) return fail(p, "cannot start: " + problem);
     request.search_path = p.config.has_flag("use_execvpe");
     request.environment = process_environment(p.config, launch);
-    request.directory = p.config.change_directory;
+    request.directory = process_directory(p.config);
     request.pty = !p.config.has_flag("no_pty");
     request.policy = p.config.policy;
     request.priority = p.config.priority;

@@ -390,6 +390,23 @@ TEST_F(ProcessControlTest, EnvironmentAsLn29GivesIt) {
   EXPECT_EQ(env.count("HOME"), 0u) << "a minimal environment: nothing passed that was not asked for";
 }
 
+// Without change_directory a process starts in /tmp, as LN 2.9's daemon
+// starts it, not in the manager's working directory.
+TEST_F(ProcessControlTest, ProcessesStartInTmpUnlessChangeDirectorySaysOtherwise) {
+  dir.write("sub/placeholder", "");
+  start(
+      "process where\ncommand: /bin/pwd\nflags: no_error_on_successful_stop\n"
+      "process there\ncommand: /bin/pwd\nchange_directory: %(DIR)/sub\nflags: no_error_on_successful_stop\n");
+  control("where", "start");
+  control("there", "start");
+  wait_state("where", "stopped");
+  wait_state("there", "stopped");
+  const auto where = output("where");
+  const auto there = output("there");
+  EXPECT_NE(std::find(where.begin(), where.end(), "/tmp"), where.end()) << manager->log_text();
+  EXPECT_NE(std::find(there.begin(), there.end(), dir.path() + "/sub"), there.end()) << manager->log_text();
+}
+
 TEST_F(ProcessControlTest, StatesCheckGoUpAndDown) {
   start(
       "state flag\n"

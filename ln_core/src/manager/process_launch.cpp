@@ -62,6 +62,10 @@ std::string process_command(const ProcessConfig& process, const std::string& alt
   return process.command;
 }
 
+std::string process_directory(const ProcessConfig& process) {
+  return process.change_directory.empty() ? std::string("/tmp") : process.change_directory;
+}
+
 std::vector<std::string> process_argv(const ProcessConfig& process, const std::string& command, std::string& problem) {
   if (process.has_flag("start_in_shell")) return {"/bin/sh", "-c", command};
   std::vector<std::string> argv;
@@ -84,8 +88,7 @@ std::vector<std::string> process_argv(const ProcessConfig& process, const std::s
                 program + "), or add the flag use_execvpe or start_in_shell";
     return argv;
   }
-  const std::string path =
-      program.front() == '/' || process.change_directory.empty() ? program : process.change_directory + "/" + program;
+  const std::string path = program.front() == '/' ? program : process_directory(process) + "/" + program;
   if (::access(path.c_str(), F_OK) != 0)
     problem = "command not found: '" + program + "' does not exist";
   else if (::access(path.c_str(), X_OK) != 0)
