@@ -377,6 +377,30 @@ TEST_F(BinaryProcessTest, KeptProcessesAreAdoptedByTheNextManager) {
   EXPECT_FALSE(process_running(counter)) << "a manager without --keep-processes stops what it adopted";
 }
 
+// A kept process that printed its ready line for the first manager is ready
+// for the next one, which cannot see that line again: what depends on it
+// starts at once.
+TEST_F(BinaryProcessTest, AKeptProcessThatWasReadyIsReadyWhenAdopted) {
+  const std::string lnc = config("keep_ready");
+  long base = 0;
+  {
+    ManagerProcess first(dir, {"-c", lnc, "--keep-processes", "--start", "base"});
+    const auto client = client_of(first);
+    base = wait_state(*client, "base", "ready");
+    first.signal(SIGTERM);
+    EXPECT_EQ(first.wait_exit(10s), 0) << first.stderr_text();
+  }
+  ASSERT_TRUE(process_running(base)) << "it outlived its manager";
+  ManagerProcess second(dir, {"-c", lnc});
+  const auto client = client_of(second);
+  EXPECT_EQ(wait_state(*client, "base", "ready"), base) << second.stderr_text();
+  client->call("process_control", [](Message& m) { m.set("name", "top").set("action", "start"); });
+  wait_state(*client, "top", "ready");
+  second.signal(SIGTERM);
+  EXPECT_EQ(second.wait_exit(10s), 0) << second.stderr_text();
+  EXPECT_TRUE(wait_process_gone(base, 10s));
+}
+
 TEST_F(BinaryProcessTest, ASecondSignalKillsAtOnce) {
   ManagerProcess manager(dir, {"-c",
                                config("impatient",

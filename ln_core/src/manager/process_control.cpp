@@ -695,6 +695,7 @@ struct ProcessControl::Impl {
     if (p.ready) return;
     p.ready = true;
     p.ready_at.reset();
+    if (p.child.running()) keep(p);  // the keeper tells the next manager it is ready
     if (p.config.has_ready_condition()) log(LogLevel::Info, "'" + p.config.name + "' is ready" + why);
     for (const auto& dependency : p.config.start_on_ready)
       request_dependency(dependency, "start_on_ready of '" + p.config.name + "'");
