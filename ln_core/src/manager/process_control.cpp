@@ -148,15 +148,19 @@ struct ProcessControl::Impl {
       state_order.push_back(s.name);
     }
     groups = config.groups;
+    // once each, also when a process names its dependency in both lists
+    auto add = [](std::vector<std::string>& list, const std::string& name) {
+      if (std::find(list.begin(), list.end(), name) == list.end()) list.push_back(name);
+    };
     for (auto& [name, process] : processes) {
       for (const auto& dependency : process->config.depends_on)
         for (const auto& candidate : dependency.candidates)
-          if (auto* target = find_process(candidate)) target->dependents.push_back(name);
+          if (auto* target = find_process(candidate)) add(target->dependents, name);
       for (const auto& dependency : process->config.depends_on_restart)
         for (const auto& candidate : dependency.candidates)
           if (auto* target = find_process(candidate)) {
-            target->dependents.push_back(name);
-            target->restart_dependents.push_back(name);
+            add(target->dependents, name);
+            add(target->restart_dependents, name);
           }
     }
     if (options.reap_orphans && ::prctl(PR_SET_CHILD_SUBREAPER, 1) != 0)

@@ -307,6 +307,21 @@ TEST_F(ProcessControlTest, RestartAlsoRestartsDependentsWithDependsOnRestart) {
   EXPECT_TRUE(manager->count_log("'viewer' depends on 'server', which is no longer running") > 0);
 }
 
+TEST_F(ProcessControlTest, ADependencyNamedInBothListsStopsItsDependentOnce) {
+  start(
+      "process server\ncommand: /bin/sh -c 'echo up; exec sleep 1000'\nready_regex: up\nauto_restart_interval: 0.1\n"
+      "process client\ncommand: /bin/sleep 1000\ndepends_on: server\ndepends_on_restart: server\n");
+  control("client", "start");
+  const long client_pid = wait_state("client", "started").pid;
+  ::kill(static_cast<pid_t>(row("server").pid), SIGKILL);
+  const auto deadline = Clock::now() + 10s;
+  while ((row("client").pid == client_pid || row("client").state != "started") && Clock::now() < deadline)
+    std::this_thread::sleep_for(5ms);
+  EXPECT_NE(row("client").pid, client_pid) << "restarted with the server";
+  EXPECT_EQ(manager->count_log("stopping 'client': it depends on 'server' (depends_on_restart)"), 1u)
+      << manager->log_text();
+}
+
 TEST_F(ProcessControlTest, NothingOfAProcessGroupOutlivesIt) {
   start(
       "process parent\n"
