@@ -489,6 +489,26 @@ TEST_F(ProcessControlTest, AJobThatEndsWellBeforeItIsReadyIsNotStartedAgain) {
   EXPECT_EQ(runs(), 2) << "started once more for 'after', then not again";
 }
 
+TEST_F(ProcessControlTest, UserStopIsSuccessfulStopStartsWhatFollowsAStop) {
+  start(
+      "process service\ncommand: /bin/sleep 1000\nflags: user_stop_is_successful_stop\n"
+      "start_on_successful_stop: cleanup\n"
+      "process plain\ncommand: /bin/sleep 1000\nstart_on_successful_stop: plain_cleanup\n"
+      "process cleanup\ncommand: /bin/sh -c 'echo cleanup >> %(DIR)/runs'\nflags: no_error_on_successful_stop\n"
+      "process plain_cleanup\ncommand: /bin/true\nflags: no_error_on_successful_stop\n");
+  control("plain", "start");
+  wait_state("plain", "started");
+  control("plain", "stop");
+  wait_state("plain", "stopped");
+  const Row plain_cleanup = row("plain_cleanup");
+  EXPECT_EQ(plain_cleanup.requested + plain_cleanup.last_exit, "") << "a stop asked for is no successful stop";
+  control("service", "start");
+  wait_state("service", "started");
+  control("service", "stop");
+  wait_state("service", "stopped");
+  ASSERT_TRUE(wait_file("runs", "cleanup")) << "with the flag it is";
+}
+
 TEST_F(ProcessControlTest, NiceAffinityAndResourceLimitsApply) {
   start(
       "process tuned\n"
