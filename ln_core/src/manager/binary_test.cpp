@@ -252,6 +252,19 @@ class BinaryProcessTest : public ::testing::Test {
     return 0;
   }
 
+  // Runs a manager with --keep-processes that starts `name`, waits until it
+  // is in `state` and stops the manager (SIGTERM); the pid it left running.
+  long start_kept(const std::string& lnc, const std::string& name, const std::string& state) {
+    ManagerProcess first(dir, {"-c", lnc, "--keep-processes", "--start", name});
+    const auto client = client_of(first);
+    const long pid = wait_state(*client, name, state);
+    first.signal(SIGTERM);
+    EXPECT_EQ(first.wait_exit(10s), 0) << first.stderr_text();
+    EXPECT_NE(first.stderr_text().find("leaving 1 running process(es) to the keeper"), std::string::npos)
+        << first.stderr_text();
+    return pid;
+  }
+
   long file_pid(const std::string& relative) {
     const auto deadline = Clock::now() + 10s;
     while (Clock::now() < deadline) {
@@ -324,16 +337,7 @@ TEST_F(BinaryProcessTest, AManagerKilledBySigkillTakesItsProcessesAlong) {
 
 TEST_F(BinaryProcessTest, KeptProcessesAreAdoptedByTheNextManager) {
   const std::string lnc = config("keep");
-  long counter = 0;
-  {
-    ManagerProcess first(dir, {"-c", lnc, "--keep-processes", "--start", "counter"});
-    const auto client = client_of(first);
-    counter = wait_state(*client, "counter", "started");
-    first.signal(SIGTERM);
-    EXPECT_EQ(first.wait_exit(10s), 0) << first.stderr_text();
-    EXPECT_NE(first.stderr_text().find("leaving 1 running process(es) to the keeper"), std::string::npos)
-        << first.stderr_text();
-  }
+  const long counter = start_kept(lnc, "counter", "started");
   EXPECT_TRUE(process_running(counter)) << "it outlived its manager";
   {
     // killed, not stopped: the keeper holds them all the same
@@ -382,14 +386,7 @@ TEST_F(BinaryProcessTest, KeptProcessesAreAdoptedByTheNextManager) {
 // starts at once.
 TEST_F(BinaryProcessTest, AKeptProcessThatWasReadyIsReadyWhenAdopted) {
   const std::string lnc = config("keep_ready");
-  long base = 0;
-  {
-    ManagerProcess first(dir, {"-c", lnc, "--keep-processes", "--start", "base"});
-    const auto client = client_of(first);
-    base = wait_state(*client, "base", "ready");
-    first.signal(SIGTERM);
-    EXPECT_EQ(first.wait_exit(10s), 0) << first.stderr_text();
-  }
+  const long base = start_kept(lnc, "base", "ready");
   ASSERT_TRUE(process_running(base)) << "it outlived its manager";
   ManagerProcess second(dir, {"-c", lnc});
   const auto client = client_of(second);
