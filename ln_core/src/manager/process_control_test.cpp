@@ -5,6 +5,7 @@
 // waits for a condition the manager reports.
 #include <gtest/gtest.h>
 
+#include <pwd.h>
 #include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -403,6 +404,29 @@ TEST_F(ProcessControlTest, EnvironmentAsLn29GivesIt) {
   EXPECT_EQ(env["LN_MESSAGE_DEFINITION_DIRS"].rfind("/configured:" + definitions, 0), 0u)
       << "the manager's search path follows: " << env["LN_MESSAGE_DEFINITION_DIRS"];
   EXPECT_EQ(env.count("HOME"), 0u) << "a minimal environment: nothing passed that was not asked for";
+}
+
+// The flag set_user_and_home adds USER and HOME of the manager's user, as
+// LN 2.9's daemon does; a configured value stays.
+TEST_F(ProcessControlTest, SetUserAndHomeAddsTheManagersUser) {
+  start(
+      "process both\ncommand: /usr/bin/env\nflags: set_user_and_home, no_error_on_successful_stop\n"
+      "process own_home\ncommand: /usr/bin/env\nenvironment: HOME=/configured\n"
+      "flags: set_user_and_home, no_error_on_successful_stop\n");
+  control("both", "start");
+  control("own_home", "start");
+  wait_state("both", "stopped");
+  wait_state("own_home", "stopped");
+  const passwd* account = ::getpwuid(::geteuid());
+  ASSERT_NE(account, nullptr);
+  auto has = [&](const std::string& name, const std::string& line) {
+    const auto lines = output(name);
+    return std::find(lines.begin(), lines.end(), line) != lines.end();
+  };
+  EXPECT_TRUE(has("both", std::string("USER=") + account->pw_name)) << manager->log_text();
+  EXPECT_TRUE(has("both", std::string("HOME=") + account->pw_dir));
+  EXPECT_TRUE(has("own_home", "HOME=/configured"));
+  EXPECT_FALSE(has("own_home", std::string("HOME=") + account->pw_dir));
 }
 
 // Without change_directory a process starts in /tmp, as LN 2.9's daemon

@@ -1,7 +1,10 @@
 #include "manager/process_launch.hpp"
 
 #include <fnmatch.h>
+#include <pwd.h>
 #include <unistd.h>
+
+#include <cstdlib>
 
 #include <algorithm>
 
@@ -47,6 +50,14 @@ std::vector<std::string> process_environment(const ProcessConfig& process, const
     std::string joined;
     for (const auto& [from, to] : *list) joined += (joined.empty() ? "" : "|") + from + "|" + to;
     env.emplace_back(name, joined);
+  }
+  if (process.has_flag("set_user_and_home")) {
+    // the manager's user, as LN 2.9's daemon sets them: its account, else its environment
+    const passwd* account = ::getpwuid(::geteuid());
+    const char* user = account != nullptr ? account->pw_name : std::getenv("USER");
+    const char* home = account != nullptr ? account->pw_dir : std::getenv("HOME");
+    if (user != nullptr && !has("USER")) env.emplace_back("USER", user);
+    if (home != nullptr && !has("HOME")) env.emplace_back("HOME", home);
   }
   if (!process.has_flag("no_pty") && !has("TERM")) env.emplace_back("TERM", "xterm");
   if (!has("LN_MANAGER") && !context.manager_address.empty()) env.emplace_back("LN_MANAGER", context.manager_address);
