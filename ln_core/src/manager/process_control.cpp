@@ -942,8 +942,11 @@ struct ProcessControl::Impl {
     const std::string& command = kind == "check" ? s.config.check : kind == "up" ? s.config.up : s.config.down;
     SpawnRequest request;
     request.argv = {"/bin/sh", "-c", command};
-    for (char** entry = environ; *entry != nullptr; ++entry) request.environment.emplace_back(*entry);
-    if (!options.manager_address.empty()) request.environment.push_back("LN_MANAGER=" + options.manager_address);
+    const bool own_address = !options.manager_address.empty();
+    for (char** entry = environ; *entry != nullptr; ++entry)
+      if (!own_address || std::strncmp(*entry, "LN_MANAGER=", 11) != 0) request.environment.emplace_back(*entry);
+    if (own_address) request.environment.push_back("LN_MANAGER=" + options.manager_address);
+    request.directory = "/tmp";  // where LN 2.9's daemon runs them
     request.pty = false;
     request.death_signal = options.stop_with_manager ? SIGTERM : 0;
     SpawnedChild child;

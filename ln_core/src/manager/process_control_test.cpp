@@ -471,6 +471,17 @@ TEST_F(ProcessControlTest, StatesCheckGoUpAndDown) {
   EXPECT_NE(wait_state("broken", "error").error.find("its up command failed (exit status 2)"), std::string::npos);
 }
 
+// State commands run in /tmp, as LN 2.9's daemon runs them, with this
+// manager's address also when the manager's own environment names another.
+TEST_F(ProcessControlTest, StateCommandsRunInTmpWithThisManager) {
+  ::setenv("LN_MANAGER", "elsewhere:1234", 1);
+  start("state where\ncheck: pwd > %(DIR)/where; echo $LN_MANAGER >> %(DIR)/where\n");
+  control("where", "check");
+  wait_state("where", "UP");
+  ::unsetenv("LN_MANAGER");
+  EXPECT_EQ(file("where"), "/tmp\n127.0.0.1:" + std::to_string(manager->port()) + "\n");
+}
+
 TEST_F(ProcessControlTest, GroupsStartBeforeAndSuccessfulStops) {
   start(
       "process prepare\ncommand: /bin/sh -c 'echo prepare >> %(DIR)/order'\nflags: no_error_on_successful_stop\n"
