@@ -311,6 +311,24 @@ TEST_F(BinaryProcessTest, SigtermStopsDependentsFirstAndLeavesNoOrphan) {
       << manager.stderr_text();
 }
 
+// A terminal that hangs up (SIGHUP) stops the manager as SIGTERM does:
+// everything stopped, a process that ignores its signal killed.
+TEST_F(BinaryProcessTest, SighupStopsLikeSigterm) {
+  ManagerProcess manager(dir, {"-c",
+                               config("hangup",
+                                      "process stubborn\ncommand: /bin/sh -c \"trap '' TERM HUP; echo up; "
+                                      "while :; do sleep 0.05; done\"\nready_regex: ^up\nterm_timeout: 0.2\n"),
+                               "--start", "top", "--start", "stubborn"});
+  const auto client = client_of(manager);
+  const long top = wait_state(*client, "top", "ready");
+  const long stubborn = wait_state(*client, "stubborn", "ready");
+  manager.signal(SIGHUP);
+  EXPECT_EQ(manager.wait_exit(10s), 0) << manager.stderr_text();
+  EXPECT_EQ(file("stops"), "stop top\nstop base\n") << "dependents first";
+  for (long pid : {top, stubborn}) EXPECT_FALSE(process_running(pid)) << pid << "\n" << manager.stderr_text();
+  EXPECT_NE(manager.stderr_text().find("received SIGHUP"), std::string::npos) << manager.stderr_text();
+}
+
 TEST_F(BinaryProcessTest, AProcessKilledBySigkillLeavesNoOrphan) {
   ManagerProcess manager(dir, {"-c", config("sigkill_process"), "--start", "escaper"});
   const auto client = client_of(manager);
