@@ -83,11 +83,11 @@ an option overrides the config). BYTES take K, M or G (powers of 1024):
 Message definitions are searched in the config's add_message_definition_dir
 directories, then the built-in ones, ~/ln_message_definitions and
 $LN_MESSAGE_DEFINITION_DIRS. On start-up the manager prints
-"ln_manager: listening on HOST:PORT". SIGTERM or SIGINT stop it: first its
-processes, dependents before what they depend on (term_signal, SIGKILL
-after term_timeout); a second signal kills them at once. Exit status: 0
-after SIGTERM/SIGINT, 2 for a bad command line or config, 1 when it cannot
-listen.
+"ln_manager: listening on HOST:PORT". SIGTERM, SIGINT or SIGHUP (its
+terminal hung up) stop it: first its processes, dependents before what they
+depend on (term_signal, SIGKILL after term_timeout); a second signal kills
+them at once. Exit status: 0 after such a signal, 2 for a bad command line or
+config, 1 when it cannot listen.
 )";
 
 [[noreturn]] void usage_error(const std::string& problem) {
@@ -225,7 +225,7 @@ int print_check(const ManagerOptions& options) {
     for (const auto& [name, command] : p.alt_commands)
       std::printf("  alt_command %s: %s\n", name.c_str(), command.c_str());
     for (const auto& entry : process_environment(p, context)) std::printf("  env %s\n", entry.c_str());
-    if (!p.change_directory.empty()) std::printf("  directory: %s\n", p.change_directory.c_str());
+    std::printf("  directory: %s\n", process_directory(p).c_str());
     if (!p.depends_on.empty()) std::printf("  depends_on: %s\n", joined(p.depends_on).c_str());
     if (!p.depends_on_restart.empty()) std::printf("  depends_on_restart: %s\n", joined(p.depends_on_restart).c_str());
     if (!p.flags.empty()) {
@@ -249,7 +249,7 @@ int print_check(const ManagerOptions& options) {
   return status;
 }
 
-// Waits for SIGTERM/SIGINT (blocked in every thread) and stops the
+// Waits for SIGTERM/SIGINT/SIGHUP (blocked in every thread) and stops the
 // manager; a second signal stops it again (which kills the processes).
 struct SignalWaiter {
   const sigset_t* signals;
@@ -264,7 +264,7 @@ struct SignalWaiter {
       int received = 0;
       sigwait(self.signals, &received);
       if (self.finished.load()) return nullptr;
-      const std::string name = received == SIGINT ? "SIGINT" : "SIGTERM";
+      const std::string name = received == SIGINT ? "SIGINT" : received == SIGHUP ? "SIGHUP" : "SIGTERM";
       if (self.received_count.fetch_add(1) == 0)
         (*self.log)(LogLevel::Info, "received " + name);
       else
@@ -407,6 +407,7 @@ int main(int argc, char** argv) {
   sigemptyset(&stop_signals);
   sigaddset(&stop_signals, SIGTERM);
   sigaddset(&stop_signals, SIGINT);
+  sigaddset(&stop_signals, SIGHUP);  // a terminal that hangs up stops it in order too
   pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
   ::signal(SIGPIPE, SIG_IGN);
   raise_file_limit();

@@ -252,6 +252,19 @@ class BinaryProcessTest : public ::testing::Test {
     return 0;
   }
 
+  // Runs a manager with --keep-processes that starts `name`, waits until it
+  // is in `state` and stops the manager (SIGTERM); the pid it left running.
+  long start_kept(const std::string& lnc, const std::string& name, const std::string& state) {
+    ManagerProcess first(dir, {"-c", lnc, "--keep-processes", "--start", name});
+    const auto client = client_of(first);
+    const long pid = wait_state(*client, name, state);
+    first.signal(SIGTERM);
+    EXPECT_EQ(first.wait_exit(10s), 0) << first.stderr_text();
+    EXPECT_NE(first.stderr_text().find("leaving 1 running process(es) to the keeper"), std::string::npos)
+        << first.stderr_text();
+    return pid;
+  }
+
   long file_pid(const std::string& relative) {
     const auto deadline = Clock::now() + 10s;
     while (Clock::now() < deadline) {
@@ -298,6 +311,24 @@ TEST_F(BinaryProcessTest, SigtermStopsDependentsFirstAndLeavesNoOrphan) {
       << manager.stderr_text();
 }
 
+// A terminal that hangs up (SIGHUP) stops the manager as SIGTERM does:
+// everything stopped, a process that ignores its signal killed.
+TEST_F(BinaryProcessTest, SighupStopsLikeSigterm) {
+  ManagerProcess manager(dir, {"-c",
+                               config("hangup",
+                                      "process stubborn\ncommand: /bin/sh -c \"trap '' TERM HUP; echo up; "
+                                      "while :; do sleep 0.05; done\"\nready_regex: ^up\nterm_timeout: 0.2\n"),
+                               "--start", "top", "--start", "stubborn"});
+  const auto client = client_of(manager);
+  const long top = wait_state(*client, "top", "ready");
+  const long stubborn = wait_state(*client, "stubborn", "ready");
+  manager.signal(SIGHUP);
+  EXPECT_EQ(manager.wait_exit(10s), 0) << manager.stderr_text();
+  EXPECT_EQ(file("stops"), "stop top\nstop base\n") << "dependents first";
+  for (long pid : {top, stubborn}) EXPECT_FALSE(process_running(pid)) << pid << "\n" << manager.stderr_text();
+  EXPECT_NE(manager.stderr_text().find("received SIGHUP"), std::string::npos) << manager.stderr_text();
+}
+
 TEST_F(BinaryProcessTest, AProcessKilledBySigkillLeavesNoOrphan) {
   ManagerProcess manager(dir, {"-c", config("sigkill_process"), "--start", "escaper"});
   const auto client = client_of(manager);
@@ -324,16 +355,7 @@ TEST_F(BinaryProcessTest, AManagerKilledBySigkillTakesItsProcessesAlong) {
 
 TEST_F(BinaryProcessTest, KeptProcessesAreAdoptedByTheNextManager) {
   const std::string lnc = config("keep");
-  long counter = 0;
-  {
-    ManagerProcess first(dir, {"-c", lnc, "--keep-processes", "--start", "counter"});
-    const auto client = client_of(first);
-    counter = wait_state(*client, "counter", "started");
-    first.signal(SIGTERM);
-    EXPECT_EQ(first.wait_exit(10s), 0) << first.stderr_text();
-    EXPECT_NE(first.stderr_text().find("leaving 1 running process(es) to the keeper"), std::string::npos)
-        << first.stderr_text();
-  }
+  const long counter = start_kept(lnc, "counter", "started");
   EXPECT_TRUE(process_running(counter)) << "it outlived its manager";
   {
     // killed, not stopped: the keeper holds them all the same
@@ -375,6 +397,23 @@ TEST_F(BinaryProcessTest, KeptProcessesAreAdoptedByTheNextManager) {
   third.signal(SIGTERM);
   EXPECT_EQ(third.wait_exit(10s), 0) << third.stderr_text();
   EXPECT_FALSE(process_running(counter)) << "a manager without --keep-processes stops what it adopted";
+}
+
+// A kept process that printed its ready line for the first manager is ready
+// for the next one, which cannot see that line again: what depends on it
+// starts at once.
+TEST_F(BinaryProcessTest, AKeptProcessThatWasReadyIsReadyWhenAdopted) {
+  const std::string lnc = config("keep_ready");
+  const long base = start_kept(lnc, "base", "ready");
+  ASSERT_TRUE(process_running(base)) << "it outlived its manager";
+  ManagerProcess second(dir, {"-c", lnc});
+  const auto client = client_of(second);
+  EXPECT_EQ(wait_state(*client, "base", "ready"), base) << second.stderr_text();
+  client->call("process_control", [](Message& m) { m.set("name", "top").set("action", "start"); });
+  wait_state(*client, "top", "ready");
+  second.signal(SIGTERM);
+  EXPECT_EQ(second.wait_exit(10s), 0) << second.stderr_text();
+  EXPECT_TRUE(wait_process_gone(base, 10s));
 }
 
 TEST_F(BinaryProcessTest, ASecondSignalKillsAtOnce) {

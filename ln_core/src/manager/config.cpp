@@ -219,7 +219,7 @@ std::vector<std::string> glob_files(const std::string& base_dir, const std::vect
     const bool exclude = starts_with(pattern, "!");
     if (exclude) pattern.erase(0, 1);
     if (pattern.empty()) continue;
-    if (pattern.front() != '/') pattern = base_dir + "/" + pattern;
+    if (pattern.front() != '/') pattern = absolute_path(base_dir == "." ? "" : base_dir) + "/" + pattern;
     (exclude ? excludes : includes).push_back(split_path(pattern));
   }
   std::vector<std::string> found;

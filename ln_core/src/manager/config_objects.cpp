@@ -81,7 +81,8 @@ const std::set<std::string, std::less<>> process_flags = {"no_error_on_successfu
                                                           "no_default_templates",
                                                           "no_host_default_templates",
                                                           "dont_stop_dependent_procs",
-                                                          "no_ln_ld_library_path"};
+                                                          "no_ln_ld_library_path",
+                                                          "set_user_and_home"};
 const std::set<std::string, std::less<>> process_flags_ignored = {"io_scripts_dont_enforce_blocking_output",
                                                                   "no_shmv3",
                                                                   "no_skip_display",
@@ -96,7 +97,6 @@ const std::set<std::string, std::less<>> process_flags_ignored = {"io_scripts_do
                                                                   "use_vte",
                                                                   "forward_x11",
                                                                   "disable_forward_x11_to_gui_fallback",
-                                                                  "set_user_and_home",
                                                                   "forward_x11_to_gui"};
 const std::set<std::string, std::less<>> state_flags = {"need_check_after_up", "autostart", "os_state"};
 const std::set<std::string, std::less<>> group_flags = {"allow_empty", "show_opened", "show_closed", "sorted",

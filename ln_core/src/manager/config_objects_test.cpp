@@ -6,8 +6,10 @@
 #include <sched.h>
 #include <signal.h>
 #include <sys/resource.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <climits>
 #include <initializer_list>
 
 #include "manager/config.hpp"
@@ -385,6 +387,26 @@ TEST_F(LncObjectsTest, IncludeGlobPipeIncludeAndRequiresVersion) {
   EXPECT_TRUE(fails_with("include_glob: nothing/*.lnc\n", "robot.lnc:1: include_glob: no file matches"));
   EXPECT_TRUE(fails_with("pipe_include: exit 4\n", "failed with exit status 4"));
   EXPECT_TRUE(fails_with("requires_version: 3.0.1\n", "requires an ln_manager of version 3.0.1"));
+}
+
+// `ln_manager -c robot.lnc` in the config's directory: patterns are relative
+// to that directory, as the file name is.
+TEST_F(LncObjectsTest, IncludeGlobOfAConfigNamedRelatively) {
+  dir.write("parts/a.lnc", "process a\ncommand: /bin/true\n");
+  const std::string text = "include_glob: parts/*.lnc\n";
+  char before[PATH_MAX];
+  ASSERT_NE(::getcwd(before, sizeof before), nullptr);
+  ASSERT_EQ(::chdir(dir.path().c_str()), 0);
+  std::string error;
+  std::vector<std::string> got;
+  try {
+    for (const auto& p : read_lnc_text(text, "robot.lnc", log).processes) got.push_back(p.name);
+  } catch (const ConfigError& e) {
+    error = e.what();
+  }
+  ASSERT_EQ(::chdir(before), 0);
+  EXPECT_EQ(error, "");
+  EXPECT_EQ(got, (std::vector<std::string>{"a"}));
 }
 
 }  // namespace

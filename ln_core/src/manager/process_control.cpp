@@ -148,15 +148,19 @@ struct ProcessControl::Impl {
       state_order.push_back(s.name);
     }
     groups = config.groups;
+    // once each, also when a process names its dependency in both lists
+    auto add = [](std::vector<std::string>& list, const std::string& name) {
+      if (std::find(list.begin(), list.end(), name) == list.end()) list.push_back(name);
+    };
     for (auto& [name, process] : processes) {
       for (const auto& dependency : process->config.depends_on)
         for (const auto& candidate : dependency.candidates)
-          if (auto* target = find_process(candidate)) target->dependents.push_back(name);
+          if (auto* target = find_process(candidate)) add(target->dependents, name);
       for (const auto& dependency : process->config.depends_on_restart)
         for (const auto& candidate : dependency.candidates)
           if (auto* target = find_process(candidate)) {
-            target->dependents.push_back(name);
-            target->restart_dependents.push_back(name);
+            add(target->dependents, name);
+            add(target->restart_dependents, name);
           }
     }
     if (options.reap_orphans && ::prctl(PR_SET_CHILD_SUBREAPER, 1) != 0)
@@ -544,11 +548,16 @@ struct ProcessControl::Impl {
       if (const Process* d = find_process(name); d && d->phase == Process::Phase::Running && d->ready) return true;
       if (const State* s = find_state(name); s && state_satisfies(*s, dependency.down, since)) return true;
     }
+    std::string ended;  // what ran for this request and ended without error, so does not run
     for (const auto& name : dependency.candidates) {
       if (Process* d = find_process(name)) {
         if (d->goal == Goal::Up || d->phase != Process::Phase::Stopped) return false;  // on its way
         if (passive) continue;  // it does not come back by itself
         if (d->failed && d->failed_at >= since) continue;
+        if (!d->failed && d->stopped_at >= since) {
+          if (ended.empty()) ended = "dependency '" + name + "' ended (" + d->last_exit + ")";
+          continue;
+        }
         log(LogLevel::Info, "starting dependency '" + name + "'");
         want_up(*d);
         mark_changed();
@@ -564,6 +573,10 @@ struct ProcessControl::Impl {
     }
     const std::string& first = dependency.candidates.front();
     const std::string failure = failure_of(first);
+    if (failure.empty() && !ended.empty()) {
+      problem = ended;
+      return false;
+    }
     problem = "dependency '" + first + "' " + (failure.empty() ? std::string("does not run") : "failed: " + failure);
     return false;
   }
@@ -641,7 +654,7 @@ struct ProcessControl::Impl {
     if (!problem.empty()) return fail(p, "cannot start: " + problem);
     request.search_path = p.config.has_flag("use_execvpe");
     request.environment = process_environment(p.config, launch);
-    request.directory = p.config.change_directory;
+    request.directory = process_directory(p.config);
     request.pty = !p.config.has_flag("no_pty");
     request.policy = p.config.policy;
     request.priority = p.config.priority;
@@ -686,6 +699,7 @@ struct ProcessControl::Impl {
     if (p.ready) return;
     p.ready = true;
     p.ready_at.reset();
+    if (p.child.running()) keep(p);  // the keeper tells the next manager it is ready
     if (p.config.has_ready_condition()) log(LogLevel::Info, "'" + p.config.name + "' is ready" + why);
     for (const auto& dependency : p.config.start_on_ready)
       request_dependency(dependency, "start_on_ready of '" + p.config.name + "'");
@@ -800,6 +814,7 @@ struct ProcessControl::Impl {
     if (no_error) {
       log(LogLevel::Info, what + " ended: " + how);
       note(p, "ended (" + how + ")");
+      if (p.goal == Goal::Up) p.goal = Goal::None;  // it ended before it was ready: done, not started again
       for (const auto& d : p.config.start_on_successful_stop)
         request_dependency(d, "start_on_successful_stop of '" + p.config.name + "'");
     } else {
@@ -927,8 +942,11 @@ struct ProcessControl::Impl {
     const std::string& command = kind == "check" ? s.config.check : kind == "up" ? s.config.up : s.config.down;
     SpawnRequest request;
     request.argv = {"/bin/sh", "-c", command};
-    for (char** entry = environ; *entry != nullptr; ++entry) request.environment.emplace_back(*entry);
-    if (!options.manager_address.empty()) request.environment.push_back("LN_MANAGER=" + options.manager_address);
+    const bool own_address = !options.manager_address.empty();
+    for (char** entry = environ; *entry != nullptr; ++entry)
+      if (!own_address || std::strncmp(*entry, "LN_MANAGER=", 11) != 0) request.environment.emplace_back(*entry);
+    if (own_address) request.environment.push_back("LN_MANAGER=" + options.manager_address);
+    request.directory = "/tmp";  // where LN 2.9's daemon runs them
     request.pty = false;
     request.death_signal = options.stop_with_manager ? SIGTERM : 0;
     SpawnedChild child;

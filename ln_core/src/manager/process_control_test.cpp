@@ -5,6 +5,7 @@
 // waits for a condition the manager reports.
 #include <gtest/gtest.h>
 
+#include <pwd.h>
 #include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -307,6 +308,21 @@ TEST_F(ProcessControlTest, RestartAlsoRestartsDependentsWithDependsOnRestart) {
   EXPECT_TRUE(manager->count_log("'viewer' depends on 'server', which is no longer running") > 0);
 }
 
+TEST_F(ProcessControlTest, ADependencyNamedInBothListsStopsItsDependentOnce) {
+  start(
+      "process server\ncommand: /bin/sh -c 'echo up; exec sleep 1000'\nready_regex: up\nauto_restart_interval: 0.1\n"
+      "process client\ncommand: /bin/sleep 1000\ndepends_on: server\ndepends_on_restart: server\n");
+  control("client", "start");
+  const long client_pid = wait_state("client", "started").pid;
+  ::kill(static_cast<pid_t>(row("server").pid), SIGKILL);
+  const auto deadline = Clock::now() + 10s;
+  while ((row("client").pid == client_pid || row("client").state != "started") && Clock::now() < deadline)
+    std::this_thread::sleep_for(5ms);
+  EXPECT_NE(row("client").pid, client_pid) << "restarted with the server";
+  EXPECT_EQ(manager->count_log("stopping 'client': it depends on 'server' (depends_on_restart)"), 1u)
+      << manager->log_text();
+}
+
 TEST_F(ProcessControlTest, NothingOfAProcessGroupOutlivesIt) {
   start(
       "process parent\n"
@@ -390,6 +406,46 @@ TEST_F(ProcessControlTest, EnvironmentAsLn29GivesIt) {
   EXPECT_EQ(env.count("HOME"), 0u) << "a minimal environment: nothing passed that was not asked for";
 }
 
+// The flag set_user_and_home adds USER and HOME of the manager's user, as
+// LN 2.9's daemon does; a configured value stays.
+TEST_F(ProcessControlTest, SetUserAndHomeAddsTheManagersUser) {
+  start(
+      "process both\ncommand: /usr/bin/env\nflags: set_user_and_home, no_error_on_successful_stop\n"
+      "process own_home\ncommand: /usr/bin/env\nenvironment: HOME=/configured\n"
+      "flags: set_user_and_home, no_error_on_successful_stop\n");
+  control("both", "start");
+  control("own_home", "start");
+  wait_state("both", "stopped");
+  wait_state("own_home", "stopped");
+  const passwd* account = ::getpwuid(::geteuid());
+  ASSERT_NE(account, nullptr);
+  auto has = [&](const std::string& name, const std::string& line) {
+    const auto lines = output(name);
+    return std::find(lines.begin(), lines.end(), line) != lines.end();
+  };
+  EXPECT_TRUE(has("both", std::string("USER=") + account->pw_name)) << manager->log_text();
+  EXPECT_TRUE(has("both", std::string("HOME=") + account->pw_dir));
+  EXPECT_TRUE(has("own_home", "HOME=/configured"));
+  EXPECT_FALSE(has("own_home", std::string("HOME=") + account->pw_dir));
+}
+
+// Without change_directory a process starts in /tmp, as LN 2.9's daemon
+// starts it, not in the manager's working directory.
+TEST_F(ProcessControlTest, ProcessesStartInTmpUnlessChangeDirectorySaysOtherwise) {
+  dir.write("sub/placeholder", "");
+  start(
+      "process where\ncommand: /bin/pwd\nflags: no_error_on_successful_stop\n"
+      "process there\ncommand: /bin/pwd\nchange_directory: %(DIR)/sub\nflags: no_error_on_successful_stop\n");
+  control("where", "start");
+  control("there", "start");
+  wait_state("where", "stopped");
+  wait_state("there", "stopped");
+  const auto where = output("where");
+  const auto there = output("there");
+  EXPECT_NE(std::find(where.begin(), where.end(), "/tmp"), where.end()) << manager->log_text();
+  EXPECT_NE(std::find(there.begin(), there.end(), dir.path() + "/sub"), there.end()) << manager->log_text();
+}
+
 TEST_F(ProcessControlTest, StatesCheckGoUpAndDown) {
   start(
       "state flag\n"
@@ -415,6 +471,17 @@ TEST_F(ProcessControlTest, StatesCheckGoUpAndDown) {
   EXPECT_NE(wait_state("broken", "error").error.find("its up command failed (exit status 2)"), std::string::npos);
 }
 
+// State commands run in /tmp, as LN 2.9's daemon runs them, with this
+// manager's address also when the manager's own environment names another.
+TEST_F(ProcessControlTest, StateCommandsRunInTmpWithThisManager) {
+  ::setenv("LN_MANAGER", "elsewhere:1234", 1);
+  start("state where\ncheck: pwd > %(DIR)/where; echo $LN_MANAGER >> %(DIR)/where\n");
+  control("where", "check");
+  wait_state("where", "UP");
+  ::unsetenv("LN_MANAGER");
+  EXPECT_EQ(file("where"), "/tmp\n127.0.0.1:" + std::to_string(manager->port()) + "\n");
+}
+
 TEST_F(ProcessControlTest, GroupsStartBeforeAndSuccessfulStops) {
   start(
       "process prepare\ncommand: /bin/sh -c 'echo prepare >> %(DIR)/order'\nflags: no_error_on_successful_stop\n"
@@ -432,6 +499,49 @@ TEST_F(ProcessControlTest, GroupsStartBeforeAndSuccessfulStops) {
   control("all", "stop");
   wait_state("worker", "stopped");
   wait_state("helper", "stopped");
+}
+
+// A job that ends well before its ready line (or ready_time) is done: it is
+// not started again, neither for its own start request nor for a dependent,
+// which fails with the reason instead.
+TEST_F(ProcessControlTest, AJobThatEndsWellBeforeItIsReadyIsNotStartedAgain) {
+  start(
+      "process job\ncommand: /bin/sh -c 'echo run >> %(DIR)/runs'\nready_regex: ^never\n"
+      "flags: no_error_on_successful_stop\n"
+      "process after\ncommand: /bin/sleep 1000\ndepends_on: job\n");
+  control("job", "start");
+  const Row job = wait_state("job", "stopped");
+  EXPECT_EQ(job.last_exit, "exit status 0");
+  EXPECT_EQ(job.error, "");
+  auto runs = [&] {
+    const std::string text = file("runs");
+    return std::count(text.begin(), text.end(), '\n');
+  };
+  EXPECT_EQ(runs(), 1);
+  control("after", "start");
+  EXPECT_NE(wait_state("after", "failed").error.find("dependency 'job' ended (exit status 0)"), std::string::npos);
+  EXPECT_EQ(row("job").requested, "");
+  EXPECT_EQ(runs(), 2) << "started once more for 'after', then not again";
+}
+
+TEST_F(ProcessControlTest, UserStopIsSuccessfulStopStartsWhatFollowsAStop) {
+  start(
+      "process service\ncommand: /bin/sleep 1000\nflags: user_stop_is_successful_stop\n"
+      "start_on_successful_stop: cleanup\n"
+      "process plain\ncommand: /bin/sleep 1000\nstart_on_successful_stop: plain_cleanup\n"
+      "process cleanup\ncommand: /bin/sh -c 'echo cleanup >> %(DIR)/runs'\nflags: no_error_on_successful_stop\n"
+      "process plain_cleanup\ncommand: /bin/true\nflags: no_error_on_successful_stop\n");
+  control("plain", "start");
+  wait_state("plain", "started");
+  control("plain", "stop");
+  wait_state("plain", "stopped");
+  const Row plain_cleanup = row("plain_cleanup");
+  EXPECT_EQ(plain_cleanup.requested + plain_cleanup.last_exit, "") << "a stop asked for is no successful stop";
+  control("service", "start");
+  wait_state("service", "started");
+  control("service", "stop");
+  wait_state("service", "stopped");
+  ASSERT_TRUE(wait_file("runs", "cleanup")) << "with the flag it is";
 }
 
 TEST_F(ProcessControlTest, NiceAffinityAndResourceLimitsApply) {

@@ -1,7 +1,10 @@
 #include "manager/process_launch.hpp"
 
 #include <fnmatch.h>
+#include <pwd.h>
 #include <unistd.h>
+
+#include <cstdlib>
 
 #include <algorithm>
 
@@ -48,6 +51,14 @@ std::vector<std::string> process_environment(const ProcessConfig& process, const
     for (const auto& [from, to] : *list) joined += (joined.empty() ? "" : "|") + from + "|" + to;
     env.emplace_back(name, joined);
   }
+  if (process.has_flag("set_user_and_home")) {
+    // the manager's user, as LN 2.9's daemon sets them: its account, else its environment
+    const passwd* account = ::getpwuid(::geteuid());
+    const char* user = account != nullptr ? account->pw_name : std::getenv("USER");
+    const char* home = account != nullptr ? account->pw_dir : std::getenv("HOME");
+    if (user != nullptr && !has("USER")) env.emplace_back("USER", user);
+    if (home != nullptr && !has("HOME")) env.emplace_back("HOME", home);
+  }
   if (!process.has_flag("no_pty") && !has("TERM")) env.emplace_back("TERM", "xterm");
   if (!has("LN_MANAGER") && !context.manager_address.empty()) env.emplace_back("LN_MANAGER", context.manager_address);
   std::vector<std::string> out;
@@ -60,6 +71,10 @@ std::string process_command(const ProcessConfig& process, const std::string& alt
     for (const auto& [name, command] : process.alt_commands)
       if (name == alt) return command;
   return process.command;
+}
+
+std::string process_directory(const ProcessConfig& process) {
+  return process.change_directory.empty() ? std::string("/tmp") : process.change_directory;
 }
 
 std::vector<std::string> process_argv(const ProcessConfig& process, const std::string& command, std::string& problem) {
@@ -84,8 +99,7 @@ std::vector<std::string> process_argv(const ProcessConfig& process, const std::s
                 program + "), or add the flag use_execvpe or start_in_shell";
     return argv;
   }
-  const std::string path =
-      program.front() == '/' || process.change_directory.empty() ? program : process.change_directory + "/" + program;
+  const std::string path = program.front() == '/' ? program : process_directory(process) + "/" + program;
   if (::access(path.c_str(), F_OK) != 0)
     problem = "command not found: '" + program + "' does not exist";
   else if (::access(path.c_str(), X_OK) != 0)

@@ -25,6 +25,10 @@ std::vector<std::string> process_environment(const ProcessConfig& process, const
 /// The command line: the alt_command `alt` ("" = the command).
 std::string process_command(const ProcessConfig& process, const std::string& alt);
 
+/// The directory it starts in: change_directory, else /tmp, where LN 2.9's
+/// daemon starts a process that names none.
+std::string process_directory(const ProcessConfig& process);
+
 /// The argv for `command`, or the reason it cannot run in `problem`
 /// (command not found, not executable, no directory without a PATH search).
 std::vector<std::string> process_argv(const ProcessConfig& process, const std::string& command, std::string& problem);

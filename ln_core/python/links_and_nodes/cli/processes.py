@@ -232,6 +232,10 @@ def _outcome(action, row, before):
             return False, row.error or "failed"
         if row.pid and row.ready and not row.requested:
             return True, "%s (pid %d)" % (row.state, row.pid)
+        # a run that ended without error (no_error_on_successful_stop, a one-shot
+        # job): the manager no longer asks for it, so it will not come back
+        if not row.pid and not row.requested and row.state == "stopped" and row.last_exit:
+            return True, "ended (%s)" % row.last_exit
         return None, ""
     if action == "stop":
         if not row.pid and row.state in ("stopped", "failed") and not row.requested:

@@ -31,6 +31,10 @@ provides: area_service.compute_circle_area
 process broken_provider
 command: /bin/sh -c 'exit 7'
 provides: broken.svc
+process job
+command: /bin/sh -c 'echo working; sleep 0.2; echo done'
+ready_regex: ^never
+flags: no_error_on_successful_stop
 state marker
 check: test -f {home}/marker
 up: touch {home}/marker
@@ -51,7 +55,7 @@ def manager(tmp_path_factory):
 
 def test_list_start_info_output_stop(manager):
     rows = ok_json(run_ln(manager, "process", "list", "--json"))
-    assert [r["name"] for r in rows] == ["server", "client", "broken", "area_provider", "broken_provider"]
+    assert [r["name"] for r in rows] == ["server", "client", "broken", "area_provider", "broken_provider", "job"]
     assert {r["state"] for r in rows} == {"stopped"}
 
     out = ok(run_ln(manager, "process", "start", "client", "--timeout", "20"))
@@ -87,6 +91,16 @@ def test_failures_are_one_line_with_the_reason(manager):
     one_line_error(run_ln(manager, "process", "start", "nobody"), "the manager has no process 'nobody'", "it has:")
     one_line_error(run_ln(manager, "process", "info", "nobody"), "no process, state or group 'nobody'")
     one_line_error(run_ln(manager, "group", "start", "server"), "'server' is a process, not a group")
+
+
+def test_a_job_that_ends_well_is_done(manager):
+    """A one-shot job (ends with status 0, no_error_on_successful_stop) is
+    done when it ended, also when it never printed its ready line: `start`
+    says so at once instead of waiting for the timeout."""
+    began = time.monotonic()
+    out = ok(run_ln(manager, "process", "start", "job", "--timeout", "20"))
+    assert "job: ended (exit status 0)" in out
+    assert time.monotonic() - began < 15
 
 
 def test_completion_knows_the_names(manager):
