@@ -222,7 +222,8 @@ typedef void* ln_client;
 
     LN_MANAGER_CONNECT_TIMEOUT=SECONDS (ln_core) makes it wait that long for
     a manager that does not listen yet, so that a program may start before
-    its manager; unset or 0, a refused connection fails at once (LN 2.9).
+    its manager (tried until the whole wait passed; the error message then
+    says it waited); unset or 0, a refused connection fails at once (LN 2.9).
 
     @param[out] clnt receives the new client; NULL on failure.
     @param argc, argv may be 0 and NULL.

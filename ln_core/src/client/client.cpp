@@ -1,6 +1,7 @@
 #include "client/client.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cstring>
 #include <tuple>
 
@@ -66,21 +67,28 @@ double connect_timeout_from_environment() {
 }
 
 // Connects, and while the manager refuses (not listening yet) tries again
-// until `wait_seconds` passed.
+// until `wait_seconds` passed, the last time at the deadline.
 UniqueFd connect_waiting(const sockaddr_in& address, double wait_seconds) {
+  using clock = std::chrono::steady_clock;
   const auto deadline =
-      std::chrono::steady_clock::now() +
-      std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(wait_seconds));
+      clock::now() + std::chrono::duration_cast<clock::duration>(std::chrono::duration<double>(wait_seconds));
   auto pause = milliseconds(10);
   for (;;) {
-    const auto left = std::chrono::duration_cast<milliseconds>(deadline - std::chrono::steady_clock::now());
+    const auto left = std::chrono::duration_cast<milliseconds>(deadline - clock::now());
     try {
       return connect_tcp(address,
                          wait_seconds > 0 ? std::clamp(left, milliseconds(1), kConnectTimeout) : kConnectTimeout);
-    } catch (const Failure&) {
-      if (std::chrono::steady_clock::now() + pause >= deadline) throw;
+    } catch (const Failure& failure) {
+      if (wait_seconds <= 0) throw;
+      if (clock::now() >= deadline) {
+        char waited[32];
+        std::snprintf(waited, sizeof waited, "%g", wait_seconds);
+        throw Failure(failure.code(),
+                      std::string(failure.what()) + " (tried for " + waited + " s, LN_MANAGER_CONNECT_TIMEOUT)");
+      }
     }
-    std::this_thread::sleep_for(pause);  // the manager is not there yet: nothing to wait on but time
+    // the manager is not there yet: nothing to wait on but time
+    std::this_thread::sleep_for(std::min<clock::duration>(pause, deadline - clock::now()));
     pause = std::min(pause * 2, milliseconds(200));
   }
 }

@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <chrono>
 #include <cstdlib>
 #include <cstring>
 #include <string>
@@ -151,6 +152,17 @@ TEST_F(ClientTest, BadManagerAddressesFailWithLnsErrors) {
   ::unsetenv("LN_MANAGER_CONNECT_TIMEOUT");
   EXPECT_STREQ(ln_get_error_message(nullptr),
                "LN_MANAGER_CONNECT_TIMEOUT='later' is not a number of seconds (0 to 1000000)");
+  // a client that waits for the manager tries until the whole wait passed, and says it waited
+  ::setenv("LN_MANAGER_CONNECT_TIMEOUT", "0.3", 1);
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_EQ(ln_init_to_manager(&client, "x", refused.c_str()), -LNE_CHECK_ERRNO);
+  const std::chrono::duration<double> waited = std::chrono::steady_clock::now() - start;
+  ::unsetenv("LN_MANAGER_CONNECT_TIMEOUT");
+  EXPECT_GE(waited.count(), 0.3);
+  EXPECT_EQ(std::string(ln_get_error_message(nullptr)), "connecting to the ln_manager at " + refused +
+                                                            ": Connection refused (tried for 0.3 s, "
+                                                            "LN_MANAGER_CONNECT_TIMEOUT)");
+  EXPECT_STREQ(ln_format_error(-LNE_CHECK_ERRNO), "errno 111 - Connection refused");
 }
 
 TEST_F(ClientTest, InvalidHandlesAreRefused) {

@@ -100,6 +100,7 @@ struct ProcessControl::Impl {
     bool restarting = false;                      // the pending start is an automatic restart
     bool passive = false;                         // waits for its dependencies to come back, starts none
     bool adopted = false;                         // started by an earlier manager: no exit status
+    std::uint64_t start_request = 0;              // when its start was asked for, in order of asking
     std::vector<std::string> dependents;          // depends_on or depends_on_restart this
     std::vector<std::string> restart_dependents;  // depends_on_restart this
 
@@ -386,6 +387,7 @@ struct ProcessControl::Impl {
     p.goal = Goal::Up;
     p.passive = false;
     p.requested_at = Clock::now();
+    p.start_request = ++start_requests;
     p.restart_after_stop = false;
     if (!p.restarting) {
       p.failed = false;
@@ -450,10 +452,18 @@ struct ProcessControl::Impl {
   // -------------------------------------------------- the state machine
 
   // Moves every object towards its goal until nothing changes any more.
+  // Processes step in the order their starts were asked for, so that the
+  // dependencies of a process start in the order it lists them (as in LN 2.9).
   void reconcile() {
+    std::vector<Process*> order;
+    for (const auto& name : process_order) order.push_back(processes.at(name).get());
     for (int pass = 0; pass < 64; ++pass) {
       changed = false;
-      for (const auto& name : process_order) step(*processes.at(name));
+      std::stable_sort(order.begin(), order.end(),
+                       [](const Process* a, const Process* b) { return a->start_request < b->start_request; });
+      const std::uint64_t asked_before_this_pass = start_requests;
+      for (Process* p : order)
+        if (p->start_request <= asked_before_this_pass) step(*p);  // (the others: next pass, in order)
       for (const auto& name : state_order) step(*states.at(name));
       if (!changed) break;
     }
@@ -551,7 +561,8 @@ struct ProcessControl::Impl {
     std::string ended;  // what ran for this request and ended without error, so does not run
     for (const auto& name : dependency.candidates) {
       if (Process* d = find_process(name)) {
-        if (d->goal == Goal::Up || d->phase != Process::Phase::Stopped) return false;  // on its way
+        const bool restarting = d->goal == Goal::Down && d->restart_after_stop;
+        if (d->goal == Goal::Up || restarting || d->phase != Process::Phase::Stopped) return false;  // on its way
         if (passive) continue;  // it does not come back by itself
         if (d->failed && d->failed_at >= since) continue;
         if (!d->failed && d->stopped_at >= since) {
@@ -1312,6 +1323,7 @@ struct ProcessControl::Impl {
   KeeperLink keeper;
   bool shutting_down = false;
   bool handed_over = false;  // the keeper holds the processes
+  std::uint64_t start_requests = 0;
   bool changed = false;
 };
 

@@ -154,6 +154,24 @@ TEST_F(ProcessControlTest, StartsDependenciesFirstAndWaitsForReadiness) {
       << manager->log_text();
 }
 
+TEST_F(ProcessControlTest, DependenciesStartInTheOrderTheyAreListed) {
+  start(
+      "process first_in_file\n"
+      "command: /bin/sleep 1000\n"
+      "process second_in_file\n"
+      "command: /bin/sleep 1000\n"
+      "process top\n"
+      "command: /bin/sleep 1000\n"
+      "depends_on: second_in_file, first_in_file\n");
+  EXPECT_FALSE(control("top", "start").is_error());
+  wait_state("top", "started");
+  const std::string log = manager->log_text();
+  const auto second = log.find("started 'second_in_file'"), first = log.find("started 'first_in_file'");
+  ASSERT_NE(second, std::string::npos) << log;
+  ASSERT_NE(first, std::string::npos) << log;
+  EXPECT_LT(second, first) << "as depends_on lists them (LN 2.9), not in config order\n" << log;
+}
+
 TEST_F(ProcessControlTest, ReadyTimeAndStartOnReady) {
   start(
       "process slow\n"
@@ -304,7 +322,8 @@ TEST_F(ProcessControlTest, RestartAlsoRestartsDependentsWithDependsOnRestart) {
   // when the server dies, its depends_on_restart dependents stop and wait
   ::kill(static_cast<pid_t>(row("server").pid), SIGKILL);
   EXPECT_EQ(wait_state("server", "failed").last_exit, "killed by SIGKILL");
-  EXPECT_NE(wait_state("client", "failed").error.find("dependency 'server' failed"), std::string::npos);
+  EXPECT_NE(wait_state("client", "failed").error.find("dependency 'server' failed"), std::string::npos)
+      << manager->log_text();
   EXPECT_TRUE(manager->count_log("'viewer' depends on 'server', which is no longer running") > 0);
 }
 

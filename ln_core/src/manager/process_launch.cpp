@@ -7,6 +7,7 @@
 #include <cstdlib>
 
 #include <algorithm>
+#include <vector>
 
 #include "manager/lnc_eval.hpp"
 
@@ -53,7 +54,10 @@ std::vector<std::string> process_environment(const ProcessConfig& process, const
   }
   if (process.has_flag("set_user_and_home")) {
     // the manager's user, as LN 2.9's daemon sets them: its account, else its environment
-    const passwd* account = ::getpwuid(::geteuid());
+    passwd entry{};
+    passwd* account = nullptr;
+    std::vector<char> buffer(16384);  // (getpwuid_r: the manager's threads may look up accounts too)
+    ::getpwuid_r(::geteuid(), &entry, buffer.data(), buffer.size(), &account);
     const char* user = account != nullptr ? account->pw_name : std::getenv("USER");
     const char* home = account != nullptr ? account->pw_dir : std::getenv("HOME");
     if (user != nullptr && !has("USER")) env.emplace_back("USER", user);

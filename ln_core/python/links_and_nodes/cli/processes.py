@@ -299,8 +299,13 @@ def cmd_control(session):
         for name, (ok, text) in results.items():
             session.out.line("%s: %s" % (name, text if ok else session.out.paint(text, "red")))
     if failed:
-        raise CliError("%s did not %s" % (", ".join(failed), args.action), "see 'ln process info NAME'")
+        raise CliError("%s did not %s" % (", ".join(failed), _verb(args.action)), "see 'ln process info NAME'")
     return 0
+
+
+def _verb(action):
+    """The action as a verb: a state does not "up", it comes up."""
+    return {"up": "come up", "down": "go down"}.get(action, action)
 
 
 def _wait(session, watched, before, timeout):
@@ -328,7 +333,7 @@ def _wait(session, watched, before, timeout):
         if row.name not in results:
             now = current.get(row.name, row)
             detail = now.state + (", last exit: " + now.last_exit if now.last_exit else "")
-            results[row.name] = (False, "did not %s within %g s (now: %s)" % (action, timeout, detail))
+            results[row.name] = (False, "did not %s within %g s (now: %s)" % (_verb(action), timeout, detail))
     return results
 
 

@@ -40,6 +40,10 @@ check: test -f {home}/marker
 up: touch {home}/marker
 down: rm -f {home}/marker
 min_check_interval: 0
+state stuck
+check: false
+up: true
+flags: need_check_after_up
 group pair
 members: server, client
 """
@@ -110,7 +114,7 @@ def test_completion_knows_the_names(manager):
     assert complete("ln process ") == ["info", "list", "output", "restart", "start", "stop"]
     assert complete("ln process start b") == ["broken", "broken_provider"]
     assert complete("ln process output m") == ["marker"], "states have output too"
-    assert complete("ln state up ") == ["marker"]
+    assert complete("ln state up ") == ["marker", "stuck"]
     assert complete("ln group stop ") == ["pair"]
 
 
@@ -120,7 +124,8 @@ def test_states_up_down_check(manager):
     assert ok(run_ln(manager, "state", "up", "marker")).strip() == "marker: UP"
     assert os.path.exists(os.path.join(manager.home, "marker"))
     rows = ok_json(run_ln(manager, "state", "list", "--json"))
-    assert [(r["name"], r["state"]) for r in rows] == [("marker", "UP")]
+    assert [(r["name"], r["state"]) for r in rows] == [("marker", "UP"), ("stuck", "unknown")]
+    one_line_error(run_ln(manager, "state", "up", "stuck"), "stuck did not come up")
 
 
 def test_groups_start_and_stop_their_members(manager):
