@@ -59,7 +59,9 @@ of its processes. Clients find it through LN_MANAGER=HOST:PORT or
                       PORT 0 picks a free port.
   -p PORT             the port only (overrides the config's port). Without
                       --listen, -p or a config: 127.0.0.1:54414.
-  -i NAME             the instance name (overrides the config's name)
+  -i NAME             the instance name (overrides the config's name once the
+                      config is read: %(instance_name) in it, and a port
+                      derived from that, stay the config's, as in LN 2.9)
   --start NAME        start this process or group (or bring this state up)
                       once listening, with what it depends on; repeatable
   --isolated-test     a random instance name and a free port (PORT 0), for
@@ -165,9 +167,11 @@ std::string find_in_path(const std::string& program) {
   return program;
 }
 
-LncContext config_context(const std::string& instance_name, const std::string& prefix) {
+// The config is read with its own instance name, as LN 2.9 reads it: -i and
+// --isolated-test rename the instance afterwards, so %(instance_name) and
+// what derives from it (a port) stay as the config says.
+LncContext config_context(const std::string& prefix) {
   LncContext context;
-  context.instance_name = instance_name;
   auto& defines = context.builtin_defines;
   defines["LN_PREFIX"] = prefix;
   defines["LN_BASE_MANAGER"] = prefix;
@@ -185,6 +189,12 @@ LncContext config_context(const std::string& instance_name, const std::string& p
   }
   defines["LN_PYTHONPATH"] = python_path;
   return context;
+}
+
+std::string joined(const std::vector<std::string>& names) {
+  std::string out;
+  for (const auto& name : names) out += (out.empty() ? "" : ", ") + name;
+  return out;
 }
 
 std::string joined(const std::vector<Dependency>& list) {
@@ -228,6 +238,19 @@ int print_check(const ManagerOptions& options) {
     std::printf("  directory: %s\n", process_directory(p).c_str());
     if (!p.depends_on.empty()) std::printf("  depends_on: %s\n", joined(p.depends_on).c_str());
     if (!p.depends_on_restart.empty()) std::printf("  depends_on_restart: %s\n", joined(p.depends_on_restart).c_str());
+    if (!p.start_before.empty()) std::printf("  start_before: %s\n", joined(p.start_before).c_str());
+    if (!p.start_on_ready.empty()) std::printf("  start_on_ready: %s\n", joined(p.start_on_ready).c_str());
+    if (!p.start_on_successful_stop.empty())
+      std::printf("  start_on_successful_stop: %s\n", joined(p.start_on_successful_stop).c_str());
+    if (!p.provides.empty()) {
+      std::string provides;
+      for (const auto& [name, priority] : p.provides) {
+        char priority_text[32];
+        std::snprintf(priority_text, sizeof priority_text, ":%g", priority);
+        provides += (provides.empty() ? "" : ", ") + name + (priority != 0 ? priority_text : "");
+      }
+      std::printf("  provides: %s\n", provides.c_str());
+    }
     if (!p.flags.empty()) {
       std::string flags;
       for (const auto& flag : p.flags) flags += (flags.empty() ? "" : ", ") + flag;
@@ -348,8 +371,7 @@ int main(int argc, char** argv) {
   options.port = default_port;
   if (!config_file.empty()) {
     try {
-      auto settings =
-          std::make_shared<LncSettings>(read_lnc_file(config_file, log, config_context(instance_name, prefix)));
+      auto settings = std::make_shared<LncSettings>(read_lnc_file(config_file, log, config_context(prefix)));
       if (!settings->instance_name.empty()) options.instance_name = settings->instance_name;
       if (settings->manager_host && !settings->manager_host->empty()) options.listen_host = *settings->manager_host;
       if (settings->manager_port) options.port = *settings->manager_port;

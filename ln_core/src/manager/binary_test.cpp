@@ -87,6 +87,21 @@ class ManagerProcess {
 
   void signal(int number) const { ::kill(pid_, number); }
 
+  /// What it wrote to stdout (and not read yet) until it closed it.
+  std::string stdout_text(Clock::duration timeout = default_timeout) {
+    const auto deadline = Clock::now() + timeout;
+    std::string text;
+    for (;;) {
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
+      pollfd p{stdout_fd_, POLLIN, 0};
+      if (left <= 0 || ::poll(&p, 1, static_cast<int>(left)) <= 0) return text;
+      char buffer[4096];
+      const ssize_t n = ::read(stdout_fd_, buffer, sizeof buffer);
+      if (n <= 0) return text;
+      text.append(buffer, static_cast<std::size_t>(n));
+    }
+  }
+
   std::string stderr_text() const {
     std::ifstream in(stderr_file_);
     std::stringstream text;
@@ -146,6 +161,26 @@ TEST_F(BinaryTest, SigintAlsoExitsCleanlyAndListenOverridesTheConfig) {
   manager.signal(SIGINT);
   EXPECT_EQ(manager.wait_exit(), 0);
   EXPECT_EQ(manager.stderr_text().find("info:"), std::string::npos) << "--log-level warning hides info lines";
+}
+
+// As in LN 2.9, -i renames the instance once the config is read: what the
+// config derives from %(instance_name) stays as written.
+TEST_F(BinaryTest, RenamedInstanceCheckShowsTheConfigsDerivedValuesAndTheStartLinks) {
+  const std::string lnc = dir.write("renamed.lnc",
+                                    "instance\nname: from_config\nmanager: :0\n"
+                                    "process camera\ncommand: /bin/echo %(instance_name)\n"
+                                    "provides: camera.image\nstart_on_ready: viewer\n"
+                                    "process setup\ncommand: /bin/true\nstart_on_successful_stop: camera\n"
+                                    "process viewer\ncommand: /bin/true\nstart_before: setup\n");
+  ManagerProcess check(dir, {"-c", lnc, "-i", "renamed", "--check"});
+  const std::string out = check.stdout_text();
+  EXPECT_EQ(check.wait_exit(), 0) << check.stderr_text();
+  EXPECT_NE(out.find("instance renamed, manager at"), std::string::npos) << out;
+  EXPECT_NE(out.find("command: /bin/echo from_config\n"), std::string::npos) << out;
+  EXPECT_NE(out.find("  provides: camera.image\n"), std::string::npos) << out;
+  EXPECT_NE(out.find("  start_on_ready: viewer\n"), std::string::npos) << out;
+  EXPECT_NE(out.find("  start_on_successful_stop: camera\n"), std::string::npos) << out;
+  EXPECT_NE(out.find("  start_before: setup\n"), std::string::npos) << out;
 }
 
 TEST_F(BinaryTest, ConfigErrorsExitWithStatus2AndFileLine) {
