@@ -251,11 +251,7 @@ int print_check(const ManagerOptions& options) {
       }
       std::printf("  provides: %s\n", provides.c_str());
     }
-    if (!p.flags.empty()) {
-      std::string flags;
-      for (const auto& flag : p.flags) flags += (flags.empty() ? "" : ", ") + flag;
-      std::printf("  flags: %s\n", flags.c_str());
-    }
+    if (!p.flags.empty()) std::printf("  flags: %s\n", joined(p.flags).c_str());
     if (!problem.empty()) {
       std::printf("  cannot start: %s\n", problem.c_str());
       status = 1;
@@ -264,11 +260,7 @@ int print_check(const ManagerOptions& options) {
   for (const StateConfig& s : system.states)
     std::printf("\nstate %s (%s)\n  check: %s\n  up: %s\n  down: %s\n", s.name.c_str(), s.place.text().c_str(),
                 s.check.c_str(), s.up.c_str(), s.down.c_str());
-  for (const GroupConfig& g : system.groups) {
-    std::string members;
-    for (const auto& member : g.members) members += (members.empty() ? "" : ", ") + member;
-    std::printf("\ngroup %s: %s\n", g.name.c_str(), members.c_str());
-  }
+  for (const GroupConfig& g : system.groups) std::printf("\ngroup %s: %s\n", g.name.c_str(), joined(g.members).c_str());
   return status;
 }
 
